@@ -1,0 +1,18 @@
+//! Magnetometer calibration math for autonomous underwater vehicles.
+//!
+//! `no_std`, no allocation, no panics on data: every function here runs
+//! unchanged on the Cortex-M4F firmware (in `f32`) and in the host tools (in
+//! `f64`). Transcendental functions come from the pure-Rust `libm`, so an
+//! `f32` computation gives the same bits on the MCU and on the host.
+//!
+//! The equations are those of `docs/ALGORITHMS.md` (the English reading of
+//! the two source papers); each module names the equations it implements.
+#![no_std]
+#![forbid(unsafe_code)]
+#![deny(missing_docs)]
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing))]
+
+pub mod heading;
+pub mod real;
+
+pub use real::Real;

@@ -1,0 +1,36 @@
+//! The magnetometer board's firmware logic, apart from the RTIC `#[app]`.
+//!
+//! Board-independent modules ([`link`]) compile and test on the host
+//! (`cargo test -p firmware --lib`); the hardware glue ([`platform`],
+//! [`logger`]) exists only for the Cortex-M target. `src/main.rs` is a thin
+//! RTIC app that wires these to interrupts and tasks.
+#![cfg_attr(not(test), no_std)]
+#![deny(missing_docs)]
+#![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
+
+pub mod link;
+pub mod uart;
+
+#[cfg(target_os = "none")]
+pub mod logger;
+#[cfg(target_os = "none")]
+pub mod platform;
+
+/// Firmware name reported by `Identify`.
+pub const FIRMWARE_NAME: &str = "magcal-fw";
+/// Firmware version reported by `Identify` (the crate's semver).
+pub const FIRMWARE_VERSION: &str = env!("CARGO_PKG_VERSION");
+
+/// Stops the firmware after an unrecoverable start-up failure: logs the
+/// reason, then exits QEMU with a failure status or, on the board, waits for
+/// the watchdog/reset.
+#[cfg(target_os = "none")]
+pub fn halt(reason: &str) -> ! {
+    defmt::error!("halt: {}", reason);
+    if platform::detect_cached() == magcal_protocol::Platform::Qemu {
+        cortex_m_semihosting::debug::exit(cortex_m_semihosting::debug::EXIT_FAILURE);
+    }
+    loop {
+        cortex_m::asm::wfi();
+    }
+}

@@ -1,0 +1,173 @@
+//! The host link: bytes in, replies out.
+//!
+//! [`LinkServer`] turns the byte stream from the USART into requests, serves
+//! them, and encodes one reply frame per request. Damaged frames are answered
+//! with a typed error and counted; nothing here can panic on what arrives.
+
+use magcal_protocol::{
+    self as proto, FrameDecoder, Identity, LinkError, Name, Platform, Request, RequestBody,
+    Response, ResponseBody, MAX_FRAME_LEN,
+};
+
+/// What the link server needs to know about the device to answer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct DeviceInfo {
+    /// Where the firmware runs.
+    pub platform: Platform,
+    /// Milliseconds since boot.
+    pub uptime_ms: u32,
+}
+
+/// Counters of the link's health.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct LinkCounters {
+    /// Requests decoded and served.
+    pub requests: u32,
+    /// Frames refused as damaged, oversized or of another version.
+    pub bad_frames: u32,
+    /// Replies that could not be encoded (a firmware bug if ever non-zero).
+    pub encode_failures: u32,
+}
+
+/// One encoded reply frame.
+pub type ReplyFrame = heapless::Vec<u8, MAX_FRAME_LEN>;
+
+/// Frame receiver plus request handler.
+#[derive(Debug, Default)]
+pub struct LinkServer {
+    decoder: FrameDecoder,
+    counters: LinkCounters,
+}
+
+impl LinkServer {
+    /// A server with an empty receive buffer and zeroed counters.
+    pub const fn new() -> Self {
+        Self {
+            decoder: FrameDecoder::new(),
+            counters: LinkCounters { requests: 0, bad_frames: 0, encode_failures: 0 },
+        }
+    }
+
+    /// The link's health counters.
+    pub fn counters(&self) -> LinkCounters {
+        self.counters
+    }
+
+    /// Feeds one received byte; returns a reply frame when the byte completed
+    /// a frame (a good one or a damaged one).
+    pub fn on_byte(&mut self, byte: u8, device: &DeviceInfo) -> Option<ReplyFrame> {
+        let decoded = self.decoder.push(byte)?;
+        let response = match decoded.and_then(proto::decode_body::<Request>) {
+            Ok(request) => {
+                self.counters.requests = self.counters.requests.wrapping_add(1);
+                Response { seq: Some(request.seq), body: serve(&request.body, device) }
+            }
+            Err(e) => {
+                self.counters.bad_frames = self.counters.bad_frames.wrapping_add(1);
+                Response { seq: None, body: ResponseBody::Error(LinkError::Frame(e)) }
+            }
+        };
+        let mut frame = [0u8; MAX_FRAME_LEN];
+        match proto::encode(&response, &mut frame) {
+            Ok(n) => frame.get(..n).and_then(|bytes| ReplyFrame::from_slice(bytes).ok()),
+            Err(_) => {
+                self.counters.encode_failures = self.counters.encode_failures.wrapping_add(1);
+                None
+            }
+        }
+    }
+}
+
+/// Serves one decoded request.
+fn serve(body: &RequestBody, device: &DeviceInfo) -> ResponseBody {
+    match body {
+        RequestBody::Ping { nonce } => ResponseBody::Pong { nonce: *nonce },
+        RequestBody::Identify => ResponseBody::Identity(Identity {
+            name: short_name(crate::FIRMWARE_NAME),
+            firmware_version: short_name(crate::FIRMWARE_VERSION),
+            protocol_version: proto::PROTOCOL_VERSION,
+            platform: device.platform,
+            uptime_ms: device.uptime_ms,
+        }),
+    }
+}
+
+/// Copies as much of `s` as fits in a [`Name`].
+fn short_name(s: &str) -> Name {
+    let mut name = Name::new();
+    for c in s.chars() {
+        if name.push(c).is_err() {
+            break;
+        }
+    }
+    name
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, clippy::indexing_slicing)]
+    use super::*;
+    use magcal_protocol::FrameError;
+
+    const DEV: DeviceInfo = DeviceInfo { platform: Platform::Qemu, uptime_ms: 42 };
+
+    fn feed(server: &mut LinkServer, bytes: &[u8]) -> Vec<Response> {
+        bytes
+            .iter()
+            .filter_map(|&b| server.on_byte(b, &DEV))
+            .map(|f| proto::decode::<Response>(&f).unwrap())
+            .collect()
+    }
+
+    fn frame(req: &Request) -> Vec<u8> {
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        let n = proto::encode(req, &mut buf).unwrap();
+        buf[..n].to_vec()
+    }
+
+    #[test]
+    fn identify_reports_name_version_protocol_and_platform() {
+        let mut s = LinkServer::new();
+        let replies = feed(&mut s, &frame(&Request { seq: 9, body: RequestBody::Identify }));
+        assert_eq!(replies.len(), 1);
+        assert_eq!(replies[0].seq, Some(9));
+        match &replies[0].body {
+            ResponseBody::Identity(id) => {
+                assert_eq!(id.name.as_str(), "magcal-fw");
+                assert_eq!(id.firmware_version.as_str(), env!("CARGO_PKG_VERSION"));
+                assert_eq!(id.protocol_version, proto::PROTOCOL_VERSION);
+                assert_eq!(id.platform, Platform::Qemu);
+                assert_eq!(id.uptime_ms, 42);
+            }
+            other => panic!("unexpected {other:?}"),
+        }
+        assert_eq!(s.counters().requests, 1);
+    }
+
+    #[test]
+    fn damaged_frame_gets_a_typed_error_and_the_next_request_is_served() {
+        let mut s = LinkServer::new();
+        let mut bad = frame(&Request { seq: 1, body: RequestBody::Ping { nonce: 5 } });
+        bad[2] ^= 0x10;
+        let good = frame(&Request { seq: 2, body: RequestBody::Ping { nonce: 6 } });
+        let replies = feed(&mut s, &[bad, good].concat());
+        assert_eq!(replies.len(), 2);
+        assert_eq!(replies[0].seq, None);
+        assert!(matches!(
+            replies[0].body,
+            ResponseBody::Error(LinkError::Frame(FrameError::Crc | FrameError::Cobs))
+        ));
+        assert_eq!(replies[1], Response { seq: Some(2), body: ResponseBody::Pong { nonce: 6 } });
+        assert_eq!(s.counters(), LinkCounters { requests: 1, bad_frames: 1, encode_failures: 0 });
+    }
+
+    #[test]
+    fn garbage_without_delimiters_is_bounded_and_reported_once() {
+        let mut s = LinkServer::new();
+        let mut junk = vec![0xA5u8; 5000];
+        junk.push(0);
+        let replies = feed(&mut s, &junk);
+        assert_eq!(replies.len(), 1);
+        assert_eq!(replies[0].body, ResponseBody::Error(LinkError::Frame(FrameError::TooLong)));
+    }
+}

@@ -1,0 +1,8 @@
+//! The host side of the magcal stack: the serial link to the board, the QEMU
+//! board used in tests and the demo, and (as issues land) recordings, fits
+//! and reports. The `magcal` binary is a thin clap front end over this
+//! library; errors here are typed ([`link::LinkError`], [`qemu::QemuError`]).
+#![deny(missing_docs)]
+
+pub mod link;
+pub mod qemu;

@@ -1,0 +1,269 @@
+//! The serial link to the board: framed requests, matched replies, retries.
+
+use std::io::{self, Read, Write};
+use std::time::{Duration, Instant};
+
+use magcal_protocol::{
+    self as proto, FrameDecoder, FrameError, Identity, Request, RequestBody, Response,
+    ResponseBody, MAX_FRAME_LEN,
+};
+
+/// The link's baud rate (the firmware's USART1 setting).
+pub const BAUD_RATE: u32 = 115_200;
+
+/// Why a request failed.
+#[derive(Debug, thiserror::Error)]
+pub enum LinkError {
+    /// The serial port could not be opened.
+    #[error("cannot open serial port {path}: {source}")]
+    Open {
+        /// The port's path.
+        path: String,
+        /// What the OS said.
+        #[source]
+        source: serialport::Error,
+    },
+    /// Reading or writing the port failed.
+    #[error("serial I/O: {0}")]
+    Io(#[from] io::Error),
+    /// No reply within the timeout, after every retry.
+    #[error("no reply from the board after {attempts} attempt(s) of {timeout_ms} ms")]
+    Timeout {
+        /// Attempts made.
+        attempts: u32,
+        /// Per-attempt timeout.
+        timeout_ms: u64,
+    },
+    /// The request could not be framed (a host bug).
+    #[error("cannot encode request: {0}")]
+    Encode(FrameError),
+    /// The board said our frame was bad, or refused the request.
+    #[error("board refused the request: {0}")]
+    Remote(proto::LinkError),
+    /// The board answered with something that does not answer the request.
+    #[error("unexpected reply: {0}")]
+    Unexpected(String),
+}
+
+/// A request/response client over any byte stream (a serial port, a pty, a
+/// test double).
+pub struct Link<P> {
+    port: P,
+    decoder: FrameDecoder,
+    next_seq: u16,
+    /// Per-attempt reply timeout.
+    pub timeout: Duration,
+    /// Attempts per request (idempotent requests are simply resent).
+    pub attempts: u32,
+    /// Frames received that were damaged or answered an older request.
+    pub discarded_frames: u32,
+}
+
+impl Link<Box<dyn serialport::SerialPort>> {
+    /// Opens a serial port (a board's USB-serial adapter, or QEMU's pty) at
+    /// [`BAUD_RATE`], 8N1.
+    pub fn open(path: &str) -> Result<Self, LinkError> {
+        let port = serialport::new(path, BAUD_RATE)
+            .timeout(Duration::from_millis(20))
+            .open()
+            .map_err(|source| LinkError::Open { path: path.to_string(), source })?;
+        Ok(Link::new(port))
+    }
+}
+
+impl<P: Read + Write> Link<P> {
+    /// Wraps a byte stream whose reads time out (return `TimedOut` or
+    /// `WouldBlock`, or 0 bytes) rather than block forever.
+    pub fn new(port: P) -> Self {
+        Self {
+            port,
+            decoder: FrameDecoder::new(),
+            next_seq: 1,
+            timeout: Duration::from_millis(1500),
+            attempts: 3,
+            discarded_frames: 0,
+        }
+    }
+
+    /// Sends raw bytes as they are (for tests of the board's error paths).
+    pub fn send_raw(&mut self, bytes: &[u8]) -> Result<(), LinkError> {
+        self.port.write_all(bytes)?;
+        self.port.flush()?;
+        Ok(())
+    }
+
+    /// Waits for the next well-formed response frame, whatever its `seq`.
+    pub fn next_response(&mut self, timeout: Duration) -> Result<Option<Response>, LinkError> {
+        let deadline = Instant::now() + timeout;
+        let mut buf = [0u8; 64];
+        while Instant::now() < deadline {
+            let n = match self.port.read(&mut buf) {
+                Ok(n) => n,
+                Err(e) if matches!(e.kind(), io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted) => 0,
+                Err(e) => return Err(e.into()),
+            };
+            if n == 0 {
+                std::thread::sleep(Duration::from_millis(1));
+            }
+            for &b in buf.iter().take(n) {
+                match self.decoder.push(b) {
+                    None => {}
+                    Some(Ok(body)) => match proto::decode_body::<Response>(body) {
+                        Ok(r) => return Ok(Some(r)),
+                        Err(_) => self.discarded_frames += 1,
+                    },
+                    Some(Err(_)) => self.discarded_frames += 1,
+                }
+            }
+        }
+        Ok(None)
+    }
+
+    /// Sends a request and returns the matching reply body, resending on
+    /// timeout up to [`Link::attempts`] times. Replies to older requests are
+    /// discarded; an error reply without a `seq` (our frame was damaged on the
+    /// way) triggers a resend.
+    pub fn request(&mut self, body: RequestBody) -> Result<ResponseBody, LinkError> {
+        let seq = self.next_seq;
+        self.next_seq = self.next_seq.wrapping_add(1).max(1);
+        let mut frame = [0u8; MAX_FRAME_LEN + 1];
+        // A leading delimiter flushes whatever partial frame the board holds.
+        let n = proto::encode(&Request { seq, body }, &mut frame[1..]).map_err(LinkError::Encode)?;
+        let mut last_remote = None;
+        for _ in 0..self.attempts {
+            self.send_raw(&frame[..n + 1])?;
+            let deadline = Instant::now() + self.timeout;
+            while let Some(left) = deadline.checked_duration_since(Instant::now()) {
+                match self.next_response(left)? {
+                    Some(Response { seq: Some(s), body }) if s == seq => {
+                        return match body {
+                            ResponseBody::Error(e) => Err(LinkError::Remote(e)),
+                            other => Ok(other),
+                        };
+                    }
+                    Some(Response { seq: None, body: ResponseBody::Error(e) }) => {
+                        last_remote = Some(e);
+                        break; // our frame was damaged: resend
+                    }
+                    Some(_) => self.discarded_frames += 1,
+                    None => break,
+                }
+            }
+        }
+        match last_remote {
+            Some(e) => Err(LinkError::Remote(e)),
+            None => Err(LinkError::Timeout {
+                attempts: self.attempts,
+                timeout_ms: self.timeout.as_millis() as u64,
+            }),
+        }
+    }
+
+    /// Asks the board who it is.
+    pub fn identify(&mut self) -> Result<Identity, LinkError> {
+        match self.request(RequestBody::Identify)? {
+            ResponseBody::Identity(id) => Ok(id),
+            other => Err(LinkError::Unexpected(format!("{other:?}"))),
+        }
+    }
+
+    /// Round-trip check: returns the echoed nonce.
+    pub fn ping(&mut self, nonce: u32) -> Result<u32, LinkError> {
+        match self.request(RequestBody::Ping { nonce })? {
+            ResponseBody::Pong { nonce } => Ok(nonce),
+            other => Err(LinkError::Unexpected(format!("{other:?}"))),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::collections::VecDeque;
+
+    /// A scripted board: answers each complete request frame with a reply
+    /// produced by `answer`, optionally dropping the first `drop_first`.
+    struct FakeBoard<F> {
+        rx: FrameDecoder,
+        out: VecDeque<u8>,
+        answer: F,
+        drop_first: u32,
+    }
+    impl<F: FnMut(Request) -> Vec<Response>> Write for FakeBoard<F> {
+        fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+            for &b in buf {
+                if let Some(Ok(body)) = self.rx.push(b) {
+                    let req: Request = proto::decode_body(body).unwrap();
+                    if self.drop_first > 0 {
+                        self.drop_first -= 1;
+                        continue;
+                    }
+                    for r in (self.answer)(req) {
+                        let mut f = [0u8; MAX_FRAME_LEN];
+                        let n = proto::encode(&r, &mut f).unwrap();
+                        self.out.extend(&f[..n]);
+                    }
+                }
+            }
+            Ok(buf.len())
+        }
+        fn flush(&mut self) -> io::Result<()> {
+            Ok(())
+        }
+    }
+    impl<F> Read for FakeBoard<F> {
+        fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+            let n = buf.len().min(self.out.len());
+            for (i, b) in self.out.drain(..n).enumerate() {
+                buf[i] = b;
+            }
+            Ok(n)
+        }
+    }
+
+    fn board<F: FnMut(Request) -> Vec<Response>>(answer: F, drop_first: u32) -> Link<FakeBoard<F>> {
+        let mut l = Link::new(FakeBoard { rx: FrameDecoder::new(), out: VecDeque::new(), answer, drop_first });
+        l.timeout = Duration::from_millis(50);
+        l
+    }
+
+    #[test]
+    fn stale_replies_are_skipped_and_the_matching_one_returned() {
+        let mut link = board(
+            |q| {
+                vec![
+                    Response { seq: Some(q.seq.wrapping_sub(1)), body: ResponseBody::Pong { nonce: 1 } },
+                    Response { seq: Some(q.seq), body: ResponseBody::Pong { nonce: 77 } },
+                ]
+            },
+            0,
+        );
+        assert_eq!(link.ping(77).unwrap(), 77);
+        assert_eq!(link.discarded_frames, 1);
+    }
+
+    #[test]
+    fn a_lost_request_is_resent() {
+        let mut link = board(|q| vec![Response { seq: Some(q.seq), body: ResponseBody::Pong { nonce: 5 } }], 2);
+        assert_eq!(link.ping(5).unwrap(), 5);
+    }
+
+    #[test]
+    fn silence_is_a_timeout_with_the_attempt_count() {
+        let mut link = board(|_| vec![], 0);
+        link.attempts = 2;
+        match link.ping(1) {
+            Err(LinkError::Timeout { attempts: 2, timeout_ms: 50 }) => {}
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn a_remote_refusal_is_reported_not_retried_forever() {
+        let mut link = board(
+            |q| vec![Response { seq: Some(q.seq), body: ResponseBody::Error(proto::LinkError::Unsupported) }],
+            0,
+        );
+        assert!(matches!(link.identify(), Err(LinkError::Remote(proto::LinkError::Unsupported))));
+    }
+}

@@ -1,0 +1,175 @@
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
+
+use super::*;
+use proptest::prelude::*;
+
+fn frame_of<T: Serialize>(m: &T) -> ([u8; MAX_FRAME_LEN], usize) {
+    let mut out = [0u8; MAX_FRAME_LEN];
+    let n = encode(m, &mut out).unwrap();
+    (out, n)
+}
+
+fn identity() -> Response {
+    Response {
+        seq: Some(7),
+        body: ResponseBody::Identity(Identity {
+            name: Name::try_from("magcal-fw").unwrap(),
+            firmware_version: Name::try_from("0.1.0").unwrap(),
+            protocol_version: PROTOCOL_VERSION,
+            platform: Platform::Qemu,
+            uptime_ms: 123_456,
+        }),
+    }
+}
+
+#[test]
+fn crc_is_the_iso_hdlc_crc32() {
+    // The standard check value of CRC-32/ISO-HDLC (the zip/Ethernet CRC).
+    assert_eq!(CRC32.checksum(b"123456789"), 0xCBF4_3926);
+}
+
+#[test]
+fn ping_frame_bytes_match_a_hand_encoding() {
+    // Request { seq: 1, body: Ping { nonce: 2 } } in postcard is
+    // varint(1) = 01, variant index 0 = 00, varint(2) = 02.
+    let req = Request { seq: 1, body: RequestBody::Ping { nonce: 2 } };
+    let (frame, n) = frame_of(&req);
+    let mut decoded = [PROTOCOL_VERSION, 0x01, 0x00, 0x02, 0, 0, 0, 0];
+    let crc = CRC32.checksum(&decoded[..4]).to_le_bytes();
+    decoded[4..].copy_from_slice(&crc);
+    // COBS by hand: the zero at index 2 splits the block; no other zeros
+    // unless the CRC has some, so build it generically.
+    let mut expect = [0u8; 16];
+    let mut out = 0;
+    let mut code_at = 0;
+    out += 1;
+    let mut code = 1u8;
+    for &b in &decoded {
+        if b == 0 {
+            expect[code_at] = code;
+            code_at = out;
+            out += 1;
+            code = 1;
+        } else {
+            expect[out] = b;
+            out += 1;
+            code += 1;
+        }
+    }
+    expect[code_at] = code;
+    expect[out] = 0;
+    out += 1;
+    assert_eq!(&frame[..n], &expect[..out]);
+    assert!(!frame[..n - 1].contains(&0), "COBS must remove every zero");
+}
+
+#[test]
+fn messages_round_trip() {
+    let r = identity();
+    let (f, n) = frame_of(&r);
+    assert_eq!(decode::<Response>(&f[..n]).unwrap(), r);
+    let q = Request { seq: 65535, body: RequestBody::Identify };
+    let (f, n) = frame_of(&q);
+    assert_eq!(decode::<Request>(&f[..n]).unwrap(), q);
+    let e = Response { seq: None, body: ResponseBody::Error(LinkError::Frame(FrameError::Crc)) };
+    let (f, n) = frame_of(&e);
+    assert_eq!(decode::<Response>(&f[..n]).unwrap(), e);
+}
+
+#[test]
+fn every_single_bit_flip_is_detected() {
+    let (frame, n) = frame_of(&identity());
+    for byte in 0..n {
+        for bit in 0..8 {
+            let mut damaged = frame;
+            damaged[byte] ^= 1 << bit;
+            let mut dec = FrameDecoder::new();
+            let mut got_ok = false;
+            for &b in &damaged[..n] {
+                if let Some(Ok(body)) = dec.push(b) {
+                    if decode_body::<Response>(body).is_ok() {
+                        got_ok = true;
+                    }
+                }
+            }
+            assert!(!got_ok, "flip of bit {bit} in byte {byte} was not detected");
+        }
+    }
+}
+
+#[test]
+fn truncated_frames_are_errors_not_messages() {
+    let (frame, n) = frame_of(&identity());
+    for cut in 0..n - 1 {
+        assert!(decode::<Response>(&frame[..cut]).is_err(), "cut at {cut}");
+    }
+}
+
+#[test]
+fn wrong_version_is_reported_as_such() {
+    let mut raw = [0u8; 16];
+    raw[0] = PROTOCOL_VERSION + 1;
+    raw[1] = 0x01;
+    raw[2] = 0x01; // Identify
+    let crc = CRC32.checksum(&raw[..3]).to_le_bytes();
+    raw[3..7].copy_from_slice(&crc);
+    let mut enc = [0u8; 32];
+    let n = cobs::try_encode(&raw[..7], &mut enc).unwrap();
+    assert_eq!(
+        decode::<Request>(&enc[..n]),
+        Err(FrameError::UnsupportedVersion { got: PROTOCOL_VERSION + 1 })
+    );
+}
+
+#[test]
+fn overlong_input_is_dropped_and_the_receiver_resynchronises() {
+    let mut dec = FrameDecoder::new();
+    for _ in 0..MAX_FRAME_LEN + 10 {
+        assert!(dec.push(0x55).is_none());
+    }
+    assert_eq!(dec.push(0).unwrap(), Err(FrameError::TooLong));
+    let (frame, n) = frame_of(&identity());
+    let mut got = None;
+    for &b in &frame[..n] {
+        if let Some(r) = dec.push(b) {
+            got = Some(decode_body::<Response>(r.unwrap()).unwrap());
+        }
+    }
+    assert_eq!(got.unwrap(), identity());
+}
+
+#[test]
+fn empty_frames_are_ignored() {
+    let mut dec = FrameDecoder::new();
+    assert!(dec.push(0).is_none());
+    assert!(dec.push(0).is_none());
+    assert_eq!(dec.pending(), 0);
+}
+
+#[test]
+fn encoder_reports_a_too_small_buffer() {
+    let mut out = [0u8; 8];
+    assert_eq!(encode(&identity(), &mut out), Err(FrameError::Overflow));
+}
+
+proptest! {
+    #[test]
+    fn arbitrary_bytes_never_panic_and_never_yield_oversized_frames(bytes in proptest::collection::vec(any::<u8>(), 0..2000)) {
+        let mut dec = FrameDecoder::new();
+        for b in bytes {
+            if let Some(Ok(body)) = dec.push(b) {
+                prop_assert!(body.len() <= MAX_FRAME_LEN);
+                let _ = decode_body::<Request>(body);
+                let _ = decode_body::<Response>(body);
+            }
+        }
+    }
+
+    #[test]
+    fn any_ping_round_trips(seq in any::<u16>(), nonce in any::<u32>()) {
+        let q = Request { seq, body: RequestBody::Ping { nonce } };
+        let (f, n) = frame_of(&q);
+        prop_assert!(n <= MAX_FRAME_LEN);
+        prop_assert_eq!(decode::<Request>(&f[..n]).unwrap(), q);
+    }
+}
