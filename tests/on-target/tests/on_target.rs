@@ -1,0 +1,104 @@
+//! Tests that run on the Cortex-M4F (QEMU netduinoplus2) through
+//! embedded-test: `cargo test -p target-tests --target thumbv7em-none-eabihf`.
+//! Each test is a separate boot; a failed assertion panics, embedded-test's
+//! panic handler reports it through semihosting, and the run fails.
+#![cfg_attr(target_os = "none", no_std, no_main)]
+
+#[cfg(not(target_os = "none"))]
+fn main() {
+    eprintln!("on-target tests run on thumbv7em-none-eabihf: cargo xtask test");
+}
+
+#[cfg(target_os = "none")]
+use stm32f4xx_hal as _; // the device's interrupt vector table
+
+#[cfg(target_os = "none")]
+#[embedded_test::tests]
+mod tests {
+    use calib_core::heading::{magnetic_heading_rad, ned_field, ned_to_body, wrap_pi};
+    use firmware::link::{DeviceInfo, LinkServer};
+    use magcal_protocol::{
+        self as proto, FrameError, LinkError, Platform, Request, RequestBody, Response,
+        ResponseBody, MAX_FRAME_LEN,
+    };
+
+    include!(concat!(env!("OUT_DIR"), "/host_digests.rs"));
+
+    #[test]
+    fn platform_detection_says_qemu() {
+        assert_eq!(firmware::platform::detect(), Platform::Qemu);
+    }
+
+    #[test]
+    fn f32_math_is_bit_identical_to_the_host() {
+        assert_eq!(calib_core::conformance::heading_digest_f32(), HEADING_DIGEST_F32);
+    }
+
+    #[test]
+    fn heading_inverts_attitude_in_f32_on_the_m4f() {
+        let deg = core::f32::consts::PI / 180.0;
+        let field = ned_field(48_730.0f32, 55.68 * deg, 0.0);
+        let mut worst = 0.0f32;
+        for r in -5..=5 {
+            for p in -2..=2 {
+                for y in 0..72 {
+                    let (roll, pitch, yaw) = (r as f32 * 11.0 * deg, p as f32 * 9.0 * deg, y as f32 * 5.0 * deg);
+                    let psi = magnetic_heading_rad(ned_to_body(field, roll, pitch, yaw), roll, pitch);
+                    worst = worst.max(wrap_pi(psi - yaw).abs());
+                }
+            }
+        }
+        // f32 keeps the heading to a few micro-radians (0.001°).
+        assert!(worst < 2e-5, "worst heading error {} rad", worst);
+    }
+
+    #[test]
+    fn frames_round_trip_and_a_flipped_bit_is_caught() {
+        let req = Request { seq: 300, body: RequestBody::Ping { nonce: 0xDEAD_BEEF } };
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        let n = proto::encode(&req, &mut buf).unwrap();
+        assert_eq!(proto::decode::<Request>(&buf[..n]).unwrap(), req);
+        buf[3] ^= 0x04;
+        assert!(proto::decode::<Request>(&buf[..n]).is_err());
+    }
+
+    #[test]
+    fn link_server_answers_identify_and_refuses_a_damaged_frame() {
+        let dev = DeviceInfo { platform: Platform::Qemu, uptime_ms: 5 };
+        let mut server = LinkServer::new();
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        let n = proto::encode(&Request { seq: 11, body: RequestBody::Identify }, &mut buf).unwrap();
+        let mut replies = 0;
+        for &b in &buf[..n] {
+            if let Some(frame) = server.on_byte(b, &dev) {
+                let r: Response = proto::decode(&frame).unwrap();
+                assert_eq!(r.seq, Some(11));
+                assert!(matches!(r.body, ResponseBody::Identity(ref id) if id.platform == Platform::Qemu));
+                replies += 1;
+            }
+        }
+        buf[1] ^= 0x80;
+        for &b in &buf[..n] {
+            if let Some(frame) = server.on_byte(b, &dev) {
+                let r: Response = proto::decode(&frame).unwrap();
+                assert_eq!(r.seq, None);
+                assert!(matches!(
+                    r.body,
+                    ResponseBody::Error(LinkError::Frame(FrameError::Crc | FrameError::Cobs))
+                ));
+                replies += 1;
+            }
+        }
+        assert_eq!(replies, 2);
+        assert_eq!(server.counters().bad_frames, 1);
+    }
+
+    /// The harness must see a failed assertion as a failure: this test only
+    /// passes because the assertion inside it fails.
+    #[test]
+    #[should_panic]
+    fn a_failing_assertion_fails_the_test() {
+        let heading = magnetic_heading_rad([1.0f32, 0.0, 0.0], 0.0, 0.0);
+        assert!(heading > 1.0, "heading north is 0, so this must fail");
+    }
+}
