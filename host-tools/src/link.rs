@@ -1,5 +1,6 @@
 //! The serial link to the board: framed requests, matched replies, retries.
 
+use std::collections::VecDeque;
 use std::io::{self, Read, Write};
 use std::time::{Duration, Instant};
 
@@ -50,6 +51,9 @@ pub enum LinkError {
 pub struct Link<P> {
     port: P,
     decoder: FrameDecoder,
+    /// Bytes read from the port but not yet fed to the decoder (a read may
+    /// return the end of one frame and the start of the next).
+    unread: VecDeque<u8>,
     next_seq: u16,
     /// Per-attempt reply timeout.
     pub timeout: Duration,
@@ -78,6 +82,7 @@ impl<P: Read + Write> Link<P> {
         Self {
             port,
             decoder: FrameDecoder::new(),
+            unread: VecDeque::new(),
             next_seq: 1,
             timeout: Duration::from_millis(1500),
             attempts: 3,
@@ -95,17 +100,9 @@ impl<P: Read + Write> Link<P> {
     /// Waits for the next well-formed response frame, whatever its `seq`.
     pub fn next_response(&mut self, timeout: Duration) -> Result<Option<Response>, LinkError> {
         let deadline = Instant::now() + timeout;
-        let mut buf = [0u8; 64];
-        while Instant::now() < deadline {
-            let n = match self.port.read(&mut buf) {
-                Ok(n) => n,
-                Err(e) if matches!(e.kind(), io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted) => 0,
-                Err(e) => return Err(e.into()),
-            };
-            if n == 0 {
-                std::thread::sleep(Duration::from_millis(1));
-            }
-            for &b in buf.iter().take(n) {
+        let mut buf = [0u8; 256];
+        loop {
+            while let Some(b) = self.unread.pop_front() {
                 match self.decoder.push(b) {
                     None => {}
                     Some(Ok(body)) => match proto::decode_body::<Response>(body) {
@@ -115,8 +112,16 @@ impl<P: Read + Write> Link<P> {
                     Some(Err(_)) => self.discarded_frames += 1,
                 }
             }
+            if Instant::now() >= deadline {
+                return Ok(None);
+            }
+            match self.port.read(&mut buf) {
+                Ok(0) => std::thread::sleep(Duration::from_millis(1)),
+                Ok(n) => self.unread.extend(buf.iter().take(n)),
+                Err(e) if matches!(e.kind(), io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted) => {}
+                Err(e) => return Err(e.into()),
+            }
         }
-        Ok(None)
     }
 
     /// Sends a request and returns the matching reply body, resending on

@@ -1,0 +1,286 @@
+//! Project workflows, run as `cargo xtask <command>`:
+//!
+//! * `test` — every suite: host unit tests, the on-target suite on the
+//!   Cortex-M4F under QEMU, the board release build with its flash/RAM
+//!   report, and the end-to-end suite (firmware in QEMU, magcal over a pty).
+//!   Ends with the plain line `N passed, N failed`.
+//! * `demo` — the main job: boots the firmware in QEMU and runs a session
+//!   against it through magcal's serial code.
+//! * `size` — the board build's flash and RAM use.
+//!
+//! Each installs what is missing on a fresh machine (the rustup target,
+//! `qemu-system-arm` through apt-get when root, the cargo-installed runner and
+//! log decoder) and says what it is doing.
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Command, ExitCode, Stdio};
+
+use anyhow::{bail, Context, Result};
+
+mod size;
+
+const TARGET: &str = "thumbv7em-none-eabihf";
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let result = match args.first().map(String::as_str) {
+        Some("test") => cmd_test(),
+        Some("demo") => cmd_demo(),
+        Some("size") => cmd_size().map(|_| ()),
+        _ => {
+            eprintln!("usage: cargo xtask <test|demo|size>");
+            eprintln!("  test   run every suite (host, on-target in QEMU, end-to-end)");
+            eprintln!("  demo   boot the firmware in QEMU and run a session against it");
+            eprintln!("  size   flash/RAM of the board release build");
+            return ExitCode::from(2);
+        }
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("xtask: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+fn cargo() -> Command {
+    let mut c = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
+    c.current_dir(root());
+    c
+}
+
+fn say(msg: &str) {
+    eprintln!("\n== {msg}");
+}
+
+fn have(program: &str) -> bool {
+    Command::new("sh")
+        .args(["-c", &format!("command -v {program}")])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .map(|s| s.success())
+        .unwrap_or(false)
+}
+
+fn run(cmd: &mut Command) -> Result<()> {
+    let status = cmd.status().with_context(|| format!("running {cmd:?}"))?;
+    if !status.success() {
+        bail!("{cmd:?} failed ({status})");
+    }
+    Ok(())
+}
+
+/// Installs what the workflows need and is missing.
+fn ensure_tools() -> Result<()> {
+    let installed = Command::new("rustup").args(["target", "list", "--installed"]).output();
+    match installed {
+        Ok(out) if String::from_utf8_lossy(&out.stdout).lines().any(|l| l.trim() == TARGET) => {}
+        Ok(_) => {
+            say(&format!("installing the Rust target {TARGET}"));
+            run(Command::new("rustup").args(["target", "add", TARGET]))?;
+        }
+        Err(e) => bail!("rustup not found ({e}); install the {TARGET} target for your toolchain"),
+    }
+    if !have("qemu-system-arm") {
+        let is_root = Command::new("id").arg("-u").output().map(|o| o.stdout.starts_with(b"0")).unwrap_or(false);
+        if !is_root {
+            bail!("qemu-system-arm is missing: install it (Debian/Ubuntu: sudo apt-get install -y qemu-system-arm)");
+        }
+        say("installing qemu-system-arm (apt-get)");
+        run(Command::new("apt-get").arg("update").arg("-q"))?;
+        run(Command::new("apt-get").args(["install", "-y", "-q", "qemu-system-arm"]).env("DEBIAN_FRONTEND", "noninteractive"))?;
+    }
+    for (tool, krate) in [("embedded-test-qemu-runner", "embedded-test-qemu-runner"), ("defmt-print", "defmt-print")] {
+        if !have(tool) {
+            say(&format!("installing {tool} (cargo install --locked {krate})"));
+            run(Command::new("cargo").args(["install", "--locked", krate]))?;
+        }
+    }
+    Ok(())
+}
+
+/// Outcome of one suite.
+struct Suite {
+    name: &'static str,
+    passed: u64,
+    failed: u64,
+    ok: bool,
+}
+
+/// Runs a cargo command, echoing its output and adding up libtest's
+/// `test result:` lines.
+fn run_suite(name: &'static str, cmd: &mut Command) -> Result<Suite> {
+    say(name);
+    let mut child = cmd.stdout(Stdio::piped()).spawn().with_context(|| format!("running {cmd:?}"))?;
+    let (mut passed, mut failed) = (0, 0);
+    if let Some(out) = child.stdout.take() {
+        for line in BufReader::new(out).lines() {
+            let line = line?;
+            println!("{line}");
+            if let Some((p, f)) = parse_test_result(&line) {
+                passed += p;
+                failed += f;
+            }
+        }
+    }
+    let ok = child.wait()?.success();
+    if !ok && failed == 0 {
+        // A build error or a crashed runner counts as a failure.
+        failed = 1;
+    }
+    Ok(Suite { name, passed, failed, ok })
+}
+
+/// `test result: ok. 5 passed; 0 failed; ...` → (5, 0).
+fn parse_test_result(line: &str) -> Option<(u64, u64)> {
+    let rest = line.trim().strip_prefix("test result: ")?;
+    let mut passed = None;
+    let mut failed = None;
+    for part in rest.split(';') {
+        let words: Vec<&str> = part.split_whitespace().collect();
+        match words.as_slice() {
+            [.., n, "passed"] => passed = n.parse().ok(),
+            [n, "failed"] => failed = n.parse().ok(),
+            _ => {}
+        }
+    }
+    Some((passed?, failed?))
+}
+
+fn firmware_elf() -> PathBuf {
+    root().join("target").join(TARGET).join("release").join("firmware")
+}
+
+fn build_firmware() -> Result<PathBuf> {
+    say("building the firmware (board release build; the same binary boots on QEMU)");
+    run(cargo().args(["build", "--release", "-p", "firmware", "--target", TARGET]))?;
+    Ok(firmware_elf())
+}
+
+fn build_magcal() -> Result<PathBuf> {
+    say("building magcal");
+    run(cargo().args(["build", "-p", "host-tools", "--bin", "magcal"]))?;
+    Ok(root().join("target").join("debug").join("magcal"))
+}
+
+fn cmd_size() -> Result<size::Usage> {
+    let elf = build_firmware()?;
+    let usage = size::measure(&elf)?;
+    usage.print();
+    usage.check_budget()?;
+    Ok(usage)
+}
+
+fn cmd_test() -> Result<()> {
+    ensure_tools()?;
+    let mut suites = Vec::new();
+    suites.push(run_suite(
+        "host unit tests (calib-core, protocol, firmware library, host-tools, xtask)",
+        cargo().args(["test", "--no-fail-fast", "--workspace", "--exclude", "target-tests", "--exclude", "e2e-tests"]),
+    )?);
+    suites.push(run_suite(
+        "on-target tests on the Cortex-M4F under QEMU",
+        cargo().args(["test", "--no-fail-fast", "-p", "target-tests", "--target", TARGET]),
+    )?);
+    let size_ok = match cmd_size() {
+        Ok(_) => true,
+        Err(e) => {
+            eprintln!("firmware size check failed: {e:#}");
+            false
+        }
+    };
+    suites.push(Suite { name: "board build within flash/RAM budget", passed: u64::from(size_ok), failed: u64::from(!size_ok), ok: size_ok });
+    let elf = firmware_elf();
+    let magcal = build_magcal()?;
+    suites.push(run_suite(
+        "end-to-end: firmware in QEMU, magcal over a pty",
+        cargo()
+            .args(["test", "--no-fail-fast", "-p", "e2e-tests"])
+            .env("MAGCAL_FIRMWARE_ELF", &elf)
+            .env("MAGCAL_BIN", &magcal),
+    )?);
+
+    eprintln!();
+    eprintln!("== summary");
+    let (mut passed, mut failed) = (0, 0);
+    for s in &suites {
+        eprintln!("  {:<72} {:>4} passed {:>3} failed{}", s.name, s.passed, s.failed, if s.ok { "" } else { "  <- FAILED" });
+        passed += s.passed;
+        failed += s.failed;
+    }
+    println!("{passed} passed, {failed} failed");
+    if failed > 0 || suites.iter().any(|s| !s.ok) {
+        bail!("some suites failed");
+    }
+    Ok(())
+}
+
+fn cmd_demo() -> Result<()> {
+    ensure_tools()?;
+    let elf = build_firmware()?;
+    let usage = size::measure(&elf)?;
+    usage.print();
+    let out_dir = root().join("target").join("demo");
+    std::fs::create_dir_all(&out_dir)?;
+    demo_session(&elf, &out_dir)
+}
+
+fn demo_session(elf: &Path, out_dir: &Path) -> Result<()> {
+    use host_tools::link::Link;
+    use host_tools::qemu::{QemuBoard, QemuOptions};
+
+    say("booting the firmware on QEMU netduinoplus2 (STM32F405)");
+    let mut opts = QemuOptions::new(elf);
+    let log = out_dir.join("firmware.log");
+    opts.log = Some(log.clone());
+    let board = QemuBoard::boot(&opts)?;
+    eprintln!("   USART1 (host link) is on {}", board.link_port());
+
+    say("connecting and identifying, as `magcal identify --port PORT` does");
+    let mut link = Link::open(board.link_port())?;
+    let id = link.identify()?;
+    eprintln!(
+        "   {} {} speaks protocol {} on {:?}, up {} ms",
+        id.name, id.firmware_version, id.protocol_version, id.platform, id.uptime_ms
+    );
+    let nonce = 0x5EED_CAFE;
+    let echoed = link.ping(nonce)?;
+    if echoed != nonce {
+        bail!("ping echoed {echoed:#x}, sent {nonce:#x}");
+    }
+    eprintln!("   link round trip ok");
+    let summary = serde_json::json!({
+        "firmware": id.name.as_str(),
+        "firmware_version": id.firmware_version.as_str(),
+        "protocol_version": id.protocol_version,
+        "platform": format!("{:?}", id.platform).to_lowercase(),
+    });
+    std::fs::write(out_dir.join("summary.json"), serde_json::to_string_pretty(&summary)?)?;
+    board.shutdown();
+    eprintln!("   firmware log: {}", log.display());
+    eprintln!("   summary: {}", out_dir.join("summary.json").display());
+    println!("demo ok: {}", summary);
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_test_result;
+
+    #[test]
+    fn libtest_summaries_are_counted() {
+        assert_eq!(
+            parse_test_result("test result: ok. 12 passed; 0 failed; 1 ignored; 0 measured; 0 filtered out; finished in 0.01s"),
+            Some((12, 0))
+        );
+        assert_eq!(parse_test_result("test result: FAILED. 5 passed; 1 failed; 0 ignored"), Some((5, 1)));
+        assert_eq!(parse_test_result("running 6 tests"), None);
+    }
+}
