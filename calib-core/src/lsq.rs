@@ -1,0 +1,370 @@
+//! Linear least squares, two ways.
+//!
+//! * [`NormalEquations`]: the batch reference, literally eq 16 of paper 000,
+//!   `x̂ = (ΦᵀΦ)⁻¹ Φᵀz`, accumulated sample by sample (no storage of Φ) and
+//!   solved by Cholesky. Meant for `f64` on the host.
+//! * [`QrRls`]: recursive least squares in square-root information form. The
+//!   upper-triangular `R` (with `RᵀR = ΦᵀΦ`) and `Qᵀz` are updated by Givens
+//!   rotations, one sample at a time; the estimate is a back substitution.
+//!   No covariance matrix is ever formed, so the condition number is not
+//!   squared: the form that stays accurate in `f32` on the MCU. An optional
+//!   forgetting factor `λ` scales `R` by `√λ` before each update.
+//!
+//! Both take normalised regressors (the models in [`crate::fit`] centre and
+//! scale the raw field so every entry is O(1)).
+
+use crate::linalg::cholesky_solve;
+use crate::Real;
+
+/// Why a least-squares solve failed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum SolveError {
+    /// Fewer samples than unknowns.
+    TooFewSamples {
+        /// Samples accumulated.
+        have: u32,
+        /// Unknowns to determine.
+        need: u32,
+    },
+    /// The data do not determine parameter `index` (the information matrix is
+    /// singular or nearly so in that direction): insufficient excitation.
+    IllConditioned {
+        /// Index of the first undetermined parameter.
+        index: u8,
+    },
+}
+
+/// Relative size under which a diagonal of `R` counts as zero.
+fn rank_tolerance<T: Real>() -> T {
+    // ~1e-5 in f32, ~2e-14 in f64: a direction with that little information
+    // relative to the best-determined one cannot be trusted.
+    T::EPSILON.sqrt() * T::from_f64(1e-2).max(T::EPSILON.sqrt())
+}
+
+/// Recursive least squares in square-root information form (QR-RLS).
+#[derive(Debug, Clone)]
+pub struct QrRls<T, const N: usize> {
+    r: [[T; N]; N],
+    qtz: [T; N],
+    rss: T,
+    count: u32,
+}
+
+impl<T: Real, const N: usize> Default for QrRls<T, N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<T: Real, const N: usize> QrRls<T, N> {
+    /// No information yet.
+    pub fn new() -> Self {
+        Self { r: [[T::ZERO; N]; N], qtz: [T::ZERO; N], rss: T::ZERO, count: 0 }
+    }
+
+    /// Samples absorbed.
+    pub fn count(&self) -> u32 {
+        self.count
+    }
+
+    /// Residual sum of squares of the current least-squares solution (in the
+    /// regression's normalised units).
+    pub fn residual_sum_of_squares(&self) -> T {
+        self.rss
+    }
+
+    /// Absorbs one equation `φ·x ≈ y`. Non-finite input is ignored and
+    /// reported by returning `false`.
+    pub fn update(&mut self, phi: &[T; N], y: T) -> bool {
+        if !y.is_finite() || !phi.iter().all(|v| v.is_finite()) {
+            return false;
+        }
+        let mut row = *phi;
+        let mut yy = y;
+        for i in 0..N {
+            let b = row[i];
+            if b == T::ZERO {
+                continue;
+            }
+            let a = self.r[i][i];
+            let h = hypot(a, b);
+            let (c, s) = (a / h, b / h);
+            self.r[i][i] = h;
+            for j in i + 1..N {
+                let rij = self.r[i][j];
+                self.r[i][j] = c * rij + s * row[j];
+                row[j] = c * row[j] - s * rij;
+            }
+            let zi = self.qtz[i];
+            self.qtz[i] = c * zi + s * yy;
+            yy = c * yy - s * zi;
+        }
+        self.rss += yy * yy;
+        self.count = self.count.saturating_add(1);
+        true
+    }
+
+    /// Discounts the past: multiplies the information by `lambda` (0 < λ ≤ 1).
+    /// Call before each update for exponential forgetting.
+    pub fn forget(&mut self, lambda: T) {
+        if !(lambda > T::ZERO && lambda <= T::ONE) {
+            return;
+        }
+        let s = lambda.sqrt();
+        for row in self.r.iter_mut() {
+            for v in row.iter_mut() {
+                *v *= s;
+            }
+        }
+        for v in self.qtz.iter_mut() {
+            *v *= s;
+        }
+        self.rss *= lambda;
+    }
+
+    /// |R_ii|, the information along each parameter after the previous ones
+    /// (a per-parameter excitation measure).
+    pub fn information_diagonal(&self) -> [T; N] {
+        let mut d = [T::ZERO; N];
+        for (i, v) in d.iter_mut().enumerate() {
+            *v = self.r[i][i].abs();
+        }
+        d
+    }
+
+    /// The least-squares estimate by back substitution.
+    pub fn solve(&self) -> Result<[T; N], SolveError> {
+        if (self.count as usize) < N {
+            return Err(SolveError::TooFewSamples { have: self.count, need: N as u32 });
+        }
+        let max = self.information_diagonal().iter().fold(T::ZERO, |m, &v| m.max(v));
+        let tol = max * rank_tolerance::<T>();
+        let mut x = [T::ZERO; N];
+        for i in (0..N).rev() {
+            let d = self.r[i][i];
+            if !(d.abs() > tol) {
+                return Err(SolveError::IllConditioned { index: i as u8 });
+            }
+            let mut s = self.qtz[i];
+            for j in i + 1..N {
+                s -= self.r[i][j] * x[j];
+            }
+            x[i] = s / d;
+        }
+        Ok(x)
+    }
+}
+
+/// `√(a² + b²)` without overflow for large inputs.
+fn hypot<T: Real>(a: T, b: T) -> T {
+    let (a, b) = (a.abs(), b.abs());
+    let (big, small) = if a > b { (a, b) } else { (b, a) };
+    if big == T::ZERO {
+        return T::ZERO;
+    }
+    let r = small / big;
+    big * (T::ONE + r * r).sqrt()
+}
+
+/// Batch least squares through the normal equations (paper 000, eq 16).
+#[derive(Debug, Clone)]
+pub struct NormalEquations<T, const N: usize> {
+    ata: [[T; N]; N],
+    atb: [T; N],
+    btb: T,
+    count: u32,
+}
+
+impl<T: Real, const N: usize> Default for NormalEquations<T, N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<T: Real, const N: usize> NormalEquations<T, N> {
+    /// Empty.
+    pub fn new() -> Self {
+        Self { ata: [[T::ZERO; N]; N], atb: [T::ZERO; N], btb: T::ZERO, count: 0 }
+    }
+
+    /// Samples accumulated.
+    pub fn count(&self) -> u32 {
+        self.count
+    }
+
+    /// Adds the equation `φ·x ≈ y`; non-finite input is refused (`false`).
+    pub fn update(&mut self, phi: &[T; N], y: T) -> bool {
+        if !y.is_finite() || !phi.iter().all(|v| v.is_finite()) {
+            return false;
+        }
+        for i in 0..N {
+            for j in 0..N {
+                self.ata[i][j] += phi[i] * phi[j];
+            }
+            self.atb[i] += phi[i] * y;
+        }
+        self.btb += y * y;
+        self.count = self.count.saturating_add(1);
+        true
+    }
+
+    /// `x̂ = (ΦᵀΦ)⁻¹ Φᵀz`.
+    pub fn solve(&self) -> Result<[T; N], SolveError> {
+        if (self.count as usize) < N {
+            return Err(SolveError::TooFewSamples { have: self.count, need: N as u32 });
+        }
+        // Diagonal scaling (Jacobi preconditioning) before Cholesky, and a
+        // per-parameter check that mirrors QrRls::solve.
+        let mut d = [T::ONE; N];
+        for (i, di) in d.iter_mut().enumerate() {
+            let a = self.ata[i][i];
+            if !(a > T::ZERO) {
+                return Err(SolveError::IllConditioned { index: i as u8 });
+            }
+            *di = T::ONE / a.sqrt();
+        }
+        let mut a = self.ata;
+        let mut b = self.atb;
+        for i in 0..N {
+            for j in 0..N {
+                a[i][j] *= d[i] * d[j];
+            }
+            b[i] *= d[i];
+        }
+        let y = cholesky_solve(&a, &b).ok_or(SolveError::IllConditioned { index: first_weak(&a) })?;
+        let mut x = [T::ZERO; N];
+        for i in 0..N {
+            x[i] = y[i] * d[i];
+        }
+        Ok(x)
+    }
+}
+
+/// The parameter whose Cholesky pivot collapses first.
+fn first_weak<T: Real, const N: usize>(a: &[[T; N]; N]) -> u8 {
+    let mut l = [[T::ZERO; N]; N];
+    let tol = T::from_f64(N as f64) * T::EPSILON;
+    for i in 0..N {
+        for j in 0..=i {
+            let mut s = a[i][j];
+            for k in 0..j {
+                s -= l[i][k] * l[j][k];
+            }
+            if i == j {
+                if !(s > tol) {
+                    return i as u8;
+                }
+                l[i][i] = s.sqrt();
+            } else {
+                l[i][j] = s / l[j][j];
+            }
+        }
+    }
+    (N as u8).saturating_sub(1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn lcg(seed: &mut u64) -> f64 {
+        *seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        ((*seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+    }
+
+    #[test]
+    fn exact_data_is_recovered_by_both() {
+        let truth = [0.5, -1.25, 2.0, 0.125];
+        let mut qr = QrRls::<f64, 4>::new();
+        let mut ne = NormalEquations::<f64, 4>::new();
+        let mut seed = 7;
+        for _ in 0..50 {
+            let phi = [lcg(&mut seed), lcg(&mut seed), lcg(&mut seed), 1.0];
+            let y: f64 = phi.iter().zip(truth).map(|(a, b)| a * b).sum();
+            assert!(qr.update(&phi, y));
+            assert!(ne.update(&phi, y));
+        }
+        for (a, b) in qr.solve().unwrap().iter().zip(truth) {
+            assert!((a - b).abs() < 1e-12);
+        }
+        for (a, b) in ne.solve().unwrap().iter().zip(truth) {
+            assert!((a - b).abs() < 1e-12);
+        }
+        assert!(qr.residual_sum_of_squares() < 1e-20);
+    }
+
+    #[test]
+    fn collinear_regressors_are_reported_not_solved() {
+        let mut qr = QrRls::<f64, 3>::new();
+        let mut ne = NormalEquations::<f64, 3>::new();
+        let mut seed = 3;
+        for _ in 0..20 {
+            let a = lcg(&mut seed);
+            let phi = [a, 2.0 * a, 1.0];
+            qr.update(&phi, a);
+            ne.update(&phi, a);
+        }
+        assert_eq!(qr.solve(), Err(SolveError::IllConditioned { index: 1 }));
+        assert!(matches!(ne.solve(), Err(SolveError::IllConditioned { .. })));
+        assert_eq!(QrRls::<f64, 3>::new().solve(), Err(SolveError::TooFewSamples { have: 0, need: 3 }));
+    }
+
+    #[test]
+    fn forgetting_tracks_a_parameter_change() {
+        let mut forgetting = QrRls::<f64, 2>::new();
+        let mut remembering = QrRls::<f64, 2>::new();
+        let mut seed = 11;
+        for k in 0..400 {
+            let truth = if k < 200 { [1.0, 0.0] } else { [3.0, 1.0] };
+            let phi = [lcg(&mut seed), 1.0];
+            let y = phi[0] * truth[0] + truth[1];
+            forgetting.forget(0.95);
+            forgetting.update(&phi, y);
+            remembering.update(&phi, y);
+        }
+        // The old regime's weight is 0.95^200 ≈ 3.5e-5 of the new one's.
+        let x = forgetting.solve().unwrap();
+        assert!((x[0] - 3.0).abs() < 1e-3 && (x[1] - 1.0).abs() < 1e-3, "{x:?}");
+        let y = remembering.solve().unwrap();
+        assert!((y[0] - 3.0).abs() > 0.5, "without forgetting the old data drag the estimate: {y:?}");
+    }
+
+    #[test]
+    fn non_finite_rows_are_refused() {
+        let mut qr = QrRls::<f32, 2>::new();
+        assert!(!qr.update(&[f32::NAN, 1.0], 1.0));
+        assert!(!qr.update(&[1.0, 1.0], f32::INFINITY));
+        assert_eq!(qr.count(), 0);
+    }
+
+    proptest! {
+        /// The square-root form in f32 agrees with the f64 normal equations
+        /// on noisy, well-posed problems, and the residual it tracks equals
+        /// the residual of its solution.
+        #[test]
+        fn f32_qr_matches_f64_reference(seed in 0u64..1000, noise in 0.0..0.1f64) {
+            let mut s = seed + 1;
+            let truth = [0.3, -0.7, 1.1, 0.05, -0.2];
+            let mut qr = QrRls::<f32, 5>::new();
+            let mut ne = NormalEquations::<f64, 5>::new();
+            let mut rows = Vec::new();
+            for _ in 0..300 {
+                let phi = [lcg(&mut s), lcg(&mut s), lcg(&mut s) * lcg(&mut s), lcg(&mut s), 1.0];
+                let y: f64 = phi.iter().zip(truth).map(|(a, b)| a * b).sum::<f64>() + noise * lcg(&mut s);
+                let phi32 = phi.map(|v| v as f32);
+                qr.update(&phi32, y as f32);
+                ne.update(&phi32.map(f64::from), f64::from(y as f32));
+                rows.push((phi32.map(f64::from), f64::from(y as f32)));
+            }
+            let a = qr.solve().unwrap();
+            let b = ne.solve().unwrap();
+            for (x, y) in a.iter().zip(b) {
+                prop_assert!((f64::from(*x) - y).abs() < 2e-5, "{a:?} vs {b:?}");
+            }
+            let rss: f64 = rows.iter().map(|(p, y)| (y - p.iter().zip(b).map(|(u, v)| u * v).sum::<f64>()).powi(2)).sum();
+            prop_assert!((f64::from(qr.residual_sum_of_squares()) - rss).abs() <= 1e-3 * rss + 1e-6);
+        }
+    }
+}
