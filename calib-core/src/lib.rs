@@ -15,7 +15,9 @@
 // slices from outside are walked with iterators.
 #![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
+pub mod cal;
 pub mod conformance;
+pub mod fit;
 pub mod heading;
 pub mod linalg;
 pub mod lsq;

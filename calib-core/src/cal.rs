@@ -1,0 +1,248 @@
+//! The coefficients applied to every sample: `h = M·(raw − b)`, then the
+//! tilt-compensated heading, the swing correction (eq 31) and declination.
+//!
+//! Cheap enough for every output sample on the MCU: 9 multiply-adds for the
+//! field, two sin/cos pairs and an atan2 for the heading, and the five-term
+//! Fourier correction.
+
+use crate::heading::{magnetic_heading_rad, wrap_two_pi, Vec3};
+use crate::linalg::{det3, identity3, mul_mat_vec, Mat3};
+use crate::Real;
+
+/// Which model produced a field calibration.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ModelKind {
+    /// Bias and one scale (sphere).
+    Sphere,
+    /// Bias and three axis scales (paper 000's axis-aligned ellipsoid).
+    Axis,
+    /// Bias and a symmetric 3×3 soft-iron/scale matrix (full ellipsoid).
+    Full,
+    /// Upper-triangular non-orthogonality and gain (paper 001).
+    Triangular,
+}
+
+impl ModelKind {
+    /// The name used in the calibration document (`docs/INTERFACES.md`).
+    pub fn name(self) -> &'static str {
+        match self {
+            ModelKind::Sphere => "sphere",
+            ModelKind::Axis => "axis",
+            ModelKind::Full => "full",
+            ModelKind::Triangular => "triangular",
+        }
+    }
+}
+
+/// Field calibration: the calibrated field in nT is `matrix · (raw − bias)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FieldCal<T> {
+    /// Hard-iron bias, in raw sensor units.
+    pub bias: Vec3<T>,
+    /// Raw units → nT, including soft iron, scale and non-orthogonality.
+    pub matrix: Mat3<T>,
+}
+
+/// Why a set of coefficients is refused.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum CalError {
+    /// A coefficient is NaN or infinite.
+    NonFinite,
+    /// The matrix is singular or mirrors the field (det ≤ 0): headings would
+    /// turn the wrong way.
+    NotOrientationPreserving,
+    /// The matrix stretches one direction far more than another (ratio of
+    /// largest to smallest column norm above the limit): not a plausible
+    /// sensor, more likely a bad fit.
+    Implausible,
+    /// The bias exceeds the sensor's range.
+    BiasOutOfRange,
+}
+
+/// Largest plausible ratio between the strongest and weakest column of the
+/// matrix (a steel hull distorts, but not by an order of magnitude).
+pub const MAX_ANISOTROPY: f64 = 4.0;
+
+impl<T: Real> FieldCal<T> {
+    /// No correction: raw units are taken as nT.
+    pub fn identity() -> Self {
+        Self { bias: [T::ZERO; 3], matrix: identity3() }
+    }
+
+    /// The calibrated field, `matrix · (raw − bias)`.
+    pub fn apply(&self, raw: Vec3<T>) -> Vec3<T> {
+        let d = [raw[0] - self.bias[0], raw[1] - self.bias[1], raw[2] - self.bias[2]];
+        mul_mat_vec(&self.matrix, d)
+    }
+
+    /// Checks the coefficients before use or storage. `max_bias_abs` is the
+    /// sensor's range in raw units.
+    pub fn validate(&self, max_bias_abs: T) -> Result<(), CalError> {
+        if !self.bias.iter().chain(self.matrix.iter().flatten()).all(|v| v.is_finite()) {
+            return Err(CalError::NonFinite);
+        }
+        if !(det3(&self.matrix) > T::ZERO) {
+            return Err(CalError::NotOrientationPreserving);
+        }
+        let col = |j: usize| {
+            let (a, b, c) = (self.matrix[0][j], self.matrix[1][j], self.matrix[2][j]);
+            (a * a + b * b + c * c).sqrt()
+        };
+        let norms = [col(0), col(1), col(2)];
+        let (lo, hi) = norms.iter().fold((norms[0], norms[0]), |(lo, hi), &n| (lo.min(n), hi.max(n)));
+        if !(hi <= T::from_f64(MAX_ANISOTROPY) * lo) {
+            return Err(CalError::Implausible);
+        }
+        if self.bias.iter().any(|b| !(b.abs() <= max_bias_abs)) {
+            return Err(CalError::BiasOutOfRange);
+        }
+        Ok(())
+    }
+}
+
+/// The five-term Fourier heading correction of paper 000 (eqs 19, 31), in
+/// radians: `δψ = A + B sin ψ + C cos ψ + D sin 2ψ + E cos 2ψ`.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Swing<T> {
+    /// Constant offset.
+    pub a: T,
+    /// sin ψ term.
+    pub b: T,
+    /// cos ψ term.
+    pub c: T,
+    /// sin 2ψ term.
+    pub d: T,
+    /// cos 2ψ term.
+    pub e: T,
+}
+
+impl<T: Real> Swing<T> {
+    /// No correction.
+    pub fn zero() -> Self {
+        Self { a: T::ZERO, b: T::ZERO, c: T::ZERO, d: T::ZERO, e: T::ZERO }
+    }
+
+    /// The correction δψ at heading ψ.
+    pub fn correction_rad(&self, heading_rad: T) -> T {
+        let (s1, c1) = (heading_rad.sin(), heading_rad.cos());
+        // sin 2ψ and cos 2ψ from the single-angle values: no second sin/cos.
+        let (s2, c2) = (T::from_f64(2.0) * s1 * c1, c1 * c1 - s1 * s1);
+        self.a + self.b * s1 + self.c * c1 + self.d * s2 + self.e * c2
+    }
+
+    /// Corrected heading in [0, 2π) (eq 31).
+    pub fn apply(&self, heading_rad: T) -> T {
+        wrap_two_pi(heading_rad + self.correction_rad(heading_rad))
+    }
+
+    /// The coefficients as an array `[A, B, C, D, E]`.
+    pub fn to_array(&self) -> [T; 5] {
+        [self.a, self.b, self.c, self.d, self.e]
+    }
+
+    /// From `[A, B, C, D, E]`.
+    pub fn from_array(x: [T; 5]) -> Self {
+        Self { a: x[0], b: x[1], c: x[2], d: x[3], e: x[4] }
+    }
+}
+
+/// Everything the board applies to a sample.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Calibration<T> {
+    /// Field calibration.
+    pub field: FieldCal<T>,
+    /// Heading correction from swinging (zero when absent).
+    pub swing: Swing<T>,
+    /// Magnetic declination, east positive.
+    pub declination_rad: T,
+}
+
+/// One calibrated output sample.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Output<T> {
+    /// Calibrated field, body frame, nT.
+    pub field_nt: Vec3<T>,
+    /// True heading in [0, 2π) (magnetic + swing + declination).
+    pub true_heading_rad: T,
+}
+
+impl<T: Real> Calibration<T> {
+    /// No correction at all.
+    pub fn identity() -> Self {
+        Self { field: FieldCal::identity(), swing: Swing::zero(), declination_rad: T::ZERO }
+    }
+
+    /// Calibrated field only.
+    pub fn field_nt(&self, raw: Vec3<T>) -> Vec3<T> {
+        self.field.apply(raw)
+    }
+
+    /// Magnetic heading after field and swing calibration, [0, 2π).
+    pub fn magnetic_heading_rad(&self, raw: Vec3<T>, roll_rad: T, pitch_rad: T) -> T {
+        self.swing.apply(magnetic_heading_rad(self.field.apply(raw), roll_rad, pitch_rad))
+    }
+
+    /// Field and true heading for one sample with the AHRS attitude.
+    pub fn apply(&self, raw: Vec3<T>, roll_rad: T, pitch_rad: T) -> Output<T> {
+        let field_nt = self.field.apply(raw);
+        let magnetic = self.swing.apply(magnetic_heading_rad(field_nt, roll_rad, pitch_rad));
+        Output { field_nt, true_heading_rad: wrap_two_pi(magnetic + self.declination_rad) }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::heading::{ned_field, ned_to_body, wrap_pi};
+    use core::f64::consts::PI;
+
+    #[test]
+    fn apply_undoes_a_known_distortion_and_heading_is_true() {
+        // raw = D·h + b with D a soft-iron matrix; the calibration is D⁻¹.
+        let d = [[1.2, 0.05, 0.0], [0.05, 0.9, 0.02], [0.0, 0.02, 1.1]];
+        let m = crate::linalg::inverse3(&d).unwrap();
+        let b = [300.0, -150.0, 80.0];
+        let cal = Calibration { field: FieldCal { bias: b, matrix: m }, swing: Swing::zero(), declination_rad: 0.1 };
+        let h = ned_to_body(ned_field(48730.0, 0.97, 0.1), 0.3, -0.1, 1.0);
+        let raw = mul_mat_vec(&d, h);
+        let raw = [raw[0] + b[0], raw[1] + b[1], raw[2] + b[2]];
+        let out = cal.apply(raw, 0.3, -0.1);
+        for i in 0..3 {
+            assert!((out.field_nt[i] - h[i]).abs() < 1e-9);
+        }
+        // Field built with declination 0.1 rad: true heading is the yaw.
+        assert!(wrap_pi(out.true_heading_rad - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn swing_double_angle_identities_hold() {
+        let s = Swing { a: 0.14199, b: -0.01101, c: 0.01071, d: 0.00610, e: 0.05528 };
+        for k in 0..36 {
+            let psi = k as f64 * PI / 18.0;
+            let want = s.a + s.b * psi.sin() + s.c * psi.cos() + s.d * (2.0 * psi).sin() + s.e * (2.0 * psi).cos();
+            assert!((s.correction_rad(psi) - want).abs() < 1e-15);
+        }
+    }
+
+    #[test]
+    fn validation_refuses_bad_coefficients() {
+        let good = FieldCal { bias: [10.0, 0.0, 0.0], matrix: identity3::<f64>() };
+        assert_eq!(good.validate(1e5), Ok(()));
+        let mut c = good;
+        c.matrix[1][1] = -1.0;
+        assert_eq!(c.validate(1e5), Err(CalError::NotOrientationPreserving));
+        let mut c = good;
+        c.matrix[2][2] = 10.0;
+        assert_eq!(c.validate(1e5), Err(CalError::Implausible));
+        let mut c = good;
+        c.bias[0] = f64::NAN;
+        assert_eq!(c.validate(1e5), Err(CalError::NonFinite));
+        assert_eq!(good.validate(5.0), Err(CalError::BiasOutOfRange));
+    }
+}
