@@ -406,4 +406,4 @@ pub type AxisRls<T> = RecursiveFit<T, Axis, 6>;
 pub type FullRls<T> = RecursiveFit<T, Full, 9>;
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

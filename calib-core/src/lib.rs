@@ -21,6 +21,8 @@ pub mod fit;
 pub mod heading;
 pub mod linalg;
 pub mod lsq;
+pub mod quality;
+pub mod swing;
 pub mod real;
 
 pub use real::Real;

@@ -62,8 +62,9 @@ pub fn inverse3<T: Real>(m: &Mat3<T>) -> Option<Mat3<T>> {
 }
 
 /// Solves `A x = b` for symmetric positive-definite `A` by Cholesky
-/// factorisation. `None` when `A` is not (numerically) positive definite.
-pub fn cholesky_solve<T: Real, const N: usize>(a: &[[T; N]; N], b: &[T; N]) -> Option<[T; N]> {
+/// factorisation. `Err(i)` when pivot `i` shows `A` is not (numerically)
+/// positive definite.
+pub fn cholesky_solve<T: Real, const N: usize>(a: &[[T; N]; N], b: &[T; N]) -> Result<[T; N], usize> {
     let l = cholesky(a)?;
     // L y = b
     let mut y = [T::ZERO; N];
@@ -83,12 +84,15 @@ pub fn cholesky_solve<T: Real, const N: usize>(a: &[[T; N]; N], b: &[T; N]) -> O
         }
         x[i] = s / l[i][i];
     }
-    x.iter().all(|v| v.is_finite()).then_some(x)
+    match x.iter().position(|v| !v.is_finite()) {
+        Some(i) => Err(i),
+        None => Ok(x),
+    }
 }
 
-/// Lower-triangular Cholesky factor `L` with `A = L Lᵀ`, or `None` when `A`
-/// is not positive definite (a pivot not above `N·ε·max|A_ii|`).
-pub fn cholesky<T: Real, const N: usize>(a: &[[T; N]; N]) -> Option<[[T; N]; N]> {
+/// Lower-triangular Cholesky factor `L` with `A = L Lᵀ`, or `Err(i)` when
+/// pivot `i` is not above `N·ε·max|A_ii|` (not positive definite).
+pub fn cholesky<T: Real, const N: usize>(a: &[[T; N]; N]) -> Result<[[T; N]; N], usize> {
     let max_diag = (0..N).fold(T::ZERO, |m, i| m.max(a[i][i].abs()));
     let tol = T::from_f64(N as f64) * T::EPSILON * max_diag;
     let mut l = [[T::ZERO; N]; N];
@@ -100,7 +104,7 @@ pub fn cholesky<T: Real, const N: usize>(a: &[[T; N]; N]) -> Option<[[T; N]; N]>
             }
             if i == j {
                 if !(s > tol) {
-                    return None;
+                    return Err(i);
                 }
                 l[i][i] = s.sqrt();
             } else {
@@ -108,7 +112,7 @@ pub fn cholesky<T: Real, const N: usize>(a: &[[T; N]; N]) -> Option<[[T; N]; N]>
             }
         }
     }
-    Some(l)
+    Ok(l)
 }
 
 /// Eigen-decomposition of a symmetric matrix by cyclic Jacobi rotations.
@@ -223,7 +227,7 @@ mod tests {
             let r: f64 = (0..3).map(|k| a[i][k] * x[k]).sum();
             assert!((r - [1.0, 2.0, 3.0][i]).abs() < 1e-14);
         }
-        assert!(cholesky(&[[1.0, 2.0], [2.0, 1.0]]).is_none());
+        assert_eq!(cholesky(&[[1.0, 2.0], [2.0, 1.0]]), Err(1));
     }
 
     #[test]

@@ -35,6 +35,17 @@ pub enum SolveError {
     },
 }
 
+/// A least-squares accumulator: what the fits need from either engine.
+pub trait LeastSquares<T, const N: usize> {
+    /// Absorbs `φ·x ≈ y`; `false` (and nothing absorbed) for non-finite input.
+    fn update(&mut self, phi: &[T; N], y: T) -> bool;
+    /// Samples absorbed.
+    fn count(&self) -> u32;
+    /// Solves for the first `k` parameters only (the later columns are
+    /// dropped from the model); the rest of the result is zero.
+    fn solve_leading(&self, k: usize) -> Result<[T; N], SolveError>;
+}
+
 /// Relative size under which a diagonal of `R` counts as zero.
 fn rank_tolerance<T: Real>() -> T {
     // ~1e-5 in f32, ~2e-14 in f64: a direction with that little information
@@ -135,24 +146,56 @@ impl<T: Real, const N: usize> QrRls<T, N> {
 
     /// The least-squares estimate by back substitution.
     pub fn solve(&self) -> Result<[T; N], SolveError> {
-        if (self.count as usize) < N {
-            return Err(SolveError::TooFewSamples { have: self.count, need: N as u32 });
+        self.solve_leading(N)
+    }
+
+    /// The least-squares estimate of a model made of the first `k` columns
+    /// only: because the QR factor of the leading columns is the leading
+    /// block of `R`, nested models come from one accumulator.
+    pub fn solve_leading(&self, k: usize) -> Result<[T; N], SolveError> {
+        let k = k.min(N);
+        if (self.count as usize) < k {
+            return Err(SolveError::TooFewSamples { have: self.count, need: k as u32 });
         }
-        let max = self.information_diagonal().iter().fold(T::ZERO, |m, &v| m.max(v));
+        let max = self.information_diagonal().iter().take(k).fold(T::ZERO, |m, &v| m.max(v));
         let tol = max * rank_tolerance::<T>();
         let mut x = [T::ZERO; N];
-        for i in (0..N).rev() {
+        for i in (0..k).rev() {
             let d = self.r[i][i];
             if !(d.abs() > tol) {
                 return Err(SolveError::IllConditioned { index: i as u8 });
             }
             let mut s = self.qtz[i];
-            for j in i + 1..N {
+            for j in i + 1..k {
                 s -= self.r[i][j] * x[j];
             }
             x[i] = s / d;
         }
         Ok(x)
+    }
+}
+
+impl<T: Real, const N: usize> LeastSquares<T, N> for QrRls<T, N> {
+    fn update(&mut self, phi: &[T; N], y: T) -> bool {
+        QrRls::update(self, phi, y)
+    }
+    fn count(&self) -> u32 {
+        QrRls::count(self)
+    }
+    fn solve_leading(&self, k: usize) -> Result<[T; N], SolveError> {
+        QrRls::solve_leading(self, k)
+    }
+}
+
+impl<T: Real, const N: usize> LeastSquares<T, N> for NormalEquations<T, N> {
+    fn update(&mut self, phi: &[T; N], y: T) -> bool {
+        NormalEquations::update(self, phi, y)
+    }
+    fn count(&self) -> u32 {
+        NormalEquations::count(self)
+    }
+    fn solve_leading(&self, k: usize) -> Result<[T; N], SolveError> {
+        NormalEquations::solve_leading(self, k)
     }
 }
 
@@ -211,13 +254,20 @@ impl<T: Real, const N: usize> NormalEquations<T, N> {
 
     /// `x̂ = (ΦᵀΦ)⁻¹ Φᵀz`.
     pub fn solve(&self) -> Result<[T; N], SolveError> {
-        if (self.count as usize) < N {
-            return Err(SolveError::TooFewSamples { have: self.count, need: N as u32 });
+        self.solve_leading(N)
+    }
+
+    /// The estimate of the model made of the first `k` columns only.
+    pub fn solve_leading(&self, k: usize) -> Result<[T; N], SolveError> {
+        let k = k.min(N);
+        if (self.count as usize) < k {
+            return Err(SolveError::TooFewSamples { have: self.count, need: k as u32 });
         }
         // Diagonal scaling (Jacobi preconditioning) before Cholesky, and a
-        // per-parameter check that mirrors QrRls::solve.
+        // per-parameter check that mirrors QrRls::solve. Columns past `k` are
+        // replaced by the identity so they solve to zero.
         let mut d = [T::ONE; N];
-        for (i, di) in d.iter_mut().enumerate() {
+        for (i, di) in d.iter_mut().enumerate().take(k) {
             let a = self.ata[i][i];
             if !(a > T::ZERO) {
                 return Err(SolveError::IllConditioned { index: i as u8 });
@@ -228,40 +278,21 @@ impl<T: Real, const N: usize> NormalEquations<T, N> {
         let mut b = self.atb;
         for i in 0..N {
             for j in 0..N {
-                a[i][j] *= d[i] * d[j];
+                if i < k && j < k {
+                    a[i][j] *= d[i] * d[j];
+                } else {
+                    a[i][j] = if i == j { T::ONE } else { T::ZERO };
+                }
             }
-            b[i] *= d[i];
+            b[i] = if i < k { b[i] * d[i] } else { T::ZERO };
         }
-        let y = cholesky_solve(&a, &b).ok_or(SolveError::IllConditioned { index: first_weak(&a) })?;
+        let y = cholesky_solve(&a, &b).map_err(|i| SolveError::IllConditioned { index: i as u8 })?;
         let mut x = [T::ZERO; N];
         for i in 0..N {
             x[i] = y[i] * d[i];
         }
         Ok(x)
     }
-}
-
-/// The parameter whose Cholesky pivot collapses first.
-fn first_weak<T: Real, const N: usize>(a: &[[T; N]; N]) -> u8 {
-    let mut l = [[T::ZERO; N]; N];
-    let tol = T::from_f64(N as f64) * T::EPSILON;
-    for i in 0..N {
-        for j in 0..=i {
-            let mut s = a[i][j];
-            for k in 0..j {
-                s -= l[i][k] * l[j][k];
-            }
-            if i == j {
-                if !(s > tol) {
-                    return i as u8;
-                }
-                l[i][i] = s.sqrt();
-            } else {
-                l[i][j] = s / l[j][j];
-            }
-        }
-    }
-    (N as u8).saturating_sub(1)
 }
 
 #[cfg(test)]
