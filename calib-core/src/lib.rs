@@ -21,6 +21,7 @@ pub mod fit;
 pub mod heading;
 pub mod linalg;
 pub mod lsq;
+pub mod ortho;
 pub mod quality;
 pub mod swing;
 pub mod real;
