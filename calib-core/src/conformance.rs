@@ -39,3 +39,61 @@ pub fn heading_digest_f32() -> u32 {
     }
     hash
 }
+
+/// SplitMix64: a tiny deterministic generator, identical on every platform.
+#[derive(Debug, Clone)]
+pub struct SplitMix64(u64);
+
+impl SplitMix64 {
+    /// Seeded generator.
+    pub const fn new(seed: u64) -> Self {
+        Self(seed)
+    }
+
+    /// Next 64 random bits.
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in [0, 1).
+    pub fn uniform(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    /// Standard normal (Box–Muller).
+    pub fn gauss(&mut self) -> f64 {
+        let u1 = self.uniform().max(f64::MIN_POSITIVE);
+        let u2 = self.uniform();
+        libm::sqrt(-2.0 * libm::log(u1)) * libm::cos(core::f64::consts::TAU * u2)
+    }
+}
+
+/// Reference intensity of [`tumble_sample`], nT.
+pub const TUMBLE_FIELD_NT: f64 = 50_000.0;
+/// Noise of [`tumble_sample`], nT per axis (1σ).
+pub const TUMBLE_NOISE_NT: f64 = 0.4;
+/// Hard iron of [`tumble_sample`], raw units (≈ nT).
+pub const TUMBLE_BIAS: [f64; 3] = [1200.0, -800.0, 350.0];
+/// Soft iron of [`tumble_sample`] (raw per nT).
+pub const TUMBLE_DISTORTION: [[f64; 3]; 3] = [[1.05, 0.03, -0.01], [0.03, 0.96, 0.02], [-0.01, 0.02, 1.08]];
+
+/// The full-tumble workload of issue 3: a field of [`TUMBLE_FIELD_NT`] in a
+/// uniformly random direction, distorted by [`TUMBLE_DISTORTION`], offset by
+/// [`TUMBLE_BIAS`], plus Gaussian noise. Computed in `f64` with `libm`, so the
+/// MCU and the host generate the same samples.
+pub fn tumble_sample(rng: &mut SplitMix64) -> [f64; 3] {
+    let z = 2.0 * rng.uniform() - 1.0;
+    let phi = core::f64::consts::TAU * rng.uniform();
+    let r = libm::sqrt(1.0 - z * z);
+    let h = [TUMBLE_FIELD_NT * r * libm::cos(phi), TUMBLE_FIELD_NT * r * libm::sin(phi), TUMBLE_FIELD_NT * z];
+    let d = crate::linalg::mul_mat_vec(&TUMBLE_DISTORTION, h);
+    let mut out = [0.0; 3];
+    for k in 0..3 {
+        out[k] = d[k] + TUMBLE_BIAS[k] + TUMBLE_NOISE_NT * rng.gauss();
+    }
+    out
+}

@@ -93,6 +93,37 @@ mod tests {
         assert_eq!(server.counters().bad_frames, 1);
     }
 
+    /// Issue 3: the f32 recursive full-ellipsoid fit, run sample by sample on
+    /// the M4F, against the host's f64 batch fit of the same 2400 samples
+    /// (50 000 nT, 0.4 nT noise, full tumble).
+    #[test]
+    #[timeout(120)]
+    fn f32_recursive_full_fit_on_the_mcu_matches_the_host_f64_batch() {
+        use calib_core::conformance::{tumble_sample, SplitMix64, TUMBLE_FIELD_NT};
+        use calib_core::fit::{FullRls, Normalization};
+        let mut rng = SplitMix64::new(TUMBLE_SEED);
+        let mut rls = FullRls::<f32>::new(Normalization { centre: [0.0; 3], scale: TUMBLE_FIELD_NT as f32 });
+        for _ in 0..TUMBLE_SAMPLES {
+            let s = tumble_sample(&mut rng);
+            assert!(rls.push([s[0] as f32, s[1] as f32, s[2] as f32]));
+        }
+        let est = rls.estimate(TUMBLE_FIELD_NT as f32).unwrap();
+        for k in 0..3 {
+            let err = (est.bias[k] as f64 - HOST_FULL_BIAS[k]).abs();
+            assert!(err < 0.5, "bias[{}] off by {} (raw ≈ nT)", k, err);
+        }
+        let (mut num, mut den) = (0.0f64, 0.0f64);
+        for i in 0..3 {
+            for j in 0..3 {
+                let d = est.matrix[i][j] as f64 - HOST_FULL_MATRIX[i][j];
+                num += d * d;
+                den += HOST_FULL_MATRIX[i][j] * HOST_FULL_MATRIX[i][j];
+            }
+        }
+        let rel = libm::sqrt(num / den);
+        assert!(rel < 1e-4, "matrix relative error {}", rel);
+    }
+
     /// The harness must see a failed assertion as a failure: this test only
     /// passes because the assertion inside it fails.
     #[test]
