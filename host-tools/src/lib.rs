@@ -4,5 +4,8 @@
 //! library; errors here are typed ([`link::LinkError`], [`qemu::QemuError`]).
 #![deny(missing_docs)]
 
+pub mod caldoc;
 pub mod link;
+pub mod pipeline;
 pub mod qemu;
+pub mod recording;

@@ -1,17 +1,56 @@
 //! `magcal`: the command-line front end. See `docs/INTERFACES.md` for the
-//! contract (every subcommand takes `--json`; stdout carries only the result,
-//! stderr the progress and the one-line reason on failure).
+//! contract: every subcommand takes `--json` and then prints one JSON document
+//! on stdout and nothing else there; progress and warnings go to stderr; on
+//! failure the exit status is non-zero with a one-line reason on stderr.
 
-use anyhow::{Context, Result};
-use clap::{Parser, Subcommand};
+use std::path::PathBuf;
+
+use anyhow::{bail, Context, Result};
+use calib_core::cal::ModelKind;
+use clap::{Parser, Subcommand, ValueEnum};
+use host_tools::caldoc::CalDoc;
 use host_tools::link::Link;
+use host_tools::pipeline::{self, Delay, FitOptions, OrthoSolver};
+use host_tools::recording::Recording;
 use magcal_protocol::Platform;
+use serde_json::json;
 
 #[derive(Parser)]
 #[command(name = "magcal", version, about = "AUV magnetometer calibration tools")]
 struct Cli {
     #[command(subcommand)]
     command: Cmd,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum Model {
+    /// Bias and one scale.
+    Sphere,
+    /// Bias and three axis scales (paper 000, eqs 12–17).
+    Axis,
+    /// Bias and a symmetric soft-iron matrix.
+    Full,
+    /// Bias and paper 001's upper-triangular non-orthogonality and gains.
+    Triangular,
+}
+
+impl From<Model> for ModelKind {
+    fn from(m: Model) -> Self {
+        match m {
+            Model::Sphere => ModelKind::Sphere,
+            Model::Axis => ModelKind::Axis,
+            Model::Full => ModelKind::Full,
+            Model::Triangular => ModelKind::Triangular,
+        }
+    }
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum Solver {
+    /// The paper's pairwise-norm solver (Levenberg–Marquardt on q1…q5).
+    Pairwise,
+    /// Linear fit of Γ⁻ᵀΓ⁻¹, then upper-triangular factorisation.
+    Linear,
 }
 
 #[derive(Subcommand)]
@@ -25,13 +64,119 @@ enum Cmd {
         #[arg(long)]
         json: bool,
     },
+    /// Field (ellipsoid) calibration from a recording.
+    Fit {
+        /// Recording (CSV with mx, my, mz).
+        #[arg(long)]
+        input: PathBuf,
+        /// Calibration model.
+        #[arg(long, value_enum)]
+        model: Model,
+        /// Reference field intensity, nT.
+        #[arg(long)]
+        field_nt: Option<f64>,
+        /// Latitude, degrees (IGRF reference; with --lon and --date).
+        #[arg(long, allow_hyphen_values = true)]
+        lat: Option<f64>,
+        /// Longitude, degrees.
+        #[arg(long, allow_hyphen_values = true)]
+        lon: Option<f64>,
+        /// Date, YYYY-MM-DD or decimal year.
+        #[arg(long)]
+        date: Option<String>,
+        /// Raw magnitude at which the sensor saturates (per axis).
+        #[arg(long)]
+        saturation: Option<f64>,
+        /// Return coefficients even when the quality gates fail.
+        #[arg(long)]
+        allow_weak: bool,
+        /// Write the calibration document here.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Print the calibration document on stdout.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Fourier (swinging) heading calibration against a reference heading.
+    Swing {
+        /// Recording with t, mx, my, mz, roll_deg, pitch_deg, ref_heading_deg.
+        #[arg(long)]
+        input: PathBuf,
+        /// The field calibration to start from.
+        #[arg(long)]
+        cal: PathBuf,
+        /// Known delay of the reference behind the magnetometer, seconds.
+        #[arg(long, conflicts_with = "estimate_delay")]
+        delay_s: Option<f64>,
+        /// Estimate the delay from the data.
+        #[arg(long)]
+        estimate_delay: bool,
+        /// Upper bound of the delay search, seconds.
+        #[arg(long, default_value_t = 5.0)]
+        max_delay_s: f64,
+        /// Write the calibration document here.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Print the calibration document on stdout.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Non-orthogonality and gain identification (paper 001).
+    Ortho {
+        /// Recording (CSV with mx, my, mz), the sensor turned in a constant field.
+        #[arg(long)]
+        input: PathBuf,
+        /// Solver.
+        #[arg(long, value_enum, default_value = "pairwise")]
+        solver: Solver,
+        /// Take the hard-iron bias from this calibration document.
+        #[arg(long, conflicts_with = "zero_bias")]
+        cal: Option<PathBuf>,
+        /// The data have no bias (e.g. paper 001's simulation).
+        #[arg(long)]
+        zero_bias: bool,
+        /// Print one JSON document on stdout.
+        #[arg(long)]
+        json: bool,
+    },
 }
 
 fn main() {
     let cli = Cli::parse();
     if let Err(e) = run(cli) {
-        eprintln!("magcal: {e:#}");
+        // One line: the chain of causes, joined.
+        let msg = format!("{e:#}").replace('\n', " ");
+        eprintln!("magcal: {msg}");
         std::process::exit(1);
+    }
+}
+
+fn emit(doc: &CalDoc, out: Option<&PathBuf>, json: bool, summary: &str) -> Result<()> {
+    if let Some(path) = out {
+        doc.save(path)?;
+        eprintln!("wrote {}", path.display());
+    }
+    if json {
+        println!("{}", serde_json::to_string_pretty(doc)?);
+    } else {
+        println!("{summary}");
+    }
+    Ok(())
+}
+
+fn warn_all(doc_quality: &serde_json::Value) {
+    let mut stack = vec![doc_quality];
+    while let Some(v) = stack.pop() {
+        if let Some(ws) = v.get("warnings").and_then(|w| w.as_array()) {
+            for w in ws {
+                if let Some(s) = w.as_str() {
+                    eprintln!("warning: {s}");
+                }
+            }
+        }
+        if let Some(obj) = v.as_object() {
+            stack.extend(obj.values().filter(|x| x.is_object()));
+        }
     }
 }
 
@@ -45,7 +190,7 @@ fn run(cli: Cli) -> Result<()> {
                 Platform::Silicon => "silicon",
             };
             if json {
-                let doc = serde_json::json!({
+                let doc = json!({
                     "name": id.name.as_str(),
                     "firmware_version": id.firmware_version.as_str(),
                     "protocol_version": id.protocol_version,
@@ -57,6 +202,75 @@ fn run(cli: Cli) -> Result<()> {
                 println!(
                     "{} {} (protocol {}) on {}, up {} ms",
                     id.name, id.firmware_version, id.protocol_version, platform, id.uptime_ms
+                );
+            }
+            Ok(())
+        }
+        Cmd::Fit { input, model, field_nt, lat, lon, date, saturation, allow_weak, out, json } => {
+            let field_nt = match (field_nt, lat, lon, date) {
+                (Some(f), None, None, None) => f,
+                (Some(_), _, _, _) => bail!("give either --field-nt or --lat/--lon/--date, not both"),
+                (None, Some(_), Some(_), Some(_)) => {
+                    bail!("the IGRF reference (--lat/--lon/--date) is not available in this build yet; give --field-nt")
+                }
+                (None, ..) => bail!("give the reference field intensity with --field-nt (nT) or --lat/--lon/--date"),
+            };
+            let rec = Recording::read(&input)?;
+            let opts = FitOptions { model: model.into(), field_nt, saturation, allow_weak };
+            let doc = pipeline::fit_recording(&rec, &opts).with_context(|| format!("{}: {} fit", input.display(), ModelKind::from(model).name()))?;
+            warn_all(&doc.quality);
+            let q = &doc.quality;
+            let summary = format!(
+                "{} fit of {} samples: bias {:?}, residual {:.1} nT RMS ({:.2} %), coverage {} %",
+                doc.model, q["samples"], doc.bias, q["residual_rms_nt"].as_f64().unwrap_or(f64::NAN),
+                q["residual_rms_pct"].as_f64().unwrap_or(f64::NAN), q["coverage_pct"]
+            );
+            emit(&doc, out.as_ref(), json, &summary)
+        }
+        Cmd::Swing { input, cal, delay_s, estimate_delay, max_delay_s, out, json } => {
+            let delay = match (delay_s, estimate_delay) {
+                (Some(s), false) if s.is_finite() && s >= 0.0 => Delay::Given(s),
+                (Some(s), false) => bail!("--delay-s must be a non-negative number of seconds, not {s}"),
+                (None, true) => Delay::Estimate { max_s: max_delay_s },
+                _ => bail!("give the reference delay with --delay-s S, or --estimate-delay"),
+            };
+            let doc = CalDoc::load(&cal)?;
+            let rec = Recording::read(&input)?;
+            let (doc, fit, delay_s) = pipeline::swing_recording(&rec, &doc, delay).with_context(|| format!("{}: swing fit", input.display()))?;
+            warn_all(&doc.quality);
+            let s = fit.swing;
+            let summary = format!(
+                "swing fit of {} pairs at delay {:.2} s: A={:.5} B={:.5} C={:.5} D={:.5} E={:.5} rad; heading error {:.2}° → {:.2}° RMS",
+                fit.samples, delay_s, s.a, s.b, s.c, s.d, s.e, fit.before_rms_rad.to_degrees(), fit.residual_rms_rad.to_degrees()
+            );
+            emit(&doc, out.as_ref(), json, &summary)
+        }
+        Cmd::Ortho { input, solver, cal, zero_bias, json } => {
+            let rec = Recording::read(&input)?;
+            let bias = match (cal, zero_bias) {
+                (Some(p), _) => Some(CalDoc::load(&p)?.bias),
+                (None, true) => Some([0.0; 3]),
+                (None, false) => None,
+            };
+            let solver_kind = match solver {
+                Solver::Pairwise => OrthoSolver::Pairwise,
+                Solver::Linear => OrthoSolver::Linear,
+            };
+            let (tri, bias) = pipeline::ortho_recording(&rec, solver_kind, bias).with_context(|| format!("{}: ortho", input.display()))?;
+            let a = tri.angles().context("the identified corrector is singular")?;
+            if json {
+                println!(
+                    "{}",
+                    json!({
+                        "theta_rad": a.theta_rad, "phi_rad": a.phi_rad, "psi_rad": a.psi_rad,
+                        "k_xz": a.k_xz, "k_yz": a.k_yz, "q": tri.q, "bias": bias,
+                        "solver": match solver { Solver::Pairwise => "pairwise", Solver::Linear => "linear" },
+                    })
+                );
+            } else {
+                println!(
+                    "θ = {:.6} rad, φ = {:.6} rad, ψ = {:.6} rad, k'XZ = {:.6}, k'YZ = {:.6}; q = {:?}",
+                    a.theta_rad, a.phi_rad, a.psi_rad, a.k_xz, a.k_yz, tri.q
                 );
             }
             Ok(())

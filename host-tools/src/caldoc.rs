@@ -1,0 +1,228 @@
+//! The calibration document (`docs/INTERFACES.md`): what `magcal fit`,
+//! `swing` and `backstep` print with `--json` and write with `--out`.
+
+use std::path::{Path, PathBuf};
+
+use calib_core::cal::{CalError, Calibration, FieldCal, ModelKind, Swing};
+use serde::{Deserialize, Serialize};
+
+/// Largest |bias| accepted in a document, raw units (far beyond any sensor
+/// range in counts, nT or µT; catches corrupted files).
+pub const MAX_BIAS_ABS: f64 = 1e7;
+
+/// Why a calibration document was refused.
+#[derive(Debug, thiserror::Error)]
+pub enum CalDocError {
+    /// The file could not be read or written.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// What the OS said.
+        #[source]
+        source: std::io::Error,
+    },
+    /// Not valid JSON of the expected shape.
+    #[error("{path}: not a calibration document: {source}")]
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// The parser's message.
+        #[source]
+        source: serde_json::Error,
+    },
+    /// Unknown model name.
+    #[error("{path}: unknown model `{model}` (expected sphere, axis, full or triangular)")]
+    Model {
+        /// The file.
+        path: PathBuf,
+        /// The name found.
+        model: String,
+    },
+    /// The coefficients are unusable.
+    #[error("{path}: coefficients refused: {reason}")]
+    Invalid {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        reason: String,
+    },
+}
+
+/// Swing coefficients in radians.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SwingDoc {
+    /// A.
+    pub a: f64,
+    /// B.
+    pub b: f64,
+    /// C.
+    pub c: f64,
+    /// D.
+    pub d: f64,
+    /// E.
+    pub e: f64,
+}
+
+/// The calibration document.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CalDoc {
+    /// `sphere`, `axis`, `full` or `triangular`.
+    pub model: String,
+    /// Hard-iron bias, input units.
+    pub bias: [f64; 3],
+    /// `h_nT = matrix · (raw − bias)`.
+    pub matrix: [[f64; 3]; 3],
+    /// Reference intensity the fit used, nT.
+    pub field_nt: f64,
+    /// Declination, degrees east.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub declination_deg: Option<f64>,
+    /// Swing (heading) correction.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub swing: Option<SwingDoc>,
+    /// Residuals, coverage, warnings.
+    #[serde(default)]
+    pub quality: serde_json::Value,
+    /// Per-iteration back-stepping trace (`backstep --json`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub trace: Option<serde_json::Value>,
+}
+
+/// The document name of a model.
+pub fn model_kind(name: &str) -> Option<ModelKind> {
+    match name {
+        "sphere" => Some(ModelKind::Sphere),
+        "axis" => Some(ModelKind::Axis),
+        "full" => Some(ModelKind::Full),
+        "triangular" => Some(ModelKind::Triangular),
+        _ => None,
+    }
+}
+
+fn cal_error_text(e: CalError) -> &'static str {
+    match e {
+        CalError::NonFinite => "a coefficient is NaN or infinite",
+        CalError::NotOrientationPreserving => "the matrix is singular or mirrors the field (determinant ≤ 0)",
+        CalError::Implausible => "the matrix stretches one axis more than 4× another",
+        CalError::BiasOutOfRange => "the bias is beyond any sensor's range",
+    }
+}
+
+impl CalDoc {
+    /// A document for a field calibration.
+    pub fn new(kind: ModelKind, cal: &FieldCal<f64>, field_nt: f64, quality: serde_json::Value) -> Self {
+        Self {
+            model: kind.name().to_string(),
+            bias: cal.bias,
+            matrix: cal.matrix,
+            field_nt,
+            declination_deg: None,
+            swing: None,
+            quality,
+            trace: None,
+        }
+    }
+
+    /// The field calibration.
+    pub fn field_cal(&self) -> FieldCal<f64> {
+        FieldCal { bias: self.bias, matrix: self.matrix }
+    }
+
+    /// Everything the board applies.
+    pub fn calibration(&self) -> Calibration<f64> {
+        Calibration {
+            field: self.field_cal(),
+            swing: self.swing.map(|s| Swing { a: s.a, b: s.b, c: s.c, d: s.d, e: s.e }).unwrap_or_else(Swing::zero),
+            declination_rad: self.declination_deg.unwrap_or(0.0).to_radians(),
+        }
+    }
+
+    /// Checks the model name and the coefficients.
+    pub fn validate(&self, path: &Path) -> Result<(), CalDocError> {
+        if model_kind(&self.model).is_none() {
+            return Err(CalDocError::Model { path: path.into(), model: self.model.clone() });
+        }
+        let invalid = |reason: &str| CalDocError::Invalid { path: path.into(), reason: reason.to_string() };
+        self.field_cal().validate(MAX_BIAS_ABS).map_err(|e| invalid(cal_error_text(e)))?;
+        if !(self.field_nt > 0.0 && self.field_nt.is_finite()) {
+            return Err(invalid("field_nt must be a positive number of nT"));
+        }
+        if let Some(s) = self.swing {
+            if ![s.a, s.b, s.c, s.d, s.e].iter().all(|v| v.is_finite() && v.abs() < 1.0) {
+                return Err(invalid("swing coefficients must be finite and below 1 rad"));
+            }
+        }
+        if let Some(d) = self.declination_deg {
+            if !(d.is_finite() && d.abs() <= 180.0) {
+                return Err(invalid("declination_deg must be within ±180"));
+            }
+        }
+        Ok(())
+    }
+
+    /// Reads and validates a document.
+    pub fn load(path: &Path) -> Result<Self, CalDocError> {
+        let text = std::fs::read_to_string(path).map_err(|source| CalDocError::Io { path: path.into(), source })?;
+        let doc: CalDoc = serde_json::from_str(&text).map_err(|source| CalDocError::Parse { path: path.into(), source })?;
+        doc.validate(path)?;
+        Ok(doc)
+    }
+
+    /// Validates and writes the document (pretty JSON). Written to a
+    /// temporary file first and renamed, so an interrupted write never leaves
+    /// a half-written calibration behind.
+    pub fn save(&self, path: &Path) -> Result<(), CalDocError> {
+        self.validate(path)?;
+        let io = |source| CalDocError::Io { path: path.into(), source };
+        let text = serde_json::to_string_pretty(self).map_err(|source| CalDocError::Parse { path: path.into(), source })?;
+        let tmp = path.with_extension("json.tmp");
+        std::fs::write(&tmp, text + "\n").map_err(io)?;
+        std::fs::rename(&tmp, path).map_err(io)?;
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn doc() -> CalDoc {
+        let cal = FieldCal { bias: [1.0, 2.0, 3.0], matrix: [[5.0, 0.0, 0.0], [0.0, 5.5, 0.0], [0.0, 0.0, 4.8]] };
+        CalDoc::new(ModelKind::Axis, &cal, 48_730.0, serde_json::json!({"residual_rms_nt": 3.0}))
+    }
+
+    #[test]
+    fn documents_round_trip_and_match_the_interface() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("cal.json");
+        let mut d = doc();
+        d.swing = Some(SwingDoc { a: 0.14199, b: -0.01101, c: 0.01071, d: 0.0061, e: 0.05528 });
+        d.save(&p).unwrap();
+        let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&p).unwrap()).unwrap();
+        assert_eq!(v["model"], "axis");
+        assert_eq!(v["bias"][2], 3.0);
+        assert_eq!(v["matrix"][1][1], 5.5);
+        assert_eq!(v["field_nt"], 48_730.0);
+        assert_eq!(v["swing"]["e"], 0.05528);
+        assert!(v.get("declination_deg").is_none());
+        assert_eq!(CalDoc::load(&p).unwrap(), d);
+    }
+
+    #[test]
+    fn bad_documents_are_refused_with_a_reason() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("bad.json");
+        std::fs::write(&p, "{\"model\": \"axis\"}").unwrap();
+        assert!(matches!(CalDoc::load(&p), Err(CalDocError::Parse { .. })));
+        let out = dir.path().join("out.json");
+        let mut d = doc();
+        d.model = "ellipse".into();
+        assert!(matches!(d.save(&out), Err(CalDocError::Model { .. })));
+        let mut d = doc();
+        d.matrix[0][0] = -5.0;
+        let e = d.save(&out).unwrap_err();
+        assert!(e.to_string().contains("determinant"), "{e}");
+        assert!(!out.exists(), "nothing written for a refused document");
+    }
+}

@@ -1,0 +1,291 @@
+//! Recordings in the CSV format of `docs/INTERFACES.md`: one header row,
+//! columns found by name in any order, extra columns ignored, an empty cell
+//! or `nan` meaning "not available".
+
+use std::path::{Path, PathBuf};
+
+/// Why a recording could not be read.
+#[derive(Debug, thiserror::Error)]
+pub enum RecordingError {
+    /// The file could not be opened or read.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// What the OS said.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The file has no header row.
+    #[error("{0}: empty file (expected a header row naming the columns t, mx, my, mz, ...)")]
+    Empty(PathBuf),
+    /// The header has no data rows after it.
+    #[error("{0}: header only, no data rows")]
+    NoRows(PathBuf),
+    /// A required column is missing.
+    #[error("{path}: missing column `{column}` (the header has: {header})")]
+    MissingColumn {
+        /// The file.
+        path: PathBuf,
+        /// The column needed.
+        column: &'static str,
+        /// The columns found.
+        header: String,
+    },
+    /// A cell is not a number.
+    #[error("{path}:{line}: column `{column}`: `{text}` is not a number")]
+    BadNumber {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line.
+        line: u64,
+        /// Column name.
+        column: String,
+        /// The cell.
+        text: String,
+    },
+    /// A row has a different number of cells than the header.
+    #[error("{path}:{line}: {found} cells, the header has {expected}")]
+    Ragged {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line.
+        line: u64,
+        /// Cells in the row.
+        found: usize,
+        /// Cells in the header.
+        expected: usize,
+    },
+    /// Time goes backwards.
+    #[error("{path}:{line}: time goes backwards ({t_s} s after {previous_s} s); `t` must be non-decreasing")]
+    TimeBackwards {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line.
+        line: u64,
+        /// The time on that line.
+        t_s: f64,
+        /// The time before it.
+        previous_s: f64,
+    },
+    /// Malformed CSV (quoting, encoding).
+    #[error("{path}: {source}")]
+    Csv {
+        /// The file.
+        path: PathBuf,
+        /// The parser's message.
+        #[source]
+        source: csv::Error,
+    },
+}
+
+/// A recording, column by column (NaN where not available).
+#[derive(Debug, Clone, Default)]
+pub struct Recording {
+    /// `t`, seconds (NaN-free and non-decreasing when present).
+    pub t_s: Option<Vec<f64>>,
+    /// `mx, my, mz`, raw sensor units.
+    pub mag: Vec<[f64; 3]>,
+    /// `roll_deg`.
+    pub roll_deg: Option<Vec<f64>>,
+    /// `pitch_deg`.
+    pub pitch_deg: Option<Vec<f64>>,
+    /// `ref_heading_deg`, true.
+    pub ref_heading_deg: Option<Vec<f64>>,
+    /// `lat_deg`.
+    pub lat_deg: Option<Vec<f64>>,
+    /// `lon_deg`.
+    pub lon_deg: Option<Vec<f64>>,
+}
+
+impl Recording {
+    /// Rows in the recording.
+    pub fn len(&self) -> usize {
+        self.mag.len()
+    }
+
+    /// No rows.
+    pub fn is_empty(&self) -> bool {
+        self.mag.is_empty()
+    }
+
+    /// The magnetometer samples whose three components are all present,
+    /// with their row indices.
+    pub fn complete_mag(&self) -> (Vec<usize>, Vec<[f64; 3]>) {
+        self.mag.iter().enumerate().filter(|(_, m)| m.iter().all(|v| v.is_finite())).map(|(i, m)| (i, *m)).unzip()
+    }
+
+    /// Reads a CSV recording. `mx, my, mz` are required; the rest optional.
+    pub fn read(path: &Path) -> Result<Self, RecordingError> {
+        let file = std::fs::File::open(path).map_err(|source| RecordingError::Io { path: path.into(), source })?;
+        Self::from_reader(file, path)
+    }
+
+    /// Reads CSV from any reader (`path` names it in errors).
+    pub fn from_reader<R: std::io::Read>(reader: R, path: &Path) -> Result<Self, RecordingError> {
+        let mut rdr = csv::ReaderBuilder::new().has_headers(true).flexible(true).trim(csv::Trim::All).from_reader(reader);
+        let csv_err = |source| RecordingError::Csv { path: path.into(), source };
+        let header = rdr.headers().map_err(csv_err)?.clone();
+        if header.is_empty() || header.iter().all(str::is_empty) {
+            return Err(RecordingError::Empty(path.into()));
+        }
+        let col = |name: &str| header.iter().position(|h| h.eq_ignore_ascii_case(name));
+        let header_list = header.iter().collect::<Vec<_>>().join(", ");
+        let required = |name: &'static str| {
+            col(name).ok_or_else(|| RecordingError::MissingColumn { path: path.into(), column: name, header: header_list.clone() })
+        };
+        let (ix, iy, iz) = (required("mx")?, required("my")?, required("mz")?);
+        let opt = ["t", "roll_deg", "pitch_deg", "ref_heading_deg", "lat_deg", "lon_deg"].map(|n| col(n).map(|i| (n, i)));
+        let mut rec = Recording::default();
+        let mut optional: [Vec<f64>; 6] = Default::default();
+        let mut previous_t = f64::NEG_INFINITY;
+        for (row, result) in rdr.records().enumerate() {
+            let record = result.map_err(csv_err)?;
+            let line = record.position().map(|p| p.line()).unwrap_or(row as u64 + 2);
+            if record.len() != header.len() {
+                return Err(RecordingError::Ragged { path: path.into(), line, found: record.len(), expected: header.len() });
+            }
+            let cell = |i: usize, name: &str| -> Result<f64, RecordingError> {
+                let text = record.get(i).unwrap_or("");
+                parse_cell(text).ok_or_else(|| RecordingError::BadNumber {
+                    path: path.into(),
+                    line,
+                    column: name.to_string(),
+                    text: text.to_string(),
+                })
+            };
+            rec.mag.push([cell(ix, "mx")?, cell(iy, "my")?, cell(iz, "mz")?]);
+            for (k, o) in opt.iter().enumerate() {
+                if let Some((name, i)) = o {
+                    let v = cell(*i, name)?;
+                    if *name == "t" {
+                        if !v.is_finite() {
+                            return Err(RecordingError::BadNumber { path: path.into(), line, column: "t".into(), text: record.get(*i).unwrap_or("").into() });
+                        }
+                        if v < previous_t {
+                            return Err(RecordingError::TimeBackwards { path: path.into(), line, t_s: v, previous_s: previous_t });
+                        }
+                        previous_t = v;
+                    }
+                    optional[k].push(v);
+                }
+            }
+        }
+        if rec.mag.is_empty() {
+            return Err(RecordingError::NoRows(path.into()));
+        }
+        let [t, roll, pitch, reference, lat, lon] = optional;
+        let keep = |k: usize, v: Vec<f64>| opt[k].map(|_| v);
+        rec.t_s = keep(0, t);
+        rec.roll_deg = keep(1, roll);
+        rec.pitch_deg = keep(2, pitch);
+        rec.ref_heading_deg = keep(3, reference);
+        rec.lat_deg = keep(4, lat);
+        rec.lon_deg = keep(5, lon);
+        Ok(rec)
+    }
+
+    /// Writes the recording as CSV with the columns it has.
+    pub fn write(&self, path: &Path) -> Result<(), RecordingError> {
+        let io = |source| RecordingError::Io { path: path.into(), source };
+        let mut w = csv::Writer::from_path(path).map_err(|source| RecordingError::Csv { path: path.into(), source })?;
+        let cols: Vec<(&str, &Vec<f64>)> = [
+            ("t", &self.t_s),
+            ("roll_deg", &self.roll_deg),
+            ("pitch_deg", &self.pitch_deg),
+            ("ref_heading_deg", &self.ref_heading_deg),
+            ("lat_deg", &self.lat_deg),
+            ("lon_deg", &self.lon_deg),
+        ]
+        .into_iter()
+        .filter_map(|(n, c)| c.as_ref().map(|c| (n, c)))
+        .collect();
+        let mut header: Vec<&str> = vec!["mx", "my", "mz"];
+        header.splice(0..0, cols.iter().filter(|(n, _)| *n == "t").map(|(n, _)| *n));
+        header.extend(cols.iter().filter(|(n, _)| *n != "t").map(|(n, _)| *n));
+        w.write_record(&header).map_err(|source| RecordingError::Csv { path: path.into(), source })?;
+        for (i, m) in self.mag.iter().enumerate() {
+            let mut row: Vec<String> = Vec::with_capacity(header.len());
+            for name in &header {
+                let v = match *name {
+                    "mx" => m[0],
+                    "my" => m[1],
+                    "mz" => m[2],
+                    other => cols.iter().find(|(n, _)| *n == other).and_then(|(_, c)| c.get(i).copied()).unwrap_or(f64::NAN),
+                };
+                row.push(if v.is_finite() { format!("{v}") } else { String::new() });
+            }
+            w.write_record(&row).map_err(|source| RecordingError::Csv { path: path.into(), source })?;
+        }
+        w.flush().map_err(io)?;
+        Ok(())
+    }
+}
+
+/// A cell: a number, or empty/`nan` for "not available". `None` if neither.
+fn parse_cell(text: &str) -> Option<f64> {
+    let t = text.trim();
+    if t.is_empty() || t.eq_ignore_ascii_case("nan") {
+        return Some(f64::NAN);
+    }
+    match t.parse::<f64>() {
+        Ok(v) if v.is_finite() => Some(v),
+        _ => None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn read(text: &str) -> Result<Recording, RecordingError> {
+        Recording::from_reader(text.as_bytes(), Path::new("rec.csv"))
+    }
+
+    #[test]
+    fn columns_are_found_by_name_in_any_order() {
+        let r = read("extra,mz,t,my,mx,roll_deg\n1,3.5,0.0,2,1,10\nx,6,0.1,,4,nan\n").unwrap();
+        assert_eq!(r.len(), 2);
+        assert_eq!(r.mag[0], [1.0, 2.0, 3.5]);
+        assert!(r.mag[1][1].is_nan());
+        assert_eq!(r.t_s.as_deref(), Some(&[0.0, 0.1][..]));
+        assert!(r.roll_deg.as_ref().unwrap()[1].is_nan());
+        assert!(r.pitch_deg.is_none());
+        assert_eq!(r.complete_mag().0, vec![0]);
+    }
+
+    #[test]
+    fn each_kind_of_bad_file_has_its_own_message() {
+        assert!(matches!(read(""), Err(RecordingError::Empty(_))));
+        assert!(matches!(read("mx,my,mz\n"), Err(RecordingError::NoRows(_))));
+        let e = read("mx,my\n1,2\n").unwrap_err();
+        assert!(matches!(e, RecordingError::MissingColumn { column: "mz", .. }));
+        assert!(e.to_string().contains("the header has: mx, my"), "{e}");
+        let e = read("mx,my,mz\n1,2,abc\n").unwrap_err();
+        assert_eq!(e.to_string(), "rec.csv:2: column `mz`: `abc` is not a number");
+        assert!(matches!(read("mx,my,mz\n1,2,inf\n"), Err(RecordingError::BadNumber { .. })));
+        assert!(matches!(read("mx,my,mz\n1,2\n"), Err(RecordingError::Ragged { line: 2, .. })));
+        let e = read("t,mx,my,mz\n1.0,1,2,3\n0.5,1,2,3\n").unwrap_err();
+        assert!(matches!(e, RecordingError::TimeBackwards { line: 3, .. }), "{e}");
+    }
+
+    #[test]
+    fn write_then_read_round_trips() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("r.csv");
+        let rec = Recording {
+            t_s: Some(vec![0.0, 0.5]),
+            mag: vec![[1.5, -2.0, 3.25], [f64::NAN, 1.0, 2.0]],
+            roll_deg: Some(vec![1.0, 2.0]),
+            ref_heading_deg: Some(vec![f64::NAN, 90.0]),
+            ..Recording::default()
+        };
+        rec.write(&p).unwrap();
+        let back = Recording::read(&p).unwrap();
+        assert_eq!(back.mag[0], rec.mag[0]);
+        assert!(back.mag[1][0].is_nan());
+        assert_eq!(back.t_s, rec.t_s);
+        assert_eq!(back.roll_deg, rec.roll_deg);
+        assert!(back.ref_heading_deg.unwrap()[0].is_nan());
+    }
+}
