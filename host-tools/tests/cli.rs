@@ -1,0 +1,182 @@
+//! The `magcal` binary against the contract of docs/INTERFACES.md, on
+//! recordings made here with known truth.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use calib_core::cal::{FieldCal, ModelKind, Swing};
+use calib_core::conformance::SplitMix64;
+use calib_core::heading::{ned_field, ned_to_body, wrap_two_pi};
+use calib_core::ortho::{gamma, OrthoAngles};
+use host_tools::caldoc::CalDoc;
+use host_tools::recording::Recording;
+
+fn magcal(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_magcal")).args(args).output().expect("run magcal")
+}
+
+fn ok_json(out: &Output) -> serde_json::Value {
+    assert!(out.status.success(), "magcal failed: {}", String::from_utf8_lossy(&out.stderr));
+    serde_json::from_slice(&out.stdout).expect("stdout is exactly one JSON document")
+}
+
+fn one_line_error(out: &Output) -> String {
+    assert!(!out.status.success());
+    assert!(out.stdout.is_empty(), "nothing on stdout on failure");
+    let err = String::from_utf8_lossy(&out.stderr).to_string();
+    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
+    err
+}
+
+fn direction(rng: &mut SplitMix64) -> [f64; 3] {
+    let z = 2.0 * rng.uniform() - 1.0;
+    let phi = std::f64::consts::TAU * rng.uniform();
+    let r = (1.0 - z * z).sqrt();
+    [r * phi.cos(), r * phi.sin(), z]
+}
+
+fn path_str(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+#[test]
+fn fit_prints_and_writes_the_calibration_document() {
+    // The paper's Table 2 "whole run" coefficients, a full tumble, no noise.
+    let (b, s, f) = ([-1865.0, 1385.0, -903.0], [0.19556, 0.09001, 0.16142], 48_730.0);
+    let mut rng = SplitMix64::new(1);
+    let mag = (0..500)
+        .map(|_| {
+            let u = direction(&mut rng);
+            [0, 1, 2].map(|k| b[k] + s[k] * f * u[k])
+        })
+        .collect();
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("swing.csv");
+    let out_path = dir.path().join("cal.json");
+    Recording { mag, ..Recording::default() }.write(&input).unwrap();
+    let out = magcal(&["fit", "--input", path_str(&input), "--model", "axis", "--field-nt", "48730", "--json", "--out", path_str(&out_path)]);
+    let doc = ok_json(&out);
+    assert_eq!(doc["model"], "axis");
+    assert_eq!(doc["field_nt"], 48_730.0);
+    for k in 0..3 {
+        assert!((doc["bias"][k].as_f64().unwrap() - b[k]).abs() < 1e-6, "{doc}");
+        assert!((1.0 / doc["matrix"][k][k].as_f64().unwrap() - s[k]).abs() < 1e-9);
+    }
+    assert!(doc["quality"]["residual_rms_nt"].as_f64().unwrap() < 1e-6);
+    assert!(doc["quality"]["coverage_pct"].as_u64().unwrap() >= 95, "500 random directions fill nearly all 72 bins");
+    // --out wrote the same document.
+    let saved: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&out_path).unwrap()).unwrap();
+    assert_eq!(saved, doc);
+}
+
+#[test]
+fn swing_estimates_the_gps_delay_and_the_fourier_terms() {
+    // A vehicle turning and rolling; the magnetometer's heading is off by the
+    // paper's Table 7 swing error; GPS course only every other 30 s, 2 s late.
+    let paper = Swing { a: 0.14199, b: -0.01101, c: 0.01071, d: 0.00610, e: 0.05528 };
+    let dip = 55.7f64.to_radians();
+    let field = 48_730.0;
+    let distorted = |psi: f64| {
+        let mut h = psi;
+        for _ in 0..60 {
+            h = psi - paper.correction_rad(h);
+        }
+        wrap_two_pi(h)
+    };
+    let truth = |t: f64| wrap_two_pi(0.6 * t + 0.5 * (0.21 * t).sin());
+    let mut rec = Recording { t_s: Some(vec![]), roll_deg: Some(vec![]), pitch_deg: Some(vec![]), ref_heading_deg: Some(vec![]), ..Recording::default() };
+    for k in 0..4000 {
+        let t = k as f64 * 0.1;
+        let (roll, pitch) = (0.3 * (0.5 * t).sin(), 0.1 * (0.37 * t).cos());
+        let h = ned_to_body(ned_field(field, dip, 0.0), roll, pitch, distorted(truth(t)));
+        rec.mag.push(h);
+        rec.t_s.as_mut().unwrap().push(t);
+        rec.roll_deg.as_mut().unwrap().push(roll.to_degrees());
+        rec.pitch_deg.as_mut().unwrap().push(pitch.to_degrees());
+        let surface = (t / 30.0) as u32 % 2 == 0 && t >= 2.0;
+        rec.ref_heading_deg.as_mut().unwrap().push(if surface { truth(t - 2.0).to_degrees() } else { f64::NAN });
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("run.csv");
+    rec.write(&input).unwrap();
+    let cal = dir.path().join("cal.json");
+    CalDoc::new(ModelKind::Full, &FieldCal::identity(), field, serde_json::json!({})).save(&cal).unwrap();
+    let doc = ok_json(&magcal(&["swing", "--input", path_str(&input), "--cal", path_str(&cal), "--estimate-delay", "--json"]));
+    let q = &doc["quality"]["swing"];
+    assert!((q["delay_s"].as_f64().unwrap() - 2.0).abs() < 0.05, "{q}");
+    assert_eq!(q["terms"], 5);
+    for (name, want) in ["a", "b", "c", "d", "e"].iter().zip(paper.to_array()) {
+        let got = doc["swing"][name].as_f64().unwrap();
+        assert!((got - want).abs() < 2e-3, "{name}: {got} vs {want}");
+    }
+    assert!(q["after_rms_deg"].as_f64().unwrap() < 0.1 * q["before_rms_deg"].as_f64().unwrap());
+    // With the delay given instead.
+    let doc = ok_json(&magcal(&["swing", "--input", path_str(&input), "--cal", path_str(&cal), "--delay-s", "2", "--json"]));
+    assert!((doc["swing"]["a"].as_f64().unwrap() - paper.a).abs() < 2e-3);
+}
+
+#[test]
+fn ortho_identifies_paper_001s_simulated_sensor() {
+    let truth = OrthoAngles { theta_rad: 0.06, phi_rad: 0.08, psi_rad: -0.04, k_xz: 0.95, k_yz: 1.05 };
+    let g = gamma(&truth);
+    let mut rng = SplitMix64::new(7);
+    let mag = (0..1440)
+        .map(|_| {
+            let u = direction(&mut rng).map(|v| v * 2.0);
+            [0, 1, 2].map(|i| g[i][0] * u[0] + g[i][1] * u[1] + g[i][2] * u[2] + 1e-3 * rng.gauss())
+        })
+        .collect();
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("turntable.csv");
+    Recording { mag, ..Recording::default() }.write(&input).unwrap();
+    for solver in ["pairwise", "linear"] {
+        let doc = ok_json(&magcal(&["ortho", "--input", path_str(&input), "--zero-bias", "--solver", solver, "--json"]));
+        let j = [
+            ("theta_rad", truth.theta_rad),
+            ("phi_rad", truth.phi_rad),
+            ("psi_rad", truth.psi_rad),
+            ("k_xz", truth.k_xz),
+            ("k_yz", truth.k_yz),
+        ]
+        .iter()
+        .map(|(k, v)| ((doc[k].as_f64().unwrap() - v) / v).powi(2))
+        .sum::<f64>()
+        .sqrt();
+        assert!(j < 0.05, "{solver}: J = {j}, {doc}");
+        assert_eq!(doc["q"].as_array().unwrap().len(), 5);
+    }
+}
+
+#[test]
+fn bad_input_gets_one_line_errors_and_no_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let empty = dir.path().join("empty.csv");
+    std::fs::write(&empty, "").unwrap();
+    let e = one_line_error(&magcal(&["fit", "--input", path_str(&empty), "--model", "full", "--field-nt", "48000"]));
+    assert!(e.contains("empty file"), "{e}");
+
+    let no_mz = dir.path().join("no_mz.csv");
+    std::fs::write(&no_mz, "t,mx,my\n0,1,2\n").unwrap();
+    let e = one_line_error(&magcal(&["fit", "--input", path_str(&no_mz), "--model", "full", "--field-nt", "48000"]));
+    assert!(e.contains("missing column `mz`"), "{e}");
+
+    // Rotation about z only: the paper's Table 2 case 1.
+    let yaw_only = dir.path().join("yaw.csv");
+    let mag = (0..360).map(|k| {
+        let p = (k as f64).to_radians();
+        [100.0 + 5000.0 * p.cos(), -50.0 + 4800.0 * p.sin(), 8000.0]
+    }).collect();
+    Recording { mag, ..Recording::default() }.write(&yaw_only).unwrap();
+    let e = one_line_error(&magcal(&["fit", "--input", path_str(&yaw_only), "--model", "axis", "--field-nt", "48000"]));
+    assert!(e.contains("excitation") || e.contains("impossible") || e.contains("directions"), "{e}");
+
+    let e = one_line_error(&magcal(&["fit", "--input", path_str(&no_mz), "--model", "full"]));
+    assert!(e.contains("--field-nt"), "{e}");
+
+    let cal = dir.path().join("cal.json");
+    std::fs::write(&cal, "{\"model\":\"full\"}").unwrap();
+    let e = one_line_error(&magcal(&["swing", "--input", path_str(&yaw_only), "--cal", path_str(&cal), "--delay-s", "1"]));
+    assert!(e.contains("not a calibration document"), "{e}");
+    let e = one_line_error(&magcal(&["swing", "--input", path_str(&yaw_only), "--cal", path_str(&cal)]));
+    assert!(e.contains("--estimate-delay"), "{e}");
+}
