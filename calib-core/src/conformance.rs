@@ -70,6 +70,14 @@ impl SplitMix64 {
         let u2 = self.uniform();
         libm::sqrt(-2.0 * libm::log(u1)) * libm::cos(core::f64::consts::TAU * u2)
     }
+
+    /// A unit vector, uniform on the sphere.
+    pub fn direction(&mut self) -> [f64; 3] {
+        let z = 2.0 * self.uniform() - 1.0;
+        let phi = core::f64::consts::TAU * self.uniform();
+        let r = libm::sqrt(1.0 - z * z);
+        [r * libm::cos(phi), r * libm::sin(phi), z]
+    }
 }
 
 /// Reference intensity of [`tumble_sample`], nT.
@@ -86,14 +94,34 @@ pub const TUMBLE_DISTORTION: [[f64; 3]; 3] = [[1.05, 0.03, -0.01], [0.03, 0.96, 
 /// [`TUMBLE_BIAS`], plus Gaussian noise. Computed in `f64` with `libm`, so the
 /// MCU and the host generate the same samples.
 pub fn tumble_sample(rng: &mut SplitMix64) -> [f64; 3] {
-    let z = 2.0 * rng.uniform() - 1.0;
-    let phi = core::f64::consts::TAU * rng.uniform();
-    let r = libm::sqrt(1.0 - z * z);
-    let h = [TUMBLE_FIELD_NT * r * libm::cos(phi), TUMBLE_FIELD_NT * r * libm::sin(phi), TUMBLE_FIELD_NT * z];
+    let u = rng.direction();
+    let h = [TUMBLE_FIELD_NT * u[0], TUMBLE_FIELD_NT * u[1], TUMBLE_FIELD_NT * u[2]];
     let d = crate::linalg::mul_mat_vec(&TUMBLE_DISTORTION, h);
     let mut out = [0.0; 3];
     for k in 0..3 {
         out[k] = d[k] + TUMBLE_BIAS[k] + TUMBLE_NOISE_NT * rng.gauss();
+    }
+    out
+}
+
+/// Paper 001's simulated sensor (§5.1): θ = 0.06, φ = 0.08, ψ = −0.04 rad,
+/// k′XZ = 0.95, k′YZ = 1.05.
+pub const PAPER001_TRUTH: crate::ortho::OrthoAngles<f64> =
+    crate::ortho::OrthoAngles { theta_rad: 0.06, phi_rad: 0.08, psi_rad: -0.04, k_xz: 0.95, k_yz: 1.05 };
+
+/// One sample of paper 001's simulation: the field (1, 1, √2) (norm 2, in
+/// units of 10⁴ nT) seen by the sensor in a uniformly random orientation,
+/// through `Γ` of [`PAPER001_TRUTH`], plus independent Gaussian noise of
+/// `sigma` on each axis.
+pub fn paper001_sample(rng: &mut SplitMix64, sigma: f64) -> [f64; 3] {
+    // A uniformly random rotation of a fixed vector is a uniformly random
+    // direction of the same length.
+    let u = rng.direction();
+    let b = [2.0 * u[0], 2.0 * u[1], 2.0 * u[2]];
+    let m = crate::linalg::mul_mat_vec(&crate::ortho::gamma(&PAPER001_TRUTH), b);
+    let mut out = [0.0; 3];
+    for k in 0..3 {
+        out[k] = m[k] + sigma * rng.gauss();
     }
     out
 }

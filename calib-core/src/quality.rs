@@ -173,13 +173,13 @@ impl<T: Real> Gates<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fit::tests::direction;
+    use crate::conformance::SplitMix64;
 
     #[test]
     fn a_full_tumble_covers_every_bin_and_spreads_every_axis() {
-        let mut s = 1;
+        let mut rng = SplitMix64::new(1);
         let cal = FieldCal::<f64>::identity();
-        let data: Vec<[f64; 3]> = (0..5000).map(|_| direction(&mut s).map(|v| v * 48_000.0)).collect();
+        let data: Vec<[f64; 3]> = (0..5000).map(|_| rng.direction().map(|v| v * 48_000.0)).collect();
         let q = assess(&cal, &data, 48_000.0);
         assert_eq!(q.coverage_pct, 100);
         assert!(q.residual_rms_nt < 1e-9);
@@ -191,9 +191,9 @@ mod tests {
 
     #[test]
     fn a_cap_of_directions_is_refused_for_the_full_model() {
-        let mut s = 2;
+        let mut rng = SplitMix64::new(2);
         let data: Vec<[f64; 3]> = (0..5000)
-            .map(|_| direction(&mut s))
+            .map(|_| rng.direction())
             .filter(|d| d[2] < -0.5)
             .map(|d| d.map(|v| v * 48_000.0))
             .collect();
@@ -219,10 +219,10 @@ mod tests {
     #[test]
     fn bins_are_equal_area() {
         // Uniform directions fill each bin with about the same count.
-        let mut s = 3;
+        let mut rng = SplitMix64::new(3);
         let mut counts = [0u32; COVERAGE_BINS as usize];
         for _ in 0..72_000 {
-            counts[CoverageMask::bin(direction(&mut s)).unwrap() as usize] += 1;
+            counts[CoverageMask::bin(rng.direction()).unwrap() as usize] += 1;
         }
         for c in counts {
             assert!((850..1150).contains(&c), "{counts:?}");

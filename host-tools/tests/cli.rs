@@ -28,13 +28,6 @@ fn one_line_error(out: &Output) -> String {
     err
 }
 
-fn direction(rng: &mut SplitMix64) -> [f64; 3] {
-    let z = 2.0 * rng.uniform() - 1.0;
-    let phi = std::f64::consts::TAU * rng.uniform();
-    let r = (1.0 - z * z).sqrt();
-    [r * phi.cos(), r * phi.sin(), z]
-}
-
 fn path_str(p: &Path) -> &str {
     p.to_str().unwrap()
 }
@@ -46,7 +39,7 @@ fn fit_prints_and_writes_the_calibration_document() {
     let mut rng = SplitMix64::new(1);
     let mag = (0..500)
         .map(|_| {
-            let u = direction(&mut rng);
+            let u = rng.direction();
             [0, 1, 2].map(|k| b[k] + s[k] * f * u[k])
         })
         .collect();
@@ -122,7 +115,7 @@ fn ortho_identifies_paper_001s_simulated_sensor() {
     let mut rng = SplitMix64::new(7);
     let mag = (0..1440)
         .map(|_| {
-            let u = direction(&mut rng).map(|v| v * 2.0);
+            let u = rng.direction().map(|v| v * 2.0);
             [0, 1, 2].map(|i| g[i][0] * u[0] + g[i][1] * u[1] + g[i][2] * u[2] + 1e-3 * rng.gauss())
         })
         .collect();

@@ -18,6 +18,7 @@ use std::process::{Command, ExitCode, Stdio};
 
 use anyhow::{bail, Context, Result};
 
+mod bench;
 mod size;
 
 const TARGET: &str = "thumbv7em-none-eabihf";
@@ -28,11 +29,13 @@ fn main() -> ExitCode {
         Some("test") => cmd_test(),
         Some("demo") => cmd_demo(),
         Some("size") => cmd_size().map(|_| ()),
+        Some("bench") => bench::run(&root().join("target").join("bench")),
         _ => {
-            eprintln!("usage: cargo xtask <test|demo|size>");
+            eprintln!("usage: cargo xtask <test|demo|size|bench>");
             eprintln!("  test   run every suite (host, on-target in QEMU, end-to-end)");
             eprintln!("  demo   boot the firmware in QEMU and run a session against it");
             eprintln!("  size   flash/RAM of the board release build");
+            eprintln!("  bench  accuracy benchmarks (target/bench/results.{{json,md}})");
             return ExitCode::from(2);
         }
     };

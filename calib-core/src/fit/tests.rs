@@ -2,36 +2,17 @@ use super::*;
 use crate::linalg::{mul_mat, transpose};
 use proptest::prelude::*;
 
-/// Deterministic uniform in [-1, 1).
-pub(crate) fn uniform(seed: &mut u64) -> f64 {
-    *seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-    ((*seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-}
-
-/// Standard normal (Box–Muller).
-pub(crate) fn gauss(seed: &mut u64) -> f64 {
-    let u1 = (uniform(seed) + 1.0) / 2.0 + 1e-300;
-    let u2 = uniform(seed);
-    (-2.0 * u1.ln()).sqrt() * (core::f64::consts::PI * u2).cos()
-}
-
-/// A random direction, uniform on the sphere.
-pub(crate) fn direction(seed: &mut u64) -> [f64; 3] {
-    let z = uniform(seed);
-    let phi = core::f64::consts::PI * uniform(seed);
-    let r = (1.0 - z * z).sqrt();
-    [r * phi.cos(), r * phi.sin(), z]
-}
+use crate::conformance::SplitMix64;
 
 /// raw = D·h + b + noise, h uniform on the sphere of radius `field`.
 pub(crate) fn tumble(d: &Mat3<f64>, b: [f64; 3], field: f64, noise: f64, n: usize, seed: u64) -> Vec<[f64; 3]> {
-    let mut s = seed;
+    let mut rng = SplitMix64::new(seed);
     (0..n)
         .map(|_| {
-            let u = direction(&mut s);
+            let u = rng.direction();
             let h = [u[0] * field, u[1] * field, u[2] * field];
             let r = mul_mat_vec(d, h);
-            [r[0] + b[0] + noise * gauss(&mut s), r[1] + b[1] + noise * gauss(&mut s), r[2] + b[2] + noise * gauss(&mut s)]
+            [0, 1, 2].map(|k| r[k] + b[k] + noise * rng.gauss())
         })
         .collect()
 }
@@ -187,9 +168,9 @@ proptest! {
     fn permuting_samples_does_not_change_the_fit(seed in 0u64..10_000, swap_seed in 0u64..10_000) {
         let data = tumble(&soft_iron(), [300.0, -100.0, 50.0], F, 0.5, 200, seed);
         let mut shuffled = data.clone();
-        let mut s = swap_seed;
+        let mut rng = SplitMix64::new(swap_seed);
         for i in (1..shuffled.len()).rev() {
-            let j = ((uniform(&mut s) + 1.0) / 2.0 * (i + 1) as f64) as usize % (i + 1);
+            let j = (rng.next_u64() % (i as u64 + 1)) as usize;
             shuffled.swap(i, j);
         }
         let a = fit_batch::<Full, 9, f64>(&data, F).unwrap();

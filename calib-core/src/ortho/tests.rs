@@ -1,31 +1,12 @@
 use super::*;
-use crate::fit::tests::{direction, gauss, uniform};
 use crate::fit::{fit_batch, Full};
 
-/// Paper 001 §5.1.
-const TRUTH: OrthoAngles<f64> = OrthoAngles { theta_rad: 0.06, phi_rad: 0.08, psi_rad: -0.04, k_xz: 0.95, k_yz: 1.05 };
+use crate::conformance::{paper001_sample, SplitMix64, PAPER001_TRUTH as TRUTH};
 
-/// Random rotation (uniform axis, uniform angle) applied to `v`.
-fn rotate_randomly(v: Vec3<f64>, seed: &mut u64) -> Vec3<f64> {
-    let axis = direction(seed);
-    let ang = core::f64::consts::PI * uniform(seed);
-    let (s, c) = ang.sin_cos();
-    let dot = axis[0] * v[0] + axis[1] * v[1] + axis[2] * v[2];
-    let cross = [axis[1] * v[2] - axis[2] * v[1], axis[2] * v[0] - axis[0] * v[2], axis[0] * v[1] - axis[1] * v[0]];
-    [0, 1, 2].map(|k| v[k] * c + cross[k] * s + axis[k] * dot * (1.0 - c))
-}
-
-/// 2N samples of B′ = Γ R B₀ + noise, B₀ = (1, 1, √2).
+/// 2N samples of paper 001's simulation.
 pub(crate) fn simulate(n_pairs: usize, sigma: f64, seed: u64) -> Vec<Vec3<f64>> {
-    let g = gamma(&TRUTH);
-    let mut s = seed;
-    (0..2 * n_pairs)
-        .map(|_| {
-            let b = rotate_randomly([1.0, 1.0, 2f64.sqrt()], &mut s);
-            let m = mul_mat_vec(&g, b);
-            [m[0] + sigma * gauss(&mut s), m[1] + sigma * gauss(&mut s), m[2] + sigma * gauss(&mut s)]
-        })
-        .collect()
+    let mut rng = SplitMix64::new(seed);
+    (0..2 * n_pairs).map(|_| paper001_sample(&mut rng, sigma)).collect()
 }
 
 #[test]

@@ -1,0 +1,96 @@
+//! `cargo xtask bench`: accuracy benchmarks whose numbers go into the README.
+//! Writes `target/bench/results.json` and `target/bench/results.md`.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use anyhow::Result;
+use calib_core::conformance::{paper001_sample, tumble_sample, SplitMix64, PAPER001_TRUTH, TUMBLE_FIELD_NT};
+use calib_core::fit::{fit_batch, Full, FullRls, Normalization};
+use calib_core::ortho::{identify_linear, identify_pairwise, j_index};
+use serde_json::json;
+
+const PAIRS: [usize; 7] = [30, 60, 120, 240, 480, 720, 1440];
+const SIGMAS: [f64; 5] = [0.0, 1e-4, 1e-3, 1e-2, 3e-2];
+const SEEDS: u64 = 20;
+
+/// Paper 001 §5.1: mean J over seeds for each N (pairs) and σ, both solvers.
+fn paper001() -> (serde_json::Value, String) {
+    let mut rows = Vec::new();
+    let mut md = String::from("| σ | solver | ");
+    for n in PAIRS {
+        let _ = write!(md, "N={n} | ");
+    }
+    md.push_str("\n|---|---|");
+    md.push_str(&"---|".repeat(PAIRS.len()));
+    md.push('\n');
+    for sigma in SIGMAS {
+        for (name, solver) in [
+            ("pairwise (paper)", identify_pairwise::<f64> as fn(&[[f64; 3]], [f64; 3]) -> _),
+            ("linear + Cholesky", identify_linear::<f64>),
+        ] {
+            let _ = write!(md, "| {sigma:e} | {name} | ");
+            for n in PAIRS {
+                let mut js = Vec::new();
+                for seed in 0..SEEDS {
+                    let mut rng = SplitMix64::new(1000 * seed + n as u64);
+                    let data: Vec<[f64; 3]> = (0..2 * n).map(|_| paper001_sample(&mut rng, sigma)).collect();
+                    if let Ok(a) = solver(&data, [0.0; 3]).map(|t| t.angles()) {
+                        if let Some(a) = a {
+                            js.push(j_index(&PAPER001_TRUTH, &a));
+                        }
+                    }
+                }
+                let mean = js.iter().sum::<f64>() / js.len().max(1) as f64;
+                let failed = SEEDS as usize - js.len();
+                rows.push(json!({"sigma": sigma, "solver": name, "pairs": n, "mean_j": mean, "failures": failed}));
+                let _ = write!(md, "{mean:.2e}{} | ", if failed > 0 { format!(" ({failed} failed)") } else { String::new() });
+            }
+            md.push('\n');
+        }
+    }
+    (json!(rows), md)
+}
+
+/// Issue 3's f32 check, measured: the recursive full fit in f32 (bit-identical
+/// to the MCU's) against the f64 batch fit of the same tumble.
+fn f32_vs_f64() -> serde_json::Value {
+    let mut rng = SplitMix64::new(2024);
+    let samples: Vec<[f64; 3]> = (0..2400).map(|_| tumble_sample(&mut rng)).collect();
+    let batch = fit_batch::<Full, 9, f64>(&samples, TUMBLE_FIELD_NT).ok();
+    let mut rls = FullRls::<f32>::new(Normalization { centre: [0.0; 3], scale: TUMBLE_FIELD_NT as f32 });
+    for s in &samples {
+        rls.push(s.map(|v| v as f32));
+    }
+    match (batch, rls.estimate(TUMBLE_FIELD_NT as f32)) {
+        (Some(b), Ok(r)) => {
+            let bias_err = (0..3).map(|k| (f64::from(r.bias[k]) - b.bias[k]).abs()).fold(0.0, f64::max);
+            let num: f64 = (0..3).flat_map(|i| (0..3).map(move |j| (i, j))).map(|(i, j)| (f64::from(r.matrix[i][j]) - b.matrix[i][j]).powi(2)).sum();
+            let den: f64 = b.matrix.iter().flatten().map(|v| v * v).sum();
+            json!({"samples": 2400, "bias_max_abs_diff": bias_err, "matrix_rel_diff": (num / den).sqrt()})
+        }
+        _ => json!({"error": "fit failed"}),
+    }
+}
+
+/// Runs the benchmarks and writes the results.
+pub fn run(out_dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(out_dir)?;
+    eprintln!("== paper 001: J vs N and σ ({SEEDS} seeds each)");
+    let (p1, p1_md) = paper001();
+    eprintln!("{p1_md}");
+    let f32_check = f32_vs_f64();
+    eprintln!("== f32 recursive full fit vs f64 batch (2400-sample tumble, 50 000 nT, 0.4 nT noise): {f32_check}");
+    let results = json!({
+        "command": "cargo xtask bench",
+        "paper001_j": p1,
+        "f32_rls_vs_f64_batch": f32_check,
+    });
+    std::fs::write(out_dir.join("results.json"), serde_json::to_string_pretty(&results)?)?;
+    let md = format!(
+        "# Benchmarks (`cargo xtask bench`)\n\n## Paper 001: J (eq 16) vs N pairs and noise σ\n\nMean over {SEEDS} seeds; field norm 2; σ per axis.\n\n{p1_md}\n## f32 recursive full fit vs f64 batch\n\n`{f32_check}`\n"
+    );
+    std::fs::write(out_dir.join("results.md"), md)?;
+    eprintln!("wrote {}", out_dir.join("results.json").display());
+    Ok(())
+}
