@@ -5,6 +5,7 @@
 #![deny(missing_docs)]
 
 pub mod caldoc;
+pub mod igrf;
 pub mod link;
 pub mod pipeline;
 pub mod qemu;

@@ -173,3 +173,26 @@ fn bad_input_gets_one_line_errors_and_no_output() {
     let e = one_line_error(&magcal(&["swing", "--input", path_str(&yaw_only), "--cal", path_str(&cal)]));
     assert!(e.contains("--estimate-delay"), "{e}");
 }
+
+#[test]
+fn igrf_prints_the_interface_fields() {
+    // Official check value: 2025.0, 5 km, 45°N 135°E.
+    let doc = ok_json(&magcal(&["igrf", "--lat", "45", "--lon", "135", "--height-m", "5000", "--date", "2025.0", "--json"]));
+    assert_eq!(doc["model"], "IGRF-14");
+    for (k, want, tol) in [
+        ("north_nt", 25147.3, 0.1),
+        ("east_nt", -5003.2, 0.1),
+        ("down_nt", 46410.1, 0.1),
+        ("horizontal_nt", 25640.2, 0.1),
+        ("total_nt", 53021.9, 0.1),
+        ("declination_deg", -11.252, 0.001),
+        ("inclination_deg", 61.081, 0.001),
+    ] {
+        let got = doc[k].as_f64().unwrap();
+        assert!((got - want).abs() <= tol, "{k}: {got} vs {want}");
+    }
+    let wmm = ok_json(&magcal(&["igrf", "--lat", "45", "--lon", "135", "--date", "2026-03-01", "--model", "wmm2025", "--json"]));
+    assert_eq!(wmm["model"], "WMM2025");
+    let e = one_line_error(&magcal(&["igrf", "--lat", "0", "--lon", "0", "--date", "2031-01-01"]));
+    assert!(e.contains("outside"), "{e}");
+}

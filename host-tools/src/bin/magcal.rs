@@ -9,6 +9,7 @@ use anyhow::{bail, Context, Result};
 use calib_core::cal::ModelKind;
 use clap::{Parser, Subcommand, ValueEnum};
 use host_tools::caldoc::CalDoc;
+use host_tools::igrf;
 use host_tools::link::Link;
 use host_tools::pipeline::{self, Delay, FitOptions, OrthoSolver};
 use host_tools::recording::Recording;
@@ -53,8 +54,37 @@ enum Solver {
     Linear,
 }
 
+#[derive(Clone, Copy, ValueEnum)]
+enum FieldModel {
+    /// IGRF-14 from the official coefficients.
+    Igrf14,
+    /// WMM2025 (world_magnetic_model crate).
+    Wmm2025,
+}
+
 #[derive(Subcommand)]
 enum Cmd {
+    /// Reference field (IGRF-14 or WMM2025) at a place and date.
+    Igrf {
+        /// Geodetic latitude, degrees.
+        #[arg(long, allow_hyphen_values = true)]
+        lat: f64,
+        /// Longitude, degrees.
+        #[arg(long, allow_hyphen_values = true)]
+        lon: f64,
+        /// Date: YYYY-MM-DD or decimal year.
+        #[arg(long)]
+        date: String,
+        /// Height above the WGS-84 ellipsoid, metres (negative below).
+        #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+        height_m: f64,
+        /// Model.
+        #[arg(long, value_enum, default_value = "igrf14")]
+        model: FieldModel,
+        /// Print one JSON document on stdout.
+        #[arg(long)]
+        json: bool,
+    },
     /// Ask the board (or the QEMU board) who it is.
     Identify {
         /// Serial port of the board, e.g. /dev/ttyUSB0 or QEMU's /dev/pts/N.
@@ -180,8 +210,52 @@ fn warn_all(doc_quality: &serde_json::Value) {
     }
 }
 
+/// The reference intensity from --field-nt or --lat/--lon/--date (IGRF-14).
+fn reference_field(field_nt: Option<f64>, lat: Option<f64>, lon: Option<f64>, date: Option<&str>) -> Result<igrf::Field> {
+    match (field_nt, lat, lon, date) {
+        (Some(f), None, None, None) => {
+            if !(f > 0.0 && f.is_finite()) {
+                bail!("--field-nt must be a positive number of nT, not {f}");
+            }
+            // Only the intensity is known: put it all on one axis.
+            Ok(igrf::Field { north_nt: f, east_nt: 0.0, down_nt: 0.0 })
+        }
+        (Some(_), ..) => bail!("give either --field-nt or --lat/--lon/--date, not both"),
+        (None, Some(lat), Some(lon), Some(date)) => {
+            let year = igrf::parse_date(date)?;
+            Ok(igrf::igrf14(lat, lon, 0.0, year)?)
+        }
+        (None, ..) => bail!("give the reference field intensity with --field-nt (nT) or all of --lat/--lon/--date"),
+    }
+}
+
 fn run(cli: Cli) -> Result<()> {
     match cli.command {
+        Cmd::Igrf { lat, lon, date, height_m, model, json } => {
+            let year = igrf::parse_date(&date)?;
+            let model = match model {
+                FieldModel::Igrf14 => igrf::Model::Igrf14,
+                FieldModel::Wmm2025 => igrf::Model::Wmm2025,
+            };
+            let f = igrf::field(model, lat, lon, height_m, year)?;
+            if json {
+                println!(
+                    "{}",
+                    json!({
+                        "model": model.name(), "north_nt": f.north_nt, "east_nt": f.east_nt, "down_nt": f.down_nt,
+                        "horizontal_nt": f.horizontal_nt(), "total_nt": f.total_nt(),
+                        "inclination_deg": f.inclination_deg(), "declination_deg": f.declination_deg(),
+                        "lat_deg": lat, "lon_deg": lon, "height_m": height_m, "decimal_year": year,
+                    })
+                );
+            } else {
+                println!(
+                    "{} at {lat}°, {lon}°, {height_m} m, {year:.4}: X {:.1} Y {:.1} Z {:.1} H {:.1} F {:.1} nT, I {:.3}°, D {:.3}°",
+                    model.name(), f.north_nt, f.east_nt, f.down_nt, f.horizontal_nt(), f.total_nt(), f.inclination_deg(), f.declination_deg()
+                );
+            }
+            Ok(())
+        }
         Cmd::Identify { port, json } => {
             let mut link = Link::open(&port)?;
             let id = link.identify().with_context(|| format!("identify on {port}"))?;
@@ -207,17 +281,13 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
         Cmd::Fit { input, model, field_nt, lat, lon, date, saturation, allow_weak, out, json } => {
-            let field_nt = match (field_nt, lat, lon, date) {
-                (Some(f), None, None, None) => f,
-                (Some(_), _, _, _) => bail!("give either --field-nt or --lat/--lon/--date, not both"),
-                (None, Some(_), Some(_), Some(_)) => {
-                    bail!("the IGRF reference (--lat/--lon/--date) is not available in this build yet; give --field-nt")
-                }
-                (None, ..) => bail!("give the reference field intensity with --field-nt (nT) or --lat/--lon/--date"),
-            };
+            let reference = reference_field(field_nt, lat, lon, date.as_deref())?;
             let rec = Recording::read(&input)?;
-            let opts = FitOptions { model: model.into(), field_nt, saturation, allow_weak };
-            let doc = pipeline::fit_recording(&rec, &opts).with_context(|| format!("{}: {} fit", input.display(), ModelKind::from(model).name()))?;
+            let opts = FitOptions { model: model.into(), field_nt: reference.total_nt(), saturation, allow_weak };
+            let mut doc = pipeline::fit_recording(&rec, &opts).with_context(|| format!("{}: {} fit", input.display(), ModelKind::from(model).name()))?;
+            if lat.is_some() {
+                doc.declination_deg = Some(reference.declination_deg());
+            }
             warn_all(&doc.quality);
             let q = &doc.quality;
             let summary = format!(
