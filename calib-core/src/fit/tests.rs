@@ -212,3 +212,27 @@ proptest! {
         prop_assert!(rel_err(&b.matrix, &want) < 1e-9);
     }
 }
+
+#[test]
+fn the_papers_eq_18_arithmetic_with_its_step_1_coefficients() {
+    // ALGORITHMS.md §4 check line: mean raw z 5362 with bz = −903,
+    // sz = 0.16142 calibrates to (5362 + 903)/0.16142 = 38812 nT.
+    let x = [
+        (0.19556f64 / 0.09001).powi(2), // x1 = sx²/sy²
+        (0.19556f64 / 0.16142).powi(2), // x2 = sx²/sz²
+        -1865.0,
+        1385.0 * (0.19556f64 / 0.09001).powi(2),
+        -903.0 * (0.19556f64 / 0.16142).powi(2),
+        0.0,
+    ];
+    // x6 from eq 14 for H = 48 730 nT.
+    let h = 48_730.0;
+    let mut x = x;
+    x[5] = 0.19556f64.powi(2) * h * h - x[2] * x[2] - x[0] * 1385.0f64.powi(2) - x[1] * 903.0f64.powi(2);
+    let s = axis_scales(&x, h).unwrap();
+    assert!((s.bias[0] + 1865.0).abs() < 1e-9 && (s.bias[1] - 1385.0).abs() < 1e-9 && (s.bias[2] + 903.0).abs() < 1e-9);
+    assert!((s.scale[0] - 0.19556).abs() < 1e-12 && (s.scale[1] - 0.09001).abs() < 1e-12 && (s.scale[2] - 0.16142).abs() < 1e-12);
+    let cal = Axis::extract(&x, h).unwrap();
+    let hz = cal.apply([0.0, 0.0, 5362.0])[2];
+    assert!((hz - 38_812.0).abs() < 1.0, "{hz}");
+}
