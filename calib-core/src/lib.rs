@@ -15,6 +15,7 @@
 // slices from outside are walked with iterators.
 #![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
+pub mod backstep;
 pub mod cal;
 pub mod conformance;
 pub mod fit;

@@ -10,3 +10,4 @@ pub mod link;
 pub mod pipeline;
 pub mod qemu;
 pub mod recording;
+pub mod sim;

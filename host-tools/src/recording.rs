@@ -187,9 +187,15 @@ impl Recording {
 
     /// Writes the recording as CSV with the columns it has.
     pub fn write(&self, path: &Path) -> Result<(), RecordingError> {
+        self.write_with_extra(path, &[])
+    }
+
+    /// Writes the recording plus extra named columns (which readers ignore),
+    /// e.g. the simulator's truth.
+    pub fn write_with_extra(&self, path: &Path, extra: &[(&str, &Vec<f64>)]) -> Result<(), RecordingError> {
         let io = |source| RecordingError::Io { path: path.into(), source };
         let mut w = csv::Writer::from_path(path).map_err(|source| RecordingError::Csv { path: path.into(), source })?;
-        let cols: Vec<(&str, &Vec<f64>)> = [
+        let mut cols: Vec<(&str, &Vec<f64>)> = [
             ("t", &self.t_s),
             ("roll_deg", &self.roll_deg),
             ("pitch_deg", &self.pitch_deg),
@@ -200,6 +206,7 @@ impl Recording {
         .into_iter()
         .filter_map(|(n, c)| c.as_ref().map(|c| (n, c)))
         .collect();
+        cols.extend(extra.iter().copied());
         let mut header: Vec<&str> = vec!["mx", "my", "mz"];
         header.splice(0..0, cols.iter().filter(|(n, _)| *n == "t").map(|(n, _)| *n));
         header.extend(cols.iter().filter(|(n, _)| *n != "t").map(|(n, _)| *n));
