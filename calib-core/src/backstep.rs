@@ -213,8 +213,8 @@ pub fn zero_step_sz<T: Real>(c: &AxisCoefficients<T>, samples: &[RunSample<T>]) 
     };
     let (lo0, hi0) = (c.scale[2] / T::from_f64(4.0), c.scale[2] * T::from_f64(4.0));
     // Coarse scan on a log grid for the basin of the smallest |step|.
-    let steps = 40;
-    let ratio = T::from_f64(16f64.powf(1.0 / steps as f64));
+    let steps: u8 = 40;
+    let ratio = T::from_f64(libm::pow(16.0, 1.0 / f64::from(steps)));
     let (mut best_sz, mut best) = (c.scale[2], step_at(c.scale[2])?);
     let mut sz = lo0;
     for _ in 0..=steps {

@@ -83,31 +83,97 @@ impl core::fmt::Display for SwingError {
 /// Compass sectors for deciding which terms the data determine.
 pub const SECTORS: u32 = 12;
 
-/// Which 30° compass sectors the headings visited.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+/// How the headings are spread round the compass.
+///
+/// Two measures decide which Fourier terms the data determine:
+/// * sectors: a 30° sector counts as *visited* only when it holds a fair
+///   share of the pairs ([`MIN_SECTOR_SHARE`]) — a turn swept through at the
+///   surface gives a few pairs in many sectors but determines nothing there;
+/// * spread of each harmonic: the smaller eigenvalue of the covariance of
+///   `(cos kψ, sin kψ)` (0.5 for headings all round, 0 when the k-th
+///   harmonic's phasors lie on a line). Reciprocal legs give 0 for k = 1:
+///   on an out-and-back run the current's crab angle (course over ground −
+///   heading) flips sign between the legs exactly as a first-harmonic
+///   deviation would, so such data determine A only.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct HeadingSectors(u16);
+pub struct HeadingSectors {
+    counts: [u32; SECTORS as usize],
+    /// Σ cos kψ, Σ sin kψ, Σ cos² kψ, Σ sin² kψ, Σ cos kψ sin kψ for k = 1, 2.
+    moments: [[f64; 5]; 2],
+}
+
+/// Smallest harmonic spread (see [`HeadingSectors`]) for a harmonic to be fitted.
+pub const MIN_HARMONIC_SPREAD: f64 = 0.08;
+
+/// Share of all pairs a sector needs to count as visited.
+pub const MIN_SECTOR_SHARE: f64 = 0.04;
 
 impl HeadingSectors {
-    /// Marks the sector of a heading.
+    /// Counts a heading.
     pub fn add<T: Real>(&mut self, heading_rad: T) {
-        let s = (wrap_two_pi(heading_rad) / T::TAU * T::from_f64(f64::from(SECTORS))).to_f64() as u32;
-        self.0 |= 1 << s.min(SECTORS - 1);
+        let s = (wrap_two_pi(heading_rad) / T::TAU * T::from_f64(f64::from(SECTORS))).to_f64() as usize;
+        if let Some(c) = self.counts.get_mut(s.min(SECTORS as usize - 1)) {
+            *c = c.saturating_add(1);
+        }
+        let psi = heading_rad.to_f64();
+        for (k, m) in self.moments.iter_mut().enumerate() {
+            let a = psi * (k as f64 + 1.0);
+            let (sn, cs) = (libm::sin(a), libm::cos(a));
+            m[0] += cs;
+            m[1] += sn;
+            m[2] += cs * cs;
+            m[3] += sn * sn;
+            m[4] += cs * sn;
+        }
+    }
+
+    /// Spread of harmonic `k` (1 or 2): the smaller eigenvalue of the
+    /// covariance of `(cos kψ, sin kψ)`.
+    pub fn harmonic_spread(&self, k: usize) -> f64 {
+        let n = f64::from(self.total());
+        let Some(m) = self.moments.get(k.wrapping_sub(1)) else { return 0.0 };
+        if n < 1.0 {
+            return 0.0;
+        }
+        let (mc, ms) = (m[0] / n, m[1] / n);
+        let (a, d, b) = (m[2] / n - mc * mc, m[3] / n - ms * ms, m[4] / n - mc * ms);
+        let (tr, det) = (a + d, a * d - b * b);
+        (tr / 2.0 - libm::sqrt((tr * tr / 4.0 - det).max(0.0))).max(0.0)
+    }
+
+    /// Pairs counted.
+    pub fn total(&self) -> u32 {
+        self.counts.iter().fold(0u32, |a, &c| a.saturating_add(c))
+    }
+
+    /// Bit mask of the sectors holding at least [`MIN_SECTOR_SHARE`] of the
+    /// pairs (and at least 3).
+    pub fn visited_mask(&self) -> u16 {
+        let min = (f64::from(self.total()) * MIN_SECTOR_SHARE).max(3.0);
+        let mut mask = 0u16;
+        for (k, &c) in self.counts.iter().enumerate() {
+            if f64::from(c) >= min {
+                mask |= 1 << k;
+            }
+        }
+        mask
     }
 
     /// Sectors visited.
     pub fn count(&self) -> u32 {
-        self.0.count_ones()
+        self.visited_mask().count_ones()
     }
 
     /// The widest run of unvisited sectors, in sectors.
     pub fn largest_gap(&self) -> u32 {
-        if self.0 == 0 {
+        let mask = self.visited_mask();
+        if mask == 0 {
             return SECTORS;
         }
         let (mut best, mut run) = (0, 0);
         for k in 0..2 * SECTORS {
-            if self.0 & (1 << (k % SECTORS)) == 0 {
+            if mask & (1 << (k % SECTORS)) == 0 {
                 run += 1;
                 best = best.max(run.min(SECTORS));
             } else {
@@ -118,13 +184,15 @@ impl HeadingSectors {
     }
 
     /// The terms these headings determine: all five need at least half the
-    /// compass with no gap over 90°; the first harmonic needs three sectors
-    /// and no gap over 180°.
+    /// compass with no gap over 90° and both harmonics spread; the first
+    /// harmonic needs three sectors, no gap over 180° and its spread (two
+    /// reciprocal legs are not enough, see above).
     pub fn determinable_terms(&self) -> SwingTerms {
         let (n, gap) = (self.count(), self.largest_gap());
-        if n >= 6 && gap <= 3 {
+        let (s1, s2) = (self.harmonic_spread(1), self.harmonic_spread(2));
+        if n >= 6 && gap <= 3 && s1 >= MIN_HARMONIC_SPREAD && s2 >= MIN_HARMONIC_SPREAD {
             SwingTerms::Full
-        } else if n >= 3 && gap <= 6 {
+        } else if n >= 3 && gap <= 6 && s1 >= MIN_HARMONIC_SPREAD {
             SwingTerms::FirstHarmonic
         } else {
             SwingTerms::ConstantOnly
@@ -419,24 +487,38 @@ mod tests {
         let fit = fit_swing(narrow.iter().copied()).unwrap();
         assert_eq!(fit.terms, SwingTerms::ConstantOnly);
         assert_eq!(fit.swing.b, 0.0);
-        // Out-and-back legs 180° apart with a little weaving: first harmonic only.
+        // Out-and-back legs 180° apart with a little weaving: A only (the
+        // current's crab angle would alias into B and C).
         let legs: Vec<(f64, f64)> = (0..400).map(|k| {
             let base = if k % 2 == 0 { 62f64 } else { -117f64 };
             let psi = (base + 10.0 * ((k as f64) * 0.37).sin()).to_radians();
             (distorted(psi, &PAPER), psi)
         }).collect();
         let fit = fit_swing(legs.iter().copied()).unwrap();
-        assert_eq!(fit.terms, SwingTerms::FirstHarmonic);
+        assert_eq!(fit.terms, SwingTerms::ConstantOnly);
+        // Four courses, a square: the first harmonic.
+        let square: Vec<(f64, f64)> = (0..400).map(|k| {
+            let psi = (f64::from((k % 4) as u8) * 90.0 + 20.0 + 5.0 * ((k as f64) * 0.37).sin()).to_radians();
+            (distorted(psi, &PAPER), psi)
+        }).collect();
+        assert_eq!(fit_swing(square.iter().copied()).unwrap().terms, SwingTerms::FirstHarmonic);
     }
 
     #[test]
     fn sector_gaps_wrap_around_north() {
         let mut s = HeadingSectors::default();
         for deg in [350.0f64, 10.0, 40.0] {
-            s.add(deg.to_radians());
+            for _ in 0..10 {
+                s.add(deg.to_radians());
+            }
         }
         assert_eq!(s.count(), 3);
         assert_eq!(s.largest_gap(), 9);
+        // A sweep through other sectors with a few pairs each does not count.
+        for deg in (60..300).step_by(30) {
+            s.add(f64::from(deg).to_radians());
+        }
+        assert_eq!(s.count(), 3);
     }
 
     #[test]

@@ -37,6 +37,9 @@ pub enum PipelineError {
     /// The recording's magnitudes cannot be in the units the reference says.
     #[error("{0}")]
     Units(String),
+    /// The back-stepping could not run.
+    #[error("{0}")]
+    Backstep(String),
 }
 
 impl From<FitError> for PipelineError {
@@ -247,4 +250,205 @@ pub fn ortho_recording(rec: &Recording, solver: OrthoSolver, bias: Option<[f64; 
         OrthoSolver::Linear => ortho::identify_linear(&samples, bias)?,
     };
     Ok((tri, bias))
+}
+
+/// Which back-stepping solver.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BackstepMethod {
+    /// Paper 000's corrections (axis model only).
+    Paper,
+    /// Our joint least-squares refinement (the default).
+    Joint,
+}
+
+/// The reference field for the run.
+#[derive(Debug, Clone, Copy)]
+pub enum RunReference {
+    /// IGRF-14 at each row's `lat_deg`/`lon_deg` (or at `lat/lon` where a
+    /// row has none), at decimal year `year`.
+    Igrf {
+        /// Fallback latitude, degrees.
+        lat_deg: f64,
+        /// Fallback longitude, degrees.
+        lon_deg: f64,
+        /// Decimal year.
+        year: f64,
+    },
+    /// Fixed horizontal and down components, nT.
+    Given {
+        /// Horizontal intensity, nT.
+        h_nt: f64,
+        /// Down component, nT.
+        z_nt: f64,
+    },
+}
+
+/// Options of the back-stepping command.
+#[derive(Debug, Clone)]
+pub struct BackstepOptions {
+    /// Solver.
+    pub method: BackstepMethod,
+    /// Reference field.
+    pub reference: RunReference,
+    /// Time of the turnaround, seconds (`None`: found from the headings).
+    pub turnaround_s: Option<f64>,
+    /// Length of the windows either side of the turnaround, seconds.
+    pub window_s: f64,
+    /// Time skipped either side of the turnaround (the turn itself), seconds.
+    pub exclude_s: f64,
+    /// Swing-test samples (thrusters off) and their reference intensity, for the joint solver.
+    pub swing: Option<(Vec<[f64; 3]>, f64)>,
+    /// Paper: most iterations.
+    pub max_iterations: u8,
+}
+
+impl BackstepOptions {
+    /// Defaults: joint solver, turnaround found automatically, 300 s windows,
+    /// 60 s skipped either side of the turn.
+    pub fn new(reference: RunReference) -> Self {
+        Self { method: BackstepMethod::Joint, reference, turnaround_s: None, window_s: 300.0, exclude_s: 60.0, swing: None, max_iterations: 10 }
+    }
+}
+
+/// What the back-stepping found.
+#[derive(Debug, Clone)]
+pub struct BackstepReport {
+    /// The turnaround time used, seconds.
+    pub turnaround_s: f64,
+    /// Run statistics with the input calibration.
+    pub before: calib_core::backstep::RunStats<f64>,
+    /// And with the result.
+    pub after: calib_core::backstep::RunStats<f64>,
+}
+
+/// Finds the turnaround: the time where the mean heading of the `window_s`
+/// before and after differ most (and by more than 90°).
+pub fn find_turnaround(t: &[f64], heading_rad: &[f64], window_s: f64) -> Option<f64> {
+    let n = t.len().min(heading_rad.len());
+    let (mut ps, mut pc) = (vec![0.0; n + 1], vec![0.0; n + 1]);
+    for i in 0..n {
+        let (s, c) = if heading_rad[i].is_finite() { heading_rad[i].sin_cos() } else { (0.0, 0.0) };
+        ps[i + 1] = ps[i] + s;
+        pc[i + 1] = pc[i] + c;
+    }
+    let mut best = (0.0, None);
+    for i in 0..n {
+        let lo = t.partition_point(|&x| x < t[i] - window_s);
+        let hi = t.partition_point(|&x| x <= t[i] + window_s);
+        if i - lo < 10 || hi - i < 10 || t[i] - t[lo] < 0.9 * window_s || t[hi - 1] - t[i] < 0.9 * window_s {
+            continue;
+        }
+        let before = (ps[i] - ps[lo]).atan2(pc[i] - pc[lo]);
+        let after = (ps[hi] - ps[i]).atan2(pc[hi] - pc[i]);
+        let d = calib_core::heading::wrap_pi(after - before).abs();
+        if d > best.0 {
+            best = (d, Some(t[i]));
+        }
+    }
+    (best.0 > std::f64::consts::FRAC_PI_2).then_some(best.1).flatten()
+}
+
+fn backstep_trace_json(e: &calib_core::backstep::TraceEntry<f64>) -> serde_json::Value {
+    const NAMES: [&str; 4] = ["start", "horizontal scale (Hh ratio)", "sz for no step", "bz from magnitude"];
+    let name = NAMES[usize::from(e.correction.min(3))];
+    json!({
+        "iteration": e.iteration,
+        "correction": name,
+        "bias": e.coefficients.bias,
+        "scale": e.coefficients.scale,
+        "step_nt": e.stats.step_nt,
+        "hh_nt": e.stats.hh_nt,
+        "hz_nt": e.stats.hz_nt,
+        "f_nt": e.stats.f_nt,
+        "f_error_rms_nt": e.stats.f_error_rms_nt,
+    })
+}
+
+fn stats_json(s: &calib_core::backstep::RunStats<f64>) -> serde_json::Value {
+    json!({"step_nt": s.step_nt, "hh_nt": s.hh_nt, "hz_nt": s.hz_nt, "f_nt": s.f_nt, "f_error_rms_nt": s.f_error_rms_nt})
+}
+
+/// Refines a calibration on an out-and-back run.
+pub fn backstep_recording(rec: &Recording, doc: &CalDoc, opts: &BackstepOptions) -> Result<(CalDoc, BackstepReport), PipelineError> {
+    use calib_core::backstep::{joint_refine, paper_backstep, run_stats, AxisCoefficients, JointWeights, Leg, RunSample};
+    let t = rec.t_s.as_ref().ok_or(PipelineError::NeedsColumn("t"))?;
+    let roll = rec.roll_deg.as_ref().ok_or(PipelineError::NeedsColumn("roll_deg"))?;
+    let pitch = rec.pitch_deg.as_ref().ok_or(PipelineError::NeedsColumn("pitch_deg"))?;
+    let headings = magnetic_headings(rec, doc)?;
+    let turnaround = match opts.turnaround_s {
+        Some(s) => s,
+        None => find_turnaround(t, &headings, opts.window_s).ok_or_else(|| {
+            PipelineError::Backstep("no turnaround found (no 180° change of heading): give it with --turnaround-s".into())
+        })?,
+    };
+    let mut samples = Vec::with_capacity(rec.len());
+    for i in 0..rec.len() {
+        let raw = rec.mag[i];
+        if !raw.iter().all(|v| v.is_finite()) || !roll[i].is_finite() || !pitch[i].is_finite() {
+            continue;
+        }
+        let (h_ref, z_ref) = match opts.reference {
+            RunReference::Given { h_nt, z_nt } => (h_nt, z_nt),
+            RunReference::Igrf { lat_deg, lon_deg, year } => {
+                let lat = rec.lat_deg.as_ref().and_then(|c| c.get(i).copied()).filter(|v| v.is_finite()).unwrap_or(lat_deg);
+                let lon = rec.lon_deg.as_ref().and_then(|c| c.get(i).copied()).filter(|v| v.is_finite()).unwrap_or(lon_deg);
+                let f = crate::igrf::igrf14(lat, lon, 0.0, year).map_err(|e| PipelineError::Backstep(e.to_string()))?;
+                (f.horizontal_nt(), f.down_nt)
+            }
+        };
+        let dt = t[i] - turnaround;
+        let leg = if dt < -opts.exclude_s && dt >= -opts.exclude_s - opts.window_s {
+            Leg::Out
+        } else if dt > opts.exclude_s && dt <= opts.exclude_s + opts.window_s {
+            Leg::Back
+        } else {
+            Leg::Other
+        };
+        // The turn itself (heading sweeping through, vehicle at the surface) is left out of the fits.
+        if dt.abs() <= opts.exclude_s {
+            continue;
+        }
+        samples.push(RunSample { raw, roll_rad: roll[i].to_radians(), pitch_rad: pitch[i].to_radians(), h_ref_nt: h_ref, z_ref_nt: z_ref, leg });
+    }
+    let bs = |e: calib_core::backstep::BackstepError| PipelineError::Backstep(e.to_string());
+    let before = run_stats(&doc.field_cal(), &samples).map_err(bs)?;
+    let mut trace = Vec::new();
+    let (kind, cal, extra) = match opts.method {
+        BackstepMethod::Paper => {
+            let start = AxisCoefficients::from_field_cal(&doc.field_cal()).ok_or_else(|| {
+                PipelineError::Backstep("the paper's back-stepping corrects the axis model: fit with --model axis first".into())
+            })?;
+            let end = paper_backstep(&start, &samples, opts.max_iterations, 20.0, 50.0, &mut |e| trace.push(backstep_trace_json(&e))).map_err(bs)?;
+            (ModelKind::Axis, end.field_cal(), json!({}))
+        }
+        BackstepMethod::Joint => {
+            let (swing, swing_f): (&[[f64; 3]], f64) = match &opts.swing {
+                Some((s, f)) => (s.as_slice(), *f),
+                None => (&[], 1.0),
+            };
+            trace.push(json!({"iteration": 0, "correction": "start", "step_nt": before.step_nt, "hh_nt": before.hh_nt, "hz_nt": before.hz_nt, "f_nt": before.f_nt, "f_error_rms_nt": before.f_error_rms_nt}));
+            let r = joint_refine(&doc.field_cal(), &samples, swing, swing_f, &JointWeights::default()).map_err(bs)?;
+            let s = run_stats(&r.running, &samples).map_err(bs)?;
+            trace.push(json!({"iteration": r.iterations, "correction": "joint least squares", "bias": r.running.bias, "matrix": r.running.matrix, "step_nt": s.step_nt, "hh_nt": s.hh_nt, "hz_nt": s.hz_nt, "f_nt": s.f_nt, "f_error_rms_nt": s.f_error_rms_nt}));
+            (ModelKind::Full, r.running, json!({"running_bias": r.running_bias, "resting_bias": r.resting.bias, "swing_samples": swing.len()}))
+        }
+    };
+    let after = run_stats(&cal, &samples).map_err(bs)?;
+    let (_, f_ref) = calib_core::backstep::reference_means(&samples);
+    let mut out = CalDoc::new(kind, &cal, f_ref, doc.quality.clone());
+    out.declination_deg = doc.declination_deg;
+    out.swing = None; // a swing fit made with the old field calibration no longer applies
+    if !out.quality.is_object() {
+        out.quality = json!({});
+    }
+    out.quality["backstep"] = json!({
+        "method": match opts.method { BackstepMethod::Paper => "paper", BackstepMethod::Joint => "joint" },
+        "turnaround_s": turnaround,
+        "samples": samples.len(),
+        "before": stats_json(&before),
+        "after": stats_json(&after),
+        "details": extra,
+    });
+    out.trace = Some(json!(trace));
+    Ok((out, BackstepReport { turnaround_s: turnaround, before, after }))
 }

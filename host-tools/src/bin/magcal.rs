@@ -62,8 +62,94 @@ enum FieldModel {
     Wmm2025,
 }
 
+#[derive(Clone, Copy, ValueEnum)]
+enum Scenario {
+    /// The swing test: a diver turns the vehicle (thrusters off).
+    Swing,
+    /// The out-and-back run (62° / −117°) with the dolphin profile.
+    Run,
+    /// A second out-and-back run (150° / 330°) for validation.
+    Validation,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum Vehicle {
+    /// Thrusters add a mostly horizontal bias while running (paper-like).
+    PaperLike,
+    /// The hull couples the vertical channel to the horizontal ones.
+    HullCoupled,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum Method {
+    /// Our joint least-squares refinement.
+    Joint,
+    /// Paper 000's corrections (axis model).
+    Paper,
+}
+
 #[derive(Subcommand)]
 enum Cmd {
+    /// Simulate a field test (writes FILE.csv and FILE.truth.json).
+    Simulate {
+        /// Which test.
+        #[arg(value_enum)]
+        scenario: Scenario,
+        /// Random seed.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Output CSV.
+        #[arg(long)]
+        out: PathBuf,
+        /// Sample rate, Hz.
+        #[arg(long, default_value_t = 5.0)]
+        rate_hz: f64,
+        /// The vehicle's error model.
+        #[arg(long, value_enum, default_value = "paper-like")]
+        vehicle: Vehicle,
+        /// Print a JSON summary on stdout.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Back-stepping refinement on an out-and-back run.
+    Backstep {
+        /// The run (t, mx, my, mz, roll_deg, pitch_deg; lat_deg/lon_deg used when present).
+        #[arg(long)]
+        input: PathBuf,
+        /// The calibration to refine (step 1).
+        #[arg(long)]
+        cal: PathBuf,
+        /// Latitude for IGRF, degrees.
+        #[arg(long, allow_hyphen_values = true)]
+        lat: Option<f64>,
+        /// Longitude for IGRF, degrees.
+        #[arg(long, allow_hyphen_values = true)]
+        lon: Option<f64>,
+        /// Date for IGRF: YYYY-MM-DD or decimal year.
+        #[arg(long)]
+        date: Option<String>,
+        /// Reference horizontal intensity, nT (instead of IGRF).
+        #[arg(long)]
+        field_h_nt: Option<f64>,
+        /// Reference down component, nT (instead of IGRF).
+        #[arg(long, allow_hyphen_values = true)]
+        field_z_nt: Option<f64>,
+        /// Solver: ours (joint) or the paper's.
+        #[arg(long, value_enum, default_value = "joint")]
+        method: Method,
+        /// Time of the turnaround, seconds (default: found from the headings).
+        #[arg(long)]
+        turnaround_s: Option<f64>,
+        /// The swing-test recording (thrusters off), to let the joint solver separate the running-only bias.
+        #[arg(long)]
+        swing_input: Option<PathBuf>,
+        /// Write the calibration document here.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Print the calibration document (with its trace) on stdout.
+        #[arg(long)]
+        json: bool,
+    },
     /// Reference field (IGRF-14 or WMM2025) at a place and date.
     Igrf {
         /// Geodetic latitude, degrees.
@@ -231,6 +317,63 @@ fn reference_field(field_nt: Option<f64>, lat: Option<f64>, lon: Option<f64>, da
 
 fn run(cli: Cli) -> Result<()> {
     match cli.command {
+        Cmd::Simulate { scenario, seed, out, rate_hz, vehicle, json } => {
+            use host_tools::sim::{self, RunParams, SensorModel, Site};
+            let sensor = match vehicle {
+                Vehicle::PaperLike => SensorModel::paper_like(),
+                Vehicle::HullCoupled => SensorModel::hull_coupled(),
+            };
+            let site = Site::paper_like();
+            let simulation = match scenario {
+                Scenario::Swing => sim::swing(&sensor, &site, seed, rate_hz)?,
+                Scenario::Run => sim::run(&sensor, &site, &RunParams::paper_like(), seed, rate_hz, "run")?,
+                Scenario::Validation => sim::run(&sensor, &site, &RunParams::validation(), seed, rate_hz, "validation")?,
+            };
+            simulation.write(&out)?;
+            let truth = sim::truth_path(&out);
+            eprintln!("wrote {} ({} rows) and {}", out.display(), simulation.recording.len(), truth.display());
+            if json {
+                println!("{}", json!({"csv": out, "truth": truth, "rows": simulation.recording.len(), "site": simulation.truth.site}));
+            }
+            Ok(())
+        }
+        Cmd::Backstep { input, cal, lat, lon, date, field_h_nt, field_z_nt, method, turnaround_s, swing_input, out, json } => {
+            let reference = match (lat, lon, date, field_h_nt, field_z_nt) {
+                (Some(lat_deg), Some(lon_deg), Some(d), None, None) => pipeline::RunReference::Igrf { lat_deg, lon_deg, year: igrf::parse_date(&d)? },
+                (None, None, None, Some(h_nt), Some(z_nt)) => pipeline::RunReference::Given { h_nt, z_nt },
+                _ => bail!("give the reference as --lat/--lon/--date or as --field-h-nt/--field-z-nt"),
+            };
+            let doc = CalDoc::load(&cal)?;
+            let rec = Recording::read(&input)?;
+            let mut opts = pipeline::BackstepOptions::new(reference);
+            opts.method = match method {
+                Method::Joint => pipeline::BackstepMethod::Joint,
+                Method::Paper => pipeline::BackstepMethod::Paper,
+            };
+            opts.turnaround_s = turnaround_s;
+            if let Some(p) = swing_input {
+                let swing = Recording::read(&p)?;
+                opts.swing = Some((swing.complete_mag().1, doc.field_nt));
+            }
+            let (out_doc, report) = pipeline::backstep_recording(&rec, &doc, &opts).with_context(|| format!("{}: back-stepping", input.display()))?;
+            if !json {
+                if let Some(trace) = out_doc.trace.as_ref().and_then(|t| t.as_array()) {
+                    for e in trace {
+                        eprintln!(
+                            "  iter {} {:<28} step {:>8.1} nT  Hh {:>8.1}  Hz {:>8.1}  F {:>8.1}",
+                            e["iteration"], e["correction"].as_str().unwrap_or(""), e["step_nt"].as_f64().unwrap_or(f64::NAN),
+                            e["hh_nt"].as_f64().unwrap_or(f64::NAN), e["hz_nt"].as_f64().unwrap_or(f64::NAN), e["f_nt"].as_f64().unwrap_or(f64::NAN)
+                        );
+                    }
+                }
+            }
+            let summary = format!(
+                "back-stepping ({}) around the turnaround at {:.0} s: step {:.1} → {:.1} nT, |F − IGRF| RMS {:.1} → {:.1} nT",
+                match method { Method::Joint => "joint", Method::Paper => "paper" },
+                report.turnaround_s, report.before.step_nt, report.after.step_nt, report.before.f_error_rms_nt, report.after.f_error_rms_nt
+            );
+            emit(&out_doc, out.as_ref(), json, &summary)
+        }
         Cmd::Igrf { lat, lon, date, height_m, model, json } => {
             let year = igrf::parse_date(&date)?;
             let model = match model {
