@@ -10,4 +10,5 @@ pub mod link;
 pub mod pipeline;
 pub mod qemu;
 pub mod recording;
+pub mod report;
 pub mod sim;

@@ -196,3 +196,52 @@ fn igrf_prints_the_interface_fields() {
     let e = one_line_error(&magcal(&["igrf", "--lat", "0", "--lon", "0", "--date", "2031-01-01"]));
     assert!(e.contains("outside"), "{e}");
 }
+
+/// The documented chain on simulated recordings: `simulate` → `fit --model
+/// axis --lat --lon --date` → `backstep` (trace) → `swing --estimate-delay`.
+#[test]
+fn the_documented_chain_runs_on_simulated_field_tests() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    for (scenario, seed, out) in [("swing", "11", "swing.csv"), ("run", "12", "run.csv")] {
+        let o = magcal(&["simulate", scenario, "--seed", seed, "--rate-hz", "1", "--out", &p(out)]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert!(dir.path().join(out.replace(".csv", ".truth.json")).exists());
+    }
+    let site = ["--lat", "36.9", "--lon", "50.6", "--date", "2021-01-01"];
+    let fit = ok_json(&magcal(&[&["fit", "--input", &p("swing.csv"), "--model", "axis", "--out", &p("cal1.json"), "--json"][..], &site[..]].concat()));
+    assert_eq!(fit["model"], "axis");
+    assert!(fit["declination_deg"].as_f64().unwrap() > 4.0, "declination from IGRF: {}", fit["declination_deg"]);
+
+    let bs = ok_json(&magcal(&[&["backstep", "--input", &p("run.csv"), "--cal", &p("cal1.json"), "--out", &p("cal2.json"), "--json"][..], &site[..]].concat()));
+    let trace = bs["trace"].as_array().unwrap();
+    assert!(trace.len() >= 2);
+    for e in trace {
+        for k in ["step_nt", "hh_nt", "hz_nt", "f_nt"] {
+            assert!(e[k].is_number(), "trace entry lacks {k}: {e}");
+        }
+    }
+    let before = trace[0]["step_nt"].as_f64().unwrap();
+    let after = trace.last().unwrap()["step_nt"].as_f64().unwrap();
+    assert!(before.abs() > 300.0 && after.abs() < 5.0, "step {before} → {after}");
+
+    let paper = ok_json(&magcal(&[&["backstep", "--input", &p("run.csv"), "--cal", &p("cal1.json"), "--method", "paper", "--json"][..], &site[..]].concat()));
+    let pt = paper["trace"].as_array().unwrap();
+    assert_eq!(pt[1]["correction"], "horizontal scale (Hh ratio)");
+    assert_eq!(pt[2]["correction"], "sz for no step");
+    assert_eq!(pt[3]["correction"], "bz from magnitude");
+
+    let sw = ok_json(&magcal(&["swing", "--input", &p("run.csv"), "--cal", &p("cal2.json"), "--estimate-delay", "--out", &p("cal3.json"), "--json"]));
+    let delay = sw["quality"]["swing"]["delay_s"].as_f64().unwrap();
+    assert!((delay - 2.0).abs() < 0.6, "delay {delay}");
+    assert!(sw["swing"]["a"].is_number());
+    // The final document loads and validates.
+    CalDoc::load(Path::new(&p("cal3.json"))).unwrap();
+
+    // The report draws the papers' figures for these calibrations.
+    let rep = ok_json(&magcal(&["report", "--run", &p("run.csv"), "--swing-input", &p("swing.csv"), "--cal", &p("cal1.json"), "--cal", &p("cal3.json"), "--out", &p("report"), "--json"]));
+    assert_eq!(rep["figures"].as_array().unwrap().len(), 3);
+    let field = std::fs::read_to_string(dir.path().join("report/fig_field.svg")).unwrap();
+    assert!(field.starts_with("<svg") && field.contains("cal1") && field.contains("cal3"));
+    assert!(std::fs::read_to_string(dir.path().join("report/index.html")).unwrap().contains("fig_heading.svg"));
+}

@@ -111,6 +111,27 @@ enum Cmd {
         #[arg(long)]
         json: bool,
     },
+    /// Figures (SVG) and an HTML page comparing calibrations on recordings.
+    Report {
+        /// The out-and-back run.
+        #[arg(long)]
+        run: Option<PathBuf>,
+        /// The swing test.
+        #[arg(long)]
+        swing_input: Option<PathBuf>,
+        /// Calibration documents to compare (repeat the flag); labelled by file name.
+        #[arg(long)]
+        cal: Vec<PathBuf>,
+        /// Reference intensity to draw, nT.
+        #[arg(long)]
+        field_nt: Option<f64>,
+        /// Output directory.
+        #[arg(long)]
+        out: PathBuf,
+        /// Print a JSON list of the files written.
+        #[arg(long)]
+        json: bool,
+    },
     /// Back-stepping refinement on an out-and-back run.
     Backstep {
         /// The run (t, mx, my, mz, roll_deg, pitch_deg; lat_deg/lon_deg used when present).
@@ -334,6 +355,24 @@ fn run(cli: Cli) -> Result<()> {
             eprintln!("wrote {} ({} rows) and {}", out.display(), simulation.recording.len(), truth.display());
             if json {
                 println!("{}", json!({"csv": out, "truth": truth, "rows": simulation.recording.len(), "site": simulation.truth.site}));
+            }
+            Ok(())
+        }
+        Cmd::Report { run, swing_input, cal, field_nt, out, json } => {
+            let run = run.map(|p| Recording::read(&p)).transpose()?;
+            let swing = swing_input.map(|p| Recording::read(&p)).transpose()?;
+            let docs = cal.iter().map(|p| CalDoc::load(p)).collect::<Result<Vec<_>, _>>()?;
+            let labels = cal.iter().map(|p| p.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default());
+            let inputs = host_tools::report::ReportInputs {
+                run: run.as_ref(),
+                swing: swing.as_ref(),
+                cals: labels.zip(docs.iter()).collect(),
+                field_nt: field_nt.or_else(|| docs.first().map(|d| d.field_nt)),
+            };
+            let files = host_tools::report::write_report(&out, &inputs)?;
+            eprintln!("wrote {} with {} figures", out.join("index.html").display(), files.len());
+            if json {
+                println!("{}", json!({"index": out.join("index.html"), "figures": files}));
             }
             Ok(())
         }
