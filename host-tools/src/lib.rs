@@ -11,4 +11,5 @@ pub mod pipeline;
 pub mod qemu;
 pub mod recording;
 pub mod report;
+pub mod scenario;
 pub mod sim;

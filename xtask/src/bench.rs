@@ -73,6 +73,28 @@ fn f32_vs_f64() -> serde_json::Value {
     }
 }
 
+/// Paper 000's field test, simulated for several seeds and two vehicles.
+fn paper000() -> (serde_json::Value, String) {
+    use host_tools::scenario::evaluate;
+    use host_tools::sim::SensorModel;
+    let mut rows = Vec::new();
+    let mut md = String::from(
+        "| vehicle | seed | step: sphere fit | paper | ours (nT) | heading RMS: sphere | paper | ours (°) | field error: paper | ours (nT) | GPS delay (s) |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
+    );
+    for (name, sensor) in [("paper-like", SensorModel::paper_like()), ("hull-coupled", SensorModel::hull_coupled())] {
+        for seed in 1..=5 {
+            let o = evaluate(name, sensor, seed);
+            let _ = writeln!(
+                md,
+                "| {name} | {seed} | {:.0} | {:.1} | {:.1} | {:.2} | {:.2} | {:.2} | {:.0} | {:.1} | {:.2} |",
+                o.step_sphere, o.step_paper, o.step_ours, o.heading_sphere, o.heading_paper, o.heading_ours, o.field_paper, o.field_ours, o.delay_ours
+            );
+            rows.push(json!({"vehicle": name, "seed": seed, "outcome": o}));
+        }
+    }
+    (json!(rows), md)
+}
+
 /// Runs the benchmarks and writes the results.
 pub fn run(out_dir: &Path) -> Result<()> {
     std::fs::create_dir_all(out_dir)?;
@@ -80,15 +102,19 @@ pub fn run(out_dir: &Path) -> Result<()> {
     let (p1, p1_md) = paper001();
     eprintln!("{p1_md}");
     let f32_check = f32_vs_f64();
+    eprintln!("== paper 000: simulated field tests (5 seeds × 2 vehicles)");
+    let (p0, p0_md) = paper000();
+    eprintln!("{p0_md}");
     eprintln!("== f32 recursive full fit vs f64 batch (2400-sample tumble, 50 000 nT, 0.4 nT noise): {f32_check}");
     let results = json!({
         "command": "cargo xtask bench",
         "paper001_j": p1,
+        "paper000_scenarios": p0,
         "f32_rls_vs_f64_batch": f32_check,
     });
     std::fs::write(out_dir.join("results.json"), serde_json::to_string_pretty(&results)?)?;
     let md = format!(
-        "# Benchmarks (`cargo xtask bench`)\n\n## Paper 001: J (eq 16) vs N pairs and noise σ\n\nMean over {SEEDS} seeds; field norm 2; σ per axis.\n\n{p1_md}\n## f32 recursive full fit vs f64 batch\n\n`{f32_check}`\n"
+        "# Benchmarks (`cargo xtask bench`)\n\n## Paper 000: simulated field tests\n\nTurnaround step on the calibration run; true-heading RMS and |F| − IGRF RMS on a separate validation run (other courses, other current), each chain finished by a swing fit against the delayed GPS course.\n\n{p0_md}\n## Paper 001: J (eq 16) vs N pairs and noise σ\n\nMean over {SEEDS} seeds; field norm 2; σ per axis.\n\n{p1_md}\n## f32 recursive full fit vs f64 batch\n\n`{f32_check}`\n"
     );
     std::fs::write(out_dir.join("results.md"), md)?;
     eprintln!("wrote {}", out_dir.join("results.json").display());
