@@ -330,6 +330,9 @@ pub fn run(sensor: &SensorModel, site: &Site, params: &RunParams, seed: u64, rat
     if !(params.leg_m > 0.0 && params.speed_mps > 0.0 && params.submerged_s > 0.0 && params.surface_s > 0.0) {
         return Err(SimError::Parameter("leg length, speed and dolphin times must be positive".into()));
     }
+    if !(params.current_mps >= 0.0 && params.current_mps < params.speed_mps && params.gps_delay_s >= 0.0 && params.gps_delay_s < 60.0) {
+        return Err(SimError::Parameter("the current must be slower than the vehicle and the GPS delay within 0…60 s".into()));
+    }
     let mut b = Builder { sim: empty(truth_for(scenario, seed, sensor, site, Some(*params))?), sensor, rng: SplitMix64::new(seed) };
     let dt = 1.0 / rate_hz;
     let leg_s = params.leg_m / params.speed_mps;

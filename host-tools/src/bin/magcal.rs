@@ -107,6 +107,18 @@ enum Cmd {
         /// The vehicle's error model.
         #[arg(long, value_enum, default_value = "paper-like")]
         vehicle: Vehicle,
+        /// Runs: speed of the current, m/s.
+        #[arg(long)]
+        current_mps: Option<f64>,
+        /// Runs: direction the current flows towards, degrees true.
+        #[arg(long, allow_hyphen_values = true)]
+        current_to_deg: Option<f64>,
+        /// Runs: GPS course delay, seconds.
+        #[arg(long)]
+        gps_delay_s: Option<f64>,
+        /// Runs: length of each leg, metres.
+        #[arg(long)]
+        leg_m: Option<f64>,
         /// Print a JSON summary on stdout.
         #[arg(long)]
         json: bool,
@@ -338,17 +350,24 @@ fn reference_field(field_nt: Option<f64>, lat: Option<f64>, lon: Option<f64>, da
 
 fn run(cli: Cli) -> Result<()> {
     match cli.command {
-        Cmd::Simulate { scenario, seed, out, rate_hz, vehicle, json } => {
+        Cmd::Simulate { scenario, seed, out, rate_hz, vehicle, current_mps, current_to_deg, gps_delay_s, leg_m, json } => {
             use host_tools::sim::{self, RunParams, SensorModel, Site};
             let sensor = match vehicle {
                 Vehicle::PaperLike => SensorModel::paper_like(),
                 Vehicle::HullCoupled => SensorModel::hull_coupled(),
             };
             let site = Site::paper_like();
+            let tune = |mut p: RunParams| {
+                p.current_mps = current_mps.unwrap_or(p.current_mps);
+                p.current_to_deg = current_to_deg.unwrap_or(p.current_to_deg);
+                p.gps_delay_s = gps_delay_s.unwrap_or(p.gps_delay_s);
+                p.leg_m = leg_m.unwrap_or(p.leg_m);
+                p
+            };
             let simulation = match scenario {
                 Scenario::Swing => sim::swing(&sensor, &site, seed, rate_hz)?,
-                Scenario::Run => sim::run(&sensor, &site, &RunParams::paper_like(), seed, rate_hz, "run")?,
-                Scenario::Validation => sim::run(&sensor, &site, &RunParams::validation(), seed, rate_hz, "validation")?,
+                Scenario::Run => sim::run(&sensor, &site, &tune(RunParams::paper_like()), seed, rate_hz, "run")?,
+                Scenario::Validation => sim::run(&sensor, &site, &tune(RunParams::validation()), seed, rate_hz, "validation")?,
             };
             simulation.write(&out)?;
             let truth = sim::truth_path(&out);
