@@ -8,6 +8,7 @@
 #![deny(missing_docs)]
 #![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
 
+pub mod adc;
 pub mod link;
 pub mod uart;
 
