@@ -8,8 +8,10 @@
 #![deny(missing_docs)]
 #![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
 
+pub mod acquisition;
 pub mod adc;
 pub mod link;
+pub mod sim_adc;
 pub mod uart;
 
 #[cfg(target_os = "none")]

@@ -1,0 +1,235 @@
+//! The simulated ADC of the QEMU board: an ADS131M04 *device model* behind
+//! the same [`SpiDevice`] interface the real driver uses, so the driver, the
+//! set/reset sequencing and everything after them run unchanged in
+//! emulation. QEMU has no ADC behind its SPI; the field it "measures" comes
+//! from the host over USART2 ([`SimSensor::set_truth`]).
+//!
+//! The model follows the part's frame protocol: a response one frame late,
+//! RESET answered `0xFF24`, RREG/WREG on a register file, CRC-16-CCITT on
+//! every output frame, 24-bit codes clamped to the converter's range. The
+//! bridge output flips sign with the last strap pulse, as the HMC100x does.
+
+use core::cell::Cell;
+use core::convert::Infallible;
+
+use critical_section::Mutex;
+use embedded_hal::digital::{ErrorType as PinErrorType, OutputPin};
+use embedded_hal::spi::{ErrorType, Operation, SpiDevice};
+
+use crate::acquisition::Polarity;
+use crate::adc::{cmd, CRC16, FRAME_BYTES, FULL_SCALE_COUNTS, WORD};
+
+#[derive(Debug, Clone, Copy)]
+struct State {
+    field_counts: [f32; 3],
+    offset_counts: [f32; 3],
+    polarity: Polarity,
+    updates: u32,
+}
+
+/// The magnetic truth the simulated bridges see, shared between the feed
+/// (USART2) and the simulated ADC.
+pub struct SimSensor {
+    state: Mutex<Cell<State>>,
+}
+
+impl Default for SimSensor {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl SimSensor {
+    /// Zero field, zero offset.
+    pub const fn new() -> Self {
+        Self {
+            state: Mutex::new(Cell::new(State { field_counts: [0.0; 3], offset_counts: [0.0; 3], polarity: Polarity::Set, updates: 0 })),
+        }
+    }
+
+    /// Sets the field (bridge output × sensitivity, counts) and the bridge
+    /// offsets the next conversions will show.
+    pub fn set_truth(&self, field_counts: [f32; 3], offset_counts: [f32; 3]) {
+        critical_section::with(|cs| {
+            let cell = self.state.borrow(cs);
+            let mut s = cell.get();
+            s.field_counts = field_counts;
+            s.offset_counts = offset_counts;
+            s.updates = s.updates.wrapping_add(1);
+            cell.set(s);
+        });
+    }
+
+    /// How many truth updates have arrived.
+    pub fn updates(&self) -> u32 {
+        critical_section::with(|cs| self.state.borrow(cs).get().updates)
+    }
+
+    fn set_polarity(&self, p: Polarity) {
+        critical_section::with(|cs| {
+            let cell = self.state.borrow(cs);
+            let mut s = cell.get();
+            s.polarity = p;
+            cell.set(s);
+        });
+    }
+
+    fn snapshot(&self) -> State {
+        critical_section::with(|cs| self.state.borrow(cs).get())
+    }
+}
+
+/// A strap GPIO of the simulated board: driving it high pulses the strap.
+pub struct SimPin {
+    sensor: &'static SimSensor,
+    polarity: Polarity,
+}
+
+impl SimPin {
+    /// The SET pulse pin.
+    pub fn set(sensor: &'static SimSensor) -> Self {
+        Self { sensor, polarity: Polarity::Set }
+    }
+    /// The RESET pulse pin.
+    pub fn reset(sensor: &'static SimSensor) -> Self {
+        Self { sensor, polarity: Polarity::Reset }
+    }
+}
+
+impl PinErrorType for SimPin {
+    type Error = Infallible;
+}
+
+impl OutputPin for SimPin {
+    fn set_high(&mut self) -> Result<(), Infallible> {
+        self.sensor.set_polarity(self.polarity);
+        Ok(())
+    }
+    fn set_low(&mut self) -> Result<(), Infallible> {
+        Ok(())
+    }
+}
+
+/// Power-on register file of the ADS131M04 (ID, STATUS, MODE, CLOCK, GAIN1).
+const POWER_ON: [(u8, u16); 5] = [(0x00, 0x2410), (0x01, 0x0500), (0x02, 0x0510), (0x03, 0x0F0E), (0x04, 0x0000)];
+
+/// The simulated ADS131M04.
+pub struct SimAdc {
+    sensor: &'static SimSensor,
+    regs: [u16; 64],
+    pending: u16,
+    frames: u32,
+}
+
+impl SimAdc {
+    /// A device just powered on.
+    pub fn new(sensor: &'static SimSensor) -> Self {
+        let mut adc = Self { sensor, regs: [0; 64], pending: 0, frames: 0 };
+        adc.power_on();
+        adc
+    }
+
+    fn power_on(&mut self) {
+        self.regs = [0; 64];
+        for (a, v) in POWER_ON {
+            if let Some(r) = self.regs.get_mut(usize::from(a)) {
+                *r = v;
+            }
+        }
+        self.pending = self.status();
+    }
+
+    fn status(&self) -> u16 {
+        // DRDY3..0 set: a conversion is always ready.
+        self.regs.get(1).copied().unwrap_or(0) | 0x000F
+    }
+
+    /// Frames exchanged so far.
+    pub fn frames(&self) -> u32 {
+        self.frames
+    }
+
+    /// One frame: answers with the pending response and the channels, then
+    /// executes `tx`'s command.
+    fn exchange(&mut self, tx: &[u8], rx: &mut [u8]) {
+        let s = self.sensor.snapshot();
+        let sign = match s.polarity {
+            Polarity::Set => 1.0,
+            Polarity::Reset => -1.0,
+        };
+        let mut out = [0u8; FRAME_BYTES];
+        out[..2].copy_from_slice(&self.pending.to_be_bytes());
+        for k in 0..4 {
+            let v = match (s.offset_counts.get(k), s.field_counts.get(k)) {
+                (Some(o), Some(f)) => o + sign * f,
+                _ => 0.0,
+            };
+            let code = clamp_code(v);
+            let b = code.to_be_bytes();
+            out[WORD * (k + 1)..WORD * (k + 2)].copy_from_slice(&b[1..4]);
+        }
+        let crc = CRC16.checksum(&out[..WORD * 5]);
+        out[WORD * 5..WORD * 5 + 2].copy_from_slice(&crc.to_be_bytes());
+        for (d, s) in rx.iter_mut().zip(out.iter()) {
+            *d = *s;
+        }
+        self.frames = self.frames.wrapping_add(1);
+
+        let word = |w: usize| match (tx.get(WORD * w), tx.get(WORD * w + 1)) {
+            (Some(&h), Some(&l)) => u16::from_be_bytes([h, l]),
+            _ => 0,
+        };
+        let command = word(0);
+        let addr = usize::from((command >> 7) & 0x3F);
+        self.pending = if command == cmd::RESET {
+            self.power_on();
+            cmd::RESET_OK
+        } else if command & 0xE000 == cmd::RREG {
+            self.regs.get(addr).copied().unwrap_or(0)
+        } else if command & 0xE000 == cmd::WREG {
+            if let Some(r) = self.regs.get_mut(addr) {
+                *r = word(1);
+            }
+            0x4000 | (command & 0x1F80)
+        } else {
+            self.status()
+        };
+    }
+}
+
+/// A 24-bit code from a value, rounded and clamped to the converter's range.
+fn clamp_code(v: f32) -> i32 {
+    let max = (FULL_SCALE_COUNTS - 1) as f32;
+    let min = -(FULL_SCALE_COUNTS as f32);
+    if v.is_nan() {
+        return 0;
+    }
+    let c = v.clamp(min, max);
+    // Round half away from zero without std.
+    (if c >= 0.0 { c + 0.5 } else { c - 0.5 }) as i32
+}
+
+impl ErrorType for SimAdc {
+    type Error = Infallible;
+}
+
+impl SpiDevice for SimAdc {
+    fn transaction(&mut self, operations: &mut [Operation<'_, u8>]) -> Result<(), Infallible> {
+        for op in operations.iter_mut() {
+            match op {
+                Operation::Transfer(rx, tx) => self.exchange(tx, rx),
+                Operation::TransferInPlace(buf) => {
+                    let mut tx = [0u8; FRAME_BYTES];
+                    for (d, s) in tx.iter_mut().zip(buf.iter()) {
+                        *d = *s;
+                    }
+                    self.exchange(&tx, buf);
+                }
+                Operation::Write(tx) => self.exchange(tx, &mut []),
+                Operation::Read(rx) => self.exchange(&[], rx),
+                Operation::DelayNs(_) => {}
+            }
+        }
+        Ok(())
+    }
+}
