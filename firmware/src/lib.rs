@@ -12,6 +12,7 @@ pub mod acquisition;
 pub mod adc;
 pub mod link;
 pub mod sim_adc;
+pub mod store;
 pub mod uart;
 
 #[cfg(target_os = "none")]
