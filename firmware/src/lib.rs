@@ -10,11 +10,15 @@
 
 pub mod acquisition;
 pub mod adc;
+pub mod board;
+pub mod device;
 pub mod link;
 pub mod sim_adc;
 pub mod store;
 pub mod uart;
 
+#[cfg(target_os = "none")]
+pub mod board_hw;
 #[cfg(target_os = "none")]
 pub mod logger;
 #[cfg(target_os = "none")]

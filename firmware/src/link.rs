@@ -32,6 +32,15 @@ pub struct LinkCounters {
 /// One encoded reply frame.
 pub type ReplyFrame = heapless::Vec<u8, MAX_FRAME_LEN>;
 
+/// What a received byte led to.
+#[derive(Debug, Clone, PartialEq)]
+pub enum LinkEvent {
+    /// A reply the link layer produced itself (ping, identify, damaged frame).
+    Reply(ReplyFrame),
+    /// A request for the device; answer it with [`LinkServer::reply`].
+    Request(Request),
+}
+
 /// Frame receiver plus request handler.
 #[derive(Debug, Default)]
 pub struct LinkServer {
@@ -53,20 +62,29 @@ impl LinkServer {
         self.counters
     }
 
-    /// Feeds one received byte; returns a reply frame when the byte completed
-    /// a frame (a good one or a damaged one).
-    pub fn on_byte(&mut self, byte: u8, device: &DeviceInfo) -> Option<ReplyFrame> {
+    /// Feeds one received byte. When it completes a frame: a reply for
+    /// what the link answers itself (ping, identify, a damaged frame), or
+    /// the request for the device.
+    pub fn on_byte(&mut self, byte: u8, device: &DeviceInfo) -> Option<LinkEvent> {
         let decoded = self.decoder.push(byte)?;
-        let response = match decoded.and_then(proto::decode_body::<Request>) {
+        match decoded.and_then(proto::decode_body::<Request>) {
             Ok(request) => {
                 self.counters.requests = self.counters.requests.wrapping_add(1);
-                Response { seq: Some(request.seq), body: serve(&request.body, device) }
+                match serve(&request.body, device) {
+                    Some(body) => self.reply(Some(request.seq), body).map(LinkEvent::Reply),
+                    None => Some(LinkEvent::Request(request)),
+                }
             }
             Err(e) => {
                 self.counters.bad_frames = self.counters.bad_frames.wrapping_add(1);
-                Response { seq: None, body: ResponseBody::Error(LinkError::Frame(e)) }
+                self.reply(None, ResponseBody::Error(LinkError::Frame(e))).map(LinkEvent::Reply)
             }
-        };
+        }
+    }
+
+    /// Encodes a response frame (also used for streamed samples, `seq: None`).
+    pub fn reply(&mut self, seq: Option<u16>, body: ResponseBody) -> Option<ReplyFrame> {
+        let response = Response { seq, body };
         let mut frame = [0u8; MAX_FRAME_LEN];
         match proto::encode(&response, &mut frame) {
             Ok(n) => frame.get(..n).and_then(|bytes| ReplyFrame::from_slice(bytes).ok()),
@@ -78,17 +96,18 @@ impl LinkServer {
     }
 }
 
-/// Serves one decoded request.
-fn serve(body: &RequestBody, device: &DeviceInfo) -> ResponseBody {
+/// The requests the link layer answers itself; `None` for the device's.
+fn serve(body: &RequestBody, device: &DeviceInfo) -> Option<ResponseBody> {
     match body {
-        RequestBody::Ping { nonce } => ResponseBody::Pong { nonce: *nonce },
-        RequestBody::Identify => ResponseBody::Identity(Identity {
+        RequestBody::Ping { nonce } => Some(ResponseBody::Pong { nonce: *nonce }),
+        RequestBody::Identify => Some(ResponseBody::Identity(Identity {
             name: short_name(crate::FIRMWARE_NAME),
             firmware_version: short_name(crate::FIRMWARE_VERSION),
             protocol_version: proto::PROTOCOL_VERSION,
             platform: device.platform,
             uptime_ms: device.uptime_ms,
-        }),
+        })),
+        _ => None,
     }
 }
 
@@ -115,8 +134,19 @@ mod tests {
         bytes
             .iter()
             .filter_map(|&b| server.on_byte(b, &DEV))
-            .map(|f| proto::decode::<Response>(&f).unwrap())
+            .map(|e| match e {
+                LinkEvent::Reply(f) => proto::decode::<Response>(&f).unwrap(),
+                LinkEvent::Request(r) => panic!("unexpected request {r:?}"),
+            })
             .collect()
+    }
+
+    #[test]
+    fn device_requests_are_handed_on() {
+        let mut s = LinkServer::new();
+        let f = frame(&Request { seq: 4, body: RequestBody::Status });
+        let events: Vec<LinkEvent> = f.iter().filter_map(|&b| s.on_byte(b, &DEV)).collect();
+        assert_eq!(events, vec![LinkEvent::Request(Request { seq: 4, body: RequestBody::Status })]);
     }
 
     fn frame(req: &Request) -> Vec<u8> {

@@ -1,11 +1,14 @@
 //! The RTIC application: a thin shell that wires the firmware library to the
-//! STM32F405's interrupts. All logic lives in the `firmware` library.
+//! STM32F405's peripherals. All logic lives in the `firmware` library.
 //!
-//! * `USART1` (PA9/PA10, 115 200 Bd) carries the host link. Its interrupt
-//!   moves received bytes into an rtic-sync channel and drains the transmit
-//!   queue one byte per TXE interrupt.
-//! * `link` (software task) assembles frames and answers requests.
-//! * `idle` sleeps in WFI.
+//! * `USART1` (PA9/PA10, 115 200 Bd): the host link. Its interrupt moves
+//!   received bytes into an rtic-sync channel and feeds the transmitter.
+//! * `link` (priority 1): frames → requests → `Device` → one reply each.
+//! * `acquire` (priority 2): every 1/[`PAIR_RATE_HZ`] s, one set/reset pair
+//!   through the ADS131M04; decimated to the output rate, calibrated,
+//!   streamed. Feeds the independent watchdog on the board.
+//! * `USART2` + `feed` (QEMU board): the host plays the magnetometer bridges.
+//! * `idle`: WFI.
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
 #[cfg(not(target_os = "none"))]
@@ -26,6 +29,10 @@ systick_monotonic!(Mono, 1_000);
 #[cfg(target_os = "none")]
 defmt::timestamp!("{=u32:ms}", Mono::now().duration_since_epoch().as_millis());
 
+/// Set/reset pairs per second.
+#[cfg(target_os = "none")]
+const PAIR_RATE_HZ: u32 = 500;
+
 /// Panics are firmware bugs (outside data never panics): log, then on QEMU
 /// exit with a failure status so tests see it; on the board, reset.
 #[cfg(target_os = "none")]
@@ -38,39 +45,79 @@ fn panic(info: &core::panic::PanicInfo) -> ! {
     cortex_m::peripheral::SCB::sys_reset();
 }
 
+/// A fault is a firmware bug: log it, then as for a panic.
 #[cfg(target_os = "none")]
-#[rtic::app(device = stm32f4xx_hal::pac, dispatchers = [EXTI0, EXTI1])]
+#[cortex_m_rt::exception]
+unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
+    defmt::error!("hard fault at pc {=u32:#x}", frame.pc());
+    if firmware::platform::detect_cached() == magcal_protocol::Platform::Qemu {
+        cortex_m_semihosting::debug::exit(cortex_m_semihosting::debug::EXIT_FAILURE);
+    }
+    cortex_m::peripheral::SCB::sys_reset();
+}
+
+#[cfg(target_os = "none")]
+#[rtic::app(device = stm32f4xx_hal::pac, dispatchers = [EXTI0, EXTI1, EXTI2])]
 mod app {
-    use super::Mono;
-    use firmware::link::{DeviceInfo, LinkServer};
+    use super::{Mono, PAIR_RATE_HZ};
+    use core::sync::atomic::{AtomicU32, Ordering};
+    use embedded_hal_bus::spi::{ExclusiveDevice, NoDelay};
+    use firmware::acquisition::{AcqCounters, Acquisition, Decimator, SetResetStrap};
+    use firmware::board::{BoardPin, BoardSpi, BoardStore, QemuFlash};
+    use firmware::board_hw::{boot_challenge, BoardFlash, CycleDelay, STORE_SECTORS};
+    use firmware::device::{decode_coefficients, Boot, Device};
+    use firmware::link::{DeviceInfo, LinkEvent, LinkServer};
     use firmware::platform;
+    use firmware::sim_adc::{SimAdc, SimPin, SimSensor};
+    use firmware::store::Store;
     use firmware::uart::TxQueue;
-    use magcal_protocol::Platform;
+    use magcal_protocol::{self as proto, FrameDecoder, Platform, Response, ResponseBody, SensorFeed, MAX_FRAME_LEN};
     use rtic_monotonics::systick::prelude::*;
     use rtic_sync::channel::{Receiver, Sender};
     use rtic_sync::make_channel;
     use stm32f4xx_hal::{
-        pac::USART1,
+        flash::LockedFlash,
+        gpio::{Output, PA4, PB0, PB1},
+        pac::{SPI1, USART1, USART2},
         prelude::*,
         rcc::Config,
         serial::{self, Rx, RxISR, RxListen, Tx},
+        spi::{Mode, Phase, Polarity, Spi},
+        watchdog::IndependentWatchdog,
     };
 
-    /// Received bytes waiting for the link task.
+    /// Received bytes waiting for the link and feed tasks.
     const RX_QUEUE: usize = 255;
+
+    type Spi1 = ExclusiveDevice<Spi<SPI1>, PA4<Output>, NoDelay>;
+    type FrontEnd = Acquisition<BoardSpi<Spi1>, BoardPin<PB0<Output>>, BoardPin<PB1<Output>>>;
+
+    /// The bridges of the QEMU board.
+    static SIM_SENSOR: SimSensor = SimSensor::new();
+    /// Bytes lost on the UARTs (queue full or line errors).
+    static RX_DROPPED: AtomicU32 = AtomicU32::new(0);
+    /// Acquisition deadlines missed.
+    static OVERRUNS: AtomicU32 = AtomicU32::new(0);
 
     #[shared]
     struct Shared {
         tx: TxQueue<Tx<USART1>>,
+        device: Device,
+        acq: AcqCounters,
     }
 
     #[local]
     struct Local {
         rx: Rx<USART1>,
         rx_sender: Sender<'static, u8, RX_QUEUE>,
-        rx_dropped: u32,
+        rx2: Rx<USART2>,
+        feed_sender: Sender<'static, u8, RX_QUEUE>,
         link: LinkServer,
         platform: Platform,
+        front: Option<FrontEnd>,
+        store: BoardStore<BoardFlash>,
+        watchdog: Option<IndependentWatchdog>,
+        delay: CycleDelay,
     }
 
     #[init]
@@ -78,14 +125,12 @@ mod app {
         // Before anything touches RCC: which hardware is this?
         let platform = platform::detect();
         firmware::logger::init(platform);
+        let challenge = boot_challenge(platform);
 
         let (mut rcc, sysclk_hz) = match platform {
             Platform::Qemu => (cx.device.RCC.freeze(Config::hsi()), platform::QEMU_SYSCLK_HZ),
             Platform::Silicon => {
-                let rcc = cx.device.RCC.freeze(
-                    Config::hse(platform::BOARD_HSE_HZ.Hz())
-                        .sysclk(platform::BOARD_SYSCLK_HZ.Hz()),
-                );
+                let rcc = cx.device.RCC.freeze(Config::hse(platform::BOARD_HSE_HZ.Hz()).sysclk(platform::BOARD_SYSCLK_HZ.Hz()));
                 let hz = rcc.clocks.sysclk().raw();
                 (rcc, hz)
             }
@@ -93,27 +138,79 @@ mod app {
         Mono::start(cx.core.SYST, sysclk_hz);
 
         let gpioa = cx.device.GPIOA.split(&mut rcc);
+        let gpiob = cx.device.GPIOB.split(&mut rcc);
         let config = serial::Config::default().baudrate(115_200.bps());
-        let serial = match cx.device.USART1.serial((gpioa.pa9, gpioa.pa10), config, &mut rcc) {
-            Ok(s) => s,
-            Err(_) => firmware::halt("USART1 configuration refused"),
+        let Ok(serial1) = cx.device.USART1.serial((gpioa.pa9, gpioa.pa10), config, &mut rcc) else {
+            firmware::halt("USART1 configuration refused");
         };
-        let (tx, mut rx) = serial.split();
+        let (tx, mut rx) = serial1.split();
         rx.listen();
+        let Ok(serial2) = cx.device.USART2.serial((gpioa.pa2, gpioa.pa3), config, &mut rcc) else {
+            firmware::halt("USART2 configuration refused");
+        };
+        let (_tx2, mut rx2) = serial2.split();
+        rx2.listen();
+
+        // The ADC's bus and the strap: real on the board, modelled under QEMU.
+        let (spi, set_pin, reset_pin) = match platform {
+            Platform::Silicon => {
+                let mode = Mode { polarity: Polarity::IdleLow, phase: Phase::CaptureOnSecondTransition };
+                let bus = cx.device.SPI1.spi((Some(gpioa.pa5), Some(gpioa.pa6), Some(gpioa.pa7)), mode, 8.MHz(), &mut rcc);
+                let cs = gpioa.pa4.into_push_pull_output();
+                match ExclusiveDevice::new_no_delay(bus, cs) {
+                    Ok(dev) => (BoardSpi::Real(dev), BoardPin::Real(gpiob.pb0.into_push_pull_output()), BoardPin::Real(gpiob.pb1.into_push_pull_output())),
+                    Err(_) => firmware::halt("SPI1 chip select refused"),
+                }
+            }
+            Platform::Qemu => (BoardSpi::Sim(SimAdc::new(&SIM_SENSOR)), BoardPin::Sim(SimPin::set(&SIM_SENSOR)), BoardPin::Sim(SimPin::reset(&SIM_SENSOR))),
+        };
+        let mut delay = CycleDelay::new(sysclk_hz);
+        let front = match Acquisition::new(spi, SetResetStrap::new(set_pin, reset_pin)) {
+            Ok(f) => Some(f),
+            Err(e) => {
+                defmt::error!("ADC initialisation failed: {}", e);
+                None
+            }
+        };
+        let _ = &mut delay;
+
+        // Coefficients: flash sectors 10/11 on the board, RAM under QEMU.
+        let (a, b, size) = STORE_SECTORS;
+        let mut store = match platform {
+            Platform::Silicon => match Store::new(BoardFlash::new(LockedFlash::new(cx.device.FLASH)), a, b, size) {
+                Ok(s) => BoardStore::Flash(s),
+                Err(_) => firmware::halt("coefficient store layout"),
+            },
+            Platform::Qemu => match Store::new(QemuFlash::new(), 0, 1024, 1024) {
+                Ok(s) => BoardStore::Ram(s),
+                Err(_) => firmware::halt("coefficient store layout"),
+            },
+        };
+        let stored = store.load().and_then(|r| decode_coefficients(&r.payload).map(|(c, _)| (c, r.seq)));
+        match &stored {
+            Some((_, seq)) => defmt::info!("coefficients #{} loaded", seq),
+            None => defmt::warn!("no valid coefficients stored: using the nominal chain gain"),
+        }
+        let device = Device::new(Boot { stored, challenge });
+
+        let watchdog = match platform {
+            Platform::Silicon => {
+                let mut w = IndependentWatchdog::new(cx.device.IWDG);
+                w.start(stm32f4xx_hal::prelude::_fugit_ExtU32::millis(500u32));
+                Some(w)
+            }
+            Platform::Qemu => None,
+        };
 
         let (rx_sender, rx_receiver) = make_channel!(u8, RX_QUEUE);
-        if link::spawn(rx_receiver).is_err() {
-            firmware::halt("link task already running");
+        let (feed_sender, feed_receiver) = make_channel!(u8, RX_QUEUE);
+        if link::spawn(rx_receiver).is_err() || acquire::spawn().is_err() || feed::spawn(feed_receiver).is_err() {
+            firmware::halt("task spawn");
         }
-        defmt::info!(
-            "magcal-fw {} up on {}, sysclk {} Hz",
-            firmware::FIRMWARE_VERSION,
-            platform,
-            sysclk_hz
-        );
+        defmt::info!("magcal-fw {} up on {}, sysclk {} Hz", firmware::FIRMWARE_VERSION, platform, sysclk_hz);
         (
-            Shared { tx: TxQueue::new(tx) },
-            Local { rx, rx_sender, rx_dropped: 0, link: LinkServer::new(), platform },
+            Shared { tx: TxQueue::new(tx), device, acq: AcqCounters::default() },
+            Local { rx, rx_sender, rx2, feed_sender, link: LinkServer::new(), platform, front, store, watchdog, delay },
         )
     }
 
@@ -125,37 +222,127 @@ mod app {
     }
 
     /// USART1: move received bytes to the link task, feed the transmitter.
-    #[task(binds = USART1, priority = 3, local = [rx, rx_sender, rx_dropped], shared = [tx])]
+    #[task(binds = USART1, priority = 3, local = [rx, rx_sender], shared = [tx])]
     fn usart1(mut cx: usart1::Context) {
-        let local = cx.local;
-        // Bounded: the data register holds one byte per RXNE.
-        if local.rx.is_rx_not_empty() {
-            match local.rx.read() {
+        if cx.local.rx.is_rx_not_empty() {
+            match cx.local.rx.read() {
                 Ok(byte) => {
-                    if local.rx_sender.try_send(byte).is_err() {
-                        *local.rx_dropped = local.rx_dropped.wrapping_add(1);
+                    if cx.local.rx_sender.try_send(byte).is_err() {
+                        RX_DROPPED.fetch_add(1, Ordering::Relaxed);
                     }
                 }
-                // Overrun/noise/framing: the byte is lost; the frame's CRC
-                // or COBS check will refuse what it belonged to.
-                Err(_) => *local.rx_dropped = local.rx_dropped.wrapping_add(1),
+                // Overrun/noise/framing: the byte is lost; the frame's CRC or
+                // COBS check refuses what it belonged to.
+                Err(_) => {
+                    RX_DROPPED.fetch_add(1, Ordering::Relaxed);
+                }
             }
         }
         cx.shared.tx.lock(|tx| tx.on_interrupt());
     }
 
-    /// Assembles frames and answers each with exactly one reply frame.
-    #[task(priority = 1, local = [link, platform], shared = [tx])]
+    /// USART2: the sensor feed (QEMU board).
+    #[task(binds = USART2, priority = 3, local = [rx2, feed_sender])]
+    fn usart2(cx: usart2::Context) {
+        if cx.local.rx2.is_rx_not_empty() {
+            let ok = cx.local.rx2.read().ok().map(|b| cx.local.feed_sender.try_send(b).is_ok());
+            if ok != Some(true) {
+                RX_DROPPED.fetch_add(1, Ordering::Relaxed);
+            }
+        }
+    }
+
+    fn now_ms() -> u32 {
+        Mono::now().duration_since_epoch().as_millis()
+    }
+
+    /// Frames → requests → one reply each.
+    #[task(priority = 1, local = [link, platform, store], shared = [tx, device, acq])]
     async fn link(mut cx: link::Context, mut bytes: Receiver<'static, u8, RX_QUEUE>) {
         while let Ok(byte) = bytes.recv().await {
-            let device = DeviceInfo {
-                platform: *cx.local.platform,
-                uptime_ms: Mono::now().duration_since_epoch().as_millis(),
+            let info = DeviceInfo { platform: *cx.local.platform, uptime_ms: now_ms() };
+            let reply = match cx.local.link.on_byte(byte, &info) {
+                None => continue,
+                Some(LinkEvent::Reply(frame)) => Some(frame),
+                Some(LinkEvent::Request(req)) => {
+                    let store = &mut *cx.local.store;
+                    let link_counters = cx.local.link.counters();
+                    let acq = cx.shared.acq.lock(|a| *a);
+                    let tx_dropped = cx.shared.tx.lock(|t| t.dropped_frames());
+                    let body = cx.shared.device.lock(|d| {
+                        d.handle(&req.body, now_ms(), store, |h| {
+                            h.pairs = acq.pairs;
+                            h.saturated = acq.saturated;
+                            h.acq_errors = acq.errors;
+                            h.overruns = OVERRUNS.load(Ordering::Relaxed);
+                            h.rx_dropped = RX_DROPPED.load(Ordering::Relaxed);
+                            h.tx_dropped = tx_dropped;
+                            h.bad_frames = link_counters.bad_frames;
+                            h.requests = link_counters.requests;
+                            h.feed_updates = SIM_SENSOR.updates();
+                        })
+                    });
+                    cx.local.link.reply(Some(req.seq), body)
+                }
             };
-            if let Some(reply) = cx.local.link.on_byte(byte, &device) {
-                if !cx.shared.tx.lock(|tx| tx.enqueue(&reply)) {
+            if let Some(frame) = reply {
+                if !cx.shared.tx.lock(|tx| tx.enqueue(&frame)) {
                     defmt::warn!("tx queue full: reply dropped");
                 }
+            }
+        }
+    }
+
+    /// The sensor feed: the host's truth for the simulated bridges.
+    #[task(priority = 1)]
+    async fn feed(_cx: feed::Context, mut bytes: Receiver<'static, u8, RX_QUEUE>) {
+        let mut decoder = FrameDecoder::new();
+        while let Ok(byte) = bytes.recv().await {
+            if let Some(Ok(body)) = decoder.push(byte) {
+                if let Ok(f) = proto::decode_body::<SensorFeed>(body) {
+                    SIM_SENSOR.set_truth(f.field_counts, f.offset_counts);
+                }
+            }
+        }
+    }
+
+    /// Acquisition at the pair rate; decimation, correction, streaming.
+    #[task(priority = 2, local = [front, delay, watchdog], shared = [tx, device, acq])]
+    async fn acquire(mut cx: acquire::Context) {
+        let period = rtic_monotonics::fugit::MillisDurationU32::from_ticks(1_000 / PAIR_RATE_HZ);
+        let mut next = Mono::now();
+        let mut rate = cx.shared.device.lock(|d| d.output_rate_hz());
+        let mut decimator = Decimator::new(Decimator::factor_for(PAIR_RATE_HZ, u32::from(rate)));
+        loop {
+            next += period;
+            Mono::delay_until(next).await;
+            if let Some(w) = cx.local.watchdog.as_mut() {
+                w.feed();
+            }
+            let Some(front) = cx.local.front.as_mut() else { continue };
+            let pair = front.acquire_pair(cx.local.delay);
+            let counters = front.counters();
+            cx.shared.acq.lock(|a| *a = counters);
+            let Ok(pair) = pair else { continue };
+            let new_rate = cx.shared.device.lock(|d| d.output_rate_hz());
+            if new_rate != rate {
+                rate = new_rate;
+                decimator = Decimator::new(Decimator::factor_for(PAIR_RATE_HZ, u32::from(rate)));
+            }
+            if let Some(raw) = decimator.push(&pair) {
+                let t = now_ms();
+                if let Some(sample) = cx.shared.device.lock(|d| d.on_raw_sample(&raw, t)) {
+                    let mut buf = [0u8; MAX_FRAME_LEN];
+                    if let Ok(n) = proto::encode(&Response { seq: None, body: ResponseBody::Sample(sample) }, &mut buf) {
+                        let _ = cx.shared.tx.lock(|tx| tx.enqueue(buf.get(..n).unwrap_or(&[])));
+                    }
+                }
+            }
+            // Missed deadlines: count them and resynchronise.
+            let now = Mono::now();
+            if now > next + period {
+                OVERRUNS.fetch_add(1, Ordering::Relaxed);
+                next = now;
             }
         }
     }

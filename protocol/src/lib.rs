@@ -30,7 +30,7 @@ use serde::{Deserialize, Serialize};
 
 /// Version of this wire format. A frame carrying another version is refused
 /// with [`LinkError::UnsupportedVersion`].
-pub const PROTOCOL_VERSION: u8 = 1;
+pub const PROTOCOL_VERSION: u8 = 2;
 
 /// Longest decoded frame (version byte, postcard payload and CRC).
 pub const MAX_DECODED_LEN: usize = 250;
@@ -64,7 +64,7 @@ pub struct Request {
     pub body: RequestBody,
 }
 
-/// What the host can ask.
+/// What the host can ask. Every request gets exactly one [`Response`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum RequestBody {
@@ -75,6 +75,205 @@ pub enum RequestBody {
     },
     /// Ask for the firmware's [`Identity`].
     Identify,
+    /// Ask for [`Health`].
+    Status,
+    /// Choose what is streamed (as unsolicited [`ResponseBody::Sample`] frames).
+    SetStream(StreamMode),
+    /// Output rate, 1–100 Hz.
+    SetOutputRate {
+        /// Samples per second.
+        hz: u8,
+    },
+    /// Attitude from the vehicle's AHRS, for the heading. Stale after
+    /// [`ATTITUDE_TIMEOUT_MS`].
+    Attitude {
+        /// Roll, radians.
+        roll_rad: f32,
+        /// Pitch, radians.
+        pitch_rad: f32,
+    },
+    /// Start the on-board recursive fit (restarts one in progress).
+    FitStart {
+        /// Which model.
+        model: FitModel,
+        /// Reference field intensity, nT.
+        field_nt: f32,
+    },
+    /// Stop the on-board fit (its last state stays readable).
+    FitStop,
+    /// Ask for the fit's [`FitReport`].
+    FitQuery,
+    /// Ask for the coefficients in use.
+    ReadCoefficients,
+    /// Unlock coefficient writes: `key` must be the [`Health::unlock_challenge`]
+    /// of this boot XOR [`UNLOCK_XOR`]. Refused in mission mode. Expires after
+    /// [`UNLOCK_TIMEOUT_MS`].
+    Unlock {
+        /// The response to the challenge.
+        key: u32,
+    },
+    /// Stage coefficients (validated, not yet used or stored). Needs unlock.
+    WriteCoefficients(Coefficients),
+    /// Store the staged coefficients in flash and use them. `crc` must be
+    /// [`Coefficients::crc`] of what was staged. Needs unlock.
+    Commit {
+        /// CRC-32 of the staged coefficients.
+        crc: u32,
+    },
+    /// Enter or leave mission mode (locks coefficient writes).
+    SetMissionMode {
+        /// Mission mode on.
+        enabled: bool,
+    },
+}
+
+/// An attitude older than this is not used for the heading, ms.
+pub const ATTITUDE_TIMEOUT_MS: u32 = 500;
+/// An unlock lasts this long, ms.
+pub const UNLOCK_TIMEOUT_MS: u32 = 60_000;
+/// XORed with the challenge to unlock (a deliberate act, not a secret).
+pub const UNLOCK_XOR: u32 = 0x4D41_4743; // "MAGC"
+
+/// What the board streams.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum StreamMode {
+    /// Nothing.
+    Off,
+    /// Raw counts only.
+    Raw,
+    /// Calibrated field and heading only.
+    Calibrated,
+    /// Both.
+    Both,
+}
+
+/// On-board fit models.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum FitModel {
+    /// Bias and one scale.
+    Sphere,
+    /// Bias and three axis scales (paper 000).
+    Axis,
+    /// Bias and a symmetric matrix.
+    Full,
+}
+
+/// The coefficients the board applies: `h = matrix·(raw − bias)`, heading
+/// swing correction `[A, B, C, D, E]` (radians), declination.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Coefficients {
+    /// Hard-iron bias, ADC counts.
+    pub bias: [f32; 3],
+    /// Counts → nT.
+    pub matrix: [[f32; 3]; 3],
+    /// Swing terms A…E, radians.
+    pub swing: [f32; 5],
+    /// Declination, radians, east positive.
+    pub declination_rad: f32,
+    /// Reference intensity of the calibration, nT.
+    pub field_nt: f32,
+}
+
+impl Coefficients {
+    /// CRC-32 of the postcard encoding: what `Commit` must quote.
+    pub fn crc(&self) -> u32 {
+        let mut buf = [0u8; 128];
+        match postcard::to_slice(self, &mut buf) {
+            Ok(b) => CRC32.checksum(b),
+            Err(_) => 0,
+        }
+    }
+}
+
+/// Where the coefficients in use came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum CoefficientSource {
+    /// Loaded from flash (valid CRC and bounds).
+    Stored,
+    /// Nothing valid stored: the nominal chain gain, no bias.
+    Default,
+}
+
+/// One output sample (streamed).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Sample {
+    /// Milliseconds since boot.
+    pub t_ms: u32,
+    /// Raw field, counts (when streaming raw).
+    pub raw: Option<[f32; 3]>,
+    /// Calibrated field, nT (when streaming calibrated).
+    pub field_nt: Option<[f32; 3]>,
+    /// True heading, radians in [0, 2π), when a fresh attitude is known.
+    pub heading_rad: Option<f32>,
+    /// A channel was saturated during this sample.
+    pub saturated: bool,
+}
+
+/// Counters and state.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Health {
+    /// Milliseconds since boot.
+    pub uptime_ms: u32,
+    /// Set/reset pairs acquired.
+    pub pairs: u32,
+    /// Output samples produced.
+    pub samples: u32,
+    /// Pairs with a saturated channel.
+    pub saturated: u32,
+    /// Failed acquisitions.
+    pub acq_errors: u32,
+    /// Acquisition deadlines missed.
+    pub overruns: u32,
+    /// Received bytes dropped (queue full or UART error).
+    pub rx_dropped: u32,
+    /// Outgoing frames dropped (queue full).
+    pub tx_dropped: u32,
+    /// Damaged frames received.
+    pub bad_frames: u32,
+    /// Requests served.
+    pub requests: u32,
+    /// Mission mode on.
+    pub mission_mode: bool,
+    /// Coefficient writes unlocked.
+    pub unlocked: bool,
+    /// This boot's unlock challenge.
+    pub unlock_challenge: u32,
+    /// Where the coefficients came from.
+    pub coefficient_source: CoefficientSource,
+    /// Sequence number of the stored record in use (0 for defaults).
+    pub coefficient_seq: u32,
+    /// The last refusal or failure.
+    pub last_error: Option<LinkError>,
+    /// Output rate, Hz.
+    pub output_rate_hz: u8,
+    /// What is streamed.
+    pub stream: StreamMode,
+    /// Sensor-feed updates received (QEMU board).
+    pub feed_updates: u32,
+}
+
+/// The on-board fit's state.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FitReport {
+    /// Absorbing samples now.
+    pub running: bool,
+    /// Model (None before the first start).
+    pub model: Option<FitModel>,
+    /// Samples absorbed.
+    pub samples: u32,
+    /// Percent of field-direction bins visited.
+    pub coverage_pct: u8,
+    /// RMS of |h| − F with the current estimate over recent samples, nT.
+    pub residual_rms_nt: f32,
+    /// The current estimate, when it exists and passes the physical checks.
+    pub estimate: Option<Coefficients>,
 }
 
 /// A reply from the board.
@@ -101,6 +300,28 @@ pub enum ResponseBody {
     Identity(Identity),
     /// The request was refused or could not be read.
     Error(LinkError),
+    /// Done.
+    Ack,
+    /// Answer to [`RequestBody::Status`].
+    Status(Health),
+    /// Answer to the fit requests.
+    Fit(FitReport),
+    /// Answer to [`RequestBody::ReadCoefficients`].
+    Coefficients {
+        /// In use.
+        coefficients: Coefficients,
+        /// Where they came from.
+        source: CoefficientSource,
+        /// Stored record's sequence (0 for defaults).
+        seq: u32,
+    },
+    /// Answer to [`RequestBody::Commit`]: stored and in use.
+    Committed {
+        /// The new record's sequence number.
+        seq: u32,
+    },
+    /// A streamed sample (sent with `seq: None`).
+    Sample(Sample),
 }
 
 /// Who is on the other end of the link.
@@ -137,6 +358,24 @@ pub enum LinkError {
     Frame(FrameError),
     /// The request is well formed but this firmware does not serve it.
     Unsupported,
+    /// An argument is out of range (rate, field intensity, attitude).
+    BadArgument,
+    /// Coefficient writes need an unlock first.
+    Locked,
+    /// Refused in mission mode.
+    MissionMode,
+    /// The unlock key is wrong.
+    BadKey,
+    /// The coefficients fail the physical checks.
+    InvalidCoefficients,
+    /// Commit without staged coefficients.
+    NothingStaged,
+    /// The commit's CRC does not match what was staged.
+    CommitMismatch,
+    /// Writing flash failed; the previous coefficients are still in use.
+    Storage,
+    /// The fit has no estimate yet (too few samples, or not determined).
+    NoEstimate,
 }
 
 /// Damage found while reading a frame.
@@ -185,6 +424,15 @@ impl core::fmt::Display for LinkError {
         match self {
             LinkError::Frame(e) => write!(f, "bad frame: {e}"),
             LinkError::Unsupported => f.write_str("request not supported by this firmware"),
+            LinkError::BadArgument => f.write_str("argument out of range"),
+            LinkError::Locked => f.write_str("coefficient writes are locked (unlock first)"),
+            LinkError::MissionMode => f.write_str("refused in mission mode"),
+            LinkError::BadKey => f.write_str("wrong unlock key"),
+            LinkError::InvalidCoefficients => f.write_str("coefficients fail the physical checks"),
+            LinkError::NothingStaged => f.write_str("no coefficients staged"),
+            LinkError::CommitMismatch => f.write_str("commit CRC does not match the staged coefficients"),
+            LinkError::Storage => f.write_str("flash write failed; previous coefficients kept"),
+            LinkError::NoEstimate => f.write_str("the fit has no estimate yet"),
         }
     }
 }
@@ -315,6 +563,19 @@ impl FrameDecoder {
     pub fn pending(&self) -> usize {
         self.len
     }
+}
+
+/// Messages on the QEMU board's sensor feed (USART2): the host plays the
+/// magnetometer bridges.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SensorFeed {
+    /// Feed sequence number.
+    pub seq: u32,
+    /// Bridge output per axis as ADC counts after the amplifier (`S·H`).
+    pub field_counts: [f32; 3],
+    /// Bridge offsets, counts.
+    pub offset_counts: [f32; 3],
 }
 
 #[cfg(test)]

@@ -173,3 +173,36 @@ proptest! {
         prop_assert_eq!(decode::<Request>(&f[..n]).unwrap(), q);
     }
 }
+
+#[test]
+fn the_largest_messages_fit_in_a_frame() {
+    let c = Coefficients { bias: [f32::MAX; 3], matrix: [[f32::MIN; 3]; 3], swing: [1.0; 5], declination_rad: 0.1, field_nt: 48_000.0 };
+    let big = [
+        Response { seq: Some(u16::MAX), body: ResponseBody::Coefficients { coefficients: c, source: CoefficientSource::Stored, seq: u32::MAX } },
+        Response {
+            seq: Some(u16::MAX),
+            body: ResponseBody::Fit(FitReport { running: true, model: Some(FitModel::Full), samples: u32::MAX, coverage_pct: 100, residual_rms_nt: 1.0, estimate: Some(c) }),
+        },
+        Response {
+            seq: Some(u16::MAX),
+            body: ResponseBody::Status(Health {
+                uptime_ms: u32::MAX, pairs: u32::MAX, samples: u32::MAX, saturated: u32::MAX, acq_errors: u32::MAX, overruns: u32::MAX,
+                rx_dropped: u32::MAX, tx_dropped: u32::MAX, bad_frames: u32::MAX, requests: u32::MAX, mission_mode: true, unlocked: true,
+                unlock_challenge: u32::MAX, coefficient_source: CoefficientSource::Default, coefficient_seq: u32::MAX,
+                last_error: Some(LinkError::Frame(FrameError::UnsupportedVersion { got: 255 })), output_rate_hz: 100, stream: StreamMode::Both, feed_updates: u32::MAX,
+            }),
+        },
+        Response { seq: None, body: ResponseBody::Sample(Sample { t_ms: u32::MAX, raw: Some([1.0; 3]), field_nt: Some([2.0; 3]), heading_rad: Some(3.0), saturated: true }) },
+    ];
+    for r in big {
+        let (f, n) = frame_of(&r);
+        assert!(n <= MAX_FRAME_LEN);
+        assert_eq!(decode::<Response>(&f[..n]).unwrap(), r);
+    }
+    let q = Request { seq: 1, body: RequestBody::WriteCoefficients(c) };
+    let (f, n) = frame_of(&q);
+    assert_eq!(decode::<Request>(&f[..n]).unwrap(), q);
+    // The commit CRC is the CRC-32 of the postcard bytes, so both sides agree.
+    let mut buf = [0u8; 128];
+    assert_eq!(c.crc(), CRC32.checksum(postcard::to_slice(&c, &mut buf).unwrap()));
+}

@@ -16,7 +16,7 @@ use stm32f4xx_hal as _; // the device's interrupt vector table
 #[embedded_test::tests]
 mod tests {
     use calib_core::heading::{magnetic_heading_rad, ned_field, ned_to_body, wrap_pi};
-    use firmware::link::{DeviceInfo, LinkServer};
+    use firmware::link::{DeviceInfo, LinkEvent, LinkServer};
     use magcal_protocol::{
         self as proto, FrameError, LinkError, Platform, Request, RequestBody, Response,
         ResponseBody, MAX_FRAME_LEN,
@@ -70,7 +70,7 @@ mod tests {
         let n = proto::encode(&Request { seq: 11, body: RequestBody::Identify }, &mut buf).unwrap();
         let mut replies = 0;
         for &b in &buf[..n] {
-            if let Some(frame) = server.on_byte(b, &dev) {
+            if let Some(LinkEvent::Reply(frame)) = server.on_byte(b, &dev) {
                 let r: Response = proto::decode(&frame).unwrap();
                 assert_eq!(r.seq, Some(11));
                 assert!(matches!(r.body, ResponseBody::Identity(ref id) if id.platform == Platform::Qemu));
@@ -79,7 +79,7 @@ mod tests {
         }
         buf[1] ^= 0x80;
         for &b in &buf[..n] {
-            if let Some(frame) = server.on_byte(b, &dev) {
+            if let Some(LinkEvent::Reply(frame)) = server.on_byte(b, &dev) {
                 let r: Response = proto::decode(&frame).unwrap();
                 assert_eq!(r.seq, None);
                 assert!(matches!(

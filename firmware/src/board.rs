@@ -1,0 +1,109 @@
+//! One binary, two boards: the hardware the firmware drives is either the
+//! STM32F405 board or the QEMU board, chosen at boot. These wrappers give
+//! both the same embedded-hal types, so the driver and everything above it
+//! are the same code on both.
+
+use core::convert::Infallible;
+
+use embedded_hal::digital::{ErrorType as PinErrorType, OutputPin};
+use embedded_hal::spi::{Error as SpiErrorTrait, ErrorKind, ErrorType, Operation, SpiDevice};
+use embedded_storage::nor_flash::NorFlash;
+
+use crate::device::CoefficientStore;
+use crate::sim_adc::{SimAdc, SimPin};
+use crate::store::{RamFlash, Record, Store};
+
+/// The ADC's bus: the real SPI device, or the simulated ADC.
+pub enum BoardSpi<R> {
+    /// SPI1 with its chip select (board).
+    Real(R),
+    /// The ADS131M04 model (QEMU).
+    Sim(SimAdc),
+}
+
+/// An SPI error of either bus.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct BoardSpiError(pub ErrorKind);
+
+impl SpiErrorTrait for BoardSpiError {
+    fn kind(&self) -> ErrorKind {
+        self.0
+    }
+}
+
+#[cfg(target_os = "none")]
+impl defmt::Format for BoardSpiError {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        defmt::write!(f, "spi error")
+    }
+}
+
+impl<R: SpiDevice> ErrorType for BoardSpi<R> {
+    type Error = BoardSpiError;
+}
+
+impl<R: SpiDevice> SpiDevice for BoardSpi<R> {
+    fn transaction(&mut self, operations: &mut [Operation<'_, u8>]) -> Result<(), BoardSpiError> {
+        match self {
+            BoardSpi::Real(r) => r.transaction(operations).map_err(|e| BoardSpiError(e.kind())),
+            BoardSpi::Sim(s) => s.transaction(operations).map_err(|e: Infallible| match e {}),
+        }
+    }
+}
+
+/// A strap pin: a GPIO, or the simulated one.
+pub enum BoardPin<P> {
+    /// A push-pull output (board).
+    Real(P),
+    /// The simulated strap (QEMU).
+    Sim(SimPin),
+}
+
+impl<P: OutputPin> PinErrorType for BoardPin<P> {
+    type Error = embedded_hal::digital::ErrorKind;
+}
+
+impl<P: OutputPin> OutputPin for BoardPin<P> {
+    fn set_high(&mut self) -> Result<(), Self::Error> {
+        match self {
+            BoardPin::Real(p) => p.set_high().map_err(|_| embedded_hal::digital::ErrorKind::Other),
+            BoardPin::Sim(p) => p.set_high().map_err(|e: Infallible| match e {}),
+        }
+    }
+    fn set_low(&mut self) -> Result<(), Self::Error> {
+        match self {
+            BoardPin::Real(p) => p.set_low().map_err(|_| embedded_hal::digital::ErrorKind::Other),
+            BoardPin::Sim(p) => p.set_low().map_err(|e: Infallible| match e {}),
+        }
+    }
+}
+
+/// RAM "flash" of the QEMU board: two 1 KiB sectors.
+pub type QemuFlash = RamFlash<2048, 1024>;
+
+/// The coefficient store on either board.
+pub enum BoardStore<F> {
+    /// Flash sectors 10 and 11 (board).
+    Flash(Store<F>),
+    /// RAM (QEMU; lost at reset, like a board whose flash was never written).
+    Ram(Store<QemuFlash>),
+}
+
+impl<F: NorFlash> BoardStore<F> {
+    /// The newest valid record.
+    pub fn load(&mut self) -> Option<Record> {
+        match self {
+            BoardStore::Flash(s) => s.load(),
+            BoardStore::Ram(s) => s.load(),
+        }
+    }
+}
+
+impl<F: NorFlash> CoefficientStore for BoardStore<F> {
+    fn save(&mut self, bytes: &[u8]) -> Result<u32, ()> {
+        match self {
+            BoardStore::Flash(s) => s.save(bytes).map_err(|_| ()),
+            BoardStore::Ram(s) => s.save(bytes).map_err(|_| ()),
+        }
+    }
+}

@@ -1,0 +1,410 @@
+//! The board's behaviour, apart from the hardware: requests in, replies out;
+//! raw samples in, calibrated samples out. Host-testable; the RTIC app owns
+//! one [`Device`] and calls it from its tasks.
+//!
+//! Coefficient safety:
+//! * every set is validated (finite, orientation-preserving, plausible
+//!   anisotropy, bias within the ADC range, swing below 1 rad, declination
+//!   within ±π, field 10 000–100 000 nT) before it is staged, stored or used;
+//! * writes need an unlock (the boot's challenge XOR [`UNLOCK_XOR`]) that
+//!   expires, and are refused in mission mode;
+//! * a commit must quote the CRC of what was staged, is stored first and used
+//!   only once stored (a failed write keeps the old set in use).
+
+use calib_core::cal::{Calibration, FieldCal, Swing};
+use calib_core::fit::{AxisRls, FitError, FullRls, Normalization, SphereRls};
+use calib_core::quality::CoverageMask;
+use magcal_protocol::{
+    CoefficientSource, Coefficients, FitModel, FitReport, Health, LinkError, RequestBody, ResponseBody, Sample, StreamMode,
+    ATTITUDE_TIMEOUT_MS, UNLOCK_TIMEOUT_MS, UNLOCK_XOR,
+};
+
+use crate::acquisition::{RawSample, COUNTS_PER_NT};
+use crate::adc::FULL_SCALE_COUNTS;
+
+/// Where committed coefficients go.
+pub trait CoefficientStore {
+    /// Stores an encoded set; returns its sequence number.
+    fn save(&mut self, bytes: &[u8]) -> Result<u32, ()>;
+}
+
+/// Field intensities accepted for coefficients and fits, nT.
+pub const FIELD_RANGE_NT: (f32, f32) = (10_000.0, 100_000.0);
+
+/// The nominal coefficients: the chain's gain, no bias, no swing.
+pub fn default_coefficients() -> Coefficients {
+    let g = 1.0 / COUNTS_PER_NT;
+    Coefficients { bias: [0.0; 3], matrix: [[g, 0.0, 0.0], [0.0, g, 0.0], [0.0, 0.0, g]], swing: [0.0; 5], declination_rad: 0.0, field_nt: 50_000.0 }
+}
+
+/// Checks a set against physical bounds and converts it.
+pub fn validate(c: &Coefficients) -> Result<Calibration<f32>, LinkError> {
+    let field = FieldCal { bias: c.bias, matrix: c.matrix };
+    field.validate(FULL_SCALE_COUNTS as f32).map_err(|_| LinkError::InvalidCoefficients)?;
+    let swing_ok = c.swing.iter().all(|v| v.is_finite() && v.abs() < 1.0);
+    let decl_ok = c.declination_rad.is_finite() && c.declination_rad.abs() <= core::f32::consts::PI;
+    let field_ok = c.field_nt >= FIELD_RANGE_NT.0 && c.field_nt <= FIELD_RANGE_NT.1;
+    // A gain far from the chain's means the set was made for another sensor.
+    let gain = (c.matrix[0][0].abs() + c.matrix[1][1].abs() + c.matrix[2][2].abs()) / 3.0 * COUNTS_PER_NT;
+    if !(swing_ok && decl_ok && field_ok && gain > 0.2 && gain < 5.0) {
+        return Err(LinkError::InvalidCoefficients);
+    }
+    Ok(Calibration { field, swing: Swing::from_array(c.swing), declination_rad: c.declination_rad })
+}
+
+/// Postcard-encodes a set for the store.
+pub fn encode_coefficients(c: &Coefficients, buf: &mut [u8]) -> Option<usize> {
+    postcard::to_slice(c, buf).ok().map(|b| b.len())
+}
+
+/// Decodes and validates a stored set.
+pub fn decode_coefficients(bytes: &[u8]) -> Option<(Coefficients, Calibration<f32>)> {
+    let c: Coefficients = postcard::from_bytes(bytes).ok()?;
+    let cal = validate(&c).ok()?;
+    Some((c, cal))
+}
+
+enum Rls {
+    Sphere(SphereRls<f32>),
+    Axis(AxisRls<f32>),
+    Full(FullRls<f32>),
+}
+
+struct OnboardFit {
+    model: FitModel,
+    field_nt: f32,
+    rls: Rls,
+    coverage: CoverageMask,
+    running: bool,
+    /// Exponentially weighted mean square of |h| − F with the latest estimate.
+    residual_ms: f32,
+}
+
+impl OnboardFit {
+    fn new(model: FitModel, field_nt: f32, centre: [f32; 3]) -> Self {
+        let norm = Normalization { centre, scale: field_nt * COUNTS_PER_NT };
+        let rls = match model {
+            FitModel::Sphere => Rls::Sphere(SphereRls::new(norm)),
+            FitModel::Axis => Rls::Axis(AxisRls::new(norm)),
+            FitModel::Full => Rls::Full(FullRls::new(norm)),
+        };
+        Self { model, field_nt, rls, coverage: CoverageMask::new(), running: true, residual_ms: 0.0 }
+    }
+
+    fn push(&mut self, raw: [f32; 3]) {
+        match &mut self.rls {
+            Rls::Sphere(r) => r.push(raw),
+            Rls::Axis(r) => r.push(raw),
+            Rls::Full(r) => r.push(raw),
+        };
+        let c = self.centre();
+        self.coverage.add([raw[0] - c[0], raw[1] - c[1], raw[2] - c[2]]);
+    }
+
+    fn centre(&self) -> [f32; 3] {
+        match &self.rls {
+            Rls::Sphere(r) => r.normalization().centre,
+            Rls::Axis(r) => r.normalization().centre,
+            Rls::Full(r) => r.normalization().centre,
+        }
+    }
+
+    fn count(&self) -> u32 {
+        match &self.rls {
+            Rls::Sphere(r) => r.count(),
+            Rls::Axis(r) => r.count(),
+            Rls::Full(r) => r.count(),
+        }
+    }
+
+    fn estimate(&self) -> Result<FieldCal<f32>, FitError> {
+        match &self.rls {
+            Rls::Sphere(r) => r.estimate(self.field_nt),
+            Rls::Axis(r) => r.estimate(self.field_nt),
+            Rls::Full(r) => r.estimate(self.field_nt),
+        }
+    }
+}
+
+/// Counters the device keeps (the link and acquisition keep their own).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct DeviceCounters {
+    /// Output samples produced.
+    pub samples: u32,
+}
+
+/// The board's state.
+pub struct Device {
+    coefficients: Coefficients,
+    calibration: Calibration<f32>,
+    source: CoefficientSource,
+    seq: u32,
+    staged: Option<Coefficients>,
+    unlocked_until_ms: Option<u32>,
+    challenge: u32,
+    mission: bool,
+    stream: StreamMode,
+    output_rate_hz: u8,
+    attitude: Option<(f32, f32, u32)>,
+    fit: Option<OnboardFit>,
+    last_error: Option<LinkError>,
+    counters: DeviceCounters,
+}
+
+/// Coefficients recovered from the store at boot.
+pub struct Boot {
+    /// The stored set, if one was valid.
+    pub stored: Option<(Coefficients, u32)>,
+    /// The unlock challenge for this boot.
+    pub challenge: u32,
+}
+
+impl Device {
+    /// The device after boot: the stored set if valid, else the defaults
+    /// (and `last_error` says so).
+    pub fn new(boot: Boot) -> Self {
+        let (coefficients, source, seq, calibration, last_error) = match boot.stored.and_then(|(c, s)| validate(&c).ok().map(|cal| (c, s, cal))) {
+            Some((c, s, cal)) => (c, CoefficientSource::Stored, s, cal, None),
+            None => {
+                let c = default_coefficients();
+                let cal = validate(&c).unwrap_or_else(|_| Calibration::identity());
+                (c, CoefficientSource::Default, 0, cal, Some(LinkError::Storage))
+            }
+        };
+        Self {
+            coefficients,
+            calibration,
+            source,
+            seq,
+            staged: None,
+            unlocked_until_ms: None,
+            challenge: boot.challenge,
+            mission: false,
+            stream: StreamMode::Off,
+            output_rate_hz: 10,
+            attitude: None,
+            fit: None,
+            last_error,
+            counters: DeviceCounters::default(),
+        }
+    }
+
+    /// The output rate asked for, Hz.
+    pub fn output_rate_hz(&self) -> u8 {
+        self.output_rate_hz
+    }
+
+    /// What is streamed.
+    pub fn stream(&self) -> StreamMode {
+        self.stream
+    }
+
+    /// The calibration in use.
+    pub fn calibration(&self) -> &Calibration<f32> {
+        &self.calibration
+    }
+
+    fn unlocked(&self, now_ms: u32) -> bool {
+        self.unlocked_until_ms.is_some_and(|t| now_ms.wrapping_sub(t) as i32 <= 0) && !self.mission
+    }
+
+    fn refuse(&mut self, e: LinkError) -> ResponseBody {
+        self.last_error = Some(e);
+        ResponseBody::Error(e)
+    }
+
+    fn fit_report(&self) -> FitReport {
+        match &self.fit {
+            None => FitReport { running: false, model: None, samples: 0, coverage_pct: 0, residual_rms_nt: 0.0, estimate: None },
+            Some(f) => {
+                let estimate = f.estimate().ok().map(|cal| Coefficients {
+                    bias: cal.bias,
+                    matrix: cal.matrix,
+                    swing: self.coefficients.swing,
+                    declination_rad: self.coefficients.declination_rad,
+                    field_nt: f.field_nt,
+                });
+                let estimate = estimate.filter(|c| validate(c).is_ok());
+                FitReport {
+                    running: f.running,
+                    model: Some(f.model),
+                    samples: f.count(),
+                    coverage_pct: f.coverage.percent(),
+                    residual_rms_nt: libm::sqrtf(f.residual_ms),
+                    estimate,
+                }
+            }
+        }
+    }
+
+    /// Serves one request. `health` fills the counters the device does not
+    /// own (link, acquisition).
+    pub fn handle(&mut self, req: &RequestBody, now_ms: u32, store: &mut impl CoefficientStore, health: impl FnOnce(&mut Health)) -> ResponseBody {
+        match *req {
+            // Answered by the link layer; here for completeness.
+            RequestBody::Ping { nonce } => ResponseBody::Pong { nonce },
+            RequestBody::Identify => ResponseBody::Error(LinkError::Unsupported),
+            RequestBody::Status => {
+                let mut h = Health {
+                    uptime_ms: now_ms,
+                    pairs: 0,
+                    samples: self.counters.samples,
+                    saturated: 0,
+                    acq_errors: 0,
+                    overruns: 0,
+                    rx_dropped: 0,
+                    tx_dropped: 0,
+                    bad_frames: 0,
+                    requests: 0,
+                    mission_mode: self.mission,
+                    unlocked: self.unlocked(now_ms),
+                    unlock_challenge: self.challenge,
+                    coefficient_source: self.source,
+                    coefficient_seq: self.seq,
+                    last_error: self.last_error,
+                    output_rate_hz: self.output_rate_hz,
+                    stream: self.stream,
+                    feed_updates: 0,
+                };
+                health(&mut h);
+                ResponseBody::Status(h)
+            }
+            RequestBody::SetStream(mode) => {
+                self.stream = mode;
+                ResponseBody::Ack
+            }
+            RequestBody::SetOutputRate { hz } => {
+                if !(1..=100).contains(&hz) {
+                    return self.refuse(LinkError::BadArgument);
+                }
+                self.output_rate_hz = hz;
+                ResponseBody::Ack
+            }
+            RequestBody::Attitude { roll_rad, pitch_rad } => {
+                let ok = roll_rad.is_finite() && pitch_rad.is_finite() && roll_rad.abs() <= core::f32::consts::PI && pitch_rad.abs() <= core::f32::consts::FRAC_PI_2;
+                if !ok {
+                    return self.refuse(LinkError::BadArgument);
+                }
+                self.attitude = Some((roll_rad, pitch_rad, now_ms));
+                ResponseBody::Ack
+            }
+            RequestBody::FitStart { model, field_nt } => {
+                if !(field_nt >= FIELD_RANGE_NT.0 && field_nt <= FIELD_RANGE_NT.1) {
+                    return self.refuse(LinkError::BadArgument);
+                }
+                self.fit = Some(OnboardFit::new(model, field_nt, self.calibration.field.bias));
+                ResponseBody::Fit(self.fit_report())
+            }
+            RequestBody::FitStop => {
+                if let Some(f) = &mut self.fit {
+                    f.running = false;
+                }
+                ResponseBody::Fit(self.fit_report())
+            }
+            RequestBody::FitQuery => ResponseBody::Fit(self.fit_report()),
+            RequestBody::ReadCoefficients => ResponseBody::Coefficients { coefficients: self.coefficients, source: self.source, seq: self.seq },
+            RequestBody::Unlock { key } => {
+                if self.mission {
+                    return self.refuse(LinkError::MissionMode);
+                }
+                if key != self.challenge ^ UNLOCK_XOR {
+                    return self.refuse(LinkError::BadKey);
+                }
+                self.unlocked_until_ms = Some(now_ms.wrapping_add(UNLOCK_TIMEOUT_MS));
+                ResponseBody::Ack
+            }
+            RequestBody::WriteCoefficients(c) => {
+                if self.mission {
+                    return self.refuse(LinkError::MissionMode);
+                }
+                if !self.unlocked(now_ms) {
+                    return self.refuse(LinkError::Locked);
+                }
+                if validate(&c).is_err() {
+                    return self.refuse(LinkError::InvalidCoefficients);
+                }
+                self.staged = Some(c);
+                ResponseBody::Ack
+            }
+            RequestBody::Commit { crc } => {
+                if self.mission {
+                    return self.refuse(LinkError::MissionMode);
+                }
+                if !self.unlocked(now_ms) {
+                    return self.refuse(LinkError::Locked);
+                }
+                let Some(staged) = self.staged else {
+                    return self.refuse(LinkError::NothingStaged);
+                };
+                if staged.crc() != crc {
+                    return self.refuse(LinkError::CommitMismatch);
+                }
+                let Ok(cal) = validate(&staged) else {
+                    return self.refuse(LinkError::InvalidCoefficients);
+                };
+                let mut buf = [0u8; 128];
+                let Some(n) = encode_coefficients(&staged, &mut buf) else {
+                    return self.refuse(LinkError::Storage);
+                };
+                match store.save(buf.get(..n).unwrap_or(&[])) {
+                    Ok(seq) => {
+                        self.coefficients = staged;
+                        self.calibration = cal;
+                        self.source = CoefficientSource::Stored;
+                        self.seq = seq;
+                        self.staged = None;
+                        self.unlocked_until_ms = None;
+                        self.last_error = None;
+                        ResponseBody::Committed { seq }
+                    }
+                    Err(()) => self.refuse(LinkError::Storage),
+                }
+            }
+            RequestBody::SetMissionMode { enabled } => {
+                self.mission = enabled;
+                if enabled {
+                    self.unlocked_until_ms = None;
+                    self.staged = None;
+                }
+                ResponseBody::Ack
+            }
+        }
+    }
+
+    /// Processes one decimated raw sample: feeds the on-board fit, applies
+    /// the coefficients and the heading (with a fresh attitude), and returns
+    /// the sample to stream, if streaming.
+    pub fn on_raw_sample(&mut self, raw: &RawSample, now_ms: u32) -> Option<Sample> {
+        self.counters.samples = self.counters.samples.wrapping_add(1);
+        if let Some(f) = &mut self.fit {
+            if f.running && !raw.saturated {
+                f.push(raw.field_counts);
+                if f.count() % 16 == 0 {
+                    if let Ok(est) = f.estimate() {
+                        let h = est.apply(raw.field_counts);
+                        let r = libm::sqrtf(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]) - f.field_nt;
+                        f.residual_ms += 0.1 * (r * r - f.residual_ms);
+                    }
+                }
+            }
+        }
+        let field = self.calibration.field.apply(raw.field_counts);
+        let heading_rad = match self.attitude {
+            Some((roll, pitch, t)) if now_ms.wrapping_sub(t) <= ATTITUDE_TIMEOUT_MS => {
+                let o = self.calibration.apply(raw.field_counts, roll, pitch);
+                Some(o.true_heading_rad)
+            }
+            _ => None,
+        };
+        let (raw_out, cal_out) = match self.stream {
+            StreamMode::Off => return None,
+            StreamMode::Raw => (Some(raw.field_counts), None),
+            StreamMode::Calibrated => (None, Some(field)),
+            StreamMode::Both => (Some(raw.field_counts), Some(field)),
+        };
+        Some(Sample { t_ms: now_ms, raw: raw_out, field_nt: cal_out, heading_rad: heading_rad.filter(|_| cal_out.is_some()), saturated: raw.saturated })
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,174 @@
+use super::*;
+use calib_core::conformance::SplitMix64;
+use calib_core::heading::{magnetic_heading_rad, ned_field, ned_to_body, wrap_pi};
+
+struct MemStore {
+    saved: Vec<Vec<u8>>,
+    fail: bool,
+}
+impl CoefficientStore for MemStore {
+    fn save(&mut self, bytes: &[u8]) -> Result<u32, ()> {
+        if self.fail {
+            return Err(());
+        }
+        self.saved.push(bytes.to_vec());
+        Ok(self.saved.len() as u32)
+    }
+}
+
+fn store() -> MemStore {
+    MemStore { saved: vec![], fail: false }
+}
+
+fn good() -> Coefficients {
+    let g = 1.0 / COUNTS_PER_NT;
+    Coefficients {
+        bias: [1000.0, -2000.0, 500.0],
+        matrix: [[g * 1.02, 0.001 * g, 0.0], [0.001 * g, g * 0.98, 0.0], [0.0, 0.0, g]],
+        swing: [0.01, 0.0, 0.0, 0.0, 0.002],
+        declination_rad: 0.09,
+        field_nt: 48_730.0,
+    }
+}
+
+const CHALLENGE: u32 = 0x1234_5678;
+
+fn device() -> Device {
+    Device::new(Boot { stored: None, challenge: CHALLENGE })
+}
+
+fn req(d: &mut Device, r: RequestBody, now: u32, s: &mut MemStore) -> ResponseBody {
+    d.handle(&r, now, s, |_| {})
+}
+
+#[test]
+fn boot_without_a_stored_set_uses_defaults_and_says_so() {
+    let mut d = device();
+    let mut s = store();
+    match req(&mut d, RequestBody::Status, 5, &mut s) {
+        ResponseBody::Status(h) => {
+            assert_eq!(h.coefficient_source, CoefficientSource::Default);
+            assert_eq!(h.last_error, Some(LinkError::Storage));
+            assert_eq!(h.unlock_challenge, CHALLENGE);
+            assert!(!h.unlocked);
+        }
+        other => panic!("{other:?}"),
+    }
+    // A stored set that fails validation is not used either.
+    let mut bad = good();
+    bad.matrix[2][2] = -bad.matrix[2][2];
+    let d = Device::new(Boot { stored: Some((bad, 7)), challenge: 1 });
+    assert_eq!(d.source, CoefficientSource::Default);
+    let d = Device::new(Boot { stored: Some((good(), 7)), challenge: 1 });
+    assert_eq!((d.source, d.seq), (CoefficientSource::Stored, 7));
+}
+
+#[test]
+fn the_write_path_needs_unlock_validation_and_a_matching_commit() {
+    let mut d = device();
+    let mut s = store();
+    let c = good();
+    assert_eq!(req(&mut d, RequestBody::WriteCoefficients(c), 10, &mut s), ResponseBody::Error(LinkError::Locked));
+    assert_eq!(req(&mut d, RequestBody::Unlock { key: CHALLENGE }, 10, &mut s), ResponseBody::Error(LinkError::BadKey));
+    assert_eq!(req(&mut d, RequestBody::Unlock { key: CHALLENGE ^ UNLOCK_XOR }, 10, &mut s), ResponseBody::Ack);
+    let mut mirrored = c;
+    mirrored.matrix[0][0] = -mirrored.matrix[0][0];
+    assert_eq!(req(&mut d, RequestBody::WriteCoefficients(mirrored), 11, &mut s), ResponseBody::Error(LinkError::InvalidCoefficients));
+    let mut wrong_field = c;
+    wrong_field.field_nt = 5.0;
+    assert_eq!(req(&mut d, RequestBody::WriteCoefficients(wrong_field), 11, &mut s), ResponseBody::Error(LinkError::InvalidCoefficients));
+    assert_eq!(req(&mut d, RequestBody::Commit { crc: c.crc() }, 12, &mut s), ResponseBody::Error(LinkError::NothingStaged));
+    assert_eq!(req(&mut d, RequestBody::WriteCoefficients(c), 12, &mut s), ResponseBody::Ack);
+    // Staged is not in use yet.
+    assert!(matches!(req(&mut d, RequestBody::ReadCoefficients, 12, &mut s), ResponseBody::Coefficients { source: CoefficientSource::Default, .. }));
+    assert_eq!(req(&mut d, RequestBody::Commit { crc: c.crc() ^ 1 }, 13, &mut s), ResponseBody::Error(LinkError::CommitMismatch));
+    assert_eq!(req(&mut d, RequestBody::Commit { crc: c.crc() }, 13, &mut s), ResponseBody::Committed { seq: 1 });
+    assert_eq!(req(&mut d, RequestBody::ReadCoefficients, 14, &mut s), ResponseBody::Coefficients { coefficients: c, source: CoefficientSource::Stored, seq: 1 });
+    // What was stored decodes to the same set.
+    assert_eq!(decode_coefficients(&s.saved[0]).unwrap().0, c);
+    // The unlock is spent by the commit.
+    assert_eq!(req(&mut d, RequestBody::WriteCoefficients(c), 15, &mut s), ResponseBody::Error(LinkError::Locked));
+}
+
+#[test]
+fn a_failed_flash_write_keeps_the_old_set_in_use() {
+    let mut d = device();
+    let mut s = MemStore { saved: vec![], fail: true };
+    let c = good();
+    req(&mut d, RequestBody::Unlock { key: CHALLENGE ^ UNLOCK_XOR }, 0, &mut s);
+    req(&mut d, RequestBody::WriteCoefficients(c), 0, &mut s);
+    assert_eq!(req(&mut d, RequestBody::Commit { crc: c.crc() }, 0, &mut s), ResponseBody::Error(LinkError::Storage));
+    assert!(matches!(req(&mut d, RequestBody::ReadCoefficients, 0, &mut s), ResponseBody::Coefficients { source: CoefficientSource::Default, .. }));
+}
+
+#[test]
+fn mission_mode_and_expiry_lock_the_writes() {
+    let mut d = device();
+    let mut s = store();
+    req(&mut d, RequestBody::Unlock { key: CHALLENGE ^ UNLOCK_XOR }, 1000, &mut s);
+    assert_eq!(req(&mut d, RequestBody::WriteCoefficients(good()), 1000 + UNLOCK_TIMEOUT_MS + 1, &mut s), ResponseBody::Error(LinkError::Locked));
+    assert_eq!(req(&mut d, RequestBody::SetMissionMode { enabled: true }, 2000, &mut s), ResponseBody::Ack);
+    assert_eq!(req(&mut d, RequestBody::Unlock { key: CHALLENGE ^ UNLOCK_XOR }, 2000, &mut s), ResponseBody::Error(LinkError::MissionMode));
+    assert_eq!(req(&mut d, RequestBody::WriteCoefficients(good()), 2000, &mut s), ResponseBody::Error(LinkError::MissionMode));
+    assert_eq!(req(&mut d, RequestBody::Commit { crc: 0 }, 2000, &mut s), ResponseBody::Error(LinkError::MissionMode));
+    assert_eq!(req(&mut d, RequestBody::SetOutputRate { hz: 0 }, 2000, &mut s), ResponseBody::Error(LinkError::BadArgument));
+    assert_eq!(req(&mut d, RequestBody::SetOutputRate { hz: 101 }, 2000, &mut s), ResponseBody::Error(LinkError::BadArgument));
+    assert_eq!(req(&mut d, RequestBody::Attitude { roll_rad: f32::NAN, pitch_rad: 0.0 }, 2000, &mut s), ResponseBody::Error(LinkError::BadArgument));
+}
+
+#[test]
+fn samples_are_calibrated_as_calib_core_does_and_headed_with_a_fresh_attitude() {
+    let mut d = Device::new(Boot { stored: Some((good(), 3)), challenge: 0 });
+    let mut s = store();
+    req(&mut d, RequestBody::SetStream(StreamMode::Both), 0, &mut s);
+    let raw = RawSample { field_counts: [700_000.0, -1_100_000.0, 1_300_000.0], saturated: false };
+    let out = d.on_raw_sample(&raw, 100).unwrap();
+    let cal = validate(&good()).unwrap();
+    assert_eq!(out.field_nt.unwrap(), cal.field.apply(raw.field_counts));
+    assert_eq!(out.raw.unwrap(), raw.field_counts);
+    assert_eq!(out.heading_rad, None, "no attitude yet");
+    req(&mut d, RequestBody::Attitude { roll_rad: 0.1, pitch_rad: -0.05 }, 200, &mut s);
+    let out = d.on_raw_sample(&raw, 300).unwrap();
+    assert_eq!(out.heading_rad.unwrap(), cal.apply(raw.field_counts, 0.1, -0.05).true_heading_rad);
+    let stale = d.on_raw_sample(&raw, 200 + ATTITUDE_TIMEOUT_MS + 1).unwrap();
+    assert_eq!(stale.heading_rad, None);
+    req(&mut d, RequestBody::SetStream(StreamMode::Off), 0, &mut s);
+    assert!(d.on_raw_sample(&raw, 400).is_none());
+}
+
+#[test]
+fn the_onboard_fit_converges_to_the_truth() {
+    // The sensor: counts = COUNTS_PER_NT · D · h + b.
+    let (b, f) = ([20_000.0f64, -15_000.0, 8_000.0], 48_730.0f64);
+    let d_mat = [[1.03, 0.01, 0.0], [0.01, 0.97, 0.02], [0.0, 0.02, 1.01]];
+    let mut dev = device();
+    let mut s = store();
+    assert!(matches!(req(&mut dev, RequestBody::FitStart { model: FitModel::Full, field_nt: 5.0 }, 0, &mut s), ResponseBody::Error(LinkError::BadArgument)));
+    assert!(matches!(req(&mut dev, RequestBody::FitStart { model: FitModel::Full, field_nt: f as f32 }, 0, &mut s), ResponseBody::Fit(_)));
+    let mut rng = SplitMix64::new(3);
+    let mut truth_cal = None;
+    for _ in 0..3000 {
+        let u = rng.direction();
+        let h = [u[0] * f, u[1] * f, u[2] * f];
+        let r = calib_core::linalg::mul_mat_vec(&d_mat, h);
+        let raw = [0, 1, 2].map(|k| ((r[k] * f64::from(COUNTS_PER_NT)) + b[k] + 3.0 * rng.gauss()) as f32);
+        dev.on_raw_sample(&RawSample { field_counts: raw, saturated: false }, 0);
+        truth_cal.get_or_insert(());
+    }
+    let ResponseBody::Fit(rep) = req(&mut dev, RequestBody::FitQuery, 0, &mut s) else { panic!() };
+    assert_eq!(rep.samples, 3000);
+    assert!(rep.coverage_pct > 95);
+    assert!(rep.residual_rms_nt < 5.0, "{}", rep.residual_rms_nt);
+    let est = rep.estimate.expect("an estimate");
+    for k in 0..3 {
+        assert!((f64::from(est.bias[k]) - b[k]).abs() < 20.0, "{:?}", est.bias);
+    }
+    // Heading with the estimate matches the truth to a few hundredths of a degree.
+    let cal = validate(&est).unwrap();
+    let body = ned_to_body(ned_field(f, 0.97, 0.0), 0.2, 0.1, 1.3);
+    let r = calib_core::linalg::mul_mat_vec(&d_mat, body);
+    let raw = [0, 1, 2].map(|k| (r[k] * f64::from(COUNTS_PER_NT) + b[k]) as f32);
+    let psi = magnetic_heading_rad(cal.field.apply(raw), 0.2, 0.1);
+    assert!(wrap_pi(f64::from(psi) - 1.3).abs() < 0.05f64.to_radians());
+    assert!(matches!(req(&mut dev, RequestBody::FitStop, 0, &mut s), ResponseBody::Fit(FitReport { running: false, .. })));
+}
