@@ -76,9 +76,14 @@ struct OnboardFit {
     rls: Rls,
     coverage: CoverageMask,
     running: bool,
-    /// Exponentially weighted mean square of |h| − F with the latest estimate.
-    residual_ms: f32,
+    /// The latest samples, for the residual of the current estimate.
+    recent: heapless::Deque<[f32; 3], RECENT>,
+    /// Samples refused as implausible.
+    rejected: u32,
 }
+
+/// Samples kept for the fit's residual.
+const RECENT: usize = 32;
 
 impl OnboardFit {
     fn new(model: FitModel, field_nt: f32, centre: [f32; 3]) -> Self {
@@ -88,17 +93,44 @@ impl OnboardFit {
             FitModel::Axis => Rls::Axis(AxisRls::new(norm)),
             FitModel::Full => Rls::Full(FullRls::new(norm)),
         };
-        Self { model, field_nt, rls, coverage: CoverageMask::new(), running: true, residual_ms: 0.0 }
+        Self { model, field_nt, rls, coverage: CoverageMask::new(), running: true, recent: heapless::Deque::new(), rejected: 0 }
     }
 
-    fn push(&mut self, raw: [f32; 3]) {
+    /// Absorbs a sample; refuses (`false`) one whose distance from the
+    /// fit's centre is implausible for the reference field (a dead channel,
+    /// a stuck feed, a magnet held against the hull).
+    fn push(&mut self, raw: [f32; 3]) -> bool {
+        let c = self.centre();
+        let d = [raw[0] - c[0], raw[1] - c[1], raw[2] - c[2]];
+        let r = libm::sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        let expected = self.field_nt * COUNTS_PER_NT;
+        if !(r > 0.5 * expected && r < 2.0 * expected) {
+            self.rejected = self.rejected.saturating_add(1);
+            return false;
+        }
         match &mut self.rls {
             Rls::Sphere(r) => r.push(raw),
             Rls::Axis(r) => r.push(raw),
             Rls::Full(r) => r.push(raw),
         };
-        let c = self.centre();
-        self.coverage.add([raw[0] - c[0], raw[1] - c[1], raw[2] - c[2]]);
+        self.coverage.add(d);
+        if self.recent.is_full() {
+            self.recent.pop_front();
+        }
+        let _ = self.recent.push_back(raw);
+        true
+    }
+
+    /// RMS of |h| − F over the latest samples with the current estimate.
+    fn residual_rms_nt(&self, est: &FieldCal<f32>) -> f32 {
+        let (mut ss, mut n) = (0.0f32, 0u32);
+        for raw in self.recent.iter() {
+            let h = est.apply(*raw);
+            let r = libm::sqrtf(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]) - self.field_nt;
+            ss += r * r;
+            n += 1;
+        }
+        if n == 0 { 0.0 } else { libm::sqrtf(ss / n as f32) }
     }
 
     fn centre(&self) -> [f32; 3] {
@@ -217,7 +249,9 @@ impl Device {
         match &self.fit {
             None => FitReport { running: false, model: None, samples: 0, coverage_pct: 0, residual_rms_nt: 0.0, estimate: None },
             Some(f) => {
-                let estimate = f.estimate().ok().map(|cal| Coefficients {
+                let fitted = f.estimate().ok();
+                let residual_rms_nt = fitted.as_ref().map(|e| f.residual_rms_nt(e)).unwrap_or(0.0);
+                let estimate = fitted.map(|cal| Coefficients {
                     bias: cal.bias,
                     matrix: cal.matrix,
                     swing: self.coefficients.swing,
@@ -230,7 +264,7 @@ impl Device {
                     model: Some(f.model),
                     samples: f.count(),
                     coverage_pct: f.coverage.percent(),
-                    residual_rms_nt: libm::sqrtf(f.residual_ms),
+                    residual_rms_nt,
                     estimate,
                 }
             }
@@ -379,13 +413,6 @@ impl Device {
         if let Some(f) = &mut self.fit {
             if f.running && !raw.saturated {
                 f.push(raw.field_counts);
-                if f.count() % 16 == 0 {
-                    if let Ok(est) = f.estimate() {
-                        let h = est.apply(raw.field_counts);
-                        let r = libm::sqrtf(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]) - f.field_nt;
-                        f.residual_ms += 0.1 * (r * r - f.residual_ms);
-                    }
-                }
             }
         }
         let field = self.calibration.field.apply(raw.field_counts);

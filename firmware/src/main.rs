@@ -300,7 +300,8 @@ mod app {
         while let Ok(byte) = bytes.recv().await {
             if let Some(Ok(body)) = decoder.push(byte) {
                 if let Ok(f) = proto::decode_body::<SensorFeed>(body) {
-                    SIM_SENSOR.set_truth(f.field_counts, f.offset_counts);
+                    let g = firmware::acquisition::COUNTS_PER_NT;
+                    SIM_SENSOR.set_truth(f.field_nt.map(|v| v * g), f.offset_counts);
                 }
             }
         }

@@ -5,9 +5,13 @@ use std::io::{self, Read, Write};
 use std::time::{Duration, Instant};
 
 use magcal_protocol::{
-    self as proto, FrameDecoder, FrameError, Identity, Request, RequestBody, Response,
-    ResponseBody, MAX_FRAME_LEN,
+    self as proto, Coefficients, CoefficientSource, FitModel, FitReport, FrameDecoder, FrameError, Health, Identity, Request,
+    RequestBody, Response, ResponseBody, Sample, SensorFeed, StreamMode, MAX_FRAME_LEN, UNLOCK_XOR,
 };
+
+/// Streamed samples kept while waiting for replies; beyond this the oldest
+/// are dropped and counted.
+pub const SAMPLE_QUEUE: usize = 100_000;
 
 /// The link's baud rate (the firmware's USART1 setting).
 pub const BAUD_RATE: u32 = 115_200;
@@ -61,6 +65,10 @@ pub struct Link<P> {
     pub attempts: u32,
     /// Frames received that were damaged or answered an older request.
     pub discarded_frames: u32,
+    /// Streamed samples received and not yet taken.
+    samples: VecDeque<Sample>,
+    /// Samples dropped because the queue was full.
+    pub dropped_samples: u64,
 }
 
 impl Link<Box<dyn serialport::SerialPort>> {
@@ -87,7 +95,39 @@ impl<P: Read + Write> Link<P> {
             timeout: Duration::from_millis(1500),
             attempts: 3,
             discarded_frames: 0,
+            samples: VecDeque::new(),
+            dropped_samples: 0,
         }
+    }
+
+    fn keep_sample(&mut self, s: Sample) {
+        if self.samples.len() >= SAMPLE_QUEUE {
+            self.samples.pop_front();
+            self.dropped_samples += 1;
+        }
+        self.samples.push_back(s);
+    }
+
+    /// The next streamed sample, waiting up to `timeout` (a zero timeout
+    /// still reads what has arrived).
+    pub fn next_sample(&mut self, timeout: Duration) -> Result<Option<Sample>, LinkError> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            if let Some(s) = self.samples.pop_front() {
+                return Ok(Some(s));
+            }
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.next_response(left)? {
+                Some(_) => self.discarded_frames += 1,
+                None if self.samples.is_empty() => return Ok(None),
+                None => {}
+            }
+        }
+    }
+
+    /// Drops the samples queued so far.
+    pub fn clear_samples(&mut self) {
+        self.samples.clear();
     }
 
     /// Sends raw bytes as they are (for tests of the board's error paths).
@@ -101,20 +141,24 @@ impl<P: Read + Write> Link<P> {
     pub fn next_response(&mut self, timeout: Duration) -> Result<Option<Response>, LinkError> {
         let deadline = Instant::now() + timeout;
         let mut buf = [0u8; 256];
+        // Read the port at least once, even with a zero timeout.
+        let mut read_once = false;
         loop {
             while let Some(b) = self.unread.pop_front() {
                 match self.decoder.push(b) {
                     None => {}
                     Some(Ok(body)) => match proto::decode_body::<Response>(body) {
+                        Ok(Response { seq: None, body: ResponseBody::Sample(s) }) => self.keep_sample(s),
                         Ok(r) => return Ok(Some(r)),
                         Err(_) => self.discarded_frames += 1,
                     },
                     Some(Err(_)) => self.discarded_frames += 1,
                 }
             }
-            if Instant::now() >= deadline {
+            if read_once && Instant::now() >= deadline {
                 return Ok(None);
             }
+            read_once = true;
             match self.port.read(&mut buf) {
                 Ok(0) => std::thread::sleep(Duration::from_millis(1)),
                 Ok(n) => self.unread.extend(buf.iter().take(n)),
@@ -172,12 +216,126 @@ impl<P: Read + Write> Link<P> {
         }
     }
 
+    fn expect_ack(&mut self, body: RequestBody) -> Result<(), LinkError> {
+        match self.request(body)? {
+            ResponseBody::Ack => Ok(()),
+            other => Err(LinkError::Unexpected(format!("{other:?}"))),
+        }
+    }
+
+    /// The board's counters and state.
+    pub fn status(&mut self) -> Result<Health, LinkError> {
+        match self.request(RequestBody::Status)? {
+            ResponseBody::Status(h) => Ok(h),
+            other => Err(LinkError::Unexpected(format!("{other:?}"))),
+        }
+    }
+
+    /// Chooses what is streamed.
+    pub fn set_stream(&mut self, mode: StreamMode) -> Result<(), LinkError> {
+        self.expect_ack(RequestBody::SetStream(mode))
+    }
+
+    /// Sets the output rate (1–100 Hz).
+    pub fn set_output_rate(&mut self, hz: u8) -> Result<(), LinkError> {
+        self.expect_ack(RequestBody::SetOutputRate { hz })
+    }
+
+    /// Sends the vehicle's attitude.
+    pub fn attitude(&mut self, roll_rad: f32, pitch_rad: f32) -> Result<(), LinkError> {
+        self.expect_ack(RequestBody::Attitude { roll_rad, pitch_rad })
+    }
+
+    /// Enters or leaves mission mode.
+    pub fn set_mission_mode(&mut self, enabled: bool) -> Result<(), LinkError> {
+        self.expect_ack(RequestBody::SetMissionMode { enabled })
+    }
+
+    /// Starts the on-board fit.
+    pub fn fit_start(&mut self, model: FitModel, field_nt: f32) -> Result<FitReport, LinkError> {
+        match self.request(RequestBody::FitStart { model, field_nt })? {
+            ResponseBody::Fit(r) => Ok(r),
+            other => Err(LinkError::Unexpected(format!("{other:?}"))),
+        }
+    }
+
+    /// The on-board fit's state.
+    pub fn fit_query(&mut self) -> Result<FitReport, LinkError> {
+        match self.request(RequestBody::FitQuery)? {
+            ResponseBody::Fit(r) => Ok(r),
+            other => Err(LinkError::Unexpected(format!("{other:?}"))),
+        }
+    }
+
+    /// Stops the on-board fit.
+    pub fn fit_stop(&mut self) -> Result<FitReport, LinkError> {
+        match self.request(RequestBody::FitStop)? {
+            ResponseBody::Fit(r) => Ok(r),
+            other => Err(LinkError::Unexpected(format!("{other:?}"))),
+        }
+    }
+
+    /// The coefficients in use.
+    pub fn read_coefficients(&mut self) -> Result<(Coefficients, CoefficientSource, u32), LinkError> {
+        match self.request(RequestBody::ReadCoefficients)? {
+            ResponseBody::Coefficients { coefficients, source, seq } => Ok((coefficients, source, seq)),
+            other => Err(LinkError::Unexpected(format!("{other:?}"))),
+        }
+    }
+
+    /// Unlock, stage, commit, read back and compare: the only way the host
+    /// writes coefficients. Returns the stored record's sequence number.
+    pub fn upload_coefficients(&mut self, c: &Coefficients) -> Result<u32, LinkError> {
+        let challenge = self.status()?.unlock_challenge;
+        self.expect_ack(RequestBody::Unlock { key: challenge ^ UNLOCK_XOR })?;
+        self.expect_ack(RequestBody::WriteCoefficients(*c))?;
+        let seq = match self.request(RequestBody::Commit { crc: c.crc() })? {
+            ResponseBody::Committed { seq } => seq,
+            other => return Err(LinkError::Unexpected(format!("{other:?}"))),
+        };
+        let (back, source, back_seq) = self.read_coefficients()?;
+        if back != *c || source != CoefficientSource::Stored || back_seq != seq {
+            return Err(LinkError::Unexpected(format!("read-back differs: {back:?} #{back_seq}")));
+        }
+        Ok(seq)
+    }
+
     /// Round-trip check: returns the echoed nonce.
     pub fn ping(&mut self, nonce: u32) -> Result<u32, LinkError> {
         match self.request(RequestBody::Ping { nonce })? {
             ResponseBody::Pong { nonce } => Ok(nonce),
             other => Err(LinkError::Unexpected(format!("{other:?}"))),
         }
+    }
+}
+
+/// Writes the QEMU board's sensor feed (its USART2).
+pub struct FeedWriter<P> {
+    port: P,
+    seq: u32,
+}
+
+impl FeedWriter<Box<dyn serialport::SerialPort>> {
+    /// Opens the feed's serial port (QEMU's second pty).
+    pub fn open(path: &str) -> Result<Self, LinkError> {
+        let port = serialport::new(path, BAUD_RATE)
+            .timeout(Duration::from_millis(20))
+            .open()
+            .map_err(|source| LinkError::Open { path: path.to_string(), source })?;
+        Ok(Self { port, seq: 0 })
+    }
+}
+
+impl<P: Write> FeedWriter<P> {
+    /// Sends the bridges' next truth: the field at each bridge (nT) and the
+    /// bridge offsets (ADC counts).
+    pub fn send(&mut self, field_nt: [f32; 3], offset_counts: [f32; 3]) -> Result<(), LinkError> {
+        self.seq = self.seq.wrapping_add(1);
+        let mut frame = [0u8; MAX_FRAME_LEN];
+        let n = proto::encode(&SensorFeed { seq: self.seq, field_nt, offset_counts }, &mut frame).map_err(LinkError::Encode)?;
+        self.port.write_all(&frame[..n])?;
+        self.port.flush()?;
+        Ok(())
     }
 }
 

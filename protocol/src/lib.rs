@@ -572,8 +572,9 @@ impl FrameDecoder {
 pub struct SensorFeed {
     /// Feed sequence number.
     pub seq: u32,
-    /// Bridge output per axis as ADC counts after the amplifier (`S·H`).
-    pub field_counts: [f32; 3],
+    /// The field at each bridge, nT (the hull's distortion included); the
+    /// board converts it with its own chain gain.
+    pub field_nt: [f32; 3],
     /// Bridge offsets, counts.
     pub offset_counts: [f32; 3],
 }

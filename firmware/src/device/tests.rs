@@ -170,5 +170,10 @@ fn the_onboard_fit_converges_to_the_truth() {
     let raw = [0, 1, 2].map(|k| (r[k] * f64::from(COUNTS_PER_NT) + b[k]) as f32);
     let psi = magnetic_heading_rad(cal.field.apply(raw), 0.2, 0.1);
     assert!(wrap_pi(f64::from(psi) - 1.3).abs() < 0.05f64.to_radians());
+    // A dead sensor (all zeros) does not enter the fit.
+    dev.on_raw_sample(&RawSample { field_counts: [0.0; 3], saturated: false }, 0);
+    let ResponseBody::Fit(rep) = req(&mut dev, RequestBody::FitQuery, 0, &mut s) else { panic!() };
+    assert_eq!(rep.samples, 3000);
     assert!(matches!(req(&mut dev, RequestBody::FitStop, 0, &mut s), ResponseBody::Fit(FitReport { running: false, .. })));
 }
+

@@ -27,9 +27,19 @@ pub fn magcal_bin() -> PathBuf {
 /// Boots the firmware in QEMU; its decoded defmt log goes to
 /// `target/e2e-logs/<name>.log`.
 pub fn boot(name: &str) -> QemuBoard {
+    boot_with(name, false)
+}
+
+/// Boots the firmware in QEMU with USART2 (the sensor feed) on a pty too.
+pub fn boot_with_feed(name: &str) -> QemuBoard {
+    boot_with(name, true)
+}
+
+fn boot_with(name: &str, sensor_port: bool) -> QemuBoard {
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../target/e2e-logs");
     let _ = std::fs::create_dir_all(&dir);
     let mut opts = QemuOptions::new(firmware_elf());
+    opts.sensor_port = sensor_port;
     opts.log = Some(dir.join(format!("{name}.log")));
     match QemuBoard::boot(&opts) {
         Ok(b) => b,
