@@ -493,12 +493,28 @@ pub fn joint_refine<T: Real>(
         iterations = it;
         let mut accepted = false;
         for _ in 0..20 {
-            let mut a = jtj;
-            for (k, row) in a.iter_mut().enumerate() {
-                row[k] += mu * jtj[k][k];
+            // Jacobi scaling: matrix entries, counts-sized biases and their
+            // gradients differ by many orders of magnitude.
+            let mut scale = [T::ONE; NP];
+            for (k, d) in scale.iter_mut().enumerate() {
+                let a = jtj[k][k];
+                *d = if a > T::ZERO { T::ONE / a.sqrt() } else { T::ONE };
             }
-            let neg = jtr.map(|v| -v);
-            let step = cholesky_solve(&a, &neg).map_err(|_| BackstepError::Singular)?;
+            let mut a = jtj;
+            for i in 0..NP {
+                for j in 0..NP {
+                    a[i][j] *= scale[i] * scale[j];
+                }
+                a[i][i] += mu;
+            }
+            let mut neg = [T::ZERO; NP];
+            for k in 0..NP {
+                neg[k] = -jtr[k] * scale[k];
+            }
+            let mut step = cholesky_solve(&a, &neg).map_err(|_| BackstepError::Singular)?;
+            for k in 0..NP {
+                step[k] *= scale[k];
+            }
             let mut cand = p;
             for k in 0..NP {
                 cand[k] += step[k];

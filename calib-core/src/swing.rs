@@ -106,8 +106,10 @@ pub struct HeadingSectors {
 /// Smallest harmonic spread (see [`HeadingSectors`]) for a harmonic to be fitted.
 pub const MIN_HARMONIC_SPREAD: f64 = 0.08;
 
-/// Share of all pairs a sector needs to count as visited.
-pub const MIN_SECTOR_SHARE: f64 = 0.04;
+/// Share of all pairs a sector needs to count as visited: about ¾ of what an
+/// even swing through the compass puts in each of the 12 sectors (8.3 %), so
+/// a turn swept through once does not count.
+pub const MIN_SECTOR_SHARE: f64 = 0.06;
 
 impl HeadingSectors {
     /// Counts a heading.

@@ -197,6 +197,7 @@ pub struct Decimator {
     n: u16,
     sum: [f32; 3],
     saturated: bool,
+    tag: Option<Option<u32>>,
 }
 
 /// One decimated output sample.
@@ -207,12 +208,15 @@ pub struct RawSample {
     pub field_counts: [f32; 3],
     /// Any pair in the average saturated.
     pub saturated: bool,
+    /// The tag every pair carried (QEMU: the sensor-feed frame), `None` if
+    /// they differed.
+    pub tag: Option<u32>,
 }
 
 impl Decimator {
     /// Averages `factor` (≥ 1) pairs.
     pub fn new(factor: u16) -> Self {
-        Self { factor: factor.max(1), n: 0, sum: [0.0; 3], saturated: false }
+        Self { factor: factor.max(1), n: 0, sum: [0.0; 3], saturated: false, tag: None }
     }
 
     /// The factor for a pair rate and an output rate (at least 1).
@@ -222,6 +226,16 @@ impl Decimator {
 
     /// Adds a pair; returns the average when `factor` pairs are in.
     pub fn push(&mut self, p: &PairSample) -> Option<RawSample> {
+        self.push_tagged(p, None)
+    }
+
+    /// [`Decimator::push`] with a tag (e.g. the feed frame the pair saw).
+    pub fn push_tagged(&mut self, p: &PairSample, tag: Option<u32>) -> Option<RawSample> {
+        self.tag = match self.tag {
+            None => Some(tag),
+            Some(t) if t == tag => Some(t),
+            Some(_) => Some(None),
+        };
         for k in 0..3 {
             self.sum[k] += p.field_counts[k];
         }
@@ -231,7 +245,7 @@ impl Decimator {
             return None;
         }
         let inv = 1.0 / f32::from(self.n);
-        let out = RawSample { field_counts: [self.sum[0] * inv, self.sum[1] * inv, self.sum[2] * inv], saturated: self.saturated };
+        let out = RawSample { field_counts: [self.sum[0] * inv, self.sum[1] * inv, self.sum[2] * inv], saturated: self.saturated, tag: self.tag.flatten() };
         *self = Self::new(self.factor);
         Some(out)
     }
@@ -296,6 +310,12 @@ mod tests {
         assert!(out.saturated);
         let next = d.push(&pair(1.0, false));
         assert!(next.is_none(), "the decimator restarts");
+        // Tags: kept when every pair carries the same, dropped when mixed.
+        let mut d = Decimator::new(2);
+        assert!(d.push_tagged(&pair(1.0, false), Some(7)).is_none());
+        assert_eq!(d.push_tagged(&pair(1.0, false), Some(7)).unwrap().tag, Some(7));
+        assert!(d.push_tagged(&pair(1.0, false), Some(7)).is_none());
+        assert_eq!(d.push_tagged(&pair(1.0, false), Some(8)).unwrap().tag, None);
         assert_eq!(Decimator::factor_for(1000, 0), 1000);
     }
 }

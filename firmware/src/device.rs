@@ -429,7 +429,14 @@ impl Device {
             StreamMode::Calibrated => (None, Some(field)),
             StreamMode::Both => (Some(raw.field_counts), Some(field)),
         };
-        Some(Sample { t_ms: now_ms, raw: raw_out, field_nt: cal_out, heading_rad: heading_rad.filter(|_| cal_out.is_some()), saturated: raw.saturated })
+        Some(Sample {
+            t_ms: now_ms,
+            raw: raw_out,
+            field_nt: cal_out,
+            heading_rad: heading_rad.filter(|_| cal_out.is_some()),
+            saturated: raw.saturated,
+            feed_seq: raw.tag,
+        })
     }
 }
 

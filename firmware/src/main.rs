@@ -118,6 +118,7 @@ mod app {
         store: BoardStore<BoardFlash>,
         watchdog: Option<IndependentWatchdog>,
         delay: CycleDelay,
+        platform2: Platform,
     }
 
     #[init]
@@ -210,7 +211,7 @@ mod app {
         defmt::info!("magcal-fw {} up on {}, sysclk {} Hz", firmware::FIRMWARE_VERSION, platform, sysclk_hz);
         (
             Shared { tx: TxQueue::new(tx), device, acq: AcqCounters::default() },
-            Local { rx, rx_sender, rx2, feed_sender, link: LinkServer::new(), platform, front, store, watchdog, delay },
+            Local { rx, rx_sender, rx2, feed_sender, link: LinkServer::new(), platform, front, store, watchdog, delay, platform2: platform },
         )
     }
 
@@ -297,18 +298,22 @@ mod app {
     #[task(priority = 1)]
     async fn feed(_cx: feed::Context, mut bytes: Receiver<'static, u8, RX_QUEUE>) {
         let mut decoder = FrameDecoder::new();
+        let mut offsets = [0.0f32; 3];
         while let Ok(byte) = bytes.recv().await {
             if let Some(Ok(body)) = decoder.push(byte) {
                 if let Ok(f) = proto::decode_body::<SensorFeed>(body) {
                     let g = firmware::acquisition::COUNTS_PER_NT;
-                    SIM_SENSOR.set_truth(f.field_nt.map(|v| v * g), f.offset_counts);
+                    if let Some(o) = f.offset_counts {
+                        offsets = o;
+                    }
+                    SIM_SENSOR.set_truth_seq(f.field_nt.map(|v| v * g), offsets, f.seq);
                 }
             }
         }
     }
 
     /// Acquisition at the pair rate; decimation, correction, streaming.
-    #[task(priority = 2, local = [front, delay, watchdog], shared = [tx, device, acq])]
+    #[task(priority = 2, local = [front, delay, watchdog, platform2], shared = [tx, device, acq])]
     async fn acquire(mut cx: acquire::Context) {
         let period = rtic_monotonics::fugit::MillisDurationU32::from_ticks(1_000 / PAIR_RATE_HZ);
         let mut next = Mono::now();
@@ -321,6 +326,7 @@ mod app {
                 w.feed();
             }
             let Some(front) = cx.local.front.as_mut() else { continue };
+            let tag = (*cx.local.platform2 == Platform::Qemu).then(|| SIM_SENSOR.seq());
             let pair = front.acquire_pair(cx.local.delay);
             let counters = front.counters();
             cx.shared.acq.lock(|a| *a = counters);
@@ -330,7 +336,7 @@ mod app {
                 rate = new_rate;
                 decimator = Decimator::new(Decimator::factor_for(PAIR_RATE_HZ, u32::from(rate)));
             }
-            if let Some(raw) = decimator.push(&pair) {
+            if let Some(raw) = decimator.push_tagged(&pair, tag) {
                 let t = now_ms();
                 if let Some(sample) = cx.shared.device.lock(|d| d.on_raw_sample(&raw, t)) {
                     let mut buf = [0u8; MAX_FRAME_LEN];

@@ -25,6 +25,7 @@ struct State {
     offset_counts: [f32; 3],
     polarity: Polarity,
     updates: u32,
+    seq: u32,
 }
 
 /// The magnetic truth the simulated bridges see, shared between the feed
@@ -43,21 +44,32 @@ impl SimSensor {
     /// Zero field, zero offset.
     pub const fn new() -> Self {
         Self {
-            state: Mutex::new(Cell::new(State { field_counts: [0.0; 3], offset_counts: [0.0; 3], polarity: Polarity::Set, updates: 0 })),
+            state: Mutex::new(Cell::new(State { field_counts: [0.0; 3], offset_counts: [0.0; 3], polarity: Polarity::Set, updates: 0, seq: 0 })),
         }
     }
 
     /// Sets the field (bridge output × sensitivity, counts) and the bridge
     /// offsets the next conversions will show.
     pub fn set_truth(&self, field_counts: [f32; 3], offset_counts: [f32; 3]) {
+        self.set_truth_seq(field_counts, offset_counts, 0);
+    }
+
+    /// [`SimSensor::set_truth`], tagged with the feed frame's sequence number.
+    pub fn set_truth_seq(&self, field_counts: [f32; 3], offset_counts: [f32; 3], seq: u32) {
         critical_section::with(|cs| {
             let cell = self.state.borrow(cs);
             let mut s = cell.get();
             s.field_counts = field_counts;
             s.offset_counts = offset_counts;
             s.updates = s.updates.wrapping_add(1);
+            s.seq = seq;
             cell.set(s);
         });
+    }
+
+    /// The sequence number of the feed frame in force.
+    pub fn seq(&self) -> u32 {
+        critical_section::with(|cs| self.state.borrow(cs).get().seq)
     }
 
     /// How many truth updates have arrived.

@@ -12,4 +12,5 @@ pub mod qemu;
 pub mod recording;
 pub mod report;
 pub mod scenario;
+pub mod session;
 pub mod sim;

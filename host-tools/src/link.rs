@@ -117,9 +117,9 @@ impl<P: Read + Write> Link<P> {
                 return Ok(Some(s));
             }
             let left = deadline.saturating_duration_since(Instant::now());
-            match self.next_response(left)? {
+            match self.pump(left, true)? {
                 Some(_) => self.discarded_frames += 1,
-                None if self.samples.is_empty() => return Ok(None),
+                None if self.samples.is_empty() && Instant::now() >= deadline => return Ok(None),
                 None => {}
             }
         }
@@ -130,6 +130,11 @@ impl<P: Read + Write> Link<P> {
         self.samples.clear();
     }
 
+    /// The underlying byte stream.
+    pub fn into_port(self) -> P {
+        self.port
+    }
+
     /// Sends raw bytes as they are (for tests of the board's error paths).
     pub fn send_raw(&mut self, bytes: &[u8]) -> Result<(), LinkError> {
         self.port.write_all(bytes)?;
@@ -138,24 +143,34 @@ impl<P: Read + Write> Link<P> {
     }
 
     /// Waits for the next well-formed response frame, whatever its `seq`.
+    /// Streamed samples that arrive meanwhile are kept for [`Link::next_sample`].
     pub fn next_response(&mut self, timeout: Duration) -> Result<Option<Response>, LinkError> {
+        self.pump(timeout, false)
+    }
+
+    /// Reads until a response arrives, or (with `stop_on_sample`) a sample
+    /// was queued, or the timeout passes. The port is read at least once.
+    fn pump(&mut self, timeout: Duration, stop_on_sample: bool) -> Result<Option<Response>, LinkError> {
         let deadline = Instant::now() + timeout;
         let mut buf = [0u8; 256];
-        // Read the port at least once, even with a zero timeout.
         let mut read_once = false;
         loop {
+            let mut got_sample = false;
             while let Some(b) = self.unread.pop_front() {
                 match self.decoder.push(b) {
                     None => {}
                     Some(Ok(body)) => match proto::decode_body::<Response>(body) {
-                        Ok(Response { seq: None, body: ResponseBody::Sample(s) }) => self.keep_sample(s),
+                        Ok(Response { seq: None, body: ResponseBody::Sample(s) }) => {
+                            self.keep_sample(s);
+                            got_sample = true;
+                        }
                         Ok(r) => return Ok(Some(r)),
                         Err(_) => self.discarded_frames += 1,
                     },
                     Some(Err(_)) => self.discarded_frames += 1,
                 }
             }
-            if read_once && Instant::now() >= deadline {
+            if (stop_on_sample && got_sample) || (read_once && Instant::now() >= deadline) {
                 return Ok(None);
             }
             read_once = true;
@@ -313,6 +328,8 @@ impl<P: Read + Write> Link<P> {
 pub struct FeedWriter<P> {
     port: P,
     seq: u32,
+    last: Vec<u8>,
+    offsets_sent: Option<[f32; 3]>,
 }
 
 impl FeedWriter<Box<dyn serialport::SerialPort>> {
@@ -322,18 +339,30 @@ impl FeedWriter<Box<dyn serialport::SerialPort>> {
             .timeout(Duration::from_millis(20))
             .open()
             .map_err(|source| LinkError::Open { path: path.to_string(), source })?;
-        Ok(Self { port, seq: 0 })
+        Ok(Self { port, seq: 0, last: Vec::new(), offsets_sent: None })
     }
 }
 
 impl<P: Write> FeedWriter<P> {
     /// Sends the bridges' next truth: the field at each bridge (nT) and the
-    /// bridge offsets (ADC counts).
-    pub fn send(&mut self, field_nt: [f32; 3], offset_counts: [f32; 3]) -> Result<(), LinkError> {
+    /// bridge offsets (ADC counts). Returns the frame's sequence number.
+    pub fn send(&mut self, field_nt: [f32; 3], offset_counts: [f32; 3]) -> Result<u32, LinkError> {
         self.seq = self.seq.wrapping_add(1);
         let mut frame = [0u8; MAX_FRAME_LEN];
-        let n = proto::encode(&SensorFeed { seq: self.seq, field_nt, offset_counts }, &mut frame).map_err(LinkError::Encode)?;
-        self.port.write_all(&frame[..n])?;
+        // Offsets only when they change (and in every resent frame's first copy).
+        let offsets = (self.offsets_sent != Some(offset_counts)).then_some(offset_counts);
+        self.offsets_sent = Some(offset_counts);
+        let n = proto::encode(&SensorFeed { seq: self.seq, field_nt, offset_counts: offsets }, &mut frame).map_err(LinkError::Encode)?;
+        self.last = frame[..n].to_vec();
+        self.port.write_all(&self.last)?;
+        self.port.flush()?;
+        Ok(self.seq)
+    }
+
+    /// Sends the last frame again (QEMU drops what arrives on a pty before
+    /// it has noticed the other end opened it).
+    pub fn resend(&mut self) -> Result<(), LinkError> {
+        self.port.write_all(&self.last)?;
         self.port.flush()?;
         Ok(())
     }

@@ -85,6 +85,23 @@ impl SensorModel {
         Self::with_soft_iron([[1.0, 0.015, 0.02], [0.015, 1.0, -0.012], [0.02, -0.012, 1.0]], [12.0, -9.0, 45.0])
     }
 
+    /// The QEMU board's vehicle, in nT at the bridges (the board's own chain
+    /// gain turns them into ADC counts): a steel hull's soft iron and
+    /// non-orthogonality near identity, hard iron of a few thousand nT and a
+    /// running-only bias of a few hundred. Fed through USART2 by the demo.
+    pub fn board_like() -> Self {
+        let soft_iron = [[1.04, 0.02, 0.012], [0.02, 0.95, -0.01], [0.012, -0.01, 1.02]];
+        let nonorth = gamma(&OrthoAngles { theta_rad: 0.01, phi_rad: 0.015, psi_rad: -0.008, k_xz: 0.99, k_yz: 1.01 });
+        Self {
+            d: mul_mat(&nonorth, &soft_iron),
+            bias: [1500.0, -2300.0, 800.0],
+            running_bias: [220.0, -160.0, 120.0],
+            noise_nt: 3.0,
+            ahrs_noise_deg: 0.15,
+            ahrs_bias_deg: [0.05, -0.05],
+        }
+    }
+
     fn with_soft_iron(soft_iron: Mat3<f64>, running_bias: [f64; 3]) -> Self {
         let scale = [[0.19556, 0.0, 0.0], [0.0, 0.09001, 0.0], [0.0, 0.0, 0.16142]];
         let nonorth = gamma(&OrthoAngles { theta_rad: 0.01, phi_rad: 0.015, psi_rad: -0.008, k_xz: 1.0, k_yz: 1.0 });

@@ -76,17 +76,17 @@ fn swing_estimates_the_gps_delay_and_the_fourier_terms() {
         }
         wrap_two_pi(h)
     };
-    let truth = |t: f64| wrap_two_pi(0.6 * t + 0.5 * (0.21 * t).sin());
+    let truth = |t: f64| wrap_two_pi(0.014 * t + 0.1 * (0.011 * t).sin());
     let mut rec = Recording { t_s: Some(vec![]), roll_deg: Some(vec![]), pitch_deg: Some(vec![]), ref_heading_deg: Some(vec![]), ..Recording::default() };
-    for k in 0..4000 {
-        let t = k as f64 * 0.1;
-        let (roll, pitch) = (0.3 * (0.5 * t).sin(), 0.1 * (0.37 * t).cos());
+    for k in 0..6000 {
+        let t = k as f64 * 0.5;
+        let (roll, pitch) = (0.3 * (0.05 * t).sin(), 0.1 * (0.037 * t).cos());
         let h = ned_to_body(ned_field(field, dip, 0.0), roll, pitch, distorted(truth(t)));
         rec.mag.push(h);
         rec.t_s.as_mut().unwrap().push(t);
         rec.roll_deg.as_mut().unwrap().push(roll.to_degrees());
         rec.pitch_deg.as_mut().unwrap().push(pitch.to_degrees());
-        let surface = (t / 30.0) as u32 % 2 == 0 && t >= 2.0;
+        let surface = (t / 120.0) as u32 % 2 == 0 && t >= 2.0;
         rec.ref_heading_deg.as_mut().unwrap().push(if surface { truth(t - 2.0).to_degrees() } else { f64::NAN });
     }
     let dir = tempfile::tempdir().unwrap();

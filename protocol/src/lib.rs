@@ -212,6 +212,9 @@ pub struct Sample {
     pub heading_rad: Option<f32>,
     /// A channel was saturated during this sample.
     pub saturated: bool,
+    /// QEMU board: the sensor-feed frame every pair of this sample saw
+    /// (`None` on the board, or when the feed changed within the sample).
+    pub feed_seq: Option<u32>,
 }
 
 /// Counters and state.
@@ -575,8 +578,8 @@ pub struct SensorFeed {
     /// The field at each bridge, nT (the hull's distortion included); the
     /// board converts it with its own chain gain.
     pub field_nt: [f32; 3],
-    /// Bridge offsets, counts.
-    pub offset_counts: [f32; 3],
+    /// Bridge offsets, counts (`None`: unchanged — keeps the frame short).
+    pub offset_counts: Option<[f32; 3]>,
 }
 
 #[cfg(test)]

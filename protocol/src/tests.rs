@@ -192,7 +192,7 @@ fn the_largest_messages_fit_in_a_frame() {
                 last_error: Some(LinkError::Frame(FrameError::UnsupportedVersion { got: 255 })), output_rate_hz: 100, stream: StreamMode::Both, feed_updates: u32::MAX,
             }),
         },
-        Response { seq: None, body: ResponseBody::Sample(Sample { t_ms: u32::MAX, raw: Some([1.0; 3]), field_nt: Some([2.0; 3]), heading_rad: Some(3.0), saturated: true }) },
+        Response { seq: None, body: ResponseBody::Sample(Sample { t_ms: u32::MAX, raw: Some([1.0; 3]), field_nt: Some([2.0; 3]), heading_rad: Some(3.0), saturated: true, feed_seq: Some(u32::MAX) }) },
     ];
     for r in big {
         let (f, n) = frame_of(&r);

@@ -121,7 +121,7 @@ fn samples_are_calibrated_as_calib_core_does_and_headed_with_a_fresh_attitude() 
     let mut d = Device::new(Boot { stored: Some((good(), 3)), challenge: 0 });
     let mut s = store();
     req(&mut d, RequestBody::SetStream(StreamMode::Both), 0, &mut s);
-    let raw = RawSample { field_counts: [700_000.0, -1_100_000.0, 1_300_000.0], saturated: false };
+    let raw = RawSample { field_counts: [700_000.0, -1_100_000.0, 1_300_000.0], saturated: false, tag: None };
     let out = d.on_raw_sample(&raw, 100).unwrap();
     let cal = validate(&good()).unwrap();
     assert_eq!(out.field_nt.unwrap(), cal.field.apply(raw.field_counts));
@@ -152,7 +152,7 @@ fn the_onboard_fit_converges_to_the_truth() {
         let h = [u[0] * f, u[1] * f, u[2] * f];
         let r = calib_core::linalg::mul_mat_vec(&d_mat, h);
         let raw = [0, 1, 2].map(|k| ((r[k] * f64::from(COUNTS_PER_NT)) + b[k] + 3.0 * rng.gauss()) as f32);
-        dev.on_raw_sample(&RawSample { field_counts: raw, saturated: false }, 0);
+        dev.on_raw_sample(&RawSample { field_counts: raw, saturated: false, tag: None }, 0);
         truth_cal.get_or_insert(());
     }
     let ResponseBody::Fit(rep) = req(&mut dev, RequestBody::FitQuery, 0, &mut s) else { panic!() };
@@ -171,7 +171,7 @@ fn the_onboard_fit_converges_to_the_truth() {
     let psi = magnetic_heading_rad(cal.field.apply(raw), 0.2, 0.1);
     assert!(wrap_pi(f64::from(psi) - 1.3).abs() < 0.05f64.to_radians());
     // A dead sensor (all zeros) does not enter the fit.
-    dev.on_raw_sample(&RawSample { field_counts: [0.0; 3], saturated: false }, 0);
+    dev.on_raw_sample(&RawSample { field_counts: [0.0; 3], saturated: false, tag: None }, 0);
     let ResponseBody::Fit(rep) = req(&mut dev, RequestBody::FitQuery, 0, &mut s) else { panic!() };
     assert_eq!(rep.samples, 3000);
     assert!(matches!(req(&mut dev, RequestBody::FitStop, 0, &mut s), ResponseBody::Fit(FitReport { running: false, .. })));

@@ -81,6 +81,14 @@ enum Vehicle {
 }
 
 #[derive(Clone, Copy, ValueEnum)]
+enum Plan {
+    /// The demo's field tests (3 km legs).
+    Demo,
+    /// Shortened (the test suite's).
+    Short,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
 enum Method {
     /// Our joint least-squares refinement.
     Joint,
@@ -120,6 +128,39 @@ enum Cmd {
         #[arg(long)]
         leg_m: Option<f64>,
         /// Print a JSON summary on stdout.
+        #[arg(long)]
+        json: bool,
+    },
+    /// A field calibration session over the serial link: swing test,
+    /// out-and-back run, back-stepping and swing fits, verified upload.
+    /// Today the vehicle is the simulator, played into the QEMU board's
+    /// sensor feed (`--sim-feed`).
+    Session {
+        /// The board's link (USART1), e.g. QEMU's first pty.
+        #[arg(long)]
+        port: String,
+        /// The QEMU board's sensor feed (USART2): the simulator plays the vehicle.
+        #[arg(long)]
+        sim_feed: String,
+        /// Latitude, degrees.
+        #[arg(long, allow_hyphen_values = true)]
+        lat: f64,
+        /// Longitude, degrees.
+        #[arg(long, allow_hyphen_values = true)]
+        lon: f64,
+        /// Date: YYYY-MM-DD or decimal year.
+        #[arg(long)]
+        date: String,
+        /// Session directory (recordings, calibrations, report).
+        #[arg(long)]
+        out: PathBuf,
+        /// Length of the simulated field tests.
+        #[arg(long, value_enum, default_value = "demo")]
+        plan: Plan,
+        /// Random seed of the simulated vehicle.
+        #[arg(long)]
+        seed: Option<u64>,
+        /// Print the summary as JSON on stdout.
         #[arg(long)]
         json: bool,
     },
@@ -293,9 +334,18 @@ enum Cmd {
 fn main() {
     let cli = Cli::parse();
     if let Err(e) = run(cli) {
-        // One line: the chain of causes, joined.
-        let msg = format!("{e:#}").replace('\n', " ");
-        eprintln!("magcal: {msg}");
+        // One line: the chain of causes, each said once.
+        let mut msg = String::new();
+        for cause in e.chain() {
+            let text = cause.to_string();
+            if !msg.contains(&text) {
+                if !msg.is_empty() {
+                    msg.push_str(": ");
+                }
+                msg.push_str(&text);
+            }
+        }
+        eprintln!("magcal: {}", msg.replace('\n', " "));
         std::process::exit(1);
     }
 }
@@ -374,6 +424,31 @@ fn run(cli: Cli) -> Result<()> {
             eprintln!("wrote {} ({} rows) and {}", out.display(), simulation.recording.len(), truth.display());
             if json {
                 println!("{}", json!({"csv": out, "truth": truth, "rows": simulation.recording.len(), "site": simulation.truth.site}));
+            }
+            Ok(())
+        }
+        Cmd::Session { port, sim_feed, lat, lon, date, out, plan, seed, json } => {
+            use host_tools::session::{run_simulated_session, SessionConfig, SimPlan};
+            use std::io::IsTerminal;
+            let year = igrf::parse_date(&date)?;
+            let mut plan = match plan {
+                Plan::Demo => SimPlan::demo(),
+                Plan::Short => SimPlan::short(),
+            };
+            if let Some(s) = seed {
+                plan.seed = s;
+            }
+            let cfg = SessionConfig { lat_deg: lat, lon_deg: lon, year, out_dir: out, interactive: std::io::stderr().is_terminal() };
+            let summary = run_simulated_session(&port, &sim_feed, &cfg, &plan)?;
+            if json {
+                println!("{summary}");
+            } else {
+                println!(
+                    "session done: true heading RMS {:.2}° → {:.2}° on the validation run, |F| − IGRF {:.1} nT; coefficients verified on the board",
+                    summary["heading_rms_deg_before"].as_f64().unwrap_or(f64::NAN),
+                    summary["heading_rms_deg_after"].as_f64().unwrap_or(f64::NAN),
+                    summary["field_error_nt_after"].as_f64().unwrap_or(f64::NAN)
+                );
             }
             Ok(())
         }

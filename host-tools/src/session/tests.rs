@@ -1,0 +1,173 @@
+use super::*;
+use std::cell::RefCell;
+use std::collections::VecDeque;
+use std::io;
+use std::rc::Rc;
+
+use firmware::device::{Boot, CoefficientStore, Device};
+use firmware::link::{DeviceInfo, LinkEvent, LinkServer};
+use magcal_protocol::{CoefficientSource, Platform};
+
+#[test]
+fn guidance_says_what_is_missing_in_plain_words() {
+    let mut c = SwingCoverage::default();
+    for k in 0..60 {
+        c.add(50.0 * (k as f64 * 0.3).sin(), 2.0, 10.0 + (k % 3) as f64 * 30.0);
+    }
+    let g = c.guidance();
+    assert!(g.iter().any(|s| s.starts_with("pitch nose up")), "{g:?}");
+    assert!(g.iter().any(|s| s.starts_with("pitch nose down")), "{g:?}");
+    assert!(g.iter().any(|s| s.starts_with("turn through") && s.contains("south") && !s.contains("north,")), "{g:?}");
+    assert!(!g.iter().any(|s| s.contains("roll")), "roll is covered: {g:?}");
+    let mut full = SwingCoverage::default();
+    for k in 0..720 {
+        full.add(55.0 * (k as f64 * 0.1).sin(), 10.0 * (k as f64 * 0.07).cos(), k as f64 * 0.5);
+    }
+    assert!(full.guidance().is_empty(), "{:?}", full.guidance());
+    assert_eq!(full.sectors_visited(), 12);
+}
+
+/// The firmware's own request handling, in process: a board that survives
+/// the link being cut.
+struct Board {
+    link: LinkServer,
+    device: Device,
+    store: MemStore,
+}
+
+struct MemStore {
+    saves: u32,
+}
+impl CoefficientStore for MemStore {
+    fn save(&mut self, _: &[u8]) -> Result<u32, ()> {
+        self.saves += 1;
+        Ok(self.saves)
+    }
+}
+
+/// A connection to the shared board that breaks after `budget` bytes
+/// written (`writes`) or when the `drop_reply_of` byte count is passed on
+/// the way back.
+struct Conn {
+    board: Rc<RefCell<Board>>,
+    out: VecDeque<u8>,
+    write_budget: Option<usize>,
+    read_budget: Option<usize>,
+    delivered: Vec<u8>,
+}
+
+impl Write for Conn {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        for &b in buf {
+            if let Some(n) = self.write_budget.as_mut() {
+                if *n == 0 {
+                    return Err(io::Error::new(io::ErrorKind::BrokenPipe, "link cut"));
+                }
+                *n -= 1;
+            }
+            let mut board = self.board.borrow_mut();
+            let Board { link, device, store } = &mut *board;
+            let info = DeviceInfo { platform: Platform::Qemu, uptime_ms: 0 };
+            match link.on_byte(b, &info) {
+                Some(LinkEvent::Reply(f)) => self.out.extend(f),
+                Some(LinkEvent::Request(r)) => {
+                    let body = device.handle(&r.body, 0, store, |_| {});
+                    if let Some(f) = link.reply(Some(r.seq), body) {
+                        self.out.extend(f);
+                    }
+                }
+                None => {}
+            }
+        }
+        Ok(buf.len())
+    }
+    fn flush(&mut self) -> io::Result<()> {
+        Ok(())
+    }
+}
+
+impl Read for Conn {
+    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        let mut n = 0;
+        while n < buf.len() {
+            if let Some(r) = self.read_budget.as_mut() {
+                if *r == 0 {
+                    return if n == 0 { Err(io::Error::new(io::ErrorKind::BrokenPipe, "link cut")) } else { Ok(n) };
+                }
+                *r -= 1;
+            }
+            match self.out.pop_front() {
+                Some(b) => {
+                    buf[n] = b;
+                    self.delivered.push(b);
+                    n += 1;
+                }
+                None => break,
+            }
+        }
+        Ok(n)
+    }
+}
+
+fn board() -> Rc<RefCell<Board>> {
+    Rc::new(RefCell::new(Board { link: LinkServer::new(), device: Device::new(Boot { stored: None, challenge: 42 }), store: MemStore { saves: 0 } }))
+}
+
+fn coefficients() -> Coefficients {
+    let g = 1.0 / firmware::acquisition::COUNTS_PER_NT;
+    Coefficients { bias: [1000.0, 2000.0, -500.0], matrix: [[g, 0.0, 0.0], [0.0, g, 0.0], [0.0, 0.0, g]], swing: [0.01, 0.0, 0.0, 0.0, 0.0], declination_rad: 0.1, field_nt: 48_730.0 }
+}
+
+fn connector(b: &Rc<RefCell<Board>>, budgets: Vec<(Option<usize>, Option<usize>)>) -> impl FnMut() -> Result<Link<Conn>, LinkError> {
+    let b = b.clone();
+    let mut budgets = budgets.into_iter();
+    move || {
+        let (w, r) = budgets.next().unwrap_or((None, None));
+        let mut link = Link::new(Conn { board: b.clone(), out: VecDeque::new(), write_budget: w, read_budget: r, delivered: vec![] });
+        link.timeout = Duration::from_millis(50);
+        link.attempts = 1;
+        Ok(link)
+    }
+}
+
+#[test]
+fn a_link_cut_mid_upload_resumes_and_the_set_is_verified() {
+    let b = board();
+    // First connection dies while writing (after ~2 frames); the second works.
+    let seq = upload_verified(connector(&b, vec![(Some(60), None), (None, None)]), &coefficients(), 3).unwrap();
+    assert_eq!(seq, 1);
+    let board = b.borrow();
+    assert_eq!(board.store.saves, 1);
+}
+
+#[test]
+fn a_lost_commit_reply_is_verified_by_reading_back_not_written_twice() {
+    let b = board();
+    // The replies of a clean upload: Status, Ack (unlock), Ack (write),
+    // Committed, Coefficients. Cut the link just before Committed arrives.
+    let mut probe = Link::new(Conn { board: board(), out: VecDeque::new(), write_budget: None, read_budget: None, delivered: vec![] });
+    probe.timeout = Duration::from_millis(50);
+    probe.upload_coefficients(&coefficients()).unwrap();
+    let delivered = &probe_port(probe).delivered;
+    let frames: Vec<usize> = delivered.split_inclusive(|&x| x == 0).map(<[u8]>::len).collect();
+    assert_eq!(frames.len(), 5);
+    let before_commit_reply: usize = frames[..3].iter().sum();
+    let seq = upload_verified(connector(&b, vec![(None, Some(before_commit_reply)), (None, None)]), &coefficients(), 3).unwrap();
+    let board = b.borrow();
+    assert_eq!(board.store.saves, 1, "committed once");
+    assert_eq!(seq, 1);
+}
+
+#[test]
+fn an_unverifiable_board_is_reported() {
+    let b = board();
+    let r = upload_verified(connector(&b, vec![(Some(10), None); 3]), &coefficients(), 3);
+    assert!(matches!(r, Err(SessionError::NotVerified(3))), "{r:?}");
+    let mut link = Link::new(Conn { board: b.clone(), out: VecDeque::new(), write_budget: None, read_budget: None, delivered: vec![] });
+    // The board never switched to a partial set.
+    assert_eq!(link.read_coefficients().unwrap().1, CoefficientSource::Default);
+}
+
+fn probe_port(link: Link<Conn>) -> Conn {
+    link.into_port()
+}
