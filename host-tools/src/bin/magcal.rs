@@ -54,6 +54,20 @@ enum Solver {
     Linear,
 }
 
+/// Where and when, for the IGRF reference (all three or none).
+#[derive(clap::Args, Clone)]
+struct SiteArgs {
+    /// Latitude, degrees (IGRF reference; with --lon and --date).
+    #[arg(long, allow_hyphen_values = true)]
+    lat: Option<f64>,
+    /// Longitude, degrees.
+    #[arg(long, allow_hyphen_values = true)]
+    lon: Option<f64>,
+    /// Date, YYYY-MM-DD or decimal year.
+    #[arg(long)]
+    date: Option<String>,
+}
+
 #[derive(Clone, Copy, ValueEnum)]
 enum FieldModel {
     /// IGRF-14 from the official coefficients.
@@ -193,15 +207,8 @@ enum Cmd {
         /// The calibration to refine (step 1).
         #[arg(long)]
         cal: PathBuf,
-        /// Latitude for IGRF, degrees.
-        #[arg(long, allow_hyphen_values = true)]
-        lat: Option<f64>,
-        /// Longitude for IGRF, degrees.
-        #[arg(long, allow_hyphen_values = true)]
-        lon: Option<f64>,
-        /// Date for IGRF: YYYY-MM-DD or decimal year.
-        #[arg(long)]
-        date: Option<String>,
+        #[command(flatten)]
+        site: SiteArgs,
         /// Reference horizontal intensity, nT (instead of IGRF).
         #[arg(long)]
         field_h_nt: Option<f64>,
@@ -265,15 +272,8 @@ enum Cmd {
         /// Reference field intensity, nT.
         #[arg(long)]
         field_nt: Option<f64>,
-        /// Latitude, degrees (IGRF reference; with --lon and --date).
-        #[arg(long, allow_hyphen_values = true)]
-        lat: Option<f64>,
-        /// Longitude, degrees.
-        #[arg(long, allow_hyphen_values = true)]
-        lon: Option<f64>,
-        /// Date, YYYY-MM-DD or decimal year.
-        #[arg(long)]
-        date: Option<String>,
+        #[command(flatten)]
+        site: SiteArgs,
         /// Raw magnitude at which the sensor saturates (per axis).
         #[arg(long)]
         saturation: Option<f64>,
@@ -470,7 +470,8 @@ fn run(cli: Cli) -> Result<()> {
             }
             Ok(())
         }
-        Cmd::Backstep { input, cal, lat, lon, date, field_h_nt, field_z_nt, method, turnaround_s, swing_input, out, json } => {
+        Cmd::Backstep { input, cal, site, field_h_nt, field_z_nt, method, turnaround_s, swing_input, out, json } => {
+            let SiteArgs { lat, lon, date } = site;
             let reference = match (lat, lon, date, field_h_nt, field_z_nt) {
                 (Some(lat_deg), Some(lon_deg), Some(d), None, None) => pipeline::RunReference::Igrf { lat_deg, lon_deg, year: igrf::parse_date(&d)? },
                 (None, None, None, Some(h_nt), Some(z_nt)) => pipeline::RunReference::Given { h_nt, z_nt },
@@ -556,7 +557,8 @@ fn run(cli: Cli) -> Result<()> {
             }
             Ok(())
         }
-        Cmd::Fit { input, model, field_nt, lat, lon, date, saturation, allow_weak, out, json } => {
+        Cmd::Fit { input, model, field_nt, site, saturation, allow_weak, out, json } => {
+            let SiteArgs { lat, lon, date } = site;
             let reference = reference_field(field_nt, lat, lon, date.as_deref())?;
             let rec = Recording::read(&input)?;
             let opts = FitOptions { model: model.into(), field_nt: reference.total_nt(), saturation, allow_weak };
