@@ -5,7 +5,7 @@
 //! field, two sin/cos pairs and an atan2 for the heading, and the five-term
 //! Fourier correction.
 
-use crate::heading::{magnetic_heading_rad, wrap_two_pi, Vec3};
+use crate::heading::{heading_of_levelled, wrap_two_pi, Tilt, Vec3};
 use crate::linalg::{det3, identity3, mul_mat_vec, Mat3};
 use crate::Real;
 
@@ -128,8 +128,13 @@ impl<T: Real> Swing<T> {
 
     /// The correction δψ at heading ψ.
     pub fn correction_rad(&self, heading_rad: T) -> T {
-        let (s1, c1) = (heading_rad.sin(), heading_rad.cos());
-        // sin 2ψ and cos 2ψ from the single-angle values: no second sin/cos.
+        self.correction_of_phasor(heading_rad.sin(), heading_rad.cos())
+    }
+
+    /// The correction δψ from sin ψ and cos ψ (e.g. the normalised levelled
+    /// field, with no trigonometry); sin 2ψ and cos 2ψ by the double angle.
+    pub fn correction_of_phasor(&self, sin_heading: T, cos_heading: T) -> T {
+        let (s1, c1) = (sin_heading, cos_heading);
         let (s2, c2) = (T::from_f64(2.0) * s1 * c1, c1 * c1 - s1 * s1);
         self.a + self.b * s1 + self.c * c1 + self.d * s2 + self.e * c2
     }
@@ -185,14 +190,25 @@ impl<T: Real> Calibration<T> {
 
     /// Magnetic heading after field and swing calibration, [0, 2π).
     pub fn magnetic_heading_rad(&self, raw: Vec3<T>, roll_rad: T, pitch_rad: T) -> T {
-        self.swing.apply(magnetic_heading_rad(self.field.apply(raw), roll_rad, pitch_rad))
+        wrap_two_pi(self.apply(raw, roll_rad, pitch_rad).true_heading_rad - self.declination_rad)
     }
 
     /// Field and true heading for one sample with the AHRS attitude.
     pub fn apply(&self, raw: Vec3<T>, roll_rad: T, pitch_rad: T) -> Output<T> {
+        self.apply_tilt(raw, &Tilt::new(roll_rad, pitch_rad))
+    }
+
+    /// [`Calibration::apply`] with the attitude's sines and cosines already
+    /// computed: the per-sample path of the firmware. The swing correction
+    /// takes sin ψ and cos ψ from the levelled field itself, so a sample
+    /// costs one square root, one division and one `atan2`.
+    pub fn apply_tilt(&self, raw: Vec3<T>, tilt: &Tilt<T>) -> Output<T> {
         let field_nt = self.field.apply(raw);
-        let magnetic = self.swing.apply(magnetic_heading_rad(field_nt, roll_rad, pitch_rad));
-        Output { field_nt, true_heading_rad: wrap_two_pi(magnetic + self.declination_rad) }
+        let l = tilt.level(field_nt);
+        let psi = heading_of_levelled(l);
+        let hh = (l[0] * l[0] + l[1] * l[1]).sqrt();
+        let correction = if hh > T::ZERO { self.swing.correction_of_phasor(-l[1] / hh, l[0] / hh) } else { self.swing.correction_rad(psi) };
+        Output { field_nt, true_heading_rad: wrap_two_pi(psi + correction + self.declination_rad) }
     }
 }
 

@@ -45,15 +45,42 @@ pub fn ned_to_body<T: Real>(v_ned: Vec3<T>, roll_rad: T, pitch_rad: T, yaw_rad: 
     [x, y, z]
 }
 
+/// Sines and cosines of roll and pitch, computed once per attitude update
+/// so that levelling a sample needs no trigonometry (on the Cortex-M4F the
+/// `f32` sine costs more than everything else in a sample).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Tilt<T> {
+    /// sin φ.
+    pub sin_roll: T,
+    /// cos φ.
+    pub cos_roll: T,
+    /// sin θ.
+    pub sin_pitch: T,
+    /// cos θ.
+    pub cos_pitch: T,
+}
+
+impl<T: Real> Tilt<T> {
+    /// From roll and pitch in radians.
+    pub fn new(roll_rad: T, pitch_rad: T) -> Self {
+        Self { sin_roll: roll_rad.sin(), cos_roll: roll_rad.cos(), sin_pitch: pitch_rad.sin(), cos_pitch: pitch_rad.cos() }
+    }
+
+    /// Levels a body-frame vector, `C2ᵀ(θ) C1ᵀ(φ) v` (eqs 6 and 23).
+    pub fn level(&self, v_body: Vec3<T>) -> Vec3<T> {
+        let [x, y, z] = v_body;
+        let (sr, cr, sp, cp) = (self.sin_roll, self.cos_roll, self.sin_pitch, self.cos_pitch);
+        let z_rolled = sr * y + cr * z;
+        [cp * x + sp * z_rolled, cr * y - sr * z, -sp * x + cp * z_rolled]
+    }
+}
+
 /// Levels a body-frame vector with roll and pitch, `C2ᵀ(θ) C1ᵀ(φ) v`
 /// (eqs 6 and 23). The result is in the heading frame: x along the vehicle's
 /// horizontal heading, y to its horizontal right, z down.
 pub fn level<T: Real>(v_body: Vec3<T>, roll_rad: T, pitch_rad: T) -> Vec3<T> {
-    let [x, y, z] = v_body;
-    let (sr, cr) = (roll_rad.sin(), roll_rad.cos());
-    let (sp, cp) = (pitch_rad.sin(), pitch_rad.cos());
-    let z_rolled = sr * y + cr * z;
-    [cp * x + sp * z_rolled, cr * y - sr * z, -sp * x + cp * z_rolled]
+    Tilt::new(roll_rad, pitch_rad).level(v_body)
 }
 
 /// Horizontal intensity of a levelled vector, `Hh = √(Hx² + Hy²)` (eq 24).
@@ -67,7 +94,12 @@ pub fn horizontal<T: Real>(levelled: Vec3<T>) -> T {
 ///
 /// Any consistent unit of field works: only the direction matters.
 pub fn magnetic_heading_rad<T: Real>(field_body: Vec3<T>, roll_rad: T, pitch_rad: T) -> T {
-    let [m1, m2, _] = level(field_body, roll_rad, pitch_rad);
+    heading_of_levelled(level(field_body, roll_rad, pitch_rad))
+}
+
+/// The heading of a levelled vector, `atan2(−M2, M1)` in [0, 2π) (eqs 7–8).
+pub fn heading_of_levelled<T: Real>(levelled: Vec3<T>) -> T {
+    let [m1, m2, _] = levelled;
     wrap_two_pi((-m2).atan2(m1))
 }
 

@@ -99,8 +99,9 @@ pub const SECTORS: u32 = 12;
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct HeadingSectors {
     counts: [u32; SECTORS as usize],
-    /// Σ cos kψ, Σ sin kψ, Σ cos² kψ, Σ sin² kψ, Σ cos kψ sin kψ for k = 1, 2.
-    moments: [[f64; 5]; 2],
+    /// Σ cos kψ, Σ sin kψ, Σ cos² kψ, Σ sin² kψ, Σ cos kψ sin kψ for k = 1, 2
+    /// (`f32`: a decision statistic, and cheap on the MCU).
+    moments: [[f32; 5]; 2],
 }
 
 /// Smallest harmonic spread (see [`HeadingSectors`]) for a harmonic to be fitted.
@@ -114,14 +115,19 @@ pub const MIN_SECTOR_SHARE: f64 = 0.06;
 impl HeadingSectors {
     /// Counts a heading.
     pub fn add<T: Real>(&mut self, heading_rad: T) {
+        let (s1, c1) = (heading_rad.sin(), heading_rad.cos());
+        self.add_phasor(heading_rad, s1, c1);
+    }
+
+    /// Counts a heading whose sine and cosine are already known.
+    pub fn add_phasor<T: Real>(&mut self, heading_rad: T, sin_heading: T, cos_heading: T) {
         let s = (wrap_two_pi(heading_rad) / T::TAU * T::from_f64(f64::from(SECTORS))).to_f64() as usize;
         if let Some(c) = self.counts.get_mut(s.min(SECTORS as usize - 1)) {
             *c = c.saturating_add(1);
         }
-        let psi = heading_rad.to_f64();
-        for (k, m) in self.moments.iter_mut().enumerate() {
-            let a = psi * (k as f64 + 1.0);
-            let (sn, cs) = (libm::sin(a), libm::cos(a));
+        let (s1, c1) = (sin_heading.to_f64() as f32, cos_heading.to_f64() as f32);
+        let phasors = [(s1, c1), (2.0 * s1 * c1, c1 * c1 - s1 * s1)];
+        for (m, (sn, cs)) in self.moments.iter_mut().zip(phasors) {
             m[0] += cs;
             m[1] += sn;
             m[2] += cs * cs;
@@ -138,6 +144,7 @@ impl HeadingSectors {
         if n < 1.0 {
             return 0.0;
         }
+        let m = m.map(f64::from);
         let (mc, ms) = (m[0] / n, m[1] / n);
         let (a, d, b) = (m[2] / n - mc * mc, m[3] / n - ms * ms, m[4] / n - mc * ms);
         let (tr, det) = (a + d, a * d - b * b);
@@ -266,10 +273,11 @@ impl<T: Real, E: LeastSquares<T, 5> + Default> SwingAccumulator<T, E> {
             return false;
         }
         let d = wrap_pi(reference_rad - heading_rad);
-        if !self.ls.update(&swing_row(heading_rad), d) {
+        let row = swing_row(heading_rad);
+        if !self.ls.update(&row, d) {
             return false;
         }
-        self.sectors.add(heading_rad);
+        self.sectors.add_phasor(heading_rad, row[1], row[2]);
         self.sum_sin += d.sin();
         self.sum_cos += d.cos();
         self.sum_sq += d * d;

@@ -12,6 +12,7 @@
 //!   only once stored (a failed write keeps the old set in use).
 
 use calib_core::cal::{Calibration, FieldCal, Swing};
+use calib_core::heading::Tilt;
 use calib_core::fit::{AxisRls, FitError, FullRls, Normalization, SphereRls};
 use calib_core::quality::CoverageMask;
 use magcal_protocol::{
@@ -177,7 +178,7 @@ pub struct Device {
     mission: bool,
     stream: StreamMode,
     output_rate_hz: u8,
-    attitude: Option<(f32, f32, u32)>,
+    attitude: Option<(Tilt<f32>, u32)>,
     fit: Option<OnboardFit>,
     last_error: Option<LinkError>,
     counters: DeviceCounters,
@@ -319,7 +320,8 @@ impl Device {
                 if !ok {
                     return self.refuse(LinkError::BadArgument);
                 }
-                self.attitude = Some((roll_rad, pitch_rad, now_ms));
+                // The trigonometry once per attitude, not once per sample.
+                self.attitude = Some((Tilt::new(roll_rad, pitch_rad), now_ms));
                 ResponseBody::Ack
             }
             RequestBody::FitStart { model, field_nt } => {
@@ -417,10 +419,7 @@ impl Device {
         }
         let field = self.calibration.field.apply(raw.field_counts);
         let heading_rad = match self.attitude {
-            Some((roll, pitch, t)) if now_ms.wrapping_sub(t) <= ATTITUDE_TIMEOUT_MS => {
-                let o = self.calibration.apply(raw.field_counts, roll, pitch);
-                Some(o.true_heading_rad)
-            }
+            Some((tilt, t)) if now_ms.wrapping_sub(t) <= ATTITUDE_TIMEOUT_MS => Some(self.calibration.apply_tilt(raw.field_counts, &tilt).true_heading_rad),
             _ => None,
         };
         let (raw_out, cal_out) = match self.stream {

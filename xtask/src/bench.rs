@@ -95,9 +95,53 @@ fn paper000() -> (serde_json::Value, String) {
     (json!(rows), md)
 }
 
+/// Instruction counts on the Cortex-M4F: the `mcu-bench` firmware binary
+/// under QEMU with `-icount shift=0,sleep=off` (1 ns of virtual time per
+/// instruction; SysTick at the emulated 168 MHz counts them).
+fn mcu_costs(root: &Path) -> Result<serde_json::Value> {
+    let status = std::process::Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
+        .current_dir(root)
+        .args(["build", "--release", "-p", "firmware", "--target", "thumbv7em-none-eabihf", "--bins"])
+        .status()?;
+    anyhow::ensure!(status.success(), "building mcu-bench failed");
+    let elf = root.join("target/thumbv7em-none-eabihf/release/mcu-bench");
+    let out = std::process::Command::new("timeout")
+        .arg("120")
+        .args(["qemu-system-arm", "-machine", "netduinoplus2", "-display", "none", "-monitor", "none", "-serial", "null", "-serial", "null"])
+        .args(["-icount", "shift=0,sleep=off", "-semihosting-config", "enable=on,target=native", "-kernel"])
+        .arg(&elf)
+        .output()?;
+    anyhow::ensure!(out.status.success(), "mcu-bench failed under QEMU: {}", String::from_utf8_lossy(&out.stderr));
+    let mut v = serde_json::Map::new();
+    for line in String::from_utf8_lossy(&out.stdout).lines() {
+        if let Some((k, n)) = line.split_once(' ') {
+            if let Ok(n) = n.trim().parse::<u64>() {
+                v.insert(k.to_string(), json!(n));
+            }
+        }
+    }
+    anyhow::ensure!(v.get("scale_check_20000_instructions") == Some(&json!(20000)), "the instruction count is not calibrated: {v:?}");
+    let get = |k: &str| v.get(k).and_then(serde_json::Value::as_u64).unwrap_or(0) as f64;
+    // 1 kHz set/reset pairs, and at the 100 Hz output rate the correction,
+    // the heading and an on-board full-ellipsoid update; 168 MHz, one
+    // instruction per cycle assumed (silicon needs somewhat more cycles).
+    let per_second = 1000.0 * get("acquisition_cycle_instructions") + 100.0 * (get("apply_heading_instructions") + get("rls_full_update_instructions"));
+    v.insert("cpu_load_pct_1khz".into(), json!(per_second / 168e6 * 100.0));
+    Ok(serde_json::Value::Object(v))
+}
+
 /// Runs the benchmarks and writes the results.
 pub fn run(out_dir: &Path) -> Result<()> {
     std::fs::create_dir_all(out_dir)?;
+    let root = out_dir.join("../..");
+    eprintln!("== MCU cost (instructions under QEMU -icount)");
+    let mut mcu = mcu_costs(&root)?;
+    let usage = crate::size::measure(&root.join("target/thumbv7em-none-eabihf/release/firmware")).ok();
+    if let Some(u) = usage {
+        mcu["flash_bytes"] = json!(u.flash_bytes);
+        mcu["ram_bytes"] = json!(u.ram_bytes);
+    }
+    eprintln!("{}", serde_json::to_string_pretty(&mcu)?);
     eprintln!("== paper 001: J vs N and σ ({SEEDS} seeds each)");
     let (p1, p1_md) = paper001();
     eprintln!("{p1_md}");
@@ -106,15 +150,21 @@ pub fn run(out_dir: &Path) -> Result<()> {
     let (p0, p0_md) = paper000();
     eprintln!("{p0_md}");
     eprintln!("== f32 recursive full fit vs f64 batch (2400-sample tumble, 50 000 nT, 0.4 nT noise): {f32_check}");
-    let results = json!({
+    let mut results = json!({
         "command": "cargo xtask bench",
         "paper001_j": p1,
         "paper000_scenarios": p0,
         "f32_rls_vs_f64_batch": f32_check,
     });
+    if let Some(obj) = mcu.as_object() {
+        for (k, v) in obj {
+            results[k] = v.clone();
+        }
+    }
     std::fs::write(out_dir.join("results.json"), serde_json::to_string_pretty(&results)?)?;
     let md = format!(
-        "# Benchmarks (`cargo xtask bench`)\n\n## Paper 000: simulated field tests\n\nTurnaround step on the calibration run; true-heading RMS and |F| − IGRF RMS on a separate validation run (other courses, other current), each chain finished by a swing fit against the delayed GPS course.\n\n{p0_md}\n## Paper 001: J (eq 16) vs N pairs and noise σ\n\nMean over {SEEDS} seeds; field norm 2; σ per axis.\n\n{p1_md}\n## f32 recursive full fit vs f64 batch\n\n`{f32_check}`\n"
+        "# Benchmarks (`cargo xtask bench`)\n\n## MCU cost (Cortex-M4F instructions, QEMU -icount; load at 168 MHz assuming 1 instruction per cycle)\n\n```\n{}\n```\n\n## Paper 000: simulated field tests\n\nTurnaround step on the calibration run; true-heading RMS and |F| − IGRF RMS on a separate validation run (other courses, other current), each chain finished by a swing fit against the delayed GPS course.\n\n{p0_md}\n## Paper 001: J (eq 16) vs N pairs and noise σ\n\nMean over {SEEDS} seeds; field norm 2; σ per axis.\n\n{p1_md}\n## f32 recursive full fit vs f64 batch\n\n`{f32_check}`\n",
+        serde_json::to_string_pretty(&mcu)?
     );
     std::fs::write(out_dir.join("results.md"), md)?;
     eprintln!("wrote {}", out_dir.join("results.json").display());
