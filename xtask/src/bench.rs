@@ -130,6 +130,84 @@ fn mcu_costs(root: &Path) -> Result<serde_json::Value> {
     Ok(serde_json::Value::Object(v))
 }
 
+/// Host throughput: batch and recursive full fits over 10⁶ samples, IGRF
+/// evaluations per second, and numpy doing the same batch fit (when numpy is
+/// installed) as a ratio.
+fn host_throughput(root: &Path) -> serde_json::Value {
+    use calib_core::conformance::{tumble_sample, SplitMix64, TUMBLE_FIELD_NT};
+    use std::time::Instant;
+    const N: usize = 1_000_000;
+    let mut rng = SplitMix64::new(3);
+    let samples: Vec<[f64; 3]> = (0..N).map(|_| tumble_sample(&mut rng)).collect();
+    let t = Instant::now();
+    let batch = fit_batch::<Full, 9, f64>(&samples, TUMBLE_FIELD_NT);
+    let batch_s = t.elapsed().as_secs_f64();
+    let mut rls = FullRls::<f64>::new(Normalization { centre: [0.0; 3], scale: TUMBLE_FIELD_NT });
+    let t = Instant::now();
+    for s in &samples {
+        rls.push(*s);
+    }
+    let rls_s = t.elapsed().as_secs_f64();
+    let mut rls32 = FullRls::<f32>::new(Normalization { centre: [0.0; 3], scale: TUMBLE_FIELD_NT as f32 });
+    let t = Instant::now();
+    for s in &samples {
+        rls32.push(s.map(|v| v as f32));
+    }
+    let rls32_s = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let mut acc = 0.0;
+    let evals = 20_000;
+    for k in 0..evals {
+        let lat = -80.0 + 160.0 * (k as f64 / evals as f64);
+        if let Ok(f) = host_tools::igrf::igrf14(lat, (k % 360) as f64 - 180.0, 0.0, 2026.5) {
+            acc += f.total_nt();
+        }
+    }
+    let igrf_s = t.elapsed().as_secs_f64();
+    let numpy = std::process::Command::new("python3")
+        .arg(root.join("xtask/python/numpy_fit.py"))
+        .arg(N.to_string())
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .and_then(|o| serde_json::from_slice::<serde_json::Value>(&o.stdout).ok());
+    let ratio = numpy.as_ref().and_then(|v| v["numpy_full_fit_s"].as_f64()).map(|np| batch_s / np);
+    json!({
+        "samples": N,
+        "batch_full_fit_s": batch_s,
+        "batch_full_fit_ok": batch.is_ok(),
+        "recursive_full_f64_s": rls_s,
+        "recursive_full_f32_s": rls32_s,
+        "igrf_evaluations_per_s": evals as f64 / igrf_s,
+        "igrf_checksum": acc,
+        "numpy": numpy,
+        "batch_time_over_numpy": ratio,
+    })
+}
+
+/// SVG figures of the results (paper 001 Figs 3–4: J vs N per σ).
+fn figures(out_dir: &Path, p1: &serde_json::Value) -> Result<Vec<String>> {
+    use host_tools::report::{line_plot, Series};
+    let mut files = Vec::new();
+    for solver in ["pairwise (paper)", "linear + Cholesky"] {
+        let mut series = Vec::new();
+        for sigma in SIGMAS.iter().filter(|s| **s > 0.0) {
+            let points = p1
+                .as_array()
+                .into_iter()
+                .flatten()
+                .filter(|r| r["solver"] == solver && r["sigma"].as_f64() == Some(*sigma))
+                .filter_map(|r| Some(((r["pairs"].as_f64()?).log10(), r["mean_j"].as_f64()?.log10())))
+                .collect();
+            series.push(Series { name: format!("σ = {sigma:e}"), points, dots: false });
+        }
+        let name = if solver.starts_with("pairwise") { "fig_paper001_j_pairwise.svg" } else { "fig_paper001_j_linear.svg" };
+        std::fs::write(out_dir.join(name), line_plot(&format!("Paper 001: log10 J vs log10 N — {solver}"), "log10 N (pairs)", "log10 J", &series))?;
+        files.push(name.to_string());
+    }
+    Ok(files)
+}
+
 /// Runs the benchmarks and writes the results.
 pub fn run(out_dir: &Path) -> Result<()> {
     std::fs::create_dir_all(out_dir)?;
@@ -150,8 +228,14 @@ pub fn run(out_dir: &Path) -> Result<()> {
     let (p0, p0_md) = paper000();
     eprintln!("{p0_md}");
     eprintln!("== f32 recursive full fit vs f64 batch (2400-sample tumble, 50 000 nT, 0.4 nT noise): {f32_check}");
+    eprintln!("== host throughput (10⁶ samples)");
+    let host = host_throughput(&root);
+    eprintln!("{}", serde_json::to_string_pretty(&host)?);
+    let figs = figures(out_dir, &p1)?;
     let mut results = json!({
         "command": "cargo xtask bench",
+        "host_throughput": host,
+        "figures": figs,
         "paper001_j": p1,
         "paper000_scenarios": p0,
         "f32_rls_vs_f64_batch": f32_check,
@@ -163,8 +247,9 @@ pub fn run(out_dir: &Path) -> Result<()> {
     }
     std::fs::write(out_dir.join("results.json"), serde_json::to_string_pretty(&results)?)?;
     let md = format!(
-        "# Benchmarks (`cargo xtask bench`)\n\n## MCU cost (Cortex-M4F instructions, QEMU -icount; load at 168 MHz assuming 1 instruction per cycle)\n\n```\n{}\n```\n\n## Paper 000: simulated field tests\n\nTurnaround step on the calibration run; true-heading RMS and |F| − IGRF RMS on a separate validation run (other courses, other current), each chain finished by a swing fit against the delayed GPS course.\n\n{p0_md}\n## Paper 001: J (eq 16) vs N pairs and noise σ\n\nMean over {SEEDS} seeds; field norm 2; σ per axis.\n\n{p1_md}\n## f32 recursive full fit vs f64 batch\n\n`{f32_check}`\n",
-        serde_json::to_string_pretty(&mcu)?
+        "# Benchmarks (`cargo xtask bench`)\n\n## MCU cost (Cortex-M4F instructions, QEMU -icount; load at 168 MHz assuming 1 instruction per cycle)\n\n```\n{}\n```\n\n## Paper 000: simulated field tests\n\nTurnaround step on the calibration run; true-heading RMS and |F| − IGRF RMS on a separate validation run (other courses, other current), each chain finished by a swing fit against the delayed GPS course.\n\n{p0_md}\n## Paper 001: J (eq 16) vs N pairs and noise σ\n\nMean over {SEEDS} seeds; field norm 2; σ per axis.\n\n{p1_md}\n![J, paper's solver](fig_paper001_j_pairwise.svg)\n![J, linear solver](fig_paper001_j_linear.svg)\n\n## f32 recursive full fit vs f64 batch\n\n`{f32_check}`\n\n## Host throughput\n\n```\n{}\n```\n",
+        serde_json::to_string_pretty(&mcu)?,
+        serde_json::to_string_pretty(&results["host_throughput"])?
     );
     std::fs::write(out_dir.join("results.md"), md)?;
     eprintln!("wrote {}", out_dir.join("results.json").display());
