@@ -163,14 +163,14 @@ impl<SPI: SpiDevice, S: OutputPin, R: OutputPin> Acquisition<SPI, S, R> {
             }
         };
         let mut out = PairSample { field_counts: [0.0; 3], offset_counts: [0.0; 3], saturated: false };
-        for k in 0..3 {
-            let (s, r) = (set[k], reset[k]);
+        let first = self.counters.pairs == 0;
+        let axes = set.iter().zip(reset.iter()).zip(out.field_counts.iter_mut().zip(out.offset_counts.iter_mut())).zip(self.offset.iter_mut());
+        for (((&s, &r), (field, offset)), tracked) in axes {
             out.saturated |= s.saturating_abs() >= SATURATION_COUNTS || r.saturating_abs() >= SATURATION_COUNTS;
             // i64: the difference of two 24-bit codes needs 25 bits.
-            out.field_counts[k] = ((i64::from(s) - i64::from(r)) as f32) * 0.5;
-            out.offset_counts[k] = ((i64::from(s) + i64::from(r)) as f32) * 0.5;
-            let first = self.counters.pairs == 0;
-            self.offset[k] = if first { out.offset_counts[k] } else { self.offset[k] + OFFSET_TRACKING_WEIGHT * (out.offset_counts[k] - self.offset[k]) };
+            *field = ((i64::from(s) - i64::from(r)) as f32) * 0.5;
+            *offset = ((i64::from(s) + i64::from(r)) as f32) * 0.5;
+            *tracked = if first { *offset } else { *tracked + OFFSET_TRACKING_WEIGHT * (*offset - *tracked) };
         }
         self.counters.pairs = self.counters.pairs.wrapping_add(1);
         if out.saturated {
@@ -236,8 +236,8 @@ impl Decimator {
             Some(t) if t == tag => Some(t),
             Some(_) => Some(None),
         };
-        for k in 0..3 {
-            self.sum[k] += p.field_counts[k];
+        for (sum, v) in self.sum.iter_mut().zip(p.field_counts) {
+            *sum += v;
         }
         self.saturated |= p.saturated;
         self.n += 1;

@@ -53,6 +53,16 @@ pub fn validate(c: &Coefficients) -> Result<Calibration<f32>, LinkError> {
     Ok(Calibration { field, swing: Swing::from_array(c.swing), declination_rad: c.declination_rad })
 }
 
+/// The next unlock challenge (FNV-1a of the old one and the time): not a
+/// secret, only never the same twice in a row.
+fn next_challenge(old: u32, now_ms: u32) -> u32 {
+    let mut h: u32 = 0x811c_9dc5;
+    for b in old.to_le_bytes().into_iter().chain(now_ms.to_le_bytes()) {
+        h = (h ^ u32::from(b)).wrapping_mul(0x0100_0193);
+    }
+    if h == old { h.wrapping_add(1) } else { h }
+}
+
 /// Postcard-encodes a set for the store.
 pub fn encode_coefficients(c: &Coefficients, buf: &mut [u8]) -> Option<usize> {
     postcard::to_slice(c, buf).ok().map(|b| b.len())
@@ -347,6 +357,8 @@ impl Device {
                     return self.refuse(LinkError::BadKey);
                 }
                 self.unlocked_until_ms = Some(now_ms.wrapping_add(UNLOCK_TIMEOUT_MS));
+                // One key, one unlock: a replayed Unlock frame is refused.
+                self.challenge = next_challenge(self.challenge, now_ms);
                 ResponseBody::Ack
             }
             RequestBody::WriteCoefficients(c) => {

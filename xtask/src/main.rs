@@ -91,6 +91,10 @@ fn ensure_tools() -> Result<()> {
         }
         Err(e) => bail!("rustup not found ({e}); install the {TARGET} target for your toolchain"),
     }
+    if !Command::new("cargo").args(["clippy", "--version"]).stdout(Stdio::null()).stderr(Stdio::null()).status().map(|s| s.success()).unwrap_or(false) {
+        say("installing clippy (rustup component add clippy)");
+        run(Command::new("rustup").args(["component", "add", "clippy"]))?;
+    }
     if !have("qemu-system-arm") {
         let is_root = Command::new("id").arg("-u").output().map(|o| o.stdout.starts_with(b"0")).unwrap_or(false);
         if !is_root {
@@ -192,6 +196,13 @@ fn cmd_test() -> Result<()> {
         "on-target tests on the Cortex-M4F under QEMU",
         cargo().args(["test", "--no-fail-fast", "-p", "target-tests", "--target", TARGET]),
     )?);
+    // No unwrap/expect/panic (and, in firmware and protocol, no unchecked
+    // indexing) on outside data: the crates deny those clippy lints, so a
+    // clippy run that completes is the check.
+    say("lints: clippy with the crates' deny(unwrap_used, expect_used, panic, indexing_slicing)");
+    let lint_ok = run(cargo().args(["clippy", "-q", "-p", "firmware", "--target", TARGET, "--lib", "--bins"])).is_ok()
+        && run(cargo().args(["clippy", "-q", "-p", "calib-core", "-p", "magcal-protocol"])).is_ok();
+    suites.push(Suite { name: "no-panic lints (firmware, calib-core, protocol)", passed: u64::from(lint_ok), failed: u64::from(!lint_ok), ok: lint_ok });
     let size_ok = match cmd_size() {
         Ok(_) => true,
         Err(e) => {

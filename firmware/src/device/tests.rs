@@ -88,6 +88,11 @@ fn the_write_path_needs_unlock_validation_and_a_matching_commit() {
     assert_eq!(decode_coefficients(&s.saved[0]).unwrap().0, c);
     // The unlock is spent by the commit.
     assert_eq!(req(&mut d, RequestBody::WriteCoefficients(c), 15, &mut s), ResponseBody::Error(LinkError::Locked));
+    // And a replayed Unlock frame does not open it again: the challenge moved on.
+    assert_eq!(req(&mut d, RequestBody::Unlock { key: CHALLENGE ^ UNLOCK_XOR }, 16, &mut s), ResponseBody::Error(LinkError::BadKey));
+    let ResponseBody::Status(h) = req(&mut d, RequestBody::Status, 16, &mut s) else { panic!() };
+    assert_ne!(h.unlock_challenge, CHALLENGE);
+    assert_eq!(req(&mut d, RequestBody::Unlock { key: h.unlock_challenge ^ UNLOCK_XOR }, 16, &mut s), ResponseBody::Ack);
 }
 
 #[test]
