@@ -193,6 +193,9 @@ impl<P: Read + Write> Link<P> {
         let mut frame = [0u8; MAX_FRAME_LEN + 1];
         // A leading delimiter flushes whatever partial frame the board holds.
         let n = proto::encode(&Request { seq, body }, &mut frame[1..]).map_err(LinkError::Encode)?;
+        // An error reply without a seq may answer our frame (damaged on the
+        // way) or older garbage still queued: keep waiting for our own
+        // reply until the attempt's deadline, and resend only then.
         let mut last_remote = None;
         for _ in 0..self.attempts {
             self.send_raw(&frame[..n + 1])?;
@@ -205,10 +208,7 @@ impl<P: Read + Write> Link<P> {
                             other => Ok(other),
                         };
                     }
-                    Some(Response { seq: None, body: ResponseBody::Error(e) }) => {
-                        last_remote = Some(e);
-                        break; // our frame was damaged: resend
-                    }
+                    Some(Response { seq: None, body: ResponseBody::Error(e) }) => last_remote = Some(e),
                     Some(_) => self.discarded_frames += 1,
                     None => break,
                 }

@@ -1,0 +1,117 @@
+//! A hostile link, end to end with the firmware in QEMU: garbage, truncated
+//! and bit-flipped frames, floods, a disconnect mid-upload, replayed frames.
+//! The board must stay responsive, count what it refused, and never run an
+//! unverified or partial coefficient set.
+
+use std::time::Duration;
+
+use calib_core::conformance::SplitMix64;
+use e2e_tests::boot;
+use firmware::acquisition::COUNTS_PER_NT;
+use host_tools::link::{Link, LinkError};
+use magcal_protocol::{self as proto, CoefficientSource, Coefficients, LinkError as Remote, Request, RequestBody, Response, ResponseBody, MAX_FRAME_LEN, UNLOCK_XOR};
+
+fn coefficients(bias_x: f32) -> Coefficients {
+    let g = 1.0 / COUNTS_PER_NT;
+    Coefficients { bias: [bias_x, -2000.0, 500.0], matrix: [[g, 0.0, 0.0], [0.0, g, 0.0], [0.0, 0.0, g]], swing: [0.0; 5], declination_rad: 0.05, field_nt: 48_730.0 }
+}
+
+fn frame(seq: u16, body: RequestBody) -> Vec<u8> {
+    let mut buf = [0u8; MAX_FRAME_LEN + 1];
+    let n = proto::encode(&Request { seq, body }, &mut buf[1..]).unwrap();
+    buf[..n + 1].to_vec()
+}
+
+/// Reads replies until one answers `seq` (or times out).
+fn reply_to(link: &mut Link<Box<dyn serialport::SerialPort>>, seq: u16) -> Option<ResponseBody> {
+    for _ in 0..50 {
+        match link.next_response(Duration::from_millis(200)).unwrap() {
+            Some(Response { seq: Some(s), body }) if s == seq => return Some(body),
+            Some(_) => {}
+            None => {}
+        }
+    }
+    None
+}
+
+#[test]
+fn garbage_truncation_bit_flips_and_floods_leave_the_board_responsive() {
+    let board = boot("hostile-noise");
+    let mut link = Link::open(board.link_port()).expect("open");
+    link.identify().expect("identify");
+    let mut rng = SplitMix64::new(5);
+
+    // 20 kB of random bytes.
+    let garbage: Vec<u8> = (0..20_000).map(|_| (rng.next_u64() & 0xFF) as u8).collect();
+    link.send_raw(&garbage).unwrap();
+    // Truncated frames, then a bit-flipped Commit.
+    let good = frame(900, RequestBody::Ping { nonce: 1 });
+    for cut in [2, 5, good.len() - 2] {
+        link.send_raw(&good[..cut]).unwrap();
+    }
+    let mut flipped = frame(901, RequestBody::Commit { crc: 0x1234_5678 });
+    flipped[4] ^= 0x20;
+    link.send_raw(&flipped).unwrap();
+    // A flood: 1000 pings without reading a reply.
+    let flood: Vec<u8> = (0..1000u16).flat_map(|k| frame(1000 + k, RequestBody::Ping { nonce: u32::from(k) })).collect();
+    link.send_raw(&flood).unwrap();
+
+    // Still answers, and says what it saw.
+    link.timeout = Duration::from_secs(3);
+    assert_eq!(link.ping(0xABCD).expect("ping after the abuse"), 0xABCD);
+    let h = link.status().unwrap();
+    assert!(h.bad_frames > 10, "{h:?}");
+    assert_eq!(h.coefficient_source, CoefficientSource::Default, "nothing was committed");
+    eprintln!("after the abuse: {} bad frames, {} requests, {} rx bytes dropped, {} tx frames dropped", h.bad_frames, h.requests, h.rx_dropped, h.tx_dropped);
+}
+
+#[test]
+fn a_disconnect_mid_upload_and_replayed_frames_never_change_the_coefficients() {
+    let board = boot("hostile-upload");
+    let port = board.link_port().to_string();
+    let mut link = Link::open(&port).expect("open");
+    link.identify().expect("identify");
+
+    // Stage a set, then drop the link before committing.
+    let first = coefficients(1000.0);
+    let challenge = link.status().unwrap().unlock_challenge;
+    assert!(matches!(link.request(RequestBody::Unlock { key: challenge ^ UNLOCK_XOR }).unwrap(), ResponseBody::Ack));
+    assert!(matches!(link.request(RequestBody::WriteCoefficients(first)).unwrap(), ResponseBody::Ack));
+    drop(link);
+    let mut link = Link::open(&port).expect("reopen");
+    let (_, source, _) = link.read_coefficients().unwrap();
+    assert_eq!(source, CoefficientSource::Default, "a staged set is not in use");
+
+    // A proper upload, recording the frames it sends.
+    let c = coefficients(1500.0);
+    let challenge = link.status().unwrap().unlock_challenge;
+    let replay = [
+        frame(7000, RequestBody::Unlock { key: challenge ^ UNLOCK_XOR }),
+        frame(7001, RequestBody::WriteCoefficients(coefficients(9999.0))),
+        frame(7002, RequestBody::Commit { crc: coefficients(9999.0).crc() }),
+    ];
+    let seq = link.upload_coefficients(&c).expect("upload");
+    // Replay: the spent unlock key is refused, so nothing else gets through.
+    let answers: Vec<Option<ResponseBody>> = replay
+        .iter()
+        .zip([7000u16, 7001, 7002])
+        .map(|(f, s)| {
+            link.send_raw(f).unwrap();
+            reply_to(&mut link, s)
+        })
+        .collect();
+    assert_eq!(answers[0], Some(ResponseBody::Error(Remote::BadKey)));
+    assert_eq!(answers[1], Some(ResponseBody::Error(Remote::Locked)));
+    assert_eq!(answers[2], Some(ResponseBody::Error(Remote::Locked)));
+    let (back, source, back_seq) = link.read_coefficients().unwrap();
+    assert_eq!((back, source, back_seq), (c, CoefficientSource::Stored, seq));
+
+    // Coefficients outside physical bounds are refused even when unlocked.
+    let mut bad = c;
+    bad.matrix[1][1] *= 20.0;
+    match link.upload_coefficients(&bad) {
+        Err(LinkError::Remote(Remote::InvalidCoefficients)) => {}
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(link.read_coefficients().unwrap().0, c);
+}
