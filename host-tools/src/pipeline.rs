@@ -71,8 +71,9 @@ pub struct FitOptions {
     pub allow_weak: bool,
 }
 
-fn quality_json(q: &Quality<f64>, skipped_rows: usize, warnings: &[String]) -> serde_json::Value {
+fn quality_json(q: &Quality<f64>, skipped_rows: usize, warnings: &[String], units: &str) -> serde_json::Value {
     json!({
+        "input_units_guess": units,
         "samples": q.samples,
         "skipped_rows": skipped_rows,
         "residual_rms_nt": q.residual_rms_nt,
@@ -119,7 +120,10 @@ pub fn fit_recording(rec: &Recording, opts: &FitOptions) -> Result<CalDoc, Pipel
     } else {
         (opts.model, cal)
     };
-    Ok(CalDoc::new(kind, &cal, opts.field_nt, quality_json(&q, skipped, &warnings)))
+    // Which units the raw data look like (the fit works in any).
+    let radius = opts.field_nt / ((cal.matrix[0][0].abs() + cal.matrix[1][1].abs() + cal.matrix[2][2].abs()) / 3.0);
+    let units = units_guess(radius, opts.field_nt);
+    Ok(CalDoc::new(kind, &cal, opts.field_nt, quality_json(&q, skipped, &warnings, &units)))
 }
 
 /// When a model cannot be fitted, the usual cause is data that visit too
@@ -138,6 +142,55 @@ fn explain_failure(e: FitError, samples: &[[f64; 3]], opts: &FitOptions) -> FitE
     } else {
         e
     }
+}
+
+/// What units raw magnitudes of radius `radius_raw` suggest for a field of
+/// `field_nt` (a hint recorded in the quality report).
+pub fn units_guess(radius_raw: f64, field_nt: f64) -> String {
+    let ratio = field_nt / radius_raw;
+    let near = |k: f64| ratio > 0.7 * k && ratio < 1.4 * k;
+    if near(1.0) {
+        "nT".into()
+    } else if near(1e3) {
+        "µT".into()
+    } else if near(1e5) {
+        "gauss".into()
+    } else {
+        format!("counts (≈ {:.4} nT per unit)", ratio)
+    }
+}
+
+/// The median of a slice (NaN-free), or NaN when empty.
+fn median(mut v: Vec<f64>) -> f64 {
+    v.retain(|x| x.is_finite());
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// Refuses a recording whose magnitudes, through the calibration, are far
+/// from the calibration's field: the units of the recording and of the
+/// calibration differ (µT against nT, gauss, another sensor's counts).
+pub fn check_units(rec: &Recording, doc: &CalDoc) -> Result<(), PipelineError> {
+    let cal = doc.field_cal();
+    let m = median(rec.mag.iter().map(|r| {
+        let h = cal.apply(*r);
+        (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt()
+    }).collect());
+    if !m.is_finite() {
+        return Err(PipelineError::NoSamples);
+    }
+    if (m / doc.field_nt - 1.0).abs() > 0.25 {
+        let raw_r = median(rec.mag.iter().map(|r| (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt()).collect());
+        return Err(PipelineError::Units(format!(
+            "through this calibration the recording's field is {m:.0} nT, not the calibration's {:.0} nT: the recording and the calibration are in different units (the raw magnitudes, ≈ {raw_r:.4}, look like {})",
+            doc.field_nt,
+            units_guess(raw_r, doc.field_nt)
+        )));
+    }
+    Ok(())
 }
 
 /// How to treat the reference's delay.
@@ -195,6 +248,7 @@ pub fn magnetic_headings(rec: &Recording, doc: &CalDoc) -> Result<Vec<f64>, Pipe
 /// Fits the swing correction and returns the document with it.
 pub fn swing_recording(rec: &Recording, doc: &CalDoc, delay: Delay) -> Result<(CalDoc, SwingFit<f64>, f64), PipelineError> {
     let t = rec.t_s.as_ref().ok_or(PipelineError::NeedsColumn("t"))?;
+    check_units(rec, doc)?;
     let reference_deg = rec.ref_heading_deg.as_ref().ok_or(PipelineError::NeedsColumn("ref_heading_deg"))?;
     let headings = magnetic_headings(rec, doc)?;
     // The swing acts on the magnetic heading: compare with the reference
@@ -409,6 +463,7 @@ pub fn backstep_recording(rec: &Recording, doc: &CalDoc, opts: &BackstepOptions)
     let t = rec.t_s.as_ref().ok_or(PipelineError::NeedsColumn("t"))?;
     let roll = rec.roll_deg.as_ref().ok_or(PipelineError::NeedsColumn("roll_deg"))?;
     let pitch = rec.pitch_deg.as_ref().ok_or(PipelineError::NeedsColumn("pitch_deg"))?;
+    check_units(rec, doc)?;
     let headings = magnetic_headings(rec, doc)?;
     let turnaround = match opts.turnaround_s {
         Some(s) => s,

@@ -245,3 +245,60 @@ fn the_documented_chain_runs_on_simulated_field_tests() {
     assert!(field.starts_with("<svg") && field.contains("cal1") && field.contains("cal3"));
     assert!(std::fs::read_to_string(dir.path().join("report/index.html")).unwrap().contains("fig_heading.svg"));
 }
+
+/// The bad-data catalogue (README): each case its own message, no panic, no
+/// coefficients.
+#[test]
+fn bad_data_catalogue() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let mut rng = SplitMix64::new(21);
+    let sphere = |scale: f64, rng: &mut SplitMix64| -> Vec<[f64; 3]> { (0..400).map(|_| rng.direction().map(|v| v * scale + 3.0)).collect() };
+
+    // Units are guessed from the magnitude against the reference.
+    Recording { mag: sphere(48.73, &mut rng), ..Recording::default() }.write(Path::new(&p("ut.csv"))).unwrap();
+    let doc = ok_json(&magcal(&["fit", "--input", &p("ut.csv"), "--model", "full", "--field-nt", "48730", "--json", "--out", &p("ut.json")]));
+    assert_eq!(doc["quality"]["input_units_guess"], "µT");
+    Recording { mag: sphere(48_730.0, &mut rng), ..Recording::default() }.write(Path::new(&p("nt.csv"))).unwrap();
+    let doc = ok_json(&magcal(&["fit", "--input", &p("nt.csv"), "--model", "full", "--field-nt", "48730", "--json", "--out", &p("nt.json")]));
+    assert_eq!(doc["quality"]["input_units_guess"], "nT");
+
+    // A µT recording against an nT calibration: refused, not silently wrong.
+    let mut rec = Recording { t_s: Some(vec![]), roll_deg: Some(vec![]), pitch_deg: Some(vec![]), ref_heading_deg: Some(vec![]), ..Recording::default() };
+    for k in 0..200 {
+        rec.mag.push(rng.direction().map(|v| v * 48.73));
+        rec.t_s.as_mut().unwrap().push(k as f64);
+        rec.roll_deg.as_mut().unwrap().push(0.0);
+        rec.pitch_deg.as_mut().unwrap().push(0.0);
+        rec.ref_heading_deg.as_mut().unwrap().push((k * 7 % 360) as f64);
+    }
+    rec.write(Path::new(&p("ut_run.csv"))).unwrap();
+    let e = one_line_error(&magcal(&["swing", "--input", &p("ut_run.csv"), "--cal", &p("nt.json"), "--delay-s", "0"]));
+    assert!(e.contains("different units") && e.contains("µT"), "{e}");
+
+    // A stuck axis: z never changes.
+    let stuck: Vec<[f64; 3]> = (0..400).map(|_| {
+        let d = rng.direction();
+        [d[0] * 48_730.0, d[1] * 48_730.0, 12.0]
+    }).collect();
+    Recording { mag: stuck, ..Recording::default() }.write(Path::new(&p("stuck.csv"))).unwrap();
+    let e = one_line_error(&magcal(&["fit", "--input", &p("stuck.csv"), "--model", "full", "--field-nt", "48730"]));
+    assert!(e.contains("excitation") || e.contains("ellipsoid") || e.contains("directions"), "{e}");
+
+    // NaN cells are "not available"; an infinity is not a number.
+    std::fs::write(p("inf.csv"), "mx,my,mz\n1,2,inf\n").unwrap();
+    let e = one_line_error(&magcal(&["fit", "--input", &p("inf.csv"), "--model", "sphere", "--field-nt", "48730"]));
+    assert!(e.contains("`inf` is not a number"), "{e}");
+    std::fs::write(p("header.csv"), "t,mx,my,mz\n").unwrap();
+    let e = one_line_error(&magcal(&["fit", "--input", &p("header.csv"), "--model", "sphere", "--field-nt", "48730"]));
+    assert!(e.contains("header only"), "{e}");
+    std::fs::write(p("nan.csv"), "mx,my,mz\nnan,nan,nan\n,,\n").unwrap();
+    let e = one_line_error(&magcal(&["fit", "--input", &p("nan.csv"), "--model", "sphere", "--field-nt", "48730"]));
+    assert!(e.contains("no row has all of mx, my, mz"), "{e}");
+    // Saturated samples, when the saturation level is given.
+    let e = one_line_error(&magcal(&["fit", "--input", &p("nt.csv"), "--model", "full", "--field-nt", "48730", "--saturation", "30000"]));
+    assert!(e.contains("saturated"), "{e}");
+    // A missing file.
+    let e = one_line_error(&magcal(&["fit", "--input", &p("nope.csv"), "--model", "full", "--field-nt", "48730"]));
+    assert!(e.contains("No such file"), "{e}");
+}
