@@ -302,3 +302,31 @@ fn bad_data_catalogue() {
     let e = one_line_error(&magcal(&["fit", "--input", &p("nope.csv"), "--model", "full", "--field-nt", "48730"]));
     assert!(e.contains("No such file"), "{e}");
 }
+
+mod arbitrary_bytes {
+    use host_tools::caldoc::CalDoc;
+    use host_tools::recording::Recording;
+    use proptest::prelude::*;
+    use std::path::Path;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(256))]
+        #[test]
+        fn csv_reader_never_panics(bytes in proptest::collection::vec(any::<u8>(), 0..512)) {
+            let _ = Recording::from_reader(&bytes[..], Path::new("x.csv"));
+        }
+
+        #[test]
+        fn csv_like_text_never_panics(lines in proptest::collection::vec("[-0-9a-z.,nN ]{0,24}", 0..12)) {
+            let text = format!("t,mx,my,mz\n{}", lines.join("\n"));
+            let _ = Recording::from_reader(text.as_bytes(), Path::new("x.csv"));
+        }
+
+        #[test]
+        fn caldoc_loader_never_panics(bytes in proptest::collection::vec(any::<u8>(), 0..512)) {
+            if let Ok(doc) = serde_json::from_slice::<CalDoc>(&bytes) {
+                let _ = doc.validate(Path::new("x.json"));
+            }
+        }
+    }
+}

@@ -104,7 +104,7 @@ fn ensure_tools() -> Result<()> {
         run(Command::new("apt-get").arg("update").arg("-q"))?;
         run(Command::new("apt-get").args(["install", "-y", "-q", "qemu-system-arm"]).env("DEBIAN_FRONTEND", "noninteractive"))?;
     }
-    for (tool, krate) in [("embedded-test-qemu-runner", "embedded-test-qemu-runner"), ("defmt-print", "defmt-print")] {
+    for (tool, krate) in [("embedded-test-qemu-runner", "embedded-test-qemu-runner"), ("defmt-print", "defmt-print"), ("cargo-fuzz", "cargo-fuzz")] {
         if !have(tool) {
             say(&format!("installing {tool} (cargo install --locked {krate})"));
             run(Command::new("cargo").args(["install", "--locked", krate]))?;
@@ -220,6 +220,18 @@ fn cmd_test() -> Result<()> {
             .env("MAGCAL_FIRMWARE_ELF", &elf)
             .env("MAGCAL_BIN", &magcal),
     )?);
+
+    // Fuzzing, time-boxed: each decoder that takes outside bytes.
+    say("fuzzing (cargo fuzz, libFuzzer, 10 s a target)");
+    let mut fuzz_passed = 0;
+    let mut fuzz_failed = 0;
+    let fuzz_built = run(cargo().current_dir(root().join("fuzz")).args(["fuzz", "build", "--sanitizer", "none", "-O"])).is_ok();
+    for target in ["frame_decoder", "coefficient_record", "csv_reader", "caldoc_loader"] {
+        let ok = fuzz_built
+            && run(cargo().current_dir(root().join("fuzz")).args(["fuzz", "run", "--sanitizer", "none", "-O", target, "--", "-max_total_time=10"])).is_ok();
+        if ok { fuzz_passed += 1 } else { fuzz_failed += 1 }
+    }
+    suites.push(Suite { name: "fuzz: frame decoder, coefficient record, CSV reader, calibration JSON", passed: fuzz_passed, failed: fuzz_failed, ok: fuzz_failed == 0 });
 
     // The main job, shortened: the whole session against the QEMU board.
     say("demo session (shortened plan) against the firmware in QEMU");

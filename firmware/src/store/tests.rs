@@ -156,3 +156,23 @@ fn ram_flash_behaves_like_nor() {
     s.save(b"defg").unwrap();
     assert_eq!(s.load().unwrap().payload.as_slice(), b"defg");
 }
+
+mod arbitrary_flash {
+    use super::super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #[test]
+        fn any_flash_image_loads_or_not_but_never_panics(image in proptest::collection::vec(any::<u8>(), 2048)) {
+            let mut flash = RamFlash::<2048, 1024>::new();
+            let _ = flash.write(0, &image);
+            let mut s = Store::new(flash, 0, 1024, 1024).unwrap();
+            if let Some(r) = s.load() {
+                let _ = crate::device::decode_coefficients(&r.payload);
+            }
+            prop_assert!(s.save(b"x").is_ok());
+            let back = s.load().unwrap();
+            prop_assert_eq!(back.payload.as_slice(), &b"x"[..]);
+        }
+    }
+}

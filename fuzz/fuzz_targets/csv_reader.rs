@@ -1,0 +1,15 @@
+//! Arbitrary bytes as a recording: read, and when readable, fit — errors,
+//! never panics.
+#![no_main]
+use calib_core::cal::ModelKind;
+use host_tools::pipeline::{fit_recording, FitOptions};
+use host_tools::recording::Recording;
+use libfuzzer_sys::fuzz_target;
+
+fuzz_target!(|data: &[u8]| {
+    if let Ok(rec) = Recording::from_reader(data, std::path::Path::new("fuzz.csv")) {
+        for model in [ModelKind::Sphere, ModelKind::Axis, ModelKind::Full] {
+            let _ = fit_recording(&rec, &FitOptions { model, field_nt: 48_730.0, saturation: Some(1e9), allow_weak: false });
+        }
+    }
+});
