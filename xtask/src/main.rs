@@ -242,7 +242,11 @@ fn cmd_test() -> Result<()> {
             let after = s["heading_rms_deg_after"].as_f64().unwrap_or(f64::NAN);
             let field = s["field_error_nt_after"].as_f64().unwrap_or(f64::NAN);
             let verified = s["coefficients_verified"].as_bool() == Some(true);
-            let ok = verified && after <= 0.5 && after < before / 5.0 && field <= 50.0;
+            let reproduced = reproduce_offline(&magcal, &root().join("target").join("demo-test").join("session"));
+            if let Err(e) = &reproduced {
+                eprintln!("the saved session does not reproduce offline: {e:#}");
+            }
+            let ok = verified && after <= 0.5 && after < before / 5.0 && field <= 50.0 && reproduced.is_ok();
             if !ok {
                 eprintln!("demo session out of bounds: heading {before:.2}° → {after:.2}°, field {field:.1} nT, verified {verified}");
             }
@@ -279,6 +283,30 @@ fn cmd_demo() -> Result<()> {
     let out_dir = root().join("target").join("demo");
     let summary = demo_session(&elf, &magcal, &out_dir, "demo")?;
     println!("{}", serde_json::to_string_pretty(&summary)?);
+    Ok(())
+}
+
+/// Runs the saved session's `reproduce` commands (fit → backstep → swing)
+/// on its recordings and checks they give the session's final coefficients.
+fn reproduce_offline(magcal: &Path, dir: &Path) -> Result<()> {
+    let site = ["--lat", "36.9", "--lon", "50.6", "--date", "2021-01-01"];
+    let p = |n: &str| dir.join(n).to_string_lossy().to_string();
+    run(Command::new(magcal).args(["fit", "--input", &p("swing.csv"), "--model", "axis", "--out", &p("offline_step1.json")]).args(site).stdout(Stdio::null()))?;
+    run(Command::new(magcal).args(["backstep", "--input", &p("run.csv"), "--cal", &p("offline_step1.json"), "--swing-input", &p("swing.csv"), "--out", &p("offline_backstep.json")]).args(site).stdout(Stdio::null()).stderr(Stdio::null()))?;
+    run(Command::new(magcal).args(["swing", "--input", &p("run.csv"), "--cal", &p("offline_backstep.json"), "--estimate-delay", "--out", &p("offline_final.json")]).stdout(Stdio::null()).stderr(Stdio::null()))?;
+    let read = |n: &str| -> Result<serde_json::Value> { Ok(serde_json::from_str(&std::fs::read_to_string(dir.join(n))?)?) };
+    let (a, b) = (read("cal_final.json")?, read("offline_final.json")?);
+    let flat = |v: &serde_json::Value| -> Vec<f64> {
+        let mut out: Vec<f64> = v["bias"].as_array().into_iter().flatten().filter_map(serde_json::Value::as_f64).collect();
+        out.extend(v["matrix"].as_array().into_iter().flatten().flat_map(|r| r.as_array().into_iter().flatten()).filter_map(serde_json::Value::as_f64));
+        out.extend(["a", "b", "c", "d", "e"].iter().filter_map(|k| v["swing"][k].as_f64()));
+        out
+    };
+    let (fa, fb) = (flat(&a), flat(&b));
+    if fa.len() != 17 || fa.len() != fb.len() || fa.iter().zip(&fb).any(|(x, y)| (x - y).abs() > 1e-9 * x.abs().max(1e-3)) {
+        bail!("offline {fb:?} differs from the session's {fa:?}");
+    }
+    eprintln!("   the saved session reproduces offline (fit → backstep → swing) to 1e-9");
     Ok(())
 }
 
