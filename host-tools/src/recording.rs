@@ -230,7 +230,7 @@ impl Recording {
 }
 
 /// A cell: a number, or empty/`nan` for "not available". `None` if neither.
-fn parse_cell(text: &str) -> Option<f64> {
+pub(crate) fn parse_cell(text: &str) -> Option<f64> {
     let t = text.trim();
     if t.is_empty() || t.eq_ignore_ascii_case("nan") {
         return Some(f64::NAN);

@@ -137,6 +137,58 @@ impl<W: Write> Vehicle for SimVehicle<'_, W> {
     }
 }
 
+/// A real vehicle: its navigation (AHRS attitude, GPS course, position)
+/// arrives as CSV lines in the INTERFACES.md columns (`t, roll_deg,
+/// pitch_deg, ref_heading_deg, lat_deg, lon_deg`) from a file, a FIFO or
+/// stdin, one line per step; the board's next sample is paired with each.
+pub struct NavVehicle<R> {
+    lines: std::io::Lines<R>,
+    columns: [Option<usize>; 6],
+    line_no: usize,
+}
+
+impl<R: std::io::BufRead> NavVehicle<R> {
+    /// Reads the header; `t`, `roll_deg` and `pitch_deg` are required.
+    pub fn new(reader: R) -> Result<Self, SessionError> {
+        let mut lines = reader.lines();
+        let header = lines.next().ok_or_else(|| SessionError::Io("navigation stream: empty (expected a header)".into()))?.map_err(|e| SessionError::Io(e.to_string()))?;
+        let names: Vec<String> = header.split(',').map(|h| h.trim().to_ascii_lowercase()).collect();
+        let find = |n: &str| names.iter().position(|h| h == n);
+        let columns = ["t", "roll_deg", "pitch_deg", "ref_heading_deg", "lat_deg", "lon_deg"].map(find);
+        for (k, name) in ["t", "roll_deg", "pitch_deg"].iter().enumerate() {
+            if columns[k].is_none() {
+                return Err(SessionError::Io(format!("navigation stream: missing column `{name}` (the header has: {header})")));
+            }
+        }
+        Ok(Self { lines, columns, line_no: 1 })
+    }
+}
+
+impl<R: std::io::BufRead> Vehicle for NavVehicle<R> {
+    fn next_step(&mut self) -> Result<Option<Step>, LinkError> {
+        loop {
+            let Some(line) = self.lines.next() else { return Ok(None) };
+            self.line_no += 1;
+            let line = line?;
+            if line.trim().is_empty() {
+                continue;
+            }
+            let cells: Vec<&str> = line.split(',').collect();
+            let cell = |k: usize| self.columns[k].and_then(|i| cells.get(i)).map_or(Some(f64::NAN), |c| crate::recording::parse_cell(c));
+            let values: Option<Vec<f64>> = (0..6).map(cell).collect();
+            match values {
+                Some(v) if v[0].is_finite() => {
+                    return Ok(Some(Step { t_s: v[0], roll_deg: v[1], pitch_deg: v[2], ref_heading_deg: v[3], lat_deg: v[4], lon_deg: v[5], feed_seq: None }))
+                }
+                _ => eprintln!("  navigation line {} skipped: not numbers: {line}", self.line_no),
+            }
+        }
+    }
+    fn len_hint(&self) -> Option<usize> {
+        None
+    }
+}
+
 /// What the swing test has covered.
 #[derive(Debug, Clone, Default)]
 pub struct SwingCoverage {
@@ -206,6 +258,28 @@ pub fn record<P: Read + Write>(
     link: &mut Link<P>,
     vehicle: &mut impl Vehicle,
     send_attitude: bool,
+    on_step: impl FnMut(usize, &Step, &magcal_protocol::Sample, &mut Link<P>) -> Result<(), SessionError>,
+) -> Result<(Recording, Vec<magcal_protocol::Sample>), SessionError> {
+    record_resuming(link, vehicle, send_attitude, None, on_step)
+}
+
+/// How to get the link back when it drops mid-recording.
+pub struct Resume<'a, P> {
+    /// Opens the link again.
+    pub connect: &'a mut dyn FnMut() -> Result<Link<P>, LinkError>,
+    /// What the board streams (set again after reconnecting).
+    pub stream: StreamMode,
+    /// Attempts per drop.
+    pub attempts: u32,
+}
+
+/// [`record`], reconnecting when the link drops: the steps lost meanwhile
+/// are kept as rows without a field (NaN) and counted, never invented.
+pub fn record_resuming<P: Read + Write>(
+    link: &mut Link<P>,
+    vehicle: &mut impl Vehicle,
+    send_attitude: bool,
+    mut resume: Option<Resume<'_, P>>,
     mut on_step: impl FnMut(usize, &Step, &magcal_protocol::Sample, &mut Link<P>) -> Result<(), SessionError>,
 ) -> Result<(Recording, Vec<magcal_protocol::Sample>), SessionError> {
     let mut rec = Recording { t_s: Some(vec![]), roll_deg: Some(vec![]), pitch_deg: Some(vec![]), ref_heading_deg: Some(vec![]), lat_deg: Some(vec![]), lon_deg: Some(vec![]), ..Recording::default() };
@@ -213,25 +287,24 @@ pub fn record<P: Read + Write>(
     let timeout = Duration::from_millis(3000);
     let mut i = 0;
     let started = Instant::now();
+    let mut lost = 0usize;
     while let Some(step) = vehicle.next_step()? {
-        if send_attitude {
-            link.attitude(step.roll_deg.to_radians() as f32, step.pitch_deg.to_radians() as f32)?;
-        }
-        let deadline = Instant::now() + timeout;
-        let mut repeat_at = Instant::now() + Duration::from_millis(300);
-        let sample = loop {
-            let left = deadline.saturating_duration_since(Instant::now());
-            if left.is_zero() {
-                return Err(SessionError::NoSample { step: i, timeout_ms: timeout.as_millis() as u64 });
+        let taken = take_sample(link, vehicle, &step, send_attitude, timeout);
+        let sample = match (taken, resume.as_mut()) {
+            (Ok(s), _) => s,
+            (Err(SessionError::Link(e)), Some(r)) if !matches!(e, LinkError::Remote(_)) => {
+                eprintln!("  link lost at step {i} ({e}); reconnecting");
+                *link = reconnect(r)?;
+                lost += 1;
+                magcal_protocol::Sample { t_ms: 0, raw: None, field_nt: None, heading_rad: None, saturated: false, feed_seq: None }
             }
-            match link.next_sample(left.min(Duration::from_millis(100)))? {
-                Some(s) if step.feed_seq.is_none() || s.feed_seq == step.feed_seq => break s,
-                _ => {}
+            (Err(SessionError::NoSample { .. }), Some(r)) => {
+                eprintln!("  no sample at step {i}; reconnecting");
+                *link = reconnect(r)?;
+                lost += 1;
+                magcal_protocol::Sample { t_ms: 0, raw: None, field_nt: None, heading_rad: None, saturated: false, feed_seq: None }
             }
-            if Instant::now() >= repeat_at {
-                vehicle.repeat()?;
-                repeat_at = Instant::now() + Duration::from_millis(300);
-            }
+            (Err(e), _) => return Err(e),
         };
         let raw = sample.raw.map(|r| r.map(f64::from)).unwrap_or([f64::NAN; 3]);
         rec.mag.push(raw);
@@ -254,7 +327,49 @@ pub fn record<P: Read + Write>(
     if i > 0 {
         eprintln!("  {i} steps in {:.1} s ({:.0} ms a step)", started.elapsed().as_secs_f64(), started.elapsed().as_secs_f64() * 1000.0 / i as f64);
     }
+    if lost > 0 {
+        eprintln!("  {lost} steps lost to link drops are kept as rows without a field");
+    }
     Ok((rec, samples))
+}
+
+/// Sends the attitude (if asked) and waits for the board's sample of a step.
+fn take_sample<P: Read + Write>(link: &mut Link<P>, vehicle: &mut impl Vehicle, step: &Step, send_attitude: bool, timeout: Duration) -> Result<magcal_protocol::Sample, SessionError> {
+    if send_attitude {
+        link.attitude(step.roll_deg.to_radians() as f32, step.pitch_deg.to_radians() as f32)?;
+    }
+    let deadline = Instant::now() + timeout;
+    let mut repeat_at = Instant::now() + Duration::from_millis(300);
+    loop {
+        let left = deadline.saturating_duration_since(Instant::now());
+        if left.is_zero() {
+            return Err(SessionError::NoSample { step: 0, timeout_ms: timeout.as_millis() as u64 });
+        }
+        match link.next_sample(left.min(Duration::from_millis(100)))? {
+            Some(s) if step.feed_seq.is_none() || s.feed_seq == step.feed_seq => return Ok(s),
+            _ => {}
+        }
+        if Instant::now() >= repeat_at {
+            vehicle.repeat()?;
+            repeat_at = Instant::now() + Duration::from_millis(300);
+        }
+    }
+}
+
+/// Opens the link again and restarts the stream.
+fn reconnect<P: Read + Write>(r: &mut Resume<'_, P>) -> Result<Link<P>, SessionError> {
+    let mut last = None;
+    for _ in 0..r.attempts.max(1) {
+        match (r.connect)() {
+            Ok(mut l) => match l.set_stream(r.stream).and_then(|()| l.set_output_rate(100)) {
+                Ok(()) => return Ok(l),
+                Err(e) => last = Some(e),
+            },
+            Err(e) => last = Some(e),
+        }
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    Err(last.map_or(SessionError::NotVerified(r.attempts), SessionError::Link))
 }
 
 /// Converts a calibration document to the board's coefficients.
@@ -544,21 +659,8 @@ pub fn run_simulated_session(link_port: &str, feed_port: &str, cfg: &SessionConf
     progress.finish();
     run_rec.write(&cfg.out_dir.join("run.csv")).map_err(|e| io(&e))?;
 
-    // 3. Computation.
-    eprintln!("3/5 computing: axis fit against IGRF, back-stepping, swing fit against the GPS course");
-    let cals = compute(&swing_rec, &run_rec, cfg)?;
-    for (name, doc) in [("cal_step1.json", &cals.step1), ("cal_backstep.json", &cals.backstepped), ("cal_final.json", &cals.final_doc)] {
-        doc.save(&cfg.out_dir.join(name)).map_err(|e| io(&e))?;
-    }
+    let (cals, seq) = calibrate_and_upload(link, link_port, cfg, &swing_rec, &run_rec)?;
     let bs = &cals.backstepped.quality["backstep"];
-    eprintln!("  turnaround step {:.1} → {:.1} nT; |F| − IGRF {:.1} → {:.1} nT RMS", bs["before"]["step_nt"].as_f64().unwrap_or(f64::NAN), bs["after"]["step_nt"].as_f64().unwrap_or(f64::NAN), bs["before"]["f_error_rms_nt"].as_f64().unwrap_or(f64::NAN), bs["after"]["f_error_rms_nt"].as_f64().unwrap_or(f64::NAN));
-
-    // 4. Upload and verify (reconnecting if the link drops).
-    eprintln!("4/5 uploading: unlock, stage, commit, read back");
-    drop(link);
-    let coefficients = to_coefficients(&cals.final_doc);
-    let seq = upload_verified(|| Link::open(link_port), &coefficients, 3)?;
-    eprintln!("  coefficients #{seq} stored and verified");
 
     // 5. Validation run with the board's own output.
     eprintln!("5/5 validation run on other courses, headings from the board");
@@ -595,6 +697,81 @@ pub fn run_simulated_session(link_port: &str, feed_port: &str, cfg: &SessionConf
     summary["backstep"] = bs.clone();
     summary["swing"] = cals.final_doc.quality["swing"].clone();
     summary["session_dir"] = json!(cfg.out_dir);
+    save_text(&cfg.out_dir, "summary.json", &serde_json::to_string_pretty(&summary).unwrap_or_default())?;
+    Ok(summary)
+}
+
+/// Steps 3–4 of every session: computation on the host (saved beside the
+/// recordings), then the verified upload (the link is closed and reopened,
+/// resuming if it drops).
+pub fn calibrate_and_upload(link: Link<Box<dyn serialport::SerialPort>>, link_port: &str, cfg: &SessionConfig, swing_rec: &Recording, run_rec: &Recording) -> Result<(Calibrations, u32), SessionError> {
+    let io = |e: &dyn std::fmt::Display| SessionError::Io(e.to_string());
+    eprintln!("3/5 computing: axis fit against IGRF, back-stepping, swing fit against the GPS course");
+    let cals = compute(swing_rec, run_rec, cfg)?;
+    for (name, doc) in [("cal_step1.json", &cals.step1), ("cal_backstep.json", &cals.backstepped), ("cal_final.json", &cals.final_doc)] {
+        doc.save(&cfg.out_dir.join(name)).map_err(|e| io(&e))?;
+    }
+    let bs = &cals.backstepped.quality["backstep"];
+    eprintln!("  turnaround step {:.1} → {:.1} nT; |F| − IGRF {:.1} → {:.1} nT RMS", bs["before"]["step_nt"].as_f64().unwrap_or(f64::NAN), bs["after"]["step_nt"].as_f64().unwrap_or(f64::NAN), bs["before"]["f_error_rms_nt"].as_f64().unwrap_or(f64::NAN), bs["after"]["f_error_rms_nt"].as_f64().unwrap_or(f64::NAN));
+    eprintln!("4/5 uploading: unlock, stage, commit, read back");
+    drop(link);
+    let coefficients = to_coefficients(&cals.final_doc);
+    let seq = upload_verified(|| Link::open(link_port), &coefficients, 3)?;
+    eprintln!("  coefficients #{seq} stored and verified");
+    Ok((cals, seq))
+}
+
+/// A session with a real vehicle: its navigation for the swing test and the
+/// out-and-back run arrives as CSV streams (files, FIFOs); the board streams
+/// raw samples; the link is reopened if it drops. No truth, so the summary
+/// reports what the data say (residuals, step, GPS fit).
+pub fn run_nav_session(link_port: &str, nav_swing: impl std::io::BufRead, nav_run: impl std::io::BufRead, cfg: &SessionConfig) -> Result<serde_json::Value, SessionError> {
+    let io = |e: &dyn std::fmt::Display| SessionError::Io(e.to_string());
+    std::fs::create_dir_all(&cfg.out_dir).map_err(|e| io(&e))?;
+    let field = crate::igrf::igrf14(cfg.lat_deg, cfg.lon_deg, 0.0, cfg.year).map_err(|e| io(&e))?;
+    let mut link = Link::open(link_port)?;
+    let id = link.identify()?;
+    eprintln!("session: {} {} on {:?}; IGRF-14 here: F {:.0} nT", id.name, id.firmware_version, id.platform, field.total_nt());
+    let (board_coefficients, _, _) = link.read_coefficients()?;
+    let default_doc = doc_from_coefficients(&board_coefficients);
+    let mut connect = || Link::open(link_port);
+
+    eprintln!("1/5 swing test: turn the vehicle through every heading, roll ±55°, pitch ±10° (thrusters off)");
+    prepare_board(&mut link, StreamMode::Raw, Some(field.total_nt() as f32))?;
+    let mut coverage = SwingCoverage::default();
+    let mut progress = Progress::new("swing test", 0, cfg.interactive);
+    let (swing_rec, _) = {
+        let mut vehicle = NavVehicle::new(nav_swing)?;
+        let hook = swing_hook(&mut progress, &mut coverage, &default_doc);
+        record_resuming(&mut link, &mut vehicle, true, Some(Resume { connect: &mut connect, stream: StreamMode::Raw, attempts: 5 }), hook)?
+    };
+    progress.finish();
+    let fit = link.fit_stop()?;
+    let guidance = coverage.guidance();
+    if !guidance.is_empty() {
+        return Err(SessionError::Coverage(guidance.join("; ")));
+    }
+    swing_rec.write(&cfg.out_dir.join("swing.csv")).map_err(|e| io(&e))?;
+
+    eprintln!("2/5 out-and-back run");
+    prepare_board(&mut link, StreamMode::Raw, None)?;
+    let mut progress = Progress::new("run", 0, cfg.interactive);
+    let (run_rec, _) = record_resuming(&mut link, &mut NavVehicle::new(nav_run)?, true, Some(Resume { connect: &mut connect, stream: StreamMode::Raw, attempts: 5 }), |i, _, _, _| {
+        progress.update(i, "recording");
+        Ok(())
+    })?;
+    progress.finish();
+    run_rec.write(&cfg.out_dir.join("run.csv")).map_err(|e| io(&e))?;
+
+    let (cals, seq) = calibrate_and_upload(link, link_port, cfg, &swing_rec, &run_rec)?;
+    let summary = json!({
+        "coefficients_verified": true,
+        "coefficient_seq": seq,
+        "onboard_fit": {"samples": fit.samples, "coverage_pct": fit.coverage_pct, "residual_rms_nt": fit.residual_rms_nt},
+        "backstep": cals.backstepped.quality["backstep"].clone(),
+        "swing": cals.final_doc.quality["swing"].clone(),
+        "session_dir": cfg.out_dir,
+    });
     save_text(&cfg.out_dir, "summary.json", &serde_json::to_string_pretty(&summary).unwrap_or_default())?;
     Ok(summary)
 }

@@ -147,15 +147,22 @@ enum Cmd {
     },
     /// A field calibration session over the serial link: swing test,
     /// out-and-back run, back-stepping and swing fits, verified upload.
-    /// Today the vehicle is the simulator, played into the QEMU board's
-    /// sensor feed (`--sim-feed`).
+    /// The vehicle is either the simulator, played into the QEMU board's
+    /// sensor feed (`--sim-feed`), or a real one whose navigation arrives as
+    /// CSV streams (`--nav-swing`, `--nav-run`: files or FIFOs).
     Session {
-        /// The board's link (USART1), e.g. QEMU's first pty.
+        /// The board's link (USART1), e.g. /dev/ttyUSB0 or QEMU's first pty.
         #[arg(long)]
         port: String,
         /// The QEMU board's sensor feed (USART2): the simulator plays the vehicle.
-        #[arg(long)]
-        sim_feed: String,
+        #[arg(long, conflicts_with_all = ["nav_swing", "nav_run"])]
+        sim_feed: Option<String>,
+        /// Real vehicle: navigation CSV (t, roll_deg, pitch_deg, ...) during the swing test.
+        #[arg(long, requires = "nav_run")]
+        nav_swing: Option<PathBuf>,
+        /// Real vehicle: navigation CSV (t, roll_deg, pitch_deg, ref_heading_deg, lat_deg, lon_deg) during the run.
+        #[arg(long, requires = "nav_swing")]
+        nav_run: Option<PathBuf>,
         /// Latitude, degrees.
         #[arg(long, allow_hyphen_values = true)]
         lat: f64,
@@ -427,8 +434,8 @@ fn run(cli: Cli) -> Result<()> {
             }
             Ok(())
         }
-        Cmd::Session { port, sim_feed, lat, lon, date, out, plan, seed, json } => {
-            use host_tools::session::{run_simulated_session, SessionConfig, SimPlan};
+        Cmd::Session { port, sim_feed, nav_swing, nav_run, lat, lon, date, out, plan, seed, json } => {
+            use host_tools::session::{run_nav_session, run_simulated_session, SessionConfig, SimPlan};
             use std::io::IsTerminal;
             let year = igrf::parse_date(&date)?;
             let mut plan = match plan {
@@ -439,9 +446,18 @@ fn run(cli: Cli) -> Result<()> {
                 plan.seed = s;
             }
             let cfg = SessionConfig { lat_deg: lat, lon_deg: lon, year, out_dir: out, interactive: std::io::stderr().is_terminal() };
-            let summary = run_simulated_session(&port, &sim_feed, &cfg, &plan)?;
+            let summary = match (sim_feed, nav_swing, nav_run) {
+                (Some(feed), None, None) => run_simulated_session(&port, &feed, &cfg, &plan)?,
+                (None, Some(swing), Some(run)) => {
+                    let open = |p: &PathBuf| std::fs::File::open(p).map(std::io::BufReader::new).with_context(|| format!("navigation stream {}", p.display()));
+                    run_nav_session(&port, open(&swing)?, open(&run)?, &cfg)?
+                }
+                _ => bail!("give the vehicle: --sim-feed PORT (simulated, QEMU board) or --nav-swing FILE --nav-run FILE (real vehicle)"),
+            };
             if json {
                 println!("{summary}");
+            } else if summary.get("heading_rms_deg_after").is_none() {
+                println!("session done: coefficients #{} verified on the board; turnaround step {} nT after back-stepping", summary["coefficient_seq"], summary["backstep"]["after"]["step_nt"]);
             } else {
                 println!(
                     "session done: true heading RMS {:.2}° → {:.2}° on the validation run, |F| − IGRF {:.1} nT; coefficients verified on the board",

@@ -75,6 +75,13 @@ impl Write for Conn {
                     if let Some(f) = link.reply(Some(r.seq), body) {
                         self.out.extend(f);
                     }
+                    // A streaming board answers each attitude with a sample.
+                    if let magcal_protocol::RequestBody::Attitude { roll_rad, .. } = r.body {
+                        let s = magcal_protocol::Sample { t_ms: 0, raw: Some([roll_rad * 1000.0, 2.0, 3.0]), field_nt: None, heading_rad: None, saturated: false, feed_seq: None };
+                        if let Some(f) = link.reply(None, magcal_protocol::ResponseBody::Sample(s)) {
+                            self.out.extend(f);
+                        }
+                    }
                 }
                 None => {}
             }
@@ -170,4 +177,37 @@ fn an_unverifiable_board_is_reported() {
 
 fn probe_port(link: Link<Conn>) -> Conn {
     link.into_port()
+}
+
+#[test]
+fn a_real_vehicle_recording_survives_a_link_drop() {
+    let b = board();
+    let nav = "t,roll_deg,pitch_deg,ref_heading_deg,lat_deg,lon_deg\n".to_string()
+        + &(0..20).map(|k| format!("{k},{},0,,36.9,50.6", k as f64 * 0.5)).collect::<Vec<_>>().join("\n");
+    let mut vehicle = NavVehicle::new(std::io::Cursor::new(nav.into_bytes())).unwrap();
+    // The first connection dies after a few hundred bytes; later ones work.
+    let mut connect = connector(&b, vec![(None, None), (None, None), (None, None)]);
+    let mut link = Link::new(Conn { board: b.clone(), out: VecDeque::new(), write_budget: Some(150), read_budget: None, delivered: vec![] });
+    link.timeout = Duration::from_millis(50);
+    link.attempts = 1;
+    let resume = Resume { connect: &mut connect, stream: StreamMode::Raw, attempts: 3 };
+    let (rec, samples) = record_resuming(&mut link, &mut vehicle, true, Some(resume), |_, _, _, _| Ok(())).unwrap();
+    assert_eq!(rec.len(), 20, "every navigation step has its row");
+    let lost = rec.mag.iter().filter(|m| m[0].is_nan()).count();
+    assert!(lost >= 1 && lost <= 2, "{lost} rows lost");
+    // The rows that have a field have the board's sample for that step.
+    for (i, m) in rec.mag.iter().enumerate() {
+        if m[0].is_finite() {
+            assert!((m[0] - (i as f64 * 0.5).to_radians() * 1000.0).abs() < 1e-3, "row {i}: {m:?}");
+        }
+    }
+    assert_eq!(samples.len(), 20);
+    assert_eq!(rec.lat_deg.as_ref().unwrap()[3], 36.9);
+    assert!(rec.ref_heading_deg.as_ref().unwrap()[0].is_nan());
+}
+
+#[test]
+fn a_navigation_stream_without_attitude_is_refused() {
+    let e = NavVehicle::new(std::io::Cursor::new(b"t,lat_deg\n1,2\n".to_vec())).err().unwrap();
+    assert!(e.to_string().contains("missing column `roll_deg`"), "{e}");
 }
