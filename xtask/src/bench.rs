@@ -185,6 +185,50 @@ fn host_throughput(root: &Path) -> serde_json::Value {
     })
 }
 
+/// The real recordings in `tests/data`: magnitude spread before and after
+/// the full-ellipsoid fit (the agreement with an independent Li & Griffiths
+/// fit is asserted by `cargo test -p host-tools --test real_data`).
+fn real_recordings(root: &Path) -> serde_json::Value {
+    let load = |rel: &str, cols: [&str; 3]| -> Vec<[f64; 3]> {
+        let Ok(text) = std::fs::read_to_string(root.join("tests/data").join(rel)) else { return vec![] };
+        let mut lines = text.lines();
+        if cols[0].is_empty() {
+            return lines.filter_map(|l| {
+                let v: Vec<f64> = l.split_whitespace().filter_map(|x| x.parse().ok()).collect();
+                (v.len() == 3).then(|| [v[0], v[1], v[2]])
+            }).collect();
+        }
+        let header: Vec<&str> = lines.next().unwrap_or("").split(',').collect();
+        let Some(idx) = cols.iter().map(|c| header.iter().position(|h| h == c)).collect::<Option<Vec<usize>>>() else { return vec![] };
+        lines.filter_map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            let v: Vec<f64> = idx.iter().filter_map(|&i| f.get(i).and_then(|x| x.parse().ok())).collect();
+            (v.len() == 3).then(|| [v[0], v[1], v[2]])
+        }).collect()
+    };
+    let spread = |samples: &[[f64; 3]], cal: &calib_core::cal::FieldCal<f64>| {
+        let m: Vec<f64> = samples.iter().map(|s| { let h = cal.apply(*s); (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt() }).collect();
+        let mean = m.iter().sum::<f64>() / m.len().max(1) as f64;
+        100.0 * (m.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / m.len().max(1) as f64).sqrt() / mean
+    };
+    let mut out = Vec::new();
+    for (name, rel, cols) in [
+        ("sunsided-full-sphere", "sunsided-full-sphere/hmc5883l_compass.csv", ["mag_x_gauss", "mag_y_gauss", "mag_z_gauss"]),
+        ("ck-explorer", "ck-explorer/acc_mag_log.csv", ["mx", "my", "mz"]),
+        ("bazhin", "bazhin/mag_out.txt", ["", "", ""]),
+    ] {
+        let s = load(rel, cols);
+        let fitted = fit_batch::<Full, 9, f64>(&s, 1.0);
+        out.push(json!({
+            "recording": name,
+            "samples": s.len(),
+            "spread_before_pct": spread(&s, &calib_core::cal::FieldCal::identity()),
+            "spread_after_pct": fitted.as_ref().map(|c| spread(&s, c)).ok(),
+        }));
+    }
+    json!(out)
+}
+
 /// SVG figures of the results (paper 001 Figs 3–4: J vs N per σ).
 fn figures(out_dir: &Path, p1: &serde_json::Value) -> Result<Vec<String>> {
     use host_tools::report::{line_plot, Series};
@@ -232,9 +276,12 @@ pub fn run(out_dir: &Path) -> Result<()> {
     let host = host_throughput(&root);
     eprintln!("{}", serde_json::to_string_pretty(&host)?);
     let figs = figures(out_dir, &p1)?;
+    let real = real_recordings(&root);
+    eprintln!("== real recordings: {real}");
     let mut results = json!({
         "command": "cargo xtask bench",
         "host_throughput": host,
+        "real_recordings": real,
         "figures": figs,
         "paper001_j": p1,
         "paper000_scenarios": p0,
