@@ -441,7 +441,8 @@ impl Progress {
     /// A progress display for `total` steps.
     pub fn new(label: &str, total: usize, interactive: bool) -> Self {
         let bar = interactive.then(|| {
-            let b = indicatif::ProgressBar::new(total as u64);
+            // A stream of unknown length (a real vehicle) gets a spinner.
+            let b = if total == 0 { indicatif::ProgressBar::new_spinner() } else { indicatif::ProgressBar::new(total as u64) };
             if let Ok(style) = indicatif::ProgressStyle::with_template("{msg:>14} [{bar:40}] {pos}/{len} {wide_msg}") {
                 b.set_style(style);
             }
