@@ -71,15 +71,20 @@ pub struct Link<P> {
     pub dropped_samples: u64,
 }
 
+/// Opens a serial port (a board's USB-serial adapter, or a QEMU pty) at
+/// [`BAUD_RATE`], 8N1, with a short read timeout.
+fn open_port(path: &str) -> Result<Box<dyn serialport::SerialPort>, LinkError> {
+    serialport::new(path, BAUD_RATE)
+        .timeout(Duration::from_millis(20))
+        .open()
+        .map_err(|source| LinkError::Open { path: path.to_string(), source })
+}
+
 impl Link<Box<dyn serialport::SerialPort>> {
     /// Opens a serial port (a board's USB-serial adapter, or QEMU's pty) at
     /// [`BAUD_RATE`], 8N1.
     pub fn open(path: &str) -> Result<Self, LinkError> {
-        let port = serialport::new(path, BAUD_RATE)
-            .timeout(Duration::from_millis(20))
-            .open()
-            .map_err(|source| LinkError::Open { path: path.to_string(), source })?;
-        Ok(Link::new(port))
+        Ok(Link::new(open_port(path)?))
     }
 }
 
@@ -335,11 +340,7 @@ pub struct FeedWriter<P> {
 impl FeedWriter<Box<dyn serialport::SerialPort>> {
     /// Opens the feed's serial port (QEMU's second pty).
     pub fn open(path: &str) -> Result<Self, LinkError> {
-        let port = serialport::new(path, BAUD_RATE)
-            .timeout(Duration::from_millis(20))
-            .open()
-            .map_err(|source| LinkError::Open { path: path.to_string(), source })?;
-        Ok(Self { port, seq: 0, last: Vec::new(), offsets_sent: None })
+        Ok(Self { port: open_port(path)?, seq: 0, last: Vec::new(), offsets_sent: None })
     }
 }
 

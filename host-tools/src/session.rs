@@ -333,6 +333,27 @@ pub fn record_resuming<P: Read + Write>(
     Ok((rec, samples))
 }
 
+/// One recording phase with its progress display, saved as `<label>.csv` in
+/// the session directory.
+fn record_phase<P: Read + Write>(
+    link: &mut Link<P>,
+    vehicle: &mut impl Vehicle,
+    send_attitude: bool,
+    resume: Option<Resume<'_, P>>,
+    label: &str,
+    cfg: &SessionConfig,
+) -> Result<(Recording, Vec<magcal_protocol::Sample>), SessionError> {
+    let mut progress = Progress::new(label, vehicle.len_hint().unwrap_or(0), cfg.interactive);
+    let (rec, samples) = record_resuming(link, vehicle, send_attitude, resume, |i, _, _, _| {
+        progress.update(i, "recording");
+        Ok(())
+    })?;
+    progress.finish();
+    let path = cfg.out_dir.join(format!("{label}.csv"));
+    rec.write(&path).map_err(|e| SessionError::Io(e.to_string()))?;
+    Ok((rec, samples))
+}
+
 /// Sends the attitude (if asked) and waits for the board's sample of a step.
 fn take_sample<P: Read + Write>(link: &mut Link<P>, vehicle: &mut impl Vehicle, step: &Step, send_attitude: bool, timeout: Duration) -> Result<magcal_protocol::Sample, SessionError> {
     if send_attitude {
@@ -652,13 +673,7 @@ pub fn run_simulated_session(link_port: &str, feed_port: &str, cfg: &SessionConf
     // 2. Out-and-back run.
     eprintln!("2/5 out-and-back run: {:.0} m legs at 62° / −117°, dolphin profile, GPS at the surface", plan.run_leg_m);
     prepare_board(&mut link, StreamMode::Raw, None)?;
-    let mut progress = Progress::new("run", run_sim.recording.len(), cfg.interactive);
-    let (run_rec, _) = record(&mut link, &mut SimVehicle::new(&run_sim, &mut feed), false, |i, _, _, _| {
-        progress.update(i, "recording");
-        Ok(())
-    })?;
-    progress.finish();
-    run_rec.write(&cfg.out_dir.join("run.csv")).map_err(|e| io(&e))?;
+    let (run_rec, _) = record_phase(&mut link, &mut SimVehicle::new(&run_sim, &mut feed), false, None, "run", cfg)?;
 
     let (cals, seq) = calibrate_and_upload(link, link_port, cfg, &swing_rec, &run_rec)?;
     let bs = &cals.backstepped.quality["backstep"];
@@ -667,13 +682,7 @@ pub fn run_simulated_session(link_port: &str, feed_port: &str, cfg: &SessionConf
     eprintln!("5/5 validation run on other courses, headings from the board");
     let mut link = Link::open(link_port)?;
     prepare_board(&mut link, StreamMode::Both, None)?;
-    let mut progress = Progress::new("validation", val_sim.recording.len(), cfg.interactive);
-    let (val_rec, val_samples) = record(&mut link, &mut SimVehicle::new(&val_sim, &mut feed), true, |i, _, _, _| {
-        progress.update(i, "recording");
-        Ok(())
-    })?;
-    progress.finish();
-    val_rec.write(&cfg.out_dir.join("validation.csv")).map_err(|e| io(&e))?;
+    let (val_rec, val_samples) = record_phase(&mut link, &mut SimVehicle::new(&val_sim, &mut feed), true, None, "validation", cfg)?;
     let metrics = validation_metrics(&val_sim, &val_rec, &val_samples, &default_doc);
     link.set_stream(StreamMode::Off)?;
 
@@ -756,13 +765,8 @@ pub fn run_nav_session(link_port: &str, nav_swing: impl std::io::BufRead, nav_ru
 
     eprintln!("2/5 out-and-back run");
     prepare_board(&mut link, StreamMode::Raw, None)?;
-    let mut progress = Progress::new("run", 0, cfg.interactive);
-    let (run_rec, _) = record_resuming(&mut link, &mut NavVehicle::new(nav_run)?, true, Some(Resume { connect: &mut connect, stream: StreamMode::Raw, attempts: 5 }), |i, _, _, _| {
-        progress.update(i, "recording");
-        Ok(())
-    })?;
-    progress.finish();
-    run_rec.write(&cfg.out_dir.join("run.csv")).map_err(|e| io(&e))?;
+    let resume = Resume { connect: &mut connect, stream: StreamMode::Raw, attempts: 5 };
+    let (run_rec, _) = record_phase(&mut link, &mut NavVehicle::new(nav_run)?, true, Some(resume), "run", cfg)?;
 
     let (cals, seq) = calibrate_and_upload(link, link_port, cfg, &swing_rec, &run_rec)?;
     let summary = json!({

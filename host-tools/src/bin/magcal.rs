@@ -68,6 +68,20 @@ struct SiteArgs {
     date: Option<String>,
 }
 
+/// Where and when, required.
+#[derive(clap::Args, Clone)]
+struct Place {
+    /// Geodetic latitude, degrees.
+    #[arg(long, allow_hyphen_values = true)]
+    lat: f64,
+    /// Longitude, degrees.
+    #[arg(long, allow_hyphen_values = true)]
+    lon: f64,
+    /// Date: YYYY-MM-DD or decimal year.
+    #[arg(long)]
+    date: String,
+}
+
 #[derive(Clone, Copy, ValueEnum)]
 enum FieldModel {
     /// IGRF-14 from the official coefficients.
@@ -163,15 +177,8 @@ enum Cmd {
         /// Real vehicle: navigation CSV (t, roll_deg, pitch_deg, ref_heading_deg, lat_deg, lon_deg) during the run.
         #[arg(long, requires = "nav_swing")]
         nav_run: Option<PathBuf>,
-        /// Latitude, degrees.
-        #[arg(long, allow_hyphen_values = true)]
-        lat: f64,
-        /// Longitude, degrees.
-        #[arg(long, allow_hyphen_values = true)]
-        lon: f64,
-        /// Date: YYYY-MM-DD or decimal year.
-        #[arg(long)]
-        date: String,
+        #[command(flatten)]
+        place: Place,
         /// Session directory (recordings, calibrations, report).
         #[arg(long)]
         out: PathBuf,
@@ -240,15 +247,8 @@ enum Cmd {
     },
     /// Reference field (IGRF-14 or WMM2025) at a place and date.
     Igrf {
-        /// Geodetic latitude, degrees.
-        #[arg(long, allow_hyphen_values = true)]
-        lat: f64,
-        /// Longitude, degrees.
-        #[arg(long, allow_hyphen_values = true)]
-        lon: f64,
-        /// Date: YYYY-MM-DD or decimal year.
-        #[arg(long)]
-        date: String,
+        #[command(flatten)]
+        place: Place,
         /// Height above the WGS-84 ellipsoid, metres (negative below).
         #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
         height_m: f64,
@@ -434,7 +434,7 @@ fn run(cli: Cli) -> Result<()> {
             }
             Ok(())
         }
-        Cmd::Session { port, sim_feed, nav_swing, nav_run, lat, lon, date, out, plan, seed, json } => {
+        Cmd::Session { port, sim_feed, nav_swing, nav_run, place: Place { lat, lon, date }, out, plan, seed, json } => {
             use host_tools::session::{run_nav_session, run_simulated_session, SessionConfig, SimPlan};
             use std::io::IsTerminal;
             let year = igrf::parse_date(&date)?;
@@ -524,7 +524,7 @@ fn run(cli: Cli) -> Result<()> {
             );
             emit(&out_doc, out.as_ref(), json, &summary)
         }
-        Cmd::Igrf { lat, lon, date, height_m, model, json } => {
+        Cmd::Igrf { place: Place { lat, lon, date }, height_m, model, json } => {
             let year = igrf::parse_date(&date)?;
             let model = match model {
                 FieldModel::Igrf14 => igrf::Model::Igrf14,
