@@ -1,16 +1,25 @@
-//! The host side of the magcal stack: the serial link to the board, the QEMU
-//! board used in tests and the demo, and (as issues land) recordings, fits
-//! and reports. The `magcal` binary is a thin clap front end over this
-//! library; errors here are typed ([`link::LinkError`], [`qemu::QemuError`]).
+//! The host side of the magcal stack, laid out by what a reader looks for:
+//!
+//! * [`board`]: the board client — the serial link ([`board::BoardClient`]),
+//!   the QEMU board's sensor feed, the QEMU launcher, document ↔ board
+//!   coefficients;
+//! * [`data`]: recordings (CSV), the calibration document (JSON) and the
+//!   typed results inside them;
+//! * [`compute`]: the fits on recordings and the one calibration chain that
+//!   the session, the simulator's scenario harness, the bench and the CLI call;
+//! * [`geomag`]: IGRF-14 and WMM2025, and the [`geomag::Site`];
+//! * [`session`]: the calibration session for any vehicle;
+//! * [`report`]: figures and an HTML page.
+//!
+//! The `magcal` binary (crate `magcal`) is a thin clap front end over this
+//! library, and the field-test simulator is a crate of its own
+//! (`magcal-sim`) that this library does not depend on. Errors here are
+//! typed (`thiserror`).
 #![deny(missing_docs)]
 
-pub mod caldoc;
-pub mod igrf;
-pub mod link;
-pub mod pipeline;
-pub mod qemu;
-pub mod recording;
+pub mod board;
+pub mod compute;
+pub mod data;
+pub mod geomag;
 pub mod report;
-pub mod scenario;
 pub mod session;
-pub mod sim;

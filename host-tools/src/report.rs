@@ -9,8 +9,8 @@ use std::path::{Path, PathBuf};
 
 use calib_core::heading::wrap_pi;
 
-use crate::caldoc::CalDoc;
-use crate::recording::Recording;
+use crate::data::caldoc::CalDoc;
+use crate::data::recording::Recording;
 
 /// One line of a plot.
 pub struct Series {
@@ -191,7 +191,7 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs<'_>) -> Result<Vec<PathBuf
     let mut html = String::from("<!doctype html><meta charset=\"utf-8\"><title>magcal report</title><h1>magcal report</h1>\n<table border=1 cellpadding=4><tr><th>calibration</th><th>model</th><th>bias</th><th>field_nt</th><th>swing</th></tr>\n");
     for (label, doc) in &inputs.cals {
         let swing = doc.swing.map(|s| format!("A={:.4} B={:.4} C={:.4} D={:.4} E={:.4}", s.a, s.b, s.c, s.d, s.e)).unwrap_or_else(|| "—".into());
-        let _ = writeln!(html, "<tr><td>{}</td><td>{}</td><td>{:.1}, {:.1}, {:.1}</td><td>{:.1}</td><td>{}</td></tr>", escape(label), doc.model, doc.bias[0], doc.bias[1], doc.bias[2], doc.field_nt, swing);
+        let _ = writeln!(html, "<tr><td>{}</td><td>{}</td><td>{:.1}, {:.1}, {:.1}</td><td>{:.1}</td><td>{}</td></tr>", escape(label), doc.model.name(), doc.bias[0], doc.bias[1], doc.bias[2], doc.field_nt, swing);
     }
     html.push_str("</table>\n");
     for f in &figures {

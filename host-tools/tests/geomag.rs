@@ -2,7 +2,7 @@
 //! `world_magnetic_model` crate) against the WMM2025 report's, and the two
 //! models against each other.
 
-use host_tools::igrf::{igrf14, wmm2025};
+use host_tools::geomag::{igrf14, wmm2025};
 
 fn rows(file: &str) -> Vec<Vec<f64>> {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data/geomag").join(file);

@@ -9,8 +9,8 @@ use std::path::{Path, PathBuf};
 use calib_core::cal::{FieldCal, ModelKind};
 use calib_core::fit::{fit_batch, FitError, Full};
 use calib_core::quality::assess;
-use host_tools::pipeline::{fit_recording, FitOptions, PipelineError};
-use host_tools::recording::Recording;
+use host_tools::compute::{fit_recording, FitOptions, ComputeError};
+use host_tools::data::recording::Recording;
 use nalgebra::{DMatrix, Matrix3, SMatrix, SymmetricEigen, Vector3};
 
 fn data(rel: &str) -> PathBuf {
@@ -169,7 +169,7 @@ fn xio_partial_coverage_is_refused_with_its_reason() {
     let rec = Recording { mag: s.clone(), ..Recording::default() };
     let r = fit_recording(&rec, &FitOptions { model: ModelKind::Full, field_nt: 45_000.0 / 1000.0, saturation: None, allow_weak: false });
     match r {
-        Err(PipelineError::Fit(FitError::InsufficientCoverage { covered_pct })) => {
+        Err(ComputeError::Fit(FitError::InsufficientCoverage { covered_pct })) => {
             eprintln!("xio-fusion: full fit refused, {covered_pct} % of directions covered");
             assert!(covered_pct < 40);
         }

@@ -75,19 +75,25 @@ fn f32_vs_f64() -> serde_json::Value {
 
 /// Paper 000's field test, simulated for several seeds and two vehicles.
 fn paper000() -> (serde_json::Value, String) {
-    use host_tools::scenario::evaluate;
-    use host_tools::sim::SensorModel;
+    use magcal_sim::{evaluate, SensorModel};
     let mut rows = Vec::new();
     let mut md = String::from(
-        "| vehicle | seed | step: sphere fit | paper | ours (nT) | heading RMS: sphere | paper | ours (°) | field error: paper | ours (nT) | GPS delay (s) |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
+        "| vehicle | seed | step: axis fit | paper | ours (nT) | heading RMS: axis fit | paper | ours (°) | field error: paper | ours (nT) | GPS delay (s) |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     for (name, sensor) in [("paper-like", SensorModel::paper_like()), ("hull-coupled", SensorModel::hull_coupled())] {
         for seed in 1..=5 {
-            let o = evaluate(name, sensor, seed);
+            let o = match evaluate(name, sensor, seed) {
+                Ok(o) => o,
+                Err(e) => {
+                    let _ = writeln!(md, "| {name} | {seed} | failed: {e} |");
+                    rows.push(json!({"vehicle": name, "seed": seed, "error": e.to_string()}));
+                    continue;
+                }
+            };
             let _ = writeln!(
                 md,
                 "| {name} | {seed} | {:.0} | {:.1} | {:.1} | {:.2} | {:.2} | {:.2} | {:.0} | {:.1} | {:.2} |",
-                o.step_sphere, o.step_paper, o.step_ours, o.heading_sphere, o.heading_paper, o.heading_ours, o.field_paper, o.field_ours, o.delay_ours
+                o.step_axis_fit_nt, o.step_paper_nt, o.step_ours_nt, o.heading_rms_axis_fit_deg, o.heading_rms_paper_deg, o.heading_rms_ours_deg, o.field_error_paper_nt, o.field_error_ours_nt, o.gps_delay_ours_s
             );
             rows.push(json!({"vehicle": name, "seed": seed, "outcome": o}));
         }
@@ -159,7 +165,7 @@ fn host_throughput(root: &Path) -> serde_json::Value {
     let evals = 20_000;
     for k in 0..evals {
         let lat = -80.0 + 160.0 * (k as f64 / evals as f64);
-        if let Ok(f) = host_tools::igrf::igrf14(lat, (k % 360) as f64 - 180.0, 0.0, 2026.5) {
+        if let Ok(f) = host_tools::geomag::igrf14(lat, (k % 360) as f64 - 180.0, 0.0, 2026.5) {
             acc += f.total_nt();
         }
     }

@@ -17,6 +17,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode, Stdio};
 
 use anyhow::{bail, Context, Result};
+use host_tools::data::results::SessionSummary;
+use host_tools::data::CalDoc;
 
 mod bench;
 mod size;
@@ -173,7 +175,7 @@ fn build_firmware() -> Result<PathBuf> {
 
 fn build_magcal() -> Result<PathBuf> {
     say("building magcal");
-    run(cargo().args(["build", "-p", "host-tools", "--bin", "magcal"]))?;
+    run(cargo().args(["build", "-p", "magcal", "--bin", "magcal"]))?;
     Ok(root().join("target").join("debug").join("magcal"))
 }
 
@@ -238,10 +240,11 @@ fn cmd_test() -> Result<()> {
     let demo = demo_session(&elf, &magcal, &root().join("target").join("demo-test"), "short");
     let demo_ok = match &demo {
         Ok(s) => {
-            let before = s["heading_rms_deg_before"].as_f64().unwrap_or(f64::NAN);
-            let after = s["heading_rms_deg_after"].as_f64().unwrap_or(f64::NAN);
-            let field = s["field_error_nt_after"].as_f64().unwrap_or(f64::NAN);
-            let verified = s["coefficients_verified"].as_bool() == Some(true);
+            let v = s.session.validation;
+            let before = v.map_or(f64::NAN, |v| v.heading_rms_deg_before);
+            let after = v.map_or(f64::NAN, |v| v.heading_rms_deg_after);
+            let field = v.map_or(f64::NAN, |v| v.field_error_nt_after);
+            let verified = s.session.coefficients_verified;
             let reproduced = reproduce_offline(&magcal, &root().join("target").join("demo-test").join("session"));
             if let Err(e) = &reproduced {
                 eprintln!("the saved session does not reproduce offline: {e:#}");
@@ -286,6 +289,15 @@ fn cmd_demo() -> Result<()> {
     Ok(())
 }
 
+/// `target/demo/summary.json`: the session's summary with where its logs are.
+#[derive(serde::Serialize)]
+struct DemoSummary {
+    #[serde(flatten)]
+    session: SessionSummary,
+    firmware_log: PathBuf,
+    report: PathBuf,
+}
+
 /// Runs the saved session's `reproduce` commands (fit → backstep → swing)
 /// on its recordings and checks they give the session's final coefficients.
 fn reproduce_offline(magcal: &Path, dir: &Path) -> Result<()> {
@@ -294,12 +306,12 @@ fn reproduce_offline(magcal: &Path, dir: &Path) -> Result<()> {
     run(Command::new(magcal).args(["fit", "--input", &p("swing.csv"), "--model", "axis", "--out", &p("offline_step1.json")]).args(site).stdout(Stdio::null()))?;
     run(Command::new(magcal).args(["backstep", "--input", &p("run.csv"), "--cal", &p("offline_step1.json"), "--swing-input", &p("swing.csv"), "--out", &p("offline_backstep.json")]).args(site).stdout(Stdio::null()).stderr(Stdio::null()))?;
     run(Command::new(magcal).args(["swing", "--input", &p("run.csv"), "--cal", &p("offline_backstep.json"), "--estimate-delay", "--out", &p("offline_final.json")]).stdout(Stdio::null()).stderr(Stdio::null()))?;
-    let read = |n: &str| -> Result<serde_json::Value> { Ok(serde_json::from_str(&std::fs::read_to_string(dir.join(n))?)?) };
+    let read = |n: &str| -> Result<CalDoc> { Ok(CalDoc::load(&dir.join(n))?) };
     let (a, b) = (read("cal_final.json")?, read("offline_final.json")?);
-    let flat = |v: &serde_json::Value| -> Vec<f64> {
-        let mut out: Vec<f64> = v["bias"].as_array().into_iter().flatten().filter_map(serde_json::Value::as_f64).collect();
-        out.extend(v["matrix"].as_array().into_iter().flatten().flat_map(|r| r.as_array().into_iter().flatten()).filter_map(serde_json::Value::as_f64));
-        out.extend(["a", "b", "c", "d", "e"].iter().filter_map(|k| v["swing"][k].as_f64()));
+    let flat = |d: &CalDoc| -> Vec<f64> {
+        let mut out: Vec<f64> = d.bias.to_vec();
+        out.extend(d.matrix.iter().flatten());
+        out.extend(d.swing.iter().flat_map(|s| [s.a, s.b, s.c, s.d, s.e]));
         out
     };
     let (fa, fb) = (flat(&a), flat(&b));
@@ -312,8 +324,8 @@ fn reproduce_offline(magcal: &Path, dir: &Path) -> Result<()> {
 
 /// Boots the firmware in QEMU and runs `magcal session` against it with the
 /// simulated vehicle; writes `<out_dir>/summary.json` and returns it.
-fn demo_session(elf: &Path, magcal: &Path, out_dir: &Path, plan: &str) -> Result<serde_json::Value> {
-    use host_tools::qemu::{QemuBoard, QemuOptions};
+fn demo_session(elf: &Path, magcal: &Path, out_dir: &Path, plan: &str) -> Result<DemoSummary> {
+    use host_tools::board::qemu::{QemuBoard, QemuOptions};
 
     std::fs::create_dir_all(out_dir)?;
     say("booting the firmware on QEMU netduinoplus2 (STM32F405): USART1 = host link, USART2 = the simulated bridges");
@@ -339,16 +351,16 @@ fn demo_session(elf: &Path, magcal: &Path, out_dir: &Path, plan: &str) -> Result
     if !out.status.success() {
         bail!("magcal session failed (firmware log: {})", log.display());
     }
-    let mut summary: serde_json::Value = serde_json::from_slice(&out.stdout).context("magcal session --json output")?;
-    summary["firmware_log"] = serde_json::json!(log);
-    summary["report"] = serde_json::json!(session_dir.join("report").join("index.html"));
+    let session: SessionSummary = serde_json::from_slice(&out.stdout).context("magcal session --json output")?;
+    let summary = DemoSummary { session, firmware_log: log, report: session_dir.join("report").join("index.html") };
     std::fs::write(out_dir.join("summary.json"), serde_json::to_string_pretty(&summary)?)?;
+    let v = summary.session.validation;
     eprintln!(
         "   true heading RMS on the validation run: {:.2}° before → {:.2}° after; |F| − IGRF after: {:.1} nT; coefficients verified: {}",
-        summary["heading_rms_deg_before"].as_f64().unwrap_or(f64::NAN),
-        summary["heading_rms_deg_after"].as_f64().unwrap_or(f64::NAN),
-        summary["field_error_nt_after"].as_f64().unwrap_or(f64::NAN),
-        summary["coefficients_verified"]
+        v.map_or(f64::NAN, |v| v.heading_rms_deg_before),
+        v.map_or(f64::NAN, |v| v.heading_rms_deg_after),
+        v.map_or(f64::NAN, |v| v.field_error_nt_after),
+        summary.session.coefficients_verified
     );
     eprintln!("   summary: {}", out_dir.join("summary.json").display());
     Ok(summary)

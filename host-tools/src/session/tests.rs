@@ -1,4 +1,6 @@
 use super::*;
+use std::time::Duration;
+use magcal_protocol::Coefficients;
 use std::cell::RefCell;
 use std::collections::VecDeque;
 use std::io;
@@ -125,12 +127,12 @@ fn coefficients() -> Coefficients {
     Coefficients { bias: [1000.0, 2000.0, -500.0], matrix: [[g, 0.0, 0.0], [0.0, g, 0.0], [0.0, 0.0, g]], swing: [0.01, 0.0, 0.0, 0.0, 0.0], declination_rad: 0.1, field_nt: 48_730.0 }
 }
 
-fn connector(b: &Rc<RefCell<Board>>, budgets: Vec<(Option<usize>, Option<usize>)>) -> impl FnMut() -> Result<Link<Conn>, LinkError> {
+fn connector(b: &Rc<RefCell<Board>>, budgets: Vec<(Option<usize>, Option<usize>)>) -> impl FnMut() -> Result<BoardClient<Conn>, ClientError> {
     let b = b.clone();
     let mut budgets = budgets.into_iter();
     move || {
         let (w, r) = budgets.next().unwrap_or((None, None));
-        let mut link = Link::new(Conn { board: b.clone(), out: VecDeque::new(), write_budget: w, read_budget: r, delivered: vec![] });
+        let mut link = BoardClient::new(Conn { board: b.clone(), out: VecDeque::new(), write_budget: w, read_budget: r, delivered: vec![] });
         link.timeout = Duration::from_millis(50);
         link.attempts = 1;
         Ok(link)
@@ -152,7 +154,7 @@ fn a_lost_commit_reply_is_verified_by_reading_back_not_written_twice() {
     let b = board();
     // The replies of a clean upload: Status, Ack (unlock), Ack (write),
     // Committed, Coefficients. Cut the link just before Committed arrives.
-    let mut probe = Link::new(Conn { board: board(), out: VecDeque::new(), write_budget: None, read_budget: None, delivered: vec![] });
+    let mut probe = BoardClient::new(Conn { board: board(), out: VecDeque::new(), write_budget: None, read_budget: None, delivered: vec![] });
     probe.timeout = Duration::from_millis(50);
     probe.upload_coefficients(&coefficients()).unwrap();
     let delivered = &probe_port(probe).delivered;
@@ -170,12 +172,12 @@ fn an_unverifiable_board_is_reported() {
     let b = board();
     let r = upload_verified(connector(&b, vec![(Some(10), None); 3]), &coefficients(), 3);
     assert!(matches!(r, Err(SessionError::NotVerified(3))), "{r:?}");
-    let mut link = Link::new(Conn { board: b.clone(), out: VecDeque::new(), write_budget: None, read_budget: None, delivered: vec![] });
+    let mut link = BoardClient::new(Conn { board: b.clone(), out: VecDeque::new(), write_budget: None, read_budget: None, delivered: vec![] });
     // The board never switched to a partial set.
     assert_eq!(link.read_coefficients().unwrap().1, CoefficientSource::Default);
 }
 
-fn probe_port(link: Link<Conn>) -> Conn {
+fn probe_port(link: BoardClient<Conn>) -> Conn {
     link.into_port()
 }
 
@@ -184,17 +186,19 @@ fn a_real_vehicle_recording_survives_a_link_drop() {
     let b = board();
     let nav = "t,roll_deg,pitch_deg,ref_heading_deg,lat_deg,lon_deg\n".to_string()
         + &(0..20).map(|k| format!("{k},{},0,,36.9,50.6", k as f64 * 0.5)).collect::<Vec<_>>().join("\n");
-    let mut vehicle = NavVehicle::new(std::io::Cursor::new(nav.into_bytes())).unwrap();
+    let mut vehicle = NavVehicle::new(std::io::Cursor::new(nav.into_bytes()), std::io::Cursor::new(Vec::new()), None);
+    assert!(vehicle.begin(Phase::Swing).unwrap());
     // The first connection dies after a few hundred bytes; later ones work.
     let mut connect = connector(&b, vec![(None, None), (None, None), (None, None)]);
-    let mut link = Link::new(Conn { board: b.clone(), out: VecDeque::new(), write_budget: Some(150), read_budget: None, delivered: vec![] });
+    let mut link = BoardClient::new(Conn { board: b.clone(), out: VecDeque::new(), write_budget: Some(150), read_budget: None, delivered: vec![] });
     link.timeout = Duration::from_millis(50);
     link.attempts = 1;
     let resume = Resume { connect: &mut connect, stream: StreamMode::Raw, attempts: 3 };
-    let (rec, samples) = record_resuming(&mut link, &mut vehicle, true, Some(resume), |_, _, _, _| Ok(())).unwrap();
+    let Recorded { recording: rec, samples, lost_steps, .. } = record(&mut link, &mut vehicle, true, Some(resume), |_, _, _, _| Ok(())).unwrap();
     assert_eq!(rec.len(), 20, "every navigation step has its row");
     let lost = rec.mag.iter().filter(|m| m[0].is_nan()).count();
     assert!(lost >= 1 && lost <= 2, "{lost} rows lost");
+    assert_eq!(lost, lost_steps);
     // The rows that have a field have the board's sample for that step.
     for (i, m) in rec.mag.iter().enumerate() {
         if m[0].is_finite() {
@@ -208,6 +212,6 @@ fn a_real_vehicle_recording_survives_a_link_drop() {
 
 #[test]
 fn a_navigation_stream_without_attitude_is_refused() {
-    let e = NavVehicle::new(std::io::Cursor::new(b"t,lat_deg\n1,2\n".to_vec())).err().unwrap();
+    let e = NavStream::new(std::io::Cursor::new(b"t,lat_deg\n1,2\n".to_vec())).err().unwrap();
     assert!(e.to_string().contains("missing column `roll_deg`"), "{e}");
 }

@@ -8,7 +8,7 @@ use std::time::Duration;
 use calib_core::conformance::SplitMix64;
 use e2e_tests::boot;
 use firmware::acquisition::COUNTS_PER_NT;
-use host_tools::link::{Link, LinkError};
+use host_tools::board::{BoardClient, ClientError};
 use magcal_protocol::{self as proto, CoefficientSource, Coefficients, LinkError as Remote, Request, RequestBody, Response, ResponseBody, MAX_FRAME_LEN, UNLOCK_XOR};
 
 fn coefficients(bias_x: f32) -> Coefficients {
@@ -23,7 +23,7 @@ fn frame(seq: u16, body: RequestBody) -> Vec<u8> {
 }
 
 /// Reads replies until one answers `seq` (or times out).
-fn reply_to(link: &mut Link<Box<dyn serialport::SerialPort>>, seq: u16) -> Option<ResponseBody> {
+fn reply_to(link: &mut BoardClient<Box<dyn serialport::SerialPort>>, seq: u16) -> Option<ResponseBody> {
     for _ in 0..50 {
         match link.next_response(Duration::from_millis(200)).unwrap() {
             Some(Response { seq: Some(s), body }) if s == seq => return Some(body),
@@ -37,7 +37,7 @@ fn reply_to(link: &mut Link<Box<dyn serialport::SerialPort>>, seq: u16) -> Optio
 #[test]
 fn garbage_truncation_bit_flips_and_floods_leave_the_board_responsive() {
     let board = boot("hostile-noise");
-    let mut link = Link::open(board.link_port()).expect("open");
+    let mut link = BoardClient::open(board.link_port()).expect("open");
     link.identify().expect("identify");
     let mut rng = SplitMix64::new(5);
 
@@ -69,7 +69,7 @@ fn garbage_truncation_bit_flips_and_floods_leave_the_board_responsive() {
 fn a_disconnect_mid_upload_and_replayed_frames_never_change_the_coefficients() {
     let board = boot("hostile-upload");
     let port = board.link_port().to_string();
-    let mut link = Link::open(&port).expect("open");
+    let mut link = BoardClient::open(&port).expect("open");
     link.identify().expect("identify");
 
     // Stage a set, then drop the link before committing.
@@ -78,7 +78,7 @@ fn a_disconnect_mid_upload_and_replayed_frames_never_change_the_coefficients() {
     assert!(matches!(link.request(RequestBody::Unlock { key: challenge ^ UNLOCK_XOR }).unwrap(), ResponseBody::Ack));
     assert!(matches!(link.request(RequestBody::WriteCoefficients(first)).unwrap(), ResponseBody::Ack));
     drop(link);
-    let mut link = Link::open(&port).expect("reopen");
+    let mut link = BoardClient::open(&port).expect("reopen");
     let (_, source, _) = link.read_coefficients().unwrap();
     assert_eq!(source, CoefficientSource::Default, "a staged set is not in use");
 
@@ -110,7 +110,7 @@ fn a_disconnect_mid_upload_and_replayed_frames_never_change_the_coefficients() {
     let mut bad = c;
     bad.matrix[1][1] *= 20.0;
     match link.upload_coefficients(&bad) {
-        Err(LinkError::Remote(Remote::InvalidCoefficients)) => {}
+        Err(ClientError::Remote(Remote::InvalidCoefficients)) => {}
         other => panic!("{other:?}"),
     }
     assert_eq!(link.read_coefficients().unwrap().0, c);

@@ -5,13 +5,13 @@ use std::process::Command;
 use std::time::Duration;
 
 use e2e_tests::{boot, magcal_bin};
-use host_tools::link::{Link, LinkError};
+use host_tools::board::{BoardClient, ClientError};
 use magcal_protocol::{self as proto, FrameError, LinkError as Remote, Platform, Response, ResponseBody};
 
 #[test]
 fn identify_over_the_pty() {
     let board = boot("identify");
-    let mut link = Link::open(board.link_port()).expect("open pty");
+    let mut link = BoardClient::open(board.link_port()).expect("open pty");
     let id = link.identify().expect("identify");
     assert_eq!(id.name.as_str(), "magcal-fw");
     assert_eq!(id.firmware_version.as_str(), env!("CARGO_PKG_VERSION"));
@@ -26,7 +26,7 @@ fn identify_over_the_pty() {
 #[test]
 fn a_malformed_frame_is_answered_with_a_typed_error_and_the_link_recovers() {
     let board = boot("malformed");
-    let mut link = Link::open(board.link_port()).expect("open pty");
+    let mut link = BoardClient::open(board.link_port()).expect("open pty");
     // Make sure the board is listening before sending garbage.
     link.identify().expect("identify");
 
@@ -83,9 +83,9 @@ fn silence_is_a_timeout_not_a_hang() {
     let (master, slave) = serialport::TTYPort::pair().expect("pty pair");
     let name = slave.name().expect("pty name");
     drop(slave);
-    let mut link = Link::open(&name).expect("open");
+    let mut link = BoardClient::open(&name).expect("open");
     link.timeout = Duration::from_millis(200);
     link.attempts = 2;
-    assert!(matches!(link.identify(), Err(LinkError::Timeout { attempts: 2, .. })));
+    assert!(matches!(link.identify(), Err(ClientError::Timeout { attempts: 2, .. })));
     drop(master);
 }

@@ -10,7 +10,7 @@ use calib_core::heading::{ned_field, ned_to_body, wrap_pi};
 use calib_core::linalg::{inverse3, mul_mat_vec};
 use e2e_tests::boot_with_feed;
 use firmware::acquisition::COUNTS_PER_NT;
-use host_tools::link::{FeedWriter, Link, LinkError};
+use host_tools::board::{FeedWriter, BoardClient, ClientError};
 use magcal_protocol::{CoefficientSource, Coefficients, LinkError as Remote, StreamMode};
 
 /// The hull's distortion (nT → nT) and hard iron (nT).
@@ -32,7 +32,7 @@ fn coefficients() -> Coefficients {
 #[test]
 fn fed_field_comes_back_calibrated_with_the_heading() {
     let board = boot_with_feed("sensor");
-    let mut link = Link::open(board.link_port()).expect("open link");
+    let mut link = BoardClient::open(board.link_port()).expect("open link");
     let mut feed = FeedWriter::open(board.sensor_port().expect("feed pty")).expect("open feed");
     link.identify().expect("identify");
 
@@ -89,7 +89,7 @@ fn fed_field_comes_back_calibrated_with_the_heading() {
     // Mission mode locks the coefficients.
     link.set_mission_mode(true).unwrap();
     match link.upload_coefficients(&c) {
-        Err(LinkError::Remote(Remote::MissionMode)) => {}
+        Err(ClientError::Remote(Remote::MissionMode)) => {}
         other => panic!("{other:?}"),
     }
 }
@@ -97,7 +97,7 @@ fn fed_field_comes_back_calibrated_with_the_heading() {
 #[test]
 fn the_onboard_fit_runs_on_the_mcu_and_reports_convergence() {
     let board = boot_with_feed("onboard-fit");
-    let mut link = Link::open(board.link_port()).expect("open link");
+    let mut link = BoardClient::open(board.link_port()).expect("open link");
     let mut feed = FeedWriter::open(board.sensor_port().expect("feed pty")).expect("open feed");
     link.identify().expect("identify");
     link.set_output_rate(100).unwrap();

@@ -1,5 +1,6 @@
-//! The reference field: IGRF-14 from the official coefficients, and WMM2025
-//! through the `world_magnetic_model` crate as a cross-check.
+//! Geomagnetic reference models: IGRF-14 from the official coefficients,
+//! and WMM2025 through the `world_magnetic_model` crate as a cross-check;
+//! and [`Site`], the place and date a calibration is referred to.
 //!
 //! IGRF-14: main field to degree 13, definitive/IGRF models every 5 years
 //! from 1900 (interpolated linearly), secular variation from 2025 to 2030.
@@ -26,7 +27,7 @@ const WGS84_F: f64 = 1.0 / 298.257_223_563;
 
 /// Why a reference field could not be computed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum IgrfError {
+pub enum GeomagError {
     /// The date is outside the model's validity.
     #[error("date {0} is outside {1}")]
     DateOutOfRange(f64, &'static str),
@@ -79,6 +80,37 @@ impl Field {
     }
 }
 
+/// Where and when: the place and date of a calibration, for its reference
+/// field.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Site {
+    /// Geodetic latitude, degrees.
+    pub lat_deg: f64,
+    /// Longitude, degrees.
+    pub lon_deg: f64,
+    /// Decimal year.
+    pub decimal_year: f64,
+}
+
+impl Site {
+    /// A site from a place and a date (`YYYY-MM-DD` or a decimal year).
+    pub fn new(lat_deg: f64, lon_deg: f64, date: &str) -> Result<Self, GeomagError> {
+        let site = Self { lat_deg, lon_deg, decimal_year: parse_date(date)? };
+        site.field()?;
+        Ok(site)
+    }
+
+    /// IGRF-14 at the site, at sea level.
+    pub fn field(&self) -> Result<Field, GeomagError> {
+        igrf14(self.lat_deg, self.lon_deg, 0.0, self.decimal_year)
+    }
+
+    /// IGRF-14 at another position, at the site's date.
+    pub fn field_at(&self, lat_deg: f64, lon_deg: f64) -> Result<Field, GeomagError> {
+        igrf14(lat_deg, lon_deg, 0.0, self.decimal_year)
+    }
+}
+
 /// Which model.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Model {
@@ -99,8 +131,8 @@ impl Model {
 }
 
 /// Parses `YYYY-MM-DD` (midnight UTC) or a decimal year into a decimal year.
-pub fn parse_date(text: &str) -> Result<f64, IgrfError> {
-    let bad = || IgrfError::BadDate(text.to_string());
+pub fn parse_date(text: &str) -> Result<f64, GeomagError> {
+    let bad = || GeomagError::BadDate(text.to_string());
     let t = text.trim();
     if let Ok(y) = t.parse::<f64>() {
         return if y.is_finite() { Ok(y) } else { Err(bad()) };
@@ -162,11 +194,11 @@ fn parse_table(text: &str) -> Table {
 
 /// The coefficients at a decimal year (linear between epochs, secular
 /// variation after the last one, to 5 years past it).
-fn coefficients_at(year: f64) -> Result<Coeffs, IgrfError> {
+fn coefficients_at(year: f64) -> Result<Coeffs, GeomagError> {
     let t = table();
     let (first, last) = (t.epochs[0], t.epochs[t.epochs.len() - 1]);
     if !(year >= first && year <= last + 5.0) {
-        return Err(IgrfError::DateOutOfRange(year, "IGRF-14's validity (1900.0 to 2030.0)"));
+        return Err(GeomagError::DateOutOfRange(year, "IGRF-14's validity (1900.0 to 2030.0)"));
     }
     let mut out = [[(0.0, 0.0); MAX_DEGREE + 1]; MAX_DEGREE + 1];
     if year >= last {
@@ -192,12 +224,12 @@ fn coefficients_at(year: f64) -> Result<Coeffs, IgrfError> {
 
 /// IGRF-14 at a geodetic position (WGS-84), height above the ellipsoid, and
 /// decimal year.
-pub fn igrf14(lat_deg: f64, lon_deg: f64, height_m: f64, year: f64) -> Result<Field, IgrfError> {
+pub fn igrf14(lat_deg: f64, lon_deg: f64, height_m: f64, year: f64) -> Result<Field, GeomagError> {
     if !(lat_deg.abs() <= 90.0 && lon_deg.abs() <= 360.0) {
-        return Err(IgrfError::BadPosition { lat_deg, lon_deg });
+        return Err(GeomagError::BadPosition { lat_deg, lon_deg });
     }
     if !(-1000.0..=1_000_000.0).contains(&height_m) {
-        return Err(IgrfError::BadHeight(height_m));
+        return Err(GeomagError::BadHeight(height_m));
     }
     let coeffs = coefficients_at(year)?;
     let h_km = height_m / 1000.0;
@@ -260,14 +292,14 @@ pub fn igrf14(lat_deg: f64, lon_deg: f64, height_m: f64, year: f64) -> Result<Fi
 }
 
 /// WMM2025 at a geodetic position, through `world_magnetic_model` (f32).
-pub fn wmm2025(lat_deg: f64, lon_deg: f64, height_m: f64, year: f64) -> Result<Field, IgrfError> {
+pub fn wmm2025(lat_deg: f64, lon_deg: f64, height_m: f64, year: f64) -> Result<Field, GeomagError> {
     let y = year.floor() as i32;
     let leap = (y % 4 == 0 && y % 100 != 0) || y % 400 == 0;
     let days = if leap { 366.0 } else { 365.0 };
     let ordinal = (((year - f64::from(y)) * days).floor() as u16 + 1).min(days as u16);
-    let date = Date::from_ordinal_date(y, ordinal).or_else(|_| Date::from_calendar_date(y, Month::January, 1)).map_err(|e| IgrfError::Wmm(e.to_string()))?;
+    let date = Date::from_ordinal_date(y, ordinal).or_else(|_| Date::from_calendar_date(y, Month::January, 1)).map_err(|e| GeomagError::Wmm(e.to_string()))?;
     if !(lat_deg.abs() <= 90.0 && lon_deg.abs() <= 360.0) {
-        return Err(IgrfError::BadPosition { lat_deg, lon_deg });
+        return Err(GeomagError::BadPosition { lat_deg, lon_deg });
     }
     // The crate takes longitudes in [−180, 180].
     let lon = (lon_deg + 180.0).rem_euclid(360.0) - 180.0;
@@ -277,7 +309,7 @@ pub fn wmm2025(lat_deg: f64, lon_deg: f64, height_m: f64, year: f64) -> Result<F
         Angle::new::<degree>(lon as f32),
         date,
     )
-    .map_err(|e| IgrfError::Wmm(e.to_string()))?;
+    .map_err(|e| GeomagError::Wmm(e.to_string()))?;
     Ok(Field {
         north_nt: f64::from(f.x().get::<nanotesla>()),
         east_nt: f64::from(f.y().get::<nanotesla>()),
@@ -286,7 +318,7 @@ pub fn wmm2025(lat_deg: f64, lon_deg: f64, height_m: f64, year: f64) -> Result<F
 }
 
 /// The field of either model.
-pub fn field(model: Model, lat_deg: f64, lon_deg: f64, height_m: f64, year: f64) -> Result<Field, IgrfError> {
+pub fn field(model: Model, lat_deg: f64, lon_deg: f64, height_m: f64, year: f64) -> Result<Field, GeomagError> {
     match model {
         Model::Igrf14 => igrf14(lat_deg, lon_deg, height_m, year),
         Model::Wmm2025 => wmm2025(lat_deg, lon_deg, height_m, year),
@@ -321,9 +353,9 @@ mod tests {
 
     #[test]
     fn out_of_range_inputs_are_refused() {
-        assert!(matches!(igrf14(0.0, 0.0, 0.0, 2031.0), Err(IgrfError::DateOutOfRange(..))));
-        assert!(matches!(igrf14(91.0, 0.0, 0.0, 2026.0), Err(IgrfError::BadPosition { .. })));
-        assert!(matches!(igrf14(0.0, 0.0, -2000.0, 2026.0), Err(IgrfError::BadHeight(_))));
+        assert!(matches!(igrf14(0.0, 0.0, 0.0, 2031.0), Err(GeomagError::DateOutOfRange(..))));
+        assert!(matches!(igrf14(91.0, 0.0, 0.0, 2026.0), Err(GeomagError::BadPosition { .. })));
+        assert!(matches!(igrf14(0.0, 0.0, -2000.0, 2026.0), Err(GeomagError::BadHeight(_))));
         assert!(igrf14(f64::NAN, 0.0, 0.0, 2026.0).is_err());
     }
 }

@@ -24,18 +24,18 @@ use calib_core::linalg::{mul_mat, mul_mat_vec, Mat3};
 use calib_core::ortho::{gamma, OrthoAngles};
 use serde::{Deserialize, Serialize};
 
-use crate::igrf;
-use crate::recording::Recording;
+use host_tools::data::recording::{Recording, RecordingError};
+use host_tools::geomag::{self, GeomagError, Site};
 
 /// Why a simulation could not be written.
 #[derive(Debug, thiserror::Error)]
 pub enum SimError {
     /// The reference field could not be computed.
     #[error("{0}")]
-    Field(#[from] igrf::IgrfError),
+    Field(#[from] GeomagError),
     /// Writing the recording failed.
     #[error("{0}")]
-    Recording(#[from] crate::recording::RecordingError),
+    Recording(#[from] RecordingError),
     /// Writing the truth file failed.
     #[error("{path}: {source}")]
     Io {
@@ -128,23 +128,10 @@ impl SensorModel {
     }
 }
 
-/// Where and when.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Site {
-    /// Start latitude, degrees.
-    pub lat_deg: f64,
-    /// Start longitude, degrees.
-    pub lon_deg: f64,
-    /// Decimal year.
-    pub year: f64,
-}
-
-impl Site {
-    /// The southern Caspian Sea in 2021, where IGRF-14 gives within ~1 % of
-    /// paper 000's site values (Hh 27 473, Hz 40 247, F 48 730 nT).
-    pub fn paper_like() -> Self {
-        Self { lat_deg: 36.9, lon_deg: 50.6, year: 2021.0 }
-    }
+/// The southern Caspian Sea in 2021, where IGRF-14 gives within ~1 % of
+/// paper 000's site values (Hh 27 473, Hz 40 247, F 48 730 nT).
+pub fn paper_site() -> Site {
+    Site { lat_deg: 36.9, lon_deg: 50.6, decimal_year: 2021.0 }
 }
 
 /// Parameters of an out-and-back run.
@@ -242,7 +229,7 @@ pub struct Simulation {
 }
 
 fn truth_for(scenario: &str, seed: u64, sensor: &SensorModel, site: &Site, run: Option<RunParams>) -> Result<Truth, SimError> {
-    let f = igrf::igrf14(site.lat_deg, site.lon_deg, 0.0, site.year)?;
+    let f = geomag::igrf14(site.lat_deg, site.lon_deg, 0.0, site.decimal_year)?;
     let ideal = calib_core::linalg::inverse3(&sensor.d).ok_or_else(|| SimError::Parameter("sensor matrix is singular".into()))?;
     Ok(Truth {
         scenario: scenario.into(),
@@ -269,7 +256,7 @@ impl Builder<'_> {
     #[allow(clippy::too_many_arguments)]
     fn push(&mut self, t: f64, lat: f64, lon: f64, year: f64, attitude_deg: [f64; 3], running: bool, reference_deg: f64) -> Result<(), SimError> {
         let [roll, pitch, yaw] = attitude_deg;
-        let f = igrf::igrf14(lat, lon, 0.0, year)?;
+        let f = geomag::igrf14(lat, lon, 0.0, year)?;
         let h = ned_to_body([f.north_nt, f.east_nt, f.down_nt], roll.to_radians(), pitch.to_radians(), yaw.to_radians());
         let raw = self.sensor.measure(h, running, &mut self.rng);
         let n = self.sensor.ahrs_noise_deg;
@@ -329,7 +316,7 @@ pub fn swing(sensor: &SensorModel, site: &Site, seed: u64, rate_hz: f64) -> Resu
         } else {
             yaw0
         };
-        b.push(t, site.lat_deg, site.lon_deg, site.year, [roll, pitch, yaw], false, f64::NAN)?;
+        b.push(t, site.lat_deg, site.lon_deg, site.decimal_year, [roll, pitch, yaw], false, f64::NAN)?;
     }
     Ok(b.sim)
 }
@@ -397,7 +384,7 @@ pub fn run(sensor: &SensorModel, site: &Site, params: &RunParams, seed: u64, rat
             (true, Some(c)) => wrap_two_pi((c + params.gps_noise_deg * b.rng.gauss()).to_radians()).to_degrees(),
             _ => f64::NAN,
         };
-        b.push(t, lat, lon, site.year, [roll, pitch, heading], true, reference)?;
+        b.push(t, lat, lon, site.decimal_year, [roll, pitch, heading], true, reference)?;
         // Move along the course over ground.
         let step = params.speed_mps * dt;
         let c = true_course.to_radians();

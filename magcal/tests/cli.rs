@@ -8,8 +8,8 @@ use calib_core::cal::{FieldCal, ModelKind, Swing};
 use calib_core::conformance::SplitMix64;
 use calib_core::heading::{ned_field, ned_to_body, wrap_two_pi};
 use calib_core::ortho::{gamma, OrthoAngles};
-use host_tools::caldoc::CalDoc;
-use host_tools::recording::Recording;
+use host_tools::data::caldoc::CalDoc;
+use host_tools::data::recording::Recording;
 
 fn magcal(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_magcal")).args(args).output().expect("run magcal")
@@ -93,7 +93,7 @@ fn swing_estimates_the_gps_delay_and_the_fourier_terms() {
     let input = dir.path().join("run.csv");
     rec.write(&input).unwrap();
     let cal = dir.path().join("cal.json");
-    CalDoc::new(ModelKind::Full, &FieldCal::identity(), field, serde_json::json!({})).save(&cal).unwrap();
+    CalDoc::new(ModelKind::Full, &FieldCal::identity(), field, Default::default()).save(&cal).unwrap();
     let doc = ok_json(&magcal(&["swing", "--input", path_str(&input), "--cal", path_str(&cal), "--estimate-delay", "--json"]));
     let q = &doc["quality"]["swing"];
     assert!((q["delay_s"].as_f64().unwrap() - 2.0).abs() < 0.05, "{q}");
@@ -304,8 +304,8 @@ fn bad_data_catalogue() {
 }
 
 mod arbitrary_bytes {
-    use host_tools::caldoc::CalDoc;
-    use host_tools::recording::Recording;
+    use host_tools::data::caldoc::CalDoc;
+    use host_tools::data::recording::Recording;
     use proptest::prelude::*;
     use std::path::Path;
 

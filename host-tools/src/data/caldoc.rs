@@ -1,10 +1,13 @@
 //! The calibration document (`docs/INTERFACES.md`): what `magcal fit`,
-//! `swing` and `backstep` print with `--json` and write with `--out`.
+//! `swing` and `backstep` print with `--json` and write with `--out`; its
+//! `quality` and `trace` are the typed structs of [`super::results`].
 
 use std::path::{Path, PathBuf};
 
 use calib_core::cal::{CalError, Calibration, FieldCal, ModelKind, Swing};
 use serde::{Deserialize, Serialize};
+
+use super::results::{Quality, TraceEntry};
 
 /// Largest |bias| accepted in a document, raw units (far beyond any sensor
 /// range in counts, nT or µT; catches corrupted files).
@@ -30,14 +33,6 @@ pub enum CalDocError {
         /// The parser's message.
         #[source]
         source: serde_json::Error,
-    },
-    /// Unknown model name.
-    #[error("{path}: unknown model `{model}` (expected sphere, axis, full or triangular)")]
-    Model {
-        /// The file.
-        path: PathBuf,
-        /// The name found.
-        model: String,
     },
     /// The coefficients are unusable.
     #[error("{path}: coefficients refused: {reason}")]
@@ -68,7 +63,8 @@ pub struct SwingDoc {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CalDoc {
     /// `sphere`, `axis`, `full` or `triangular`.
-    pub model: String,
+    #[serde(with = "model_name")]
+    pub model: ModelKind,
     /// Hard-iron bias, input units.
     pub bias: [f64; 3],
     /// `h_nT = matrix · (raw − bias)`.
@@ -81,12 +77,26 @@ pub struct CalDoc {
     /// Swing (heading) correction.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub swing: Option<SwingDoc>,
-    /// Residuals, coverage, warnings.
+    /// Residuals, coverage, warnings of each step.
     #[serde(default)]
-    pub quality: serde_json::Value,
+    pub quality: Quality,
     /// Per-iteration back-stepping trace (`backstep --json`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub trace: Option<serde_json::Value>,
+    pub trace: Option<Vec<TraceEntry>>,
+}
+
+/// The model as its document name, with a specific message for an unknown one.
+mod model_name {
+    use calib_core::cal::ModelKind;
+    use serde::{de::Error, Deserialize, Deserializer, Serializer};
+
+    pub fn serialize<S: Serializer>(m: &ModelKind, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(m.name())
+    }
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<ModelKind, D::Error> {
+        let name = String::deserialize(d)?;
+        super::model_kind(&name).ok_or_else(|| D::Error::custom(format!("unknown model `{name}` (expected sphere, axis, full or triangular)")))
+    }
 }
 
 /// The document name of a model.
@@ -111,9 +121,9 @@ fn cal_error_text(e: CalError) -> &'static str {
 
 impl CalDoc {
     /// A document for a field calibration.
-    pub fn new(kind: ModelKind, cal: &FieldCal<f64>, field_nt: f64, quality: serde_json::Value) -> Self {
+    pub fn new(kind: ModelKind, cal: &FieldCal<f64>, field_nt: f64, quality: Quality) -> Self {
         Self {
-            model: kind.name().to_string(),
+            model: kind,
             bias: cal.bias,
             matrix: cal.matrix,
             field_nt,
@@ -138,11 +148,8 @@ impl CalDoc {
         }
     }
 
-    /// Checks the model name and the coefficients.
+    /// Checks the coefficients.
     pub fn validate(&self, path: &Path) -> Result<(), CalDocError> {
-        if model_kind(&self.model).is_none() {
-            return Err(CalDocError::Model { path: path.into(), model: self.model.clone() });
-        }
         let invalid = |reason: &str| CalDocError::Invalid { path: path.into(), reason: reason.to_string() };
         self.field_cal().validate(MAX_BIAS_ABS).map_err(|e| invalid(cal_error_text(e)))?;
         if !(self.field_nt > 0.0 && self.field_nt.is_finite()) {
@@ -189,7 +196,7 @@ mod tests {
 
     fn doc() -> CalDoc {
         let cal = FieldCal { bias: [1.0, 2.0, 3.0], matrix: [[5.0, 0.0, 0.0], [0.0, 5.5, 0.0], [0.0, 0.0, 4.8]] };
-        CalDoc::new(ModelKind::Axis, &cal, 48_730.0, serde_json::json!({"residual_rms_nt": 3.0}))
+        CalDoc::new(ModelKind::Axis, &cal, 48_730.0, Quality::default())
     }
 
     #[test]
@@ -216,9 +223,11 @@ mod tests {
         std::fs::write(&p, "{\"model\": \"axis\"}").unwrap();
         assert!(matches!(CalDoc::load(&p), Err(CalDocError::Parse { .. })));
         let out = dir.path().join("out.json");
-        let mut d = doc();
-        d.model = "ellipse".into();
-        assert!(matches!(d.save(&out), Err(CalDocError::Model { .. })));
+        let mut ellipse = serde_json::to_value(doc()).unwrap();
+        ellipse["model"] = "ellipse".into();
+        std::fs::write(&p, ellipse.to_string()).unwrap();
+        let e = CalDoc::load(&p).unwrap_err();
+        assert!(matches!(e, CalDocError::Parse { .. }) && e.to_string().contains("unknown model `ellipse`"), "{e}");
         let mut d = doc();
         d.matrix[0][0] = -5.0;
         let e = d.save(&out).unwrap_err();

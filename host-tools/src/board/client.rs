@@ -1,4 +1,5 @@
-//! The serial link to the board: framed requests, matched replies, retries.
+//! [`BoardClient`]: the host's end of the serial link to the board — framed
+//! requests, matched replies, retries, and the samples the board streams.
 
 use std::collections::VecDeque;
 use std::io::{self, Read, Write};
@@ -6,19 +7,16 @@ use std::time::{Duration, Instant};
 
 use magcal_protocol::{
     self as proto, Coefficients, CoefficientSource, FitModel, FitReport, FrameDecoder, FrameError, Health, Identity, Request,
-    RequestBody, Response, ResponseBody, Sample, SensorFeed, StreamMode, MAX_FRAME_LEN, UNLOCK_XOR,
+    RequestBody, Response, ResponseBody, Sample, StreamMode, MAX_FRAME_LEN, UNLOCK_XOR,
 };
 
 /// Streamed samples kept while waiting for replies; beyond this the oldest
 /// are dropped and counted.
 pub const SAMPLE_QUEUE: usize = 100_000;
 
-/// The link's baud rate (the firmware's USART1 setting).
-pub const BAUD_RATE: u32 = 115_200;
-
 /// Why a request failed.
 #[derive(Debug, thiserror::Error)]
-pub enum LinkError {
+pub enum ClientError {
     /// The serial port could not be opened.
     #[error("cannot open serial port {path}: {source}")]
     Open {
@@ -52,7 +50,7 @@ pub enum LinkError {
 
 /// A request/response client over any byte stream (a serial port, a pty, a
 /// test double).
-pub struct Link<P> {
+pub struct BoardClient<P> {
     port: P,
     decoder: FrameDecoder,
     /// Bytes read from the port but not yet fed to the decoder (a read may
@@ -71,24 +69,15 @@ pub struct Link<P> {
     pub dropped_samples: u64,
 }
 
-/// Opens a serial port (a board's USB-serial adapter, or a QEMU pty) at
-/// [`BAUD_RATE`], 8N1, with a short read timeout.
-fn open_port(path: &str) -> Result<Box<dyn serialport::SerialPort>, LinkError> {
-    serialport::new(path, BAUD_RATE)
-        .timeout(Duration::from_millis(20))
-        .open()
-        .map_err(|source| LinkError::Open { path: path.to_string(), source })
-}
-
-impl Link<Box<dyn serialport::SerialPort>> {
+impl BoardClient<Box<dyn serialport::SerialPort>> {
     /// Opens a serial port (a board's USB-serial adapter, or QEMU's pty) at
-    /// [`BAUD_RATE`], 8N1.
-    pub fn open(path: &str) -> Result<Self, LinkError> {
-        Ok(Link::new(open_port(path)?))
+    /// [`super::BAUD_RATE`], 8N1.
+    pub fn open(path: &str) -> Result<Self, ClientError> {
+        Ok(BoardClient::new(super::open_port(path)?))
     }
 }
 
-impl<P: Read + Write> Link<P> {
+impl<P: Read + Write> BoardClient<P> {
     /// Wraps a byte stream whose reads time out (return `TimedOut` or
     /// `WouldBlock`, or 0 bytes) rather than block forever.
     pub fn new(port: P) -> Self {
@@ -115,7 +104,7 @@ impl<P: Read + Write> Link<P> {
 
     /// The next streamed sample, waiting up to `timeout` (a zero timeout
     /// still reads what has arrived).
-    pub fn next_sample(&mut self, timeout: Duration) -> Result<Option<Sample>, LinkError> {
+    pub fn next_sample(&mut self, timeout: Duration) -> Result<Option<Sample>, ClientError> {
         let deadline = Instant::now() + timeout;
         loop {
             if let Some(s) = self.samples.pop_front() {
@@ -141,21 +130,21 @@ impl<P: Read + Write> Link<P> {
     }
 
     /// Sends raw bytes as they are (for tests of the board's error paths).
-    pub fn send_raw(&mut self, bytes: &[u8]) -> Result<(), LinkError> {
+    pub fn send_raw(&mut self, bytes: &[u8]) -> Result<(), ClientError> {
         self.port.write_all(bytes)?;
         self.port.flush()?;
         Ok(())
     }
 
     /// Waits for the next well-formed response frame, whatever its `seq`.
-    /// Streamed samples that arrive meanwhile are kept for [`Link::next_sample`].
-    pub fn next_response(&mut self, timeout: Duration) -> Result<Option<Response>, LinkError> {
+    /// Streamed samples that arrive meanwhile are kept for [`BoardClient::next_sample`].
+    pub fn next_response(&mut self, timeout: Duration) -> Result<Option<Response>, ClientError> {
         self.pump(timeout, false)
     }
 
     /// Reads until a response arrives, or (with `stop_on_sample`) a sample
     /// was queued, or the timeout passes. The port is read at least once.
-    fn pump(&mut self, timeout: Duration, stop_on_sample: bool) -> Result<Option<Response>, LinkError> {
+    fn pump(&mut self, timeout: Duration, stop_on_sample: bool) -> Result<Option<Response>, ClientError> {
         let deadline = Instant::now() + timeout;
         let mut buf = [0u8; 256];
         let mut read_once = false;
@@ -189,15 +178,15 @@ impl<P: Read + Write> Link<P> {
     }
 
     /// Sends a request and returns the matching reply body, resending on
-    /// timeout up to [`Link::attempts`] times. Replies to older requests are
+    /// timeout up to [`BoardClient::attempts`] times. Replies to older requests are
     /// discarded; an error reply without a `seq` (our frame was damaged on the
     /// way) triggers a resend.
-    pub fn request(&mut self, body: RequestBody) -> Result<ResponseBody, LinkError> {
+    pub fn request(&mut self, body: RequestBody) -> Result<ResponseBody, ClientError> {
         let seq = self.next_seq;
         self.next_seq = self.next_seq.wrapping_add(1).max(1);
         let mut frame = [0u8; MAX_FRAME_LEN + 1];
         // A leading delimiter flushes whatever partial frame the board holds.
-        let n = proto::encode(&Request { seq, body }, &mut frame[1..]).map_err(LinkError::Encode)?;
+        let n = proto::encode(&Request { seq, body }, &mut frame[1..]).map_err(ClientError::Encode)?;
         // An error reply without a seq may answer our frame (damaged on the
         // way) or older garbage still queued: keep waiting for our own
         // reply until the attempt's deadline, and resend only then.
@@ -209,7 +198,7 @@ impl<P: Read + Write> Link<P> {
                 match self.next_response(left)? {
                     Some(Response { seq: Some(s), body }) if s == seq => {
                         return match body {
-                            ResponseBody::Error(e) => Err(LinkError::Remote(e)),
+                            ResponseBody::Error(e) => Err(ClientError::Remote(e)),
                             other => Ok(other),
                         };
                     }
@@ -220,8 +209,8 @@ impl<P: Read + Write> Link<P> {
             }
         }
         match last_remote {
-            Some(e) => Err(LinkError::Remote(e)),
-            None => Err(LinkError::Timeout {
+            Some(e) => Err(ClientError::Remote(e)),
+            None => Err(ClientError::Timeout {
                 attempts: self.attempts,
                 timeout_ms: self.timeout.as_millis() as u64,
             }),
@@ -229,143 +218,103 @@ impl<P: Read + Write> Link<P> {
     }
 
     /// Asks the board who it is.
-    pub fn identify(&mut self) -> Result<Identity, LinkError> {
+    pub fn identify(&mut self) -> Result<Identity, ClientError> {
         match self.request(RequestBody::Identify)? {
             ResponseBody::Identity(id) => Ok(id),
-            other => Err(LinkError::Unexpected(format!("{other:?}"))),
+            other => Err(ClientError::Unexpected(format!("{other:?}"))),
         }
     }
 
-    fn expect_ack(&mut self, body: RequestBody) -> Result<(), LinkError> {
+    fn expect_ack(&mut self, body: RequestBody) -> Result<(), ClientError> {
         match self.request(body)? {
             ResponseBody::Ack => Ok(()),
-            other => Err(LinkError::Unexpected(format!("{other:?}"))),
+            other => Err(ClientError::Unexpected(format!("{other:?}"))),
         }
     }
 
     /// The board's counters and state.
-    pub fn status(&mut self) -> Result<Health, LinkError> {
+    pub fn status(&mut self) -> Result<Health, ClientError> {
         match self.request(RequestBody::Status)? {
             ResponseBody::Status(h) => Ok(h),
-            other => Err(LinkError::Unexpected(format!("{other:?}"))),
+            other => Err(ClientError::Unexpected(format!("{other:?}"))),
         }
     }
 
     /// Chooses what is streamed.
-    pub fn set_stream(&mut self, mode: StreamMode) -> Result<(), LinkError> {
+    pub fn set_stream(&mut self, mode: StreamMode) -> Result<(), ClientError> {
         self.expect_ack(RequestBody::SetStream(mode))
     }
 
     /// Sets the output rate (1–100 Hz).
-    pub fn set_output_rate(&mut self, hz: u8) -> Result<(), LinkError> {
+    pub fn set_output_rate(&mut self, hz: u8) -> Result<(), ClientError> {
         self.expect_ack(RequestBody::SetOutputRate { hz })
     }
 
     /// Sends the vehicle's attitude.
-    pub fn attitude(&mut self, roll_rad: f32, pitch_rad: f32) -> Result<(), LinkError> {
+    pub fn attitude(&mut self, roll_rad: f32, pitch_rad: f32) -> Result<(), ClientError> {
         self.expect_ack(RequestBody::Attitude { roll_rad, pitch_rad })
     }
 
     /// Enters or leaves mission mode.
-    pub fn set_mission_mode(&mut self, enabled: bool) -> Result<(), LinkError> {
+    pub fn set_mission_mode(&mut self, enabled: bool) -> Result<(), ClientError> {
         self.expect_ack(RequestBody::SetMissionMode { enabled })
     }
 
     /// Starts the on-board fit.
-    pub fn fit_start(&mut self, model: FitModel, field_nt: f32) -> Result<FitReport, LinkError> {
+    pub fn fit_start(&mut self, model: FitModel, field_nt: f32) -> Result<FitReport, ClientError> {
         match self.request(RequestBody::FitStart { model, field_nt })? {
             ResponseBody::Fit(r) => Ok(r),
-            other => Err(LinkError::Unexpected(format!("{other:?}"))),
+            other => Err(ClientError::Unexpected(format!("{other:?}"))),
         }
     }
 
     /// The on-board fit's state.
-    pub fn fit_query(&mut self) -> Result<FitReport, LinkError> {
+    pub fn fit_query(&mut self) -> Result<FitReport, ClientError> {
         match self.request(RequestBody::FitQuery)? {
             ResponseBody::Fit(r) => Ok(r),
-            other => Err(LinkError::Unexpected(format!("{other:?}"))),
+            other => Err(ClientError::Unexpected(format!("{other:?}"))),
         }
     }
 
     /// Stops the on-board fit.
-    pub fn fit_stop(&mut self) -> Result<FitReport, LinkError> {
+    pub fn fit_stop(&mut self) -> Result<FitReport, ClientError> {
         match self.request(RequestBody::FitStop)? {
             ResponseBody::Fit(r) => Ok(r),
-            other => Err(LinkError::Unexpected(format!("{other:?}"))),
+            other => Err(ClientError::Unexpected(format!("{other:?}"))),
         }
     }
 
     /// The coefficients in use.
-    pub fn read_coefficients(&mut self) -> Result<(Coefficients, CoefficientSource, u32), LinkError> {
+    pub fn read_coefficients(&mut self) -> Result<(Coefficients, CoefficientSource, u32), ClientError> {
         match self.request(RequestBody::ReadCoefficients)? {
             ResponseBody::Coefficients { coefficients, source, seq } => Ok((coefficients, source, seq)),
-            other => Err(LinkError::Unexpected(format!("{other:?}"))),
+            other => Err(ClientError::Unexpected(format!("{other:?}"))),
         }
     }
 
     /// Unlock, stage, commit, read back and compare: the only way the host
     /// writes coefficients. Returns the stored record's sequence number.
-    pub fn upload_coefficients(&mut self, c: &Coefficients) -> Result<u32, LinkError> {
+    pub fn upload_coefficients(&mut self, c: &Coefficients) -> Result<u32, ClientError> {
         let challenge = self.status()?.unlock_challenge;
         self.expect_ack(RequestBody::Unlock { key: challenge ^ UNLOCK_XOR })?;
         self.expect_ack(RequestBody::WriteCoefficients(*c))?;
         let seq = match self.request(RequestBody::Commit { crc: c.crc() })? {
             ResponseBody::Committed { seq } => seq,
-            other => return Err(LinkError::Unexpected(format!("{other:?}"))),
+            other => return Err(ClientError::Unexpected(format!("{other:?}"))),
         };
         let (back, source, back_seq) = self.read_coefficients()?;
         if back != *c || source != CoefficientSource::Stored || back_seq != seq {
-            return Err(LinkError::Unexpected(format!("read-back differs: {back:?} #{back_seq}")));
+            return Err(ClientError::Unexpected(format!("read-back differs: {back:?} #{back_seq}")));
         }
         Ok(seq)
     }
 
     /// Round-trip check: returns the echoed nonce.
-    pub fn ping(&mut self, nonce: u32) -> Result<u32, LinkError> {
+    pub fn ping(&mut self, nonce: u32) -> Result<u32, ClientError> {
         match self.request(RequestBody::Ping { nonce })? {
             ResponseBody::Pong { nonce } => Ok(nonce),
-            other => Err(LinkError::Unexpected(format!("{other:?}"))),
+            other => Err(ClientError::Unexpected(format!("{other:?}"))),
         }
-    }
-}
-
-/// Writes the QEMU board's sensor feed (its USART2).
-pub struct FeedWriter<P> {
-    port: P,
-    seq: u32,
-    last: Vec<u8>,
-    offsets_sent: Option<[f32; 3]>,
-}
-
-impl FeedWriter<Box<dyn serialport::SerialPort>> {
-    /// Opens the feed's serial port (QEMU's second pty).
-    pub fn open(path: &str) -> Result<Self, LinkError> {
-        Ok(Self { port: open_port(path)?, seq: 0, last: Vec::new(), offsets_sent: None })
-    }
-}
-
-impl<P: Write> FeedWriter<P> {
-    /// Sends the bridges' next truth: the field at each bridge (nT) and the
-    /// bridge offsets (ADC counts). Returns the frame's sequence number.
-    pub fn send(&mut self, field_nt: [f32; 3], offset_counts: [f32; 3]) -> Result<u32, LinkError> {
-        self.seq = self.seq.wrapping_add(1);
-        let mut frame = [0u8; MAX_FRAME_LEN];
-        // Offsets only when they change (and in every resent frame's first copy).
-        let offsets = (self.offsets_sent != Some(offset_counts)).then_some(offset_counts);
-        self.offsets_sent = Some(offset_counts);
-        let n = proto::encode(&SensorFeed { seq: self.seq, field_nt, offset_counts: offsets }, &mut frame).map_err(LinkError::Encode)?;
-        self.last = frame[..n].to_vec();
-        self.port.write_all(&self.last)?;
-        self.port.flush()?;
-        Ok(self.seq)
-    }
-
-    /// Sends the last frame again (QEMU drops what arrives on a pty before
-    /// it has noticed the other end opened it).
-    pub fn resend(&mut self) -> Result<(), LinkError> {
-        self.port.write_all(&self.last)?;
-        self.port.flush()?;
-        Ok(())
     }
 }
 
@@ -414,8 +363,8 @@ mod tests {
         }
     }
 
-    fn board<F: FnMut(Request) -> Vec<Response>>(answer: F, drop_first: u32) -> Link<FakeBoard<F>> {
-        let mut l = Link::new(FakeBoard { rx: FrameDecoder::new(), out: VecDeque::new(), answer, drop_first });
+    fn board<F: FnMut(Request) -> Vec<Response>>(answer: F, drop_first: u32) -> BoardClient<FakeBoard<F>> {
+        let mut l = BoardClient::new(FakeBoard { rx: FrameDecoder::new(), out: VecDeque::new(), answer, drop_first });
         l.timeout = Duration::from_millis(50);
         l
     }
@@ -446,7 +395,7 @@ mod tests {
         let mut link = board(|_| vec![], 0);
         link.attempts = 2;
         match link.ping(1) {
-            Err(LinkError::Timeout { attempts: 2, timeout_ms: 50 }) => {}
+            Err(ClientError::Timeout { attempts: 2, timeout_ms: 50 }) => {}
             other => panic!("{other:?}"),
         }
     }
@@ -457,6 +406,6 @@ mod tests {
             |q| vec![Response { seq: Some(q.seq), body: ResponseBody::Error(proto::LinkError::Unsupported) }],
             0,
         );
-        assert!(matches!(link.identify(), Err(LinkError::Remote(proto::LinkError::Unsupported))));
+        assert!(matches!(link.identify(), Err(ClientError::Remote(proto::LinkError::Unsupported))));
     }
 }

@@ -1,0 +1,73 @@
+//! The calibration chain of paper 000, improved: the axis fit of the swing
+//! test against IGRF (step 1), the back-stepping on the out-and-back run, and
+//! the swing fit against the run's (delayed) GPS course. The session, the
+//! simulator's scenario harness and the bench all call this; the CLI runs
+//! the same steps one command at a time (`fit`, `backstep`, `swing`).
+
+use calib_core::cal::ModelKind;
+
+use super::backstep::{backstep_recording, BackstepOptions, BackstepReport, RunReference, SwingMagnitudes};
+use super::fit::{fit_recording, FitOptions};
+use super::swing::{swing_recording, Delay};
+use super::ComputeError;
+use crate::data::results::BackstepMethod;
+use crate::data::{CalDoc, Recording};
+use crate::geomag::Site;
+
+/// How the chain runs.
+#[derive(Debug, Clone, Copy)]
+pub struct ChainOptions {
+    /// The back-stepping solver.
+    pub method: BackstepMethod,
+    /// The GPS course's delay.
+    pub delay: Delay,
+}
+
+impl Default for ChainOptions {
+    /// Our joint back-stepping; the GPS delay estimated within 0…5 s.
+    fn default() -> Self {
+        Self { method: BackstepMethod::Joint, delay: Delay::Estimate { max_s: 5.0 } }
+    }
+}
+
+/// Every calibration the chain produced.
+#[derive(Debug, Clone)]
+pub struct Chain {
+    /// Step 1: the axis fit of the swing test, with IGRF's declination.
+    pub step1: CalDoc,
+    /// After the back-stepping.
+    pub backstepped: CalDoc,
+    /// The back-stepping's report.
+    pub backstep: BackstepReport,
+    /// After the swing fit: what goes to the board.
+    pub final_doc: CalDoc,
+    /// The GPS delay used (given or estimated), s.
+    pub delay_s: f64,
+}
+
+/// Step 1: the paper's axis fit of the swing test against IGRF at the site,
+/// with the site's declination.
+pub fn axis_step(swing: &Recording, site: &Site) -> Result<CalDoc, ComputeError> {
+    let field = site.field()?;
+    let mut step1 = fit_recording(swing, &FitOptions { model: ModelKind::Axis, field_nt: field.total_nt(), saturation: None, allow_weak: false })?;
+    step1.declination_deg = Some(field.declination_deg());
+    Ok(step1)
+}
+
+/// Steps 2 and 3 from a step-1 calibration: back-stepping on the run (with
+/// the swing test's magnitudes), then the swing fit on the run.
+pub fn refine(step1: CalDoc, swing: &Recording, run: &Recording, site: &Site, opts: &ChainOptions) -> Result<Chain, ComputeError> {
+    let mut backstep_opts = BackstepOptions::new(RunReference::Igrf(*site));
+    backstep_opts.method = opts.method;
+    if opts.method == BackstepMethod::Joint {
+        backstep_opts.swing = Some(SwingMagnitudes { raw: swing.complete_mag().1, field_nt: site.field()?.total_nt() });
+    }
+    let (backstepped, backstep) = backstep_recording(run, &step1, &backstep_opts)?;
+    let (final_doc, _, delay_s) = swing_recording(run, &backstepped, opts.delay)?;
+    Ok(Chain { step1, backstepped, backstep, final_doc, delay_s })
+}
+
+/// The whole chain: [`axis_step`] then [`refine`].
+pub fn calibrate(swing: &Recording, run: &Recording, site: &Site, opts: &ChainOptions) -> Result<Chain, ComputeError> {
+    refine(axis_step(swing, site)?, swing, run, site, opts)
+}

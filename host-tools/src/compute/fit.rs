@@ -1,0 +1,100 @@
+//! Field (ellipsoid) fits on a recording: sphere, the paper's axis model,
+//! the full ellipsoid and paper 001's triangular form, with the quality
+//! gates that refuse a weak calibration.
+
+use calib_core::cal::ModelKind;
+use calib_core::fit::{fit_batch, Axis, FitError, Full, Sphere};
+use calib_core::ortho;
+use calib_core::quality::{assess, Gates, Quality};
+
+use super::units::units_guess;
+use super::ComputeError;
+use crate::data::results::{FitQuality, Quality as ResultsQuality};
+use crate::data::{CalDoc, Recording};
+
+/// Options of a field fit.
+#[derive(Debug, Clone, Copy)]
+pub struct FitOptions {
+    /// Which model.
+    pub model: ModelKind,
+    /// Reference intensity, nT.
+    pub field_nt: f64,
+    /// Samples at or beyond this |raw| are saturated.
+    pub saturation: Option<f64>,
+    /// Return coefficients even when the quality gates fail (with warnings).
+    pub allow_weak: bool,
+}
+
+fn fit_quality(q: &Quality<f64>, skipped_rows: usize, warnings: Vec<String>, units: String) -> FitQuality {
+    FitQuality {
+        input_units_guess: units,
+        samples: q.samples,
+        skipped_rows,
+        residual_rms_nt: q.residual_rms_nt,
+        residual_rms_pct: q.residual_rms_pct,
+        residual_mean_nt: q.residual_mean_nt,
+        residual_max_nt: q.residual_max_nt,
+        coverage_pct: q.coverage_pct,
+        axis_spread: q.axis_spread,
+        warnings,
+    }
+}
+
+/// Fits a field calibration to a recording.
+pub fn fit_recording(rec: &Recording, opts: &FitOptions) -> Result<CalDoc, ComputeError> {
+    if !(opts.field_nt > 0.0 && opts.field_nt.is_finite()) {
+        return Err(ComputeError::NoReference);
+    }
+    let (_, samples) = rec.complete_mag();
+    if samples.is_empty() {
+        return Err(ComputeError::NoSamples);
+    }
+    calib_core::fit::check_samples(&samples, 1, opts.saturation)?;
+    let fitted = match opts.model {
+        ModelKind::Sphere => fit_batch::<Sphere, 4, f64>(&samples, opts.field_nt),
+        ModelKind::Axis => fit_batch::<Axis, 6, f64>(&samples, opts.field_nt),
+        ModelKind::Full | ModelKind::Triangular => fit_batch::<Full, 9, f64>(&samples, opts.field_nt),
+    };
+    let cal = fitted.map_err(|e| explain_failure(e, &samples, opts))?;
+    let mut warnings = Vec::new();
+    let q = assess(&cal, &samples, opts.field_nt);
+    if let Err(e) = Gates::for_model(opts.model).check(&q) {
+        if !opts.allow_weak {
+            return Err(e.into());
+        }
+        warnings.push(format!("quality gate failed but --allow-weak was given: {e}"));
+    }
+    let skipped = rec.len() - samples.len();
+    if skipped > 0 {
+        warnings.push(format!("{skipped} rows without a complete mx, my, mz were skipped"));
+    }
+    let (kind, cal) = if opts.model == ModelKind::Triangular {
+        let (tri, gain) = ortho::from_field_cal(&cal)?;
+        (ModelKind::Triangular, ortho::to_field_cal(&tri, gain, cal.bias))
+    } else {
+        (opts.model, cal)
+    };
+    // Which units the raw data look like (the fit works in any).
+    let radius = opts.field_nt / ((cal.matrix[0][0].abs() + cal.matrix[1][1].abs() + cal.matrix[2][2].abs()) / 3.0);
+    let units = units_guess(radius, opts.field_nt);
+    Ok(CalDoc::new(kind, &cal, opts.field_nt, ResultsQuality { fit: Some(fit_quality(&q, skipped, warnings, units)), ..Default::default() }))
+}
+
+/// When a model cannot be fitted, the usual cause is data that visit too
+/// little of the sphere; say so when the directions around a sphere fit's
+/// centre show it, since that tells the operator what to do.
+fn explain_failure(e: FitError, samples: &[[f64; 3]], opts: &FitOptions) -> FitError {
+    if matches!(e, FitError::TooFewSamples { .. } | FitError::NonFinite { .. } | FitError::Saturated { .. } | FitError::BadReference) {
+        return e;
+    }
+    let Ok(sphere) = fit_batch::<Sphere, 4, f64>(samples, opts.field_nt) else {
+        return e;
+    };
+    let q = assess(&sphere, samples, opts.field_nt);
+    if q.coverage_pct < Gates::<f64>::for_model(opts.model).min_coverage_pct {
+        FitError::InsufficientCoverage { covered_pct: q.coverage_pct }
+    } else {
+        e
+    }
+}
+

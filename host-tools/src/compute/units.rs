@@ -1,0 +1,57 @@
+//! The units of a recording: guessed against the reference field, and
+//! checked against a calibration's (µT against nT, gauss, another sensor's
+//! counts are refused, not fitted).
+
+use super::ComputeError;
+use crate::data::{CalDoc, Recording};
+
+/// What units raw magnitudes of radius `radius_raw` suggest for a field of
+/// `field_nt` (a hint recorded in the quality report).
+pub fn units_guess(radius_raw: f64, field_nt: f64) -> String {
+    let ratio = field_nt / radius_raw;
+    let near = |k: f64| ratio > 0.7 * k && ratio < 1.4 * k;
+    if near(1.0) {
+        "nT".into()
+    } else if near(1e3) {
+        "µT".into()
+    } else if near(1e5) {
+        "gauss".into()
+    } else {
+        format!("counts (≈ {:.4} nT per unit)", ratio)
+    }
+}
+
+
+/// The median of a slice (NaN-free), or NaN when empty.
+fn median(mut v: Vec<f64>) -> f64 {
+    v.retain(|x| x.is_finite());
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// Refuses a recording whose magnitudes, through the calibration, are far
+/// from the calibration's field: the units of the recording and of the
+/// calibration differ (µT against nT, gauss, another sensor's counts).
+pub fn check_units(rec: &Recording, doc: &CalDoc) -> Result<(), ComputeError> {
+    let cal = doc.field_cal();
+    let m = median(rec.mag.iter().map(|r| {
+        let h = cal.apply(*r);
+        (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt()
+    }).collect());
+    if !m.is_finite() {
+        return Err(ComputeError::NoSamples);
+    }
+    if (m / doc.field_nt - 1.0).abs() > 0.25 {
+        let raw_r = median(rec.mag.iter().map(|r| (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt()).collect());
+        return Err(ComputeError::Units(format!(
+            "through this calibration the recording's field is {m:.0} nT, not the calibration's {:.0} nT: the recording and the calibration are in different units (the raw magnitudes, ≈ {raw_r:.4}, look like {})",
+            doc.field_nt,
+            units_guess(raw_r, doc.field_nt)
+        )));
+    }
+    Ok(())
+}
+

@@ -1,0 +1,9 @@
+//! Data on disk: recordings (CSV), the calibration document (JSON) and the
+//! typed results inside documents and session summaries.
+
+pub mod caldoc;
+pub mod recording;
+pub mod results;
+
+pub use caldoc::{CalDoc, CalDocError, SwingDoc};
+pub use recording::{Recording, RecordingError};

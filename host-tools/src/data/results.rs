@@ -1,0 +1,300 @@
+//! Typed results: what the fits, the back-stepping and a session report.
+//! These are the `quality`, `trace` and summary parts of the JSON documents
+//! of `docs/INTERFACES.md`; every program that reads them (the CLI, the
+//! session, the report, `cargo xtask`) reads these structs, so a renamed
+//! field is a compile error rather than a NaN.
+
+use calib_core::backstep::RunStats;
+use calib_core::linalg::Mat3;
+use calib_core::swing::SwingTerms;
+use serde::{Deserialize, Serialize};
+
+/// A calibration document's `quality` block: what each step found.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Quality {
+    /// The field fit's residuals and coverage (absent on coefficients read
+    /// from a board).
+    #[serde(flatten, default, skip_serializing_if = "Option::is_none")]
+    pub fit: Option<FitQuality>,
+    /// The back-stepping on the out-and-back run.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub backstep: Option<BackstepQuality>,
+    /// The swing (heading) fit.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub swing: Option<SwingQuality>,
+}
+
+impl Quality {
+    /// Every warning of every step, in order (fit, back-stepping, swing).
+    pub fn warnings(&self) -> impl Iterator<Item = &str> {
+        let fit = self.fit.iter().flat_map(|f| f.warnings.iter());
+        let swing = self.swing.iter().flat_map(|s| s.warnings.iter());
+        fit.chain(swing).map(String::as_str)
+    }
+}
+
+/// A field fit's quality on the samples it was fitted to.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FitQuality {
+    /// Which units the raw data look like against the reference (a hint).
+    pub input_units_guess: String,
+    /// Samples fitted.
+    pub samples: u32,
+    /// Rows skipped for an incomplete `mx, my, mz`.
+    pub skipped_rows: usize,
+    /// RMS of `|h| − F`, nT.
+    pub residual_rms_nt: f64,
+    /// RMS of `|h| − F`, % of `F`.
+    pub residual_rms_pct: f64,
+    /// Mean of `|h| − F`, nT.
+    pub residual_mean_nt: f64,
+    /// Largest `||h| − F|`, nT.
+    pub residual_max_nt: f64,
+    /// Field directions visited, % of the sphere's equal-area bins.
+    pub coverage_pct: u8,
+    /// Standard deviation of each component of the unit field direction
+    /// (≈ 0.577 for a full tumble, ≈ 0 for an axis that never turned).
+    pub axis_spread: [f64; 3],
+    /// What the operator should know.
+    #[serde(default)]
+    pub warnings: Vec<String>,
+}
+
+/// Which back-stepping solver.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum BackstepMethod {
+    /// Paper 000's corrections (axis model only).
+    Paper,
+    /// Our joint least-squares refinement (the default).
+    Joint,
+}
+
+impl BackstepMethod {
+    /// The name used in documents and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            BackstepMethod::Paper => "paper",
+            BackstepMethod::Joint => "joint",
+        }
+    }
+}
+
+/// The run's levelled statistics with one calibration (`RunStats` of
+/// calib-core, in the document's units).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct RunStatsDoc {
+    /// Mean |H| after the turnaround minus before, nT.
+    pub step_nt: f64,
+    /// Mean levelled horizontal intensity, nT.
+    pub hh_nt: f64,
+    /// Mean levelled vertical component, nT.
+    pub hz_nt: f64,
+    /// Mean |H|, nT.
+    pub f_nt: f64,
+    /// RMS of |H| − the reference F, nT.
+    pub f_error_rms_nt: f64,
+}
+
+impl From<&RunStats<f64>> for RunStatsDoc {
+    fn from(s: &RunStats<f64>) -> Self {
+        Self { step_nt: s.step_nt, hh_nt: s.hh_nt, hz_nt: s.hz_nt, f_nt: s.f_nt, f_error_rms_nt: s.f_error_rms_nt }
+    }
+}
+
+/// What our joint refinement separated.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct JointDetails {
+    /// The thrusters' running-only bias, raw units.
+    pub running_bias_raw: [f64; 3],
+    /// The bias with thrusters off, raw units.
+    pub resting_bias_raw: [f64; 3],
+    /// Swing-test samples used for the magnitudes.
+    pub swing_samples: usize,
+}
+
+/// The back-stepping's report.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BackstepQuality {
+    /// Which solver.
+    pub method: BackstepMethod,
+    /// The turnaround used, s from the start of the recording.
+    pub turnaround_s: f64,
+    /// Run samples used.
+    pub samples: usize,
+    /// The run with the input calibration.
+    pub before: RunStatsDoc,
+    /// The run with the result.
+    pub after: RunStatsDoc,
+    /// The joint solver's separated biases.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub details: Option<JointDetails>,
+}
+
+/// The swing (Fourier heading) fit's report.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SwingQuality {
+    /// Terms fitted: 1 (A), 3 (A, B, C) or 5.
+    #[serde(with = "swing_terms_count")]
+    pub terms: SwingTerms,
+    /// Heading pairs fitted.
+    pub samples: u32,
+    /// Delay of the reference behind the magnetometer, s.
+    pub delay_s: f64,
+    /// Whether the delay was estimated (or given).
+    pub delay_estimated: bool,
+    /// The constant-only fit's A, rad (a sanity check of the full fit).
+    pub a_only_rad: f64,
+    /// Heading error against the reference before the swing correction, ° RMS.
+    pub before_rms_deg: f64,
+    /// And after, ° RMS.
+    pub after_rms_deg: f64,
+    /// What the operator should know.
+    #[serde(default)]
+    pub warnings: Vec<String>,
+}
+
+/// `SwingTerms` as the number of coefficients (1, 3 or 5) in JSON.
+mod swing_terms_count {
+    use calib_core::swing::SwingTerms;
+    use serde::{de::Error, Deserialize, Deserializer, Serializer};
+
+    pub fn serialize<S: Serializer>(t: &SwingTerms, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_u8(t.count() as u8)
+    }
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<SwingTerms, D::Error> {
+        match u8::deserialize(d)? {
+            1 => Ok(SwingTerms::ConstantOnly),
+            3 => Ok(SwingTerms::FirstHarmonic),
+            5 => Ok(SwingTerms::Full),
+            n => Err(D::Error::custom(format!("swing terms must be 1, 3 or 5, not {n}"))),
+        }
+    }
+}
+
+/// Which correction a back-stepping trace entry made.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Correction {
+    /// The input coefficients.
+    #[serde(rename = "start")]
+    Start,
+    /// The paper's first correction: horizontal scales from the Hh ratio.
+    #[serde(rename = "horizontal scale (Hh ratio)")]
+    HorizontalScale,
+    /// The paper's second: `sz` for no step at the turnaround.
+    #[serde(rename = "sz for no step")]
+    VerticalScale,
+    /// The paper's third: `bz` from the magnitude.
+    #[serde(rename = "bz from magnitude")]
+    VerticalBias,
+    /// Our joint least squares.
+    #[serde(rename = "joint least squares")]
+    JointLeastSquares,
+}
+
+impl Correction {
+    /// calib-core's trace code (0 start, 1 horizontal scale, 2 sz, 3 bz).
+    pub fn from_paper_code(code: u8) -> Self {
+        match code {
+            0 => Correction::Start,
+            1 => Correction::HorizontalScale,
+            2 => Correction::VerticalScale,
+            _ => Correction::VerticalBias,
+        }
+    }
+
+    /// How the trace prints it.
+    pub fn label(self) -> &'static str {
+        match self {
+            Correction::Start => "start",
+            Correction::HorizontalScale => "horizontal scale (Hh ratio)",
+            Correction::VerticalScale => "sz for no step",
+            Correction::VerticalBias => "bz from magnitude",
+            Correction::JointLeastSquares => "joint least squares",
+        }
+    }
+}
+
+/// One entry of the back-stepping trace (`backstep --json`'s `trace`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TraceEntry {
+    /// Iteration (0 = the input coefficients).
+    pub iteration: u8,
+    /// Which correction.
+    pub correction: Correction,
+    /// The bias after it, raw units (when the step changes coefficients).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bias: Option<[f64; 3]>,
+    /// The paper's axis scales after it, nT per raw unit.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scale: Option<[f64; 3]>,
+    /// Our full matrix after it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub matrix: Option<Mat3<f64>>,
+    /// What the run shows with these coefficients.
+    #[serde(flatten)]
+    pub stats: RunStatsDoc,
+}
+
+/// The on-board fit's report at the end of the swing test.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct OnboardFitSummary {
+    /// Samples the board absorbed.
+    pub samples: u32,
+    /// Field directions visited, %.
+    pub coverage_pct: u8,
+    /// The board's residual, nT RMS.
+    pub residual_rms_nt: f32,
+}
+
+/// Heading and field errors on a validation run with a known heading.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ValidationMetrics {
+    /// True-heading RMS error with the board's coefficients before the
+    /// session, °.
+    pub heading_rms_deg_before: f64,
+    /// With the uploaded coefficients, from the board's own output, °.
+    pub heading_rms_deg_after: f64,
+    /// RMS of |F| − IGRF with the uploaded coefficients, nT.
+    pub field_error_nt_after: f64,
+    /// Samples with a heading from the board.
+    pub validation_samples: usize,
+}
+
+/// `magcal session`'s summary (`summary.json`, `session --json`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SessionSummary {
+    /// The validation run's errors (a vehicle with a known heading only).
+    #[serde(flatten, default, skip_serializing_if = "Option::is_none")]
+    pub validation: Option<ValidationMetrics>,
+    /// The coefficients were uploaded, committed and read back equal.
+    pub coefficients_verified: bool,
+    /// The board's sequence number of the stored set.
+    pub coefficient_seq: u32,
+    /// The on-board fit during the swing test.
+    pub onboard_fit: OnboardFitSummary,
+    /// The back-stepping's report.
+    pub backstep: BackstepQuality,
+    /// The swing fit's report.
+    pub swing: SwingQuality,
+    /// Where the session's files are.
+    pub session_dir: std::path::PathBuf,
+}
+
+/// What a session saves as `settings.json`: enough to reproduce it offline.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SessionSettings {
+    /// Latitude, degrees.
+    pub lat_deg: f64,
+    /// Longitude, degrees.
+    pub lon_deg: f64,
+    /// Decimal year of the reference field.
+    pub decimal_year: f64,
+    /// The vehicle: what played the manoeuvres.
+    pub vehicle: String,
+    /// The board's firmware version.
+    pub firmware: String,
+    /// The commands that reproduce the computation offline.
+    pub reproduce: Vec<String>,
+}

@@ -1,0 +1,293 @@
+//! The calibration session: the paper's field procedure driven over the
+//! serial link, one [`run`] for any [`Vehicle`].
+//!
+//! 1. **Swing test** — the vehicle is turned (by a diver) while the board
+//!    streams raw samples and runs its on-board fit; the session tracks the
+//!    attitudes and field directions covered and says what is missing
+//!    ([`coverage`]).
+//! 2. **Out-and-back run** — recorded the same way, with the GPS course.
+//! 3. **Computation** on the host: [`crate::compute::chain`].
+//! 4. **Upload** ([`upload`]): unlock, stage, commit, read back and compare —
+//!    resumed over a reconnect if the link drops; the board never runs
+//!    unverified coefficients (it only switches after a CRC-checked commit).
+//! 5. **Validation** (when the vehicle knows its heading): a run on other
+//!    courses with the board's own headings compared with the truth.
+//!
+//! Everything is saved in a directory (recordings, settings, calibrations,
+//! report, summary) so `magcal fit/backstep/swing` reproduce the numbers
+//! offline. Recording ([`record`]) reopens the link when it drops and keeps
+//! the lost steps as rows without a field. The vehicle is a [`Vehicle`]: a
+//! real one ([`NavVehicle`]) or the simulator's (in the `magcal-sim` crate,
+//! which this module does not know).
+
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+
+use magcal_protocol::{Sample, StreamMode};
+
+use crate::board::coefficients::{doc_from_coefficients, to_coefficients};
+use crate::board::{BoardClient, ClientError};
+use crate::compute::{self, truth, Chain, ChainOptions, ComputeError};
+use crate::data::results::{OnboardFitSummary, SessionSettings, SessionSummary, ValidationMetrics};
+use crate::data::CalDoc;
+use crate::geomag::Site;
+
+pub mod coverage;
+pub mod progress;
+pub mod record;
+pub mod upload;
+pub mod vehicle;
+
+pub use coverage::{SwingCoverage, SwingTracker, PITCH_GATE_DEG, ROLL_GATE_DEG};
+pub use progress::Progress;
+pub use record::{record, Recorded, Resume};
+pub use upload::upload_verified;
+pub use vehicle::{NavStream, NavVehicle, Phase, Step, Vehicle};
+
+/// Why a session stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum SessionError {
+    /// The link failed.
+    #[error("link: {0}")]
+    Link(#[from] ClientError),
+    /// A computation refused the data.
+    #[error("{0}")]
+    Compute(#[from] ComputeError),
+    /// The board stopped answering a step.
+    #[error("no sample from the board for step {step} within {timeout_ms} ms")]
+    NoSample {
+        /// Step index.
+        step: usize,
+        /// Timeout.
+        timeout_ms: u64,
+    },
+    /// The swing test did not cover enough attitudes.
+    #[error("swing test incomplete: {0}")]
+    Coverage(String),
+    /// Files could not be read or written, or a stream is malformed.
+    #[error("{0}")]
+    Io(String),
+    /// The coefficients could not be verified on the board.
+    #[error("coefficients not verified after {0} attempts")]
+    NotVerified(u32),
+}
+
+/// The site and options of a session.
+#[derive(Debug, Clone)]
+pub struct SessionConfig {
+    /// Where and when (the IGRF-14 reference).
+    pub site: Site,
+    /// Output directory.
+    pub out_dir: PathBuf,
+    /// Show progress bars (a terminal); otherwise plain progress lines.
+    pub interactive: bool,
+}
+
+/// Link reconnections tried per drop while recording.
+const RECONNECT_ATTEMPTS: u32 = 5;
+/// Upload attempts (each on a fresh connection).
+const UPLOAD_ATTEMPTS: u32 = 3;
+
+fn io_error(e: impl std::fmt::Display) -> SessionError {
+    SessionError::Io(e.to_string())
+}
+
+/// The whole session with `vehicle`, over links opened by `connect`:
+/// swing test, out-and-back run, computation, verified upload and (when the
+/// vehicle has one) a validation run. Writes everything into `cfg.out_dir`
+/// and returns the summary.
+pub fn run<P: Read + Write>(
+    vehicle: &mut dyn Vehicle,
+    connect: &mut dyn FnMut() -> Result<BoardClient<P>, ClientError>,
+    cfg: &SessionConfig,
+) -> Result<SessionSummary, SessionError> {
+    std::fs::create_dir_all(&cfg.out_dir).map_err(|e| io_error(format!("{}: {e}", cfg.out_dir.display())))?;
+    let field = cfg.site.field().map_err(ComputeError::from)?;
+    let mut link = connect()?;
+    let id = link.identify()?;
+    eprintln!(
+        "session: {} {} on {:?}; IGRF-14 here: F {:.0} nT, I {:.1}°, D {:.2}°",
+        id.name,
+        id.firmware_version,
+        id.platform,
+        field.total_nt(),
+        field.inclination_deg(),
+        field.declination_deg()
+    );
+    let (board_coefficients, _, _) = link.read_coefficients()?;
+    let before = doc_from_coefficients(&board_coefficients);
+    let attitude = vehicle.sends_attitude();
+
+    // 1. Swing test.
+    eprintln!("1/5 swing test: turn the vehicle through every heading, roll ±55°, pitch ±10° (thrusters off)");
+    begin(vehicle, Phase::Swing)?;
+    prepare_board(&mut link, StreamMode::Raw, Some(field.total_nt() as f32))?;
+    let mut tracker = SwingTracker::new(&before);
+    let swing = record_phase(&mut link, vehicle, Phase::Swing, attitude, connect, cfg, |i, step, sample, link| tracker.step(i, step, sample, link))?;
+    let fit = link.fit_stop()?;
+    let guidance = tracker.coverage.guidance();
+    if !guidance.is_empty() {
+        return Err(SessionError::Coverage(guidance.join("; ")));
+    }
+    eprintln!(
+        "  swing test complete: {} heading sectors, on-board fit {} samples, {}% of directions, {:.0} nT RMS",
+        tracker.coverage.sectors_visited(),
+        fit.samples,
+        fit.coverage_pct,
+        fit.residual_rms_nt
+    );
+
+    // 2. Out-and-back run.
+    eprintln!("2/5 out-and-back run: dolphin profile, GPS at the surface");
+    begin(vehicle, Phase::Run)?;
+    prepare_board(&mut link, StreamMode::Raw, None)?;
+    let run = record_phase(&mut link, vehicle, Phase::Run, attitude, connect, cfg, |_, _, _, _| Ok("recording".into()))?;
+
+    // 3. Computation, saved beside the recordings.
+    eprintln!("3/5 computing: axis fit against IGRF, back-stepping, swing fit against the GPS course");
+    let chain = compute::calibrate(&swing.recording, &run.recording, &cfg.site, &ChainOptions::default())?;
+    for (name, doc) in [("cal_step1.json", &chain.step1), ("cal_backstep.json", &chain.backstepped), ("cal_final.json", &chain.final_doc)] {
+        doc.save(&cfg.out_dir.join(name)).map_err(io_error)?;
+    }
+    let (b0, b1) = (&chain.backstep.before, &chain.backstep.after);
+    eprintln!("  turnaround step {:.1} → {:.1} nT; |F| − IGRF {:.1} → {:.1} nT RMS", b0.step_nt, b1.step_nt, b0.f_error_rms_nt, b1.f_error_rms_nt);
+
+    // 4. Verified upload on fresh connections.
+    eprintln!("4/5 uploading: unlock, stage, commit, read back");
+    drop(link);
+    let seq = upload_verified(&mut *connect, &to_coefficients(&chain.final_doc), UPLOAD_ATTEMPTS)?;
+    eprintln!("  coefficients #{seq} stored and verified");
+
+    // 5. Validation with the board's own output.
+    let validation = if vehicle.begin(Phase::Validation)? {
+        eprintln!("5/5 validation run on other courses, headings from the board");
+        let mut link = connect()?;
+        prepare_board(&mut link, StreamMode::Both, None)?;
+        let val = record_phase(&mut link, vehicle, Phase::Validation, true, connect, cfg, |_, _, _, _| Ok("recording".into()))?;
+        link.set_stream(StreamMode::Off)?;
+        Some(validation_metrics(&val, &before, &cfg.site))
+    } else {
+        eprintln!("5/5 no validation run: the vehicle does not know its true heading");
+        None
+    };
+
+    write_report(&chain, &swing, &run, field.total_nt(), cfg)?;
+    let settings = SessionSettings {
+        lat_deg: cfg.site.lat_deg,
+        lon_deg: cfg.site.lon_deg,
+        decimal_year: cfg.site.decimal_year,
+        vehicle: vehicle.describe(),
+        firmware: id.firmware_version.to_string(),
+        reproduce: vec![
+            "magcal fit --input swing.csv --model axis --lat LAT --lon LON --date YEAR --out cal_step1.json".into(),
+            "magcal backstep --input run.csv --cal cal_step1.json --swing-input swing.csv --lat LAT --lon LON --date YEAR --out cal_backstep.json".into(),
+            "magcal swing --input run.csv --cal cal_backstep.json --estimate-delay --out cal_final.json".into(),
+        ],
+    };
+    save_json(&cfg.out_dir, "settings.json", &settings)?;
+    let summary = SessionSummary {
+        validation: validation.filter(|v| v.validation_samples > 0),
+        coefficients_verified: true,
+        coefficient_seq: seq,
+        onboard_fit: OnboardFitSummary { samples: fit.samples, coverage_pct: fit.coverage_pct, residual_rms_nt: fit.residual_rms_nt },
+        backstep: chain.backstepped.quality.backstep.clone().ok_or_else(|| io_error("the back-stepping left no report"))?,
+        swing: chain.final_doc.quality.swing.clone().ok_or_else(|| io_error("the swing fit left no report"))?,
+        session_dir: cfg.out_dir.clone(),
+    };
+    save_json(&cfg.out_dir, "summary.json", &summary)?;
+    Ok(summary)
+}
+
+fn begin(vehicle: &mut dyn Vehicle, phase: Phase) -> Result<(), SessionError> {
+    if vehicle.begin(phase)? {
+        Ok(())
+    } else {
+        Err(SessionError::Io(format!("the vehicle has no {} manoeuvre", phase.label())))
+    }
+}
+
+/// One recording phase with its progress display (`detail` gives the line
+/// for each step), saved as `<phase>.csv` in the session directory whatever
+/// happens next.
+fn record_phase<P: Read + Write>(
+    link: &mut BoardClient<P>,
+    vehicle: &mut dyn Vehicle,
+    phase: Phase,
+    send_attitude: bool,
+    connect: &mut dyn FnMut() -> Result<BoardClient<P>, ClientError>,
+    cfg: &SessionConfig,
+    mut detail: impl FnMut(usize, &Step, &Sample, &mut BoardClient<P>) -> Result<String, SessionError>,
+) -> Result<Recorded, SessionError> {
+    let label = phase.label();
+    let mut progress = Progress::new(label, vehicle.len_hint().unwrap_or(0), cfg.interactive);
+    let stream = if phase == Phase::Validation { StreamMode::Both } else { StreamMode::Raw };
+    let resume = Resume { connect, stream, attempts: RECONNECT_ATTEMPTS };
+    let recorded = record(link, vehicle, send_attitude, Some(resume), |i, step, sample, link| {
+        let line = detail(i, step, sample, link)?;
+        progress.update(i, &line);
+        Ok(())
+    })?;
+    progress.finish();
+    let path = cfg.out_dir.join(format!("{label}.csv"));
+    recorded.recording.write(&path).map_err(io_error)?;
+    Ok(recorded)
+}
+
+/// Starts the board's streaming for a recording phase; with `fit`, also the
+/// on-board fit of the paper's axis model (what the swing test determines).
+pub fn prepare_board<P: Read + Write>(link: &mut BoardClient<P>, stream: StreamMode, fit: Option<f32>) -> Result<(), SessionError> {
+    link.set_output_rate(100)?;
+    link.set_stream(stream)?;
+    if let Some(f) = fit {
+        link.fit_start(magcal_protocol::FitModel::Axis, f)?;
+    }
+    link.clear_samples();
+    Ok(())
+}
+
+/// Heading and field errors of the board's own output on a validation run
+/// against the vehicle's true heading, and what the coefficients the board
+/// had before the session would have given.
+pub fn validation_metrics(val: &Recorded, before: &CalDoc, site: &Site) -> ValidationMetrics {
+    let cal_before = before.calibration();
+    let rec = &val.recording;
+    let (roll, pitch) = (rec.roll_deg.as_deref().unwrap_or(&[]), rec.pitch_deg.as_deref().unwrap_or(&[]));
+    let with_heading = || {
+        val.samples.iter().zip(&val.true_heading_deg).enumerate().filter_map(|(i, (s, t))| match (s.heading_rad, s.raw) {
+            (Some(h), Some(raw)) => Some((i, h, raw, *t)),
+            _ => None,
+        })
+    };
+    let before_rms = truth::heading_rms_deg(with_heading().map(|(i, _, raw, t)| {
+        let (r, p) = (roll.get(i).copied().unwrap_or(f64::NAN), pitch.get(i).copied().unwrap_or(f64::NAN));
+        (cal_before.apply(raw.map(f64::from), r.to_radians(), p.to_radians()).true_heading_rad, t)
+    }));
+    let after_rms = truth::heading_rms_deg(with_heading().map(|(_, h, _, t)| (f64::from(h), t)));
+    let fields = val.samples.iter().enumerate().filter_map(|(i, s)| s.field_nt.map(|f| (f.map(f64::from), i)));
+    let field = truth::field_rms_nt(fields, rec, site);
+    ValidationMetrics {
+        heading_rms_deg_before: before_rms.rms,
+        heading_rms_deg_after: after_rms.rms,
+        field_error_nt_after: field.rms,
+        validation_samples: after_rms.samples,
+    }
+}
+
+/// The session's report: the calibrations of each step on the recordings.
+fn write_report(chain: &Chain, swing: &Recorded, run: &Recorded, field_nt: f64, cfg: &SessionConfig) -> Result<(), SessionError> {
+    let cals: Vec<(String, &CalDoc)> = vec![("step1 (axis fit)".into(), &chain.step1), ("back-stepped".into(), &chain.backstepped), ("final".into(), &chain.final_doc)];
+    let inputs = crate::report::ReportInputs { run: Some(&run.recording), swing: Some(&swing.recording), cals, field_nt: Some(field_nt) };
+    crate::report::write_report(&cfg.out_dir.join("report"), &inputs).map_err(io_error)?;
+    Ok(())
+}
+
+/// Writes a JSON file in the session directory.
+fn save_json<T: serde::Serialize>(dir: &Path, name: &str, value: &T) -> Result<PathBuf, SessionError> {
+    let p = dir.join(name);
+    let text = serde_json::to_string_pretty(value).map_err(io_error)?;
+    std::fs::write(&p, text).map_err(|e| SessionError::Io(format!("{}: {e}", p.display())))?;
+    Ok(p)
+}
+
+#[cfg(test)]
+mod tests;

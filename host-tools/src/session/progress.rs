@@ -1,0 +1,51 @@
+//! Progress display: indicatif bars on a terminal, plain lines otherwise.
+
+use std::time::{Duration, Instant};
+
+/// A manoeuvre's progress on stderr.
+pub struct Progress {
+    bar: Option<indicatif::ProgressBar>,
+    label: String,
+    total: usize,
+    last_line: Instant,
+}
+
+impl Progress {
+    /// A progress display for `total` steps.
+    pub fn new(label: &str, total: usize, interactive: bool) -> Self {
+        let bar = interactive.then(|| {
+            // A stream of unknown length (a real vehicle) gets a spinner.
+            let b = if total == 0 { indicatif::ProgressBar::new_spinner() } else { indicatif::ProgressBar::new(total as u64) };
+            if let Ok(style) = indicatif::ProgressStyle::with_template("{msg:>14} [{bar:40}] {pos}/{len} {wide_msg}") {
+                b.set_style(style);
+            }
+            b.set_message(label.to_string());
+            b
+        });
+        Self { bar, label: label.to_string(), total, last_line: Instant::now() - Duration::from_secs(10) }
+    }
+
+    /// Step `i` done; `detail` is the current guidance or state.
+    pub fn update(&mut self, i: usize, detail: &str) {
+        match &self.bar {
+            Some(b) => {
+                b.set_position(i as u64 + 1);
+                b.set_message(format!("{} {detail}", self.label));
+            }
+            None => {
+                if self.last_line.elapsed() > Duration::from_secs(2) || i + 1 == self.total {
+                    eprintln!("  {} {}/{}: {detail}", self.label, i + 1, self.total);
+                    self.last_line = Instant::now();
+                }
+            }
+        }
+    }
+
+    /// Done.
+    pub fn finish(&self) {
+        if let Some(b) = &self.bar {
+            b.finish();
+        }
+    }
+}
+

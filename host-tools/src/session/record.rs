@@ -1,0 +1,147 @@
+//! Recording a manoeuvre: per step, the vehicle's stimulus or navigation,
+//! the attitude to the board when wanted, and the board's sample for that
+//! step; the link reopened when it drops, the lost steps kept as rows
+//! without a field (never invented).
+
+use std::io::{Read, Write};
+use std::time::{Duration, Instant};
+
+use magcal_protocol::{Sample, StreamMode};
+
+use super::vehicle::{Step, Vehicle};
+use super::SessionError;
+use crate::board::{BoardClient, ClientError};
+use crate::data::Recording;
+
+/// A recorded manoeuvre.
+#[derive(Debug, Clone)]
+pub struct Recorded {
+    /// The recording in the INTERFACES.md columns; roll and pitch are the AHRS's.
+    pub recording: Recording,
+    /// The board's sample of every step (`raw: None` for a lost one).
+    pub samples: Vec<Sample>,
+    /// The vehicle's true heading at every step, degrees (NaN when unknown).
+    pub true_heading_deg: Vec<f64>,
+    /// Steps lost to link drops.
+    pub lost_steps: usize,
+}
+
+/// How to get the link back when it drops mid-recording.
+pub struct Resume<'a, P> {
+    /// Opens the link again.
+    pub connect: &'a mut dyn FnMut() -> Result<BoardClient<P>, ClientError>,
+    /// What the board streams (set again after reconnecting).
+    pub stream: StreamMode,
+    /// Attempts per drop.
+    pub attempts: u32,
+}
+
+/// How long the board has to deliver a step's sample.
+const SAMPLE_TIMEOUT: Duration = Duration::from_millis(3000);
+
+fn lost_sample() -> Sample {
+    Sample { t_ms: 0, raw: None, field_nt: None, heading_rad: None, saturated: false, feed_seq: None }
+}
+
+/// Records the current manoeuvre of `vehicle`. `on_step` sees every step
+/// with its sample (coverage, progress). With `resume`, a dropped link is
+/// reopened and recording goes on.
+pub fn record<P: Read + Write>(
+    link: &mut BoardClient<P>,
+    vehicle: &mut dyn Vehicle,
+    send_attitude: bool,
+    mut resume: Option<Resume<'_, P>>,
+    mut on_step: impl FnMut(usize, &Step, &Sample, &mut BoardClient<P>) -> Result<(), SessionError>,
+) -> Result<Recorded, SessionError> {
+    let mut rec = Recording { t_s: Some(vec![]), roll_deg: Some(vec![]), pitch_deg: Some(vec![]), ref_heading_deg: Some(vec![]), lat_deg: Some(vec![]), lon_deg: Some(vec![]), ..Recording::default() };
+    let (mut samples, mut truth) = (Vec::new(), Vec::new());
+    let mut i = 0;
+    let started = Instant::now();
+    let mut lost = 0usize;
+    while let Some(step) = vehicle.next_step()? {
+        let taken = take_sample(link, vehicle, &step, send_attitude, SAMPLE_TIMEOUT);
+        let sample = match (taken, resume.as_mut()) {
+            (Ok(s), _) => s,
+            (Err(SessionError::Link(e)), Some(r)) if !matches!(e, ClientError::Remote(_)) => {
+                eprintln!("  link lost at step {i} ({e}); reconnecting");
+                *link = reconnect(r)?;
+                lost += 1;
+                lost_sample()
+            }
+            (Err(SessionError::NoSample { .. }), Some(r)) => {
+                eprintln!("  no sample at step {i}; reconnecting");
+                *link = reconnect(r)?;
+                lost += 1;
+                lost_sample()
+            }
+            (Err(SessionError::NoSample { timeout_ms, .. }), None) => return Err(SessionError::NoSample { step: i, timeout_ms }),
+            (Err(e), _) => return Err(e),
+        };
+        let raw = sample.raw.map(|r| r.map(f64::from)).unwrap_or([f64::NAN; 3]);
+        rec.mag.push(raw);
+        for (col, v) in [
+            (&mut rec.t_s, step.t_s),
+            (&mut rec.roll_deg, step.roll_deg),
+            (&mut rec.pitch_deg, step.pitch_deg),
+            (&mut rec.ref_heading_deg, step.ref_heading_deg),
+            (&mut rec.lat_deg, step.lat_deg),
+            (&mut rec.lon_deg, step.lon_deg),
+        ] {
+            if let Some(c) = col.as_mut() {
+                c.push(v);
+            }
+        }
+        on_step(i, &step, &sample, link)?;
+        samples.push(sample);
+        truth.push(step.true_heading_deg);
+        i += 1;
+    }
+    if i > 0 {
+        eprintln!("  {i} steps in {:.1} s ({:.0} ms a step)", started.elapsed().as_secs_f64(), started.elapsed().as_secs_f64() * 1000.0 / i as f64);
+    }
+    if lost > 0 {
+        eprintln!("  {lost} steps lost to link drops are kept as rows without a field");
+    }
+    Ok(Recorded { recording: rec, samples, true_heading_deg: truth, lost_steps: lost })
+}
+
+/// Sends the attitude (when wanted) and waits for the board's sample of this
+/// step: with a simulated vehicle the one carrying the step's feed sequence
+/// number (re-sending the stimulus if it seems lost), otherwise the next one.
+fn take_sample<P: Read + Write>(link: &mut BoardClient<P>, vehicle: &mut dyn Vehicle, step: &Step, send_attitude: bool, timeout: Duration) -> Result<Sample, SessionError> {
+    if send_attitude {
+        link.attitude(step.roll_deg.to_radians() as f32, step.pitch_deg.to_radians() as f32)?;
+    }
+    let deadline = Instant::now() + timeout;
+    let mut repeat_at = Instant::now() + Duration::from_millis(300);
+    loop {
+        let left = deadline.saturating_duration_since(Instant::now());
+        if left.is_zero() {
+            return Err(SessionError::NoSample { step: 0, timeout_ms: timeout.as_millis() as u64 });
+        }
+        match link.next_sample(left.min(Duration::from_millis(100)))? {
+            Some(s) if step.feed_seq.is_none() || s.feed_seq == step.feed_seq => return Ok(s),
+            _ => {}
+        }
+        if Instant::now() >= repeat_at {
+            vehicle.repeat()?;
+            repeat_at = Instant::now() + Duration::from_millis(300);
+        }
+    }
+}
+
+/// Opens the link again and restarts the stream.
+fn reconnect<P: Read + Write>(r: &mut Resume<'_, P>) -> Result<BoardClient<P>, SessionError> {
+    let mut last = None;
+    for _ in 0..r.attempts.max(1) {
+        match (r.connect)() {
+            Ok(mut l) => match l.set_stream(r.stream).and_then(|()| l.set_output_rate(100)) {
+                Ok(()) => return Ok(l),
+                Err(e) => last = Some(e),
+            },
+            Err(e) => last = Some(e),
+        }
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    Err(last.map_or(SessionError::NotVerified(r.attempts), SessionError::Link))
+}

@@ -1,0 +1,187 @@
+//! Vehicles: where a session's steps come from. A [`Vehicle`] plays the
+//! three manoeuvres (swing test, out-and-back run, optional validation run):
+//! a real vehicle's navigation arrives as CSV streams ([`NavVehicle`]); the
+//! simulator's vehicle lives in the `magcal-sim` crate and plays the same
+//! trait into the QEMU board's sensor feed.
+
+use std::io::BufRead;
+
+use super::SessionError;
+use crate::board::ClientError;
+
+/// A manoeuvre of the session.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Phase {
+    /// The swing test: the vehicle turned through every heading, rolled and
+    /// pitched, thrusters off.
+    Swing,
+    /// The out-and-back run with GPS at the surface.
+    Run,
+    /// A validation run on other courses, with a known heading.
+    Validation,
+}
+
+impl Phase {
+    /// The phase's file stem in the session directory (`swing.csv`, …).
+    pub fn label(self) -> &'static str {
+        match self {
+            Phase::Swing => "swing",
+            Phase::Run => "run",
+            Phase::Validation => "validation",
+        }
+    }
+}
+
+/// The host-side columns of one step (the board supplies the field).
+#[derive(Debug, Clone, Copy)]
+pub struct Step {
+    /// Time, s.
+    pub t_s: f64,
+    /// AHRS roll, degrees.
+    pub roll_deg: f64,
+    /// AHRS pitch, degrees.
+    pub pitch_deg: f64,
+    /// GPS course, degrees true (NaN when not available).
+    pub ref_heading_deg: f64,
+    /// Position, degrees (NaN when not available).
+    pub lat_deg: f64,
+    /// Position, degrees (NaN when not available).
+    pub lon_deg: f64,
+    /// The vehicle's true heading, degrees (validation; NaN when unknown).
+    pub true_heading_deg: f64,
+    /// The sensor-feed frame the board must have seen (simulated vehicle).
+    pub feed_seq: Option<u32>,
+}
+
+/// A source of steps: applies each step's stimulus to the board (simulated)
+/// or waits for the vehicle's next navigation record (real).
+pub trait Vehicle {
+    /// Starts a manoeuvre. `Ok(false)`: this vehicle has none (only the
+    /// validation run is optional).
+    fn begin(&mut self, phase: Phase) -> Result<bool, SessionError>;
+    /// The next step of the current manoeuvre, `None` when it is over.
+    fn next_step(&mut self) -> Result<Option<Step>, ClientError>;
+    /// Steps in the current manoeuvre, when known (for progress).
+    fn len_hint(&self) -> Option<usize>;
+    /// Applies the current step's stimulus again (it may have been lost).
+    fn repeat(&mut self) -> Result<(), ClientError> {
+        Ok(())
+    }
+    /// Whether each step's attitude goes to the board while raw data are
+    /// recorded (a real vehicle: the board then pairs it with its sample).
+    /// The validation run always sends it, for the board's heading.
+    fn sends_attitude(&self) -> bool;
+    /// One line for the session's settings: what played the manoeuvres.
+    fn describe(&self) -> String;
+}
+
+/// Navigation columns a stream may carry (`t`, `roll_deg`, `pitch_deg`
+/// required).
+const NAV_COLUMNS: [&str; 7] = ["t", "roll_deg", "pitch_deg", "ref_heading_deg", "lat_deg", "lon_deg", "true_heading_deg"];
+
+/// One navigation stream: CSV lines in the INTERFACES.md columns from a
+/// file, a FIFO or stdin, one line per step.
+pub struct NavStream<R> {
+    lines: std::io::Lines<R>,
+    columns: [Option<usize>; 7],
+    line_no: usize,
+}
+
+impl<R: BufRead> NavStream<R> {
+    /// Reads the header; `t`, `roll_deg` and `pitch_deg` are required.
+    pub fn new(reader: R) -> Result<Self, SessionError> {
+        let mut lines = reader.lines();
+        let header = lines
+            .next()
+            .ok_or_else(|| SessionError::Io("navigation stream: empty (expected a header)".into()))?
+            .map_err(|e| SessionError::Io(format!("navigation stream: {e}")))?;
+        let names: Vec<String> = header.split(',').map(|h| h.trim().to_ascii_lowercase()).collect();
+        let columns = NAV_COLUMNS.map(|n| names.iter().position(|h| h == n));
+        for (k, name) in NAV_COLUMNS.iter().enumerate().take(3) {
+            if columns[k].is_none() {
+                return Err(SessionError::Io(format!("navigation stream: missing column `{name}` (the header has: {header})")));
+            }
+        }
+        Ok(Self { lines, columns, line_no: 1 })
+    }
+
+    /// The next step; lines that are not numbers are skipped with a warning.
+    pub fn next_step(&mut self) -> Result<Option<Step>, ClientError> {
+        loop {
+            let Some(line) = self.lines.next() else { return Ok(None) };
+            self.line_no += 1;
+            let line = line?;
+            if line.trim().is_empty() {
+                continue;
+            }
+            let cells: Vec<&str> = line.split(',').collect();
+            let cell = |k: usize| self.columns[k].and_then(|i| cells.get(i)).map_or(Some(f64::NAN), |c| crate::data::recording::parse_cell(c));
+            let values: Option<Vec<f64>> = (0..NAV_COLUMNS.len()).map(cell).collect();
+            match values {
+                Some(v) if v[0].is_finite() => {
+                    return Ok(Some(Step {
+                        t_s: v[0],
+                        roll_deg: v[1],
+                        pitch_deg: v[2],
+                        ref_heading_deg: v[3],
+                        lat_deg: v[4],
+                        lon_deg: v[5],
+                        true_heading_deg: v[6],
+                        feed_seq: None,
+                    }))
+                }
+                _ => eprintln!("  navigation line {} skipped: not numbers: {line}", self.line_no),
+            }
+        }
+    }
+}
+
+/// A real vehicle: its navigation for each manoeuvre arrives as a CSV
+/// stream (AHRS attitude, GPS course, position; for validation, a reference
+/// heading as `true_heading_deg`). Each stream's header is read when its
+/// manoeuvre begins, so a FIFO is only opened by then.
+pub struct NavVehicle<R> {
+    streams: [Option<R>; 3],
+    current: Option<NavStream<R>>,
+}
+
+impl<R: BufRead> NavVehicle<R> {
+    /// The streams of the swing test, the run and (optionally) a validation
+    /// run.
+    pub fn new(swing: R, run: R, validation: Option<R>) -> Self {
+        Self { streams: [Some(swing), Some(run), validation], current: None }
+    }
+}
+
+impl<R: BufRead> Vehicle for NavVehicle<R> {
+    fn begin(&mut self, phase: Phase) -> Result<bool, SessionError> {
+        let slot = match phase {
+            Phase::Swing => 0,
+            Phase::Run => 1,
+            Phase::Validation => 2,
+        };
+        match self.streams.get_mut(slot).and_then(Option::take) {
+            Some(reader) => {
+                self.current = Some(NavStream::new(reader)?);
+                Ok(true)
+            }
+            None if phase == Phase::Validation => Ok(false),
+            None => Err(SessionError::Io(format!("the {} navigation stream was already used", phase.label()))),
+        }
+    }
+    fn next_step(&mut self) -> Result<Option<Step>, ClientError> {
+        match self.current.as_mut() {
+            Some(s) => s.next_step(),
+            None => Ok(None),
+        }
+    }
+    fn len_hint(&self) -> Option<usize> {
+        None
+    }
+    fn sends_attitude(&self) -> bool {
+        true
+    }
+    fn describe(&self) -> String {
+        "a real vehicle (navigation CSV streams)".into()
+    }
+}

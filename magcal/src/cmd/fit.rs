@@ -1,0 +1,89 @@
+//! `magcal fit`: a field (ellipsoid) calibration from a recording.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use calib_core::cal::ModelKind;
+use clap::ValueEnum;
+use host_tools::compute::{self, FitOptions};
+use host_tools::data::Recording;
+
+use super::{emit, reference_field, warn_all, SiteArgs};
+
+/// The model, as the command line names it.
+#[derive(Clone, Copy, ValueEnum)]
+pub enum Model {
+    /// Bias and one scale.
+    Sphere,
+    /// Bias and three axis scales (paper 000, eqs 12–17).
+    Axis,
+    /// Bias and a symmetric soft-iron matrix.
+    Full,
+    /// Bias and paper 001's upper-triangular non-orthogonality and gains.
+    Triangular,
+}
+
+impl From<Model> for ModelKind {
+    fn from(m: Model) -> Self {
+        match m {
+            Model::Sphere => ModelKind::Sphere,
+            Model::Axis => ModelKind::Axis,
+            Model::Full => ModelKind::Full,
+            Model::Triangular => ModelKind::Triangular,
+        }
+    }
+}
+
+/// Arguments of `magcal fit`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Recording (CSV with mx, my, mz).
+    #[arg(long)]
+    input: PathBuf,
+    /// Calibration model.
+    #[arg(long, value_enum)]
+    model: Model,
+    /// Reference field intensity, nT.
+    #[arg(long)]
+    field_nt: Option<f64>,
+    #[command(flatten)]
+    site: SiteArgs,
+    /// Raw magnitude at which the sensor saturates (per axis).
+    #[arg(long)]
+    saturation: Option<f64>,
+    /// Return coefficients even when the quality gates fail.
+    #[arg(long)]
+    allow_weak: bool,
+    /// Write the calibration document here.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Print the calibration document on stdout.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Runs `magcal fit`.
+pub fn run(a: Args) -> Result<()> {
+    let reference = reference_field(a.field_nt, &a.site)?;
+    let rec = Recording::read(&a.input)?;
+    let model = ModelKind::from(a.model);
+    let opts = FitOptions { model, field_nt: reference.total_nt(), saturation: a.saturation, allow_weak: a.allow_weak };
+    let mut doc = compute::fit_recording(&rec, &opts).with_context(|| format!("{}: {} fit", a.input.display(), model.name()))?;
+    if a.site.lat.is_some() {
+        doc.declination_deg = Some(reference.declination_deg());
+    }
+    warn_all(&doc);
+    let summary = match &doc.quality.fit {
+        Some(q) => format!(
+            "{} fit of {} samples: bias {:?}, residual {:.1} nT RMS ({:.2} %), coverage {} %",
+            doc.model.name(),
+            q.samples,
+            doc.bias,
+            q.residual_rms_nt,
+            q.residual_rms_pct,
+            q.coverage_pct
+        ),
+        None => format!("{} fit: bias {:?}", doc.model.name(), doc.bias),
+    };
+    emit(&doc, a.out.as_ref(), a.json, &summary)
+}

@@ -1,0 +1,95 @@
+//! `magcal session`: a field calibration session over the serial link, with
+//! the simulated vehicle (QEMU board) or a real one (navigation streams).
+
+use std::io::BufReader;
+use std::path::PathBuf;
+
+use anyhow::{bail, Context, Result};
+use clap::ValueEnum;
+use host_tools::board::{BoardClient, FeedWriter};
+use host_tools::session::{self, NavVehicle, SessionConfig, Vehicle};
+use magcal_sim::{SimPlan, SimVehicle};
+
+use super::Place;
+
+/// Length of the simulated field tests.
+#[derive(Clone, Copy, ValueEnum)]
+pub enum Plan {
+    /// The demo's field tests (3 km legs).
+    Demo,
+    /// Shortened (the test suite's).
+    Short,
+}
+
+/// Arguments of `magcal session`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// The board's link (USART1), e.g. /dev/ttyUSB0 or QEMU's first pty.
+    #[arg(long)]
+    port: String,
+    /// The QEMU board's sensor feed (USART2): the simulator plays the vehicle.
+    #[arg(long, conflicts_with_all = ["nav_swing", "nav_run", "nav_validation"])]
+    sim_feed: Option<String>,
+    /// Real vehicle: navigation CSV (t, roll_deg, pitch_deg, ...) during the swing test.
+    #[arg(long, requires = "nav_run")]
+    nav_swing: Option<PathBuf>,
+    /// Real vehicle: navigation CSV (t, roll_deg, pitch_deg, ref_heading_deg, lat_deg, lon_deg) during the run.
+    #[arg(long, requires = "nav_swing")]
+    nav_run: Option<PathBuf>,
+    /// Real vehicle, optional: navigation CSV of a validation run with a reference heading (`true_heading_deg`).
+    #[arg(long, requires = "nav_swing")]
+    nav_validation: Option<PathBuf>,
+    #[command(flatten)]
+    place: Place,
+    /// Session directory (recordings, calibrations, report).
+    #[arg(long)]
+    out: PathBuf,
+    /// Length of the simulated field tests.
+    #[arg(long, value_enum, default_value = "demo")]
+    plan: Plan,
+    /// Random seed of the simulated vehicle.
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Print the summary as JSON on stdout.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Runs `magcal session`.
+pub fn run(a: Args) -> Result<()> {
+    use std::io::IsTerminal;
+    let site = a.place.site()?;
+    let cfg = SessionConfig { site, out_dir: a.out.clone(), interactive: std::io::stderr().is_terminal() };
+    let open = |p: &PathBuf| std::fs::File::open(p).map(BufReader::new).with_context(|| format!("navigation stream {}", p.display()));
+    let mut vehicle: Box<dyn Vehicle> = match (&a.sim_feed, &a.nav_swing, &a.nav_run) {
+        (Some(feed), None, None) => {
+            let mut plan = match a.plan {
+                Plan::Demo => SimPlan::demo(),
+                Plan::Short => SimPlan::short(),
+            };
+            if let Some(s) = a.seed {
+                plan.seed = s;
+            }
+            Box::new(SimVehicle::new(plan, &site, FeedWriter::open(feed)?)?)
+        }
+        (None, Some(swing), Some(run)) => Box::new(NavVehicle::new(open(swing)?, open(run)?, a.nav_validation.as_ref().map(open).transpose()?)),
+        _ => bail!("give the vehicle: --sim-feed PORT (simulated, QEMU board) or --nav-swing FILE --nav-run FILE (real vehicle)"),
+    };
+    let port = a.port.clone();
+    let summary = session::run(vehicle.as_mut(), &mut || BoardClient::open(&port), &cfg)?;
+    if a.json {
+        println!("{}", serde_json::to_string(&summary)?);
+    } else {
+        match &summary.validation {
+            Some(v) => println!(
+                "session done: true heading RMS {:.2}° → {:.2}° on the validation run, |F| − IGRF {:.1} nT; coefficients verified on the board",
+                v.heading_rms_deg_before, v.heading_rms_deg_after, v.field_error_nt_after
+            ),
+            None => println!(
+                "session done: coefficients #{} verified on the board; turnaround step {:.1} nT after back-stepping",
+                summary.coefficient_seq, summary.backstep.after.step_nt
+            ),
+        }
+    }
+    Ok(())
+}

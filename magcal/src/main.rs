@@ -1,0 +1,75 @@
+//! `magcal`: the command-line front end. See `docs/INTERFACES.md` for the
+//! contract: every subcommand takes `--json` and then prints one JSON document
+//! on stdout and nothing else there; progress and warnings go to stderr; on
+//! failure the exit status is non-zero with a one-line reason on stderr.
+//!
+//! One module per subcommand under `cmd/`; each parses its arguments,
+//! calls the `host-tools` library (or `magcal-sim` for `simulate` and the
+//! simulated vehicle) and formats the output.
+
+use clap::{Parser, Subcommand};
+
+mod cmd;
+
+#[derive(Parser)]
+#[command(name = "magcal", version, about = "AUV magnetometer calibration tools")]
+struct Cli {
+    #[command(subcommand)]
+    command: Cmd,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// Simulate a field test (writes FILE.csv and FILE.truth.json).
+    Simulate(cmd::simulate::Args),
+    /// A field calibration session over the serial link: swing test,
+    /// out-and-back run, back-stepping and swing fits, verified upload.
+    /// The vehicle is either the simulator, played into the QEMU board's
+    /// sensor feed (`--sim-feed`), or a real one whose navigation arrives as
+    /// CSV streams (`--nav-swing`, `--nav-run`: files or FIFOs).
+    Session(cmd::session::Args),
+    /// Figures (SVG) and an HTML page comparing calibrations on recordings.
+    Report(cmd::report::Args),
+    /// Back-stepping refinement on an out-and-back run.
+    Backstep(cmd::backstep::Args),
+    /// Reference field (IGRF-14 or WMM2025) at a place and date.
+    Igrf(cmd::igrf::Args),
+    /// Ask the board (or the QEMU board) who it is.
+    Identify(cmd::identify::Args),
+    /// Field (ellipsoid) calibration from a recording.
+    Fit(cmd::fit::Args),
+    /// Fourier (swinging) heading calibration against a reference heading.
+    Swing(cmd::swing::Args),
+    /// Non-orthogonality and gain identification (paper 001).
+    Ortho(cmd::ortho::Args),
+}
+
+fn main() {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Cmd::Simulate(a) => cmd::simulate::run(a),
+        Cmd::Session(a) => cmd::session::run(a),
+        Cmd::Report(a) => cmd::report::run(a),
+        Cmd::Backstep(a) => cmd::backstep::run(a),
+        Cmd::Igrf(a) => cmd::igrf::run(a),
+        Cmd::Identify(a) => cmd::identify::run(a),
+        Cmd::Fit(a) => cmd::fit::run(a),
+        Cmd::Swing(a) => cmd::swing::run(a),
+        Cmd::Ortho(a) => cmd::ortho::run(a),
+    };
+    if let Err(e) = result {
+        // One line: the chain of causes, each said once.
+        let mut msg = String::new();
+        for cause in e.chain() {
+            let text = cause.to_string();
+            if !msg.contains(&text) {
+                if !msg.is_empty() {
+                    msg.push_str(": ");
+                }
+                msg.push_str(&text);
+            }
+        }
+        eprintln!("magcal: {}", msg.replace('\n', " "));
+        std::process::exit(1);
+    }
+}

@@ -1,0 +1,22 @@
+//! The field-test simulator of magcal, apart from the product: written from
+//! the physics of the vehicle and the sensor, not from the estimators'
+//! equations, with ground truth beside every recording.
+//!
+//! * [`field_test`]: paper 000's swing test and out-and-back runs
+//!   (`magcal simulate`);
+//! * [`scenario`]: the whole chain on simulated field tests against the
+//!   truth (acceptance tests, `cargo xtask bench`);
+//! * [`vehicle`]: the simulated vehicle that plays the field tests into the
+//!   QEMU board for `magcal session --sim-feed` and `cargo xtask demo`.
+//!
+//! It depends on `host-tools` (recordings, the reference field, the chain,
+//! the session's `Vehicle` trait); `host-tools` does not depend on it.
+#![deny(missing_docs)]
+
+pub mod field_test;
+pub mod scenario;
+pub mod vehicle;
+
+pub use field_test::{paper_site, RunParams, SensorModel, SimError, Simulation, Truth};
+pub use scenario::{evaluate, Outcome, ScenarioError};
+pub use vehicle::{SimPlan, SimVehicle};

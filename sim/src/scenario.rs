@@ -1,0 +1,91 @@
+//! Paper 000's field test, simulated end to end with ground truth: swing
+//! test → axis fit against IGRF → back-stepping on an out-and-back run (the
+//! paper's and ours) → swing (Fourier) fit against the delayed GPS course →
+//! true-heading and field errors on a separate validation run. The chain is
+//! host-tools' own ([`host_tools::compute::chain`]); the errors against truth
+//! are [`host_tools::compute::truth`]'s. Used by the acceptance tests and by
+//! `cargo xtask bench`.
+
+use host_tools::compute::{self, truth, BackstepMethod, ChainOptions, ComputeError, Delay};
+use host_tools::data::CalDoc;
+
+use crate::field_test::{self, paper_site, RunParams, SensorModel, SimError, Simulation};
+
+/// Why a scenario could not be evaluated.
+#[derive(Debug, thiserror::Error)]
+pub enum ScenarioError {
+    /// The simulator refused its parameters.
+    #[error("simulation: {0}")]
+    Sim(#[from] SimError),
+    /// A step of the chain refused the simulated data.
+    #[error("chain: {0}")]
+    Compute(#[from] ComputeError),
+}
+
+/// True-heading RMS error (degrees) of a calibration on a simulated run.
+pub fn heading_rms_deg(doc: &CalDoc, sim: &Simulation) -> f64 {
+    let headings = truth::true_headings_rad(doc, &sim.recording);
+    truth::heading_rms_deg(headings.into_iter().zip(sim.true_heading_deg.iter().copied())).rms
+}
+
+/// RMS of |h| − IGRF over a simulated run (every tenth row), nT.
+pub fn field_error_nt(doc: &CalDoc, sim: &Simulation) -> f64 {
+    let cal = doc.field_cal();
+    let rec = &sim.recording;
+    let fields = (0..rec.len()).step_by(10).map(|i| (cal.apply(rec.mag[i]), i));
+    truth::field_rms_nt(fields, rec, &sim.truth.site).rms
+}
+
+/// What the chain achieved on one simulated field test.
+#[derive(Debug, Clone, Copy, serde::Serialize)]
+pub struct Outcome {
+    /// Turnaround step with the paper's axis fit of the swing test (step 1), nT.
+    pub step_axis_fit_nt: f64,
+    /// Turnaround step after the paper's back-stepping, nT.
+    pub step_paper_nt: f64,
+    /// Turnaround step after our back-stepping, nT.
+    pub step_ours_nt: f64,
+    /// Validation true-heading RMS of step 1 + swing fit, °.
+    pub heading_rms_axis_fit_deg: f64,
+    /// Validation true-heading RMS of the paper's chain, °.
+    pub heading_rms_paper_deg: f64,
+    /// Validation true-heading RMS of our chain, °.
+    pub heading_rms_ours_deg: f64,
+    /// Validation |F| − IGRF RMS after the paper's back-stepping, nT.
+    pub field_error_paper_nt: f64,
+    /// Validation |F| − IGRF RMS after ours, nT.
+    pub field_error_ours_nt: f64,
+    /// The GPS delay our chain estimated, s.
+    pub gps_delay_ours_s: f64,
+}
+
+/// Runs the whole chain on a simulated vehicle: swing test, axis fit, both
+/// back-steppings, swing fits, validation.
+pub fn evaluate(name: &str, sensor: SensorModel, seed: u64) -> Result<Outcome, ScenarioError> {
+    let site = paper_site();
+    let swing = field_test::swing(&sensor, &site, seed, 5.0)?;
+    let run = field_test::run(&sensor, &site, &RunParams::paper_like(), seed + 100, 2.0, "run")?;
+    let validation = field_test::run(&sensor, &site, &RunParams::validation(), seed + 200, 2.0, "validation")?;
+
+    let step1 = compute::axis_step(&swing.recording, &site)?;
+    let delay = Delay::Estimate { max_s: 5.0 };
+    let paper = compute::refine(step1.clone(), &swing.recording, &run.recording, &site, &ChainOptions { method: BackstepMethod::Paper, delay })?;
+    let ours = compute::refine(step1.clone(), &swing.recording, &run.recording, &site, &ChainOptions { method: BackstepMethod::Joint, delay })?;
+    let (axis_swung, _, _) = compute::swing_recording(&run.recording, &step1, delay)?;
+    let o = Outcome {
+        step_axis_fit_nt: paper.backstep.before.step_nt,
+        step_paper_nt: paper.backstep.after.step_nt,
+        step_ours_nt: ours.backstep.after.step_nt,
+        heading_rms_axis_fit_deg: heading_rms_deg(&axis_swung, &validation),
+        heading_rms_paper_deg: heading_rms_deg(&paper.final_doc, &validation),
+        heading_rms_ours_deg: heading_rms_deg(&ours.final_doc, &validation),
+        field_error_paper_nt: field_error_nt(&paper.backstepped, &validation),
+        field_error_ours_nt: field_error_nt(&ours.backstepped, &validation),
+        gps_delay_ours_s: ours.delay_s,
+    };
+    eprintln!(
+        "{name} seed {seed}: turnaround step {:.0} nT (axis fit) → {:.1} (paper) / {:.1} (ours); validation true-heading RMS {:.2}° / {:.2}° / {:.2}°; field error vs IGRF {:.1} / {:.1} nT (paper / ours); GPS delay {:.2} s",
+        o.step_axis_fit_nt, o.step_paper_nt, o.step_ours_nt, o.heading_rms_axis_fit_deg, o.heading_rms_paper_deg, o.heading_rms_ours_deg, o.field_error_paper_nt, o.field_error_ours_nt, o.gps_delay_ours_s
+    );
+    Ok(o)
+}
