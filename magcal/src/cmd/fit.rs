@@ -4,34 +4,22 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use calib_core::cal::ModelKind;
-use clap::ValueEnum;
 use host_tools::compute::{self, FitOptions};
+use host_tools::data::caldoc::model_kind;
 use host_tools::data::Recording;
 
 use super::{emit, reference_field, warn_all, SiteArgs};
 
-/// The model, as the command line names it.
-#[derive(Clone, Copy, ValueEnum)]
-pub enum Model {
-    /// Bias and one scale.
-    Sphere,
-    /// Bias and three axis scales (paper 000, eqs 12–17).
-    Axis,
-    /// Bias and a symmetric soft-iron matrix.
-    Full,
-    /// Bias and paper 001's upper-triangular non-orthogonality and gains.
-    Triangular,
-}
-
-impl From<Model> for ModelKind {
-    fn from(m: Model) -> Self {
-        match m {
-            Model::Sphere => ModelKind::Sphere,
-            Model::Axis => ModelKind::Axis,
-            Model::Full => ModelKind::Full,
-            Model::Triangular => ModelKind::Triangular,
-        }
-    }
+/// `--model`: calib-core's `ModelKind` by its document name.
+fn model_parser() -> impl clap::builder::TypedValueParser<Value = ModelKind> {
+    use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
+    PossibleValuesParser::new([
+        PossibleValue::new("sphere").help("Bias and one scale"),
+        PossibleValue::new("axis").help("Bias and three axis scales (paper 000, eqs 12–17)"),
+        PossibleValue::new("full").help("Bias and a symmetric soft-iron matrix"),
+        PossibleValue::new("triangular").help("Bias and paper 001's upper-triangular non-orthogonality and gains"),
+    ])
+    .try_map(|name| model_kind(&name).ok_or_else(|| format!("unknown model `{name}`")))
 }
 
 /// Arguments of `magcal fit`.
@@ -41,8 +29,8 @@ pub struct Args {
     #[arg(long)]
     input: PathBuf,
     /// Calibration model.
-    #[arg(long, value_enum)]
-    model: Model,
+    #[arg(long, value_parser = model_parser())]
+    model: ModelKind,
     /// Reference field intensity, nT.
     #[arg(long)]
     field_nt: Option<f64>,
@@ -66,7 +54,7 @@ pub struct Args {
 pub fn run(a: Args) -> Result<()> {
     let reference = reference_field(a.field_nt, &a.site)?;
     let rec = Recording::read(&a.input)?;
-    let model = ModelKind::from(a.model);
+    let model = a.model;
     let opts = FitOptions { model, field_nt: reference.total_nt(), saturation: a.saturation, allow_weak: a.allow_weak };
     let mut doc = compute::fit_recording(&rec, &opts).with_context(|| format!("{}: {} fit", a.input.display(), model.name()))?;
     if a.site.lat.is_some() {
