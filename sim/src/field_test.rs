@@ -53,12 +53,12 @@ pub enum SimError {
 /// The magnetometer in its hull.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct SensorModel {
-    /// Raw counts per nT, including soft iron, misalignment, non-orthogonality.
-    pub d: Mat3<f64>,
-    /// Hard iron, counts.
-    pub bias: [f64; 3],
-    /// Extra bias while thrusters and electronics run, counts.
-    pub running_bias: [f64; 3],
+    /// Raw units per nT, including soft iron, misalignment, non-orthogonality.
+    pub gain_raw_per_nt: Mat3<f64>,
+    /// Hard iron, raw units.
+    pub bias_raw: [f64; 3],
+    /// Extra bias while thrusters and electronics run, raw units.
+    pub running_bias_raw: [f64; 3],
     /// White noise per axis, nT (1σ).
     pub noise_nt: f64,
     /// AHRS roll/pitch noise, degrees (1σ).
@@ -93,9 +93,9 @@ impl SensorModel {
         let soft_iron = [[1.04, 0.02, 0.012], [0.02, 0.95, -0.01], [0.012, -0.01, 1.02]];
         let nonorth = gamma(&OrthoAngles { theta_rad: 0.01, phi_rad: 0.015, psi_rad: -0.008, k_xz: 0.99, k_yz: 1.01 });
         Self {
-            d: mul_mat(&nonorth, &soft_iron),
-            bias: [1500.0, -2300.0, 800.0],
-            running_bias: [220.0, -160.0, 120.0],
+            gain_raw_per_nt: mul_mat(&nonorth, &soft_iron),
+            bias_raw: [1500.0, -2300.0, 800.0],
+            running_bias_raw: [220.0, -160.0, 120.0],
             noise_nt: 3.0,
             ahrs_noise_deg: 0.15,
             ahrs_bias_deg: [0.05, -0.05],
@@ -106,9 +106,9 @@ impl SensorModel {
         let scale = [[0.19556, 0.0, 0.0], [0.0, 0.09001, 0.0], [0.0, 0.0, 0.16142]];
         let nonorth = gamma(&OrthoAngles { theta_rad: 0.01, phi_rad: 0.015, psi_rad: -0.008, k_xz: 1.0, k_yz: 1.0 });
         Self {
-            d: mul_mat(&mul_mat(&scale, &nonorth), &soft_iron),
-            bias: [-1865.0, 1385.0, -903.0],
-            running_bias,
+            gain_raw_per_nt: mul_mat(&mul_mat(&scale, &nonorth), &soft_iron),
+            bias_raw: [-1865.0, 1385.0, -903.0],
+            running_bias_raw: running_bias,
             noise_nt: 3.0,
             ahrs_noise_deg: 0.15,
             ahrs_bias_deg: [0.05, -0.05],
@@ -117,11 +117,11 @@ impl SensorModel {
 
     /// Raw counts for a body-frame field, with noise, quantised.
     fn measure(&self, h_body: [f64; 3], running: bool, rng: &mut SplitMix64) -> [f64; 3] {
-        let r = mul_mat_vec(&self.d, h_body);
+        let r = mul_mat_vec(&self.gain_raw_per_nt, h_body);
         let mut out = [0.0; 3];
         for k in 0..3 {
-            let gain = self.d[k][k].abs();
-            let b = self.bias[k] + if running { self.running_bias[k] } else { 0.0 };
+            let gain = self.gain_raw_per_nt[k][k].abs();
+            let b = self.bias_raw[k] + if running { self.running_bias_raw[k] } else { 0.0 };
             out[k] = (r[k] + b + self.noise_nt * gain * rng.gauss()).round();
         }
         out
@@ -206,8 +206,9 @@ pub struct Truth {
     pub field_nt: f64,
     /// Declination, degrees.
     pub declination_deg: f64,
-    /// The calibration that undoes the sensor (`D⁻¹`, `b`), for reference.
-    pub ideal_matrix: Mat3<f64>,
+    /// The calibration matrix that undoes the sensor (`D⁻¹`, nT per raw
+    /// unit; its bias is the sensor's `bias_raw`), for reference.
+    pub ideal_matrix_nt_per_raw: Mat3<f64>,
 }
 
 /// A simulated recording with its truth. The true heading and attitude of
@@ -230,7 +231,7 @@ pub struct Simulation {
 
 fn truth_for(scenario: &str, seed: u64, sensor: &SensorModel, site: &Site, run: Option<RunParams>) -> Result<Truth, SimError> {
     let f = geomag::igrf14(site.lat_deg, site.lon_deg, 0.0, site.decimal_year)?;
-    let ideal = calib_core::linalg::inverse3(&sensor.d).ok_or_else(|| SimError::Parameter("sensor matrix is singular".into()))?;
+    let ideal = calib_core::linalg::inverse3(&sensor.gain_raw_per_nt).ok_or_else(|| SimError::Parameter("sensor matrix is singular".into()))?;
     Ok(Truth {
         scenario: scenario.into(),
         seed,
@@ -242,7 +243,7 @@ fn truth_for(scenario: &str, seed: u64, sensor: &SensorModel, site: &Site, run: 
         field_z_nt: f.down_nt,
         field_nt: f.total_nt(),
         declination_deg: f.declination_deg(),
-        ideal_matrix: ideal,
+        ideal_matrix_nt_per_raw: ideal,
     })
 }
 
