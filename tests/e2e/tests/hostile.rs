@@ -34,6 +34,26 @@ fn reply_to(link: &mut BoardClient<Box<dyn serialport::SerialPort>>, seq: u16) -
     None
 }
 
+/// Damaged frames in `bytes`, counted the way the protocol defines them
+/// (each non-empty `0x00`-delimited chunk that fails COBS, the length bound,
+/// the version or the CRC), for the assertion on the board's counter.
+fn damaged_frames(bytes: &[u8]) -> u32 {
+    let mut decoder = proto::FrameDecoder::new();
+    let mut bad = 0;
+    for &b in bytes {
+        match decoder.push(b) {
+            Some(Ok(body)) => {
+                if proto::decode_body::<Request>(body).is_err() {
+                    bad += 1;
+                }
+            }
+            Some(Err(_)) => bad += 1,
+            None => {}
+        }
+    }
+    bad
+}
+
 #[test]
 fn garbage_truncation_bit_flips_and_floods_leave_the_board_responsive() {
     let board = boot("hostile-noise");
@@ -41,28 +61,51 @@ fn garbage_truncation_bit_flips_and_floods_leave_the_board_responsive() {
     link.identify().expect("identify");
     let mut rng = SplitMix64::new(5);
 
-    // 20 kB of random bytes.
-    let garbage: Vec<u8> = (0..20_000).map(|_| (rng.next_u64() & 0xFF) as u8).collect();
-    link.send_raw(&garbage).unwrap();
-    // Truncated frames, then a bit-flipped Commit.
+    // Unlock and stage a valid set first, so that a commit is possible and
+    // only the damage can stop the bit-flipped one below.
+    let staged = coefficients(1200.0);
+    let challenge = link.status().unwrap().unlock_challenge;
+    assert_eq!(link.request(RequestBody::Unlock { key: challenge ^ UNLOCK_XOR }).unwrap(), ResponseBody::Ack);
+    assert_eq!(link.request(RequestBody::WriteCoefficients(staged)).unwrap(), ResponseBody::Ack);
+    let before = link.status().unwrap();
+
+    // 20 kB of random bytes, closed by a delimiter so that the last chunk is
+    // judged before the next frame.
+    let mut abuse: Vec<u8> = (0..20_000).map(|_| (rng.next_u64() & 0xFF) as u8).collect();
+    abuse.push(0);
+    // Truncated frames (each ended by a delimiter, as a line break would).
     let good = frame(900, RequestBody::Ping { nonce: 1 });
-    for cut in [2, 5, good.len() - 2] {
-        link.send_raw(&good[..cut]).unwrap();
+    for cut in [3, 6, good.len() - 2] {
+        abuse.extend_from_slice(&good[..cut]);
+        abuse.push(0);
     }
-    let mut flipped = frame(901, RequestBody::Commit { crc: 0x1234_5678 });
+    // A bit-flipped commit of exactly the staged set's CRC: only the frame
+    // check stands between it and the flash.
+    let mut flipped = frame(901, RequestBody::Commit { crc: staged.crc() });
     flipped[4] ^= 0x20;
-    link.send_raw(&flipped).unwrap();
+    abuse.extend_from_slice(&flipped);
+    let expected_bad = damaged_frames(&abuse);
+    link.send_raw(&abuse).unwrap();
     // A flood: 1000 pings without reading a reply.
     let flood: Vec<u8> = (0..1000u16).flat_map(|k| frame(1000 + k, RequestBody::Ping { nonce: u32::from(k) })).collect();
     link.send_raw(&flood).unwrap();
 
-    // Still answers, and says what it saw.
+    // Still answers, and counted exactly the damaged frames it was sent
+    // (measured: 84, as computed, on 2026-11-22).
     link.timeout = Duration::from_secs(3);
     assert_eq!(link.ping(0xABCD).expect("ping after the abuse"), 0xABCD);
     let h = link.status().unwrap();
-    assert!(h.bad_frames > 10, "{h:?}");
-    assert_eq!(h.coefficient_source, CoefficientSource::Default, "nothing was committed");
-    eprintln!("after the abuse: {} bad frames, {} requests, {} rx bytes dropped, {} tx frames dropped", h.bad_frames, h.requests, h.rx_dropped, h.tx_dropped);
+    eprintln!("after the abuse: {} bad frames (expected {expected_bad}), {} requests, {} rx bytes dropped, {} tx frames dropped", h.bad_frames, h.requests, h.rx_dropped, h.tx_dropped);
+    assert_eq!(h.rx_dropped, 0, "the board kept up with 115 200 baud: {h:?}");
+    assert_eq!(h.bad_frames - before.bad_frames, expected_bad, "{h:?}");
+    assert!(expected_bad > 70, "the abuse has damaged frames to count ({expected_bad})");
+    assert_eq!(h.coefficient_source, CoefficientSource::Default, "the bit-flipped commit was not taken");
+
+    // Positive control: the same commit, undamaged, does commit the staged set.
+    let commit = link.request(RequestBody::Commit { crc: staged.crc() }).unwrap();
+    assert!(matches!(commit, ResponseBody::Committed { .. }), "{commit:?}");
+    let (back, source, _) = link.read_coefficients().unwrap();
+    assert_eq!((back, source), (staged, CoefficientSource::Stored));
 }
 
 #[test]

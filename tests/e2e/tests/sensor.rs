@@ -124,15 +124,22 @@ fn the_onboard_fit_runs_on_the_mcu_and_reports_convergence() {
         report = link.fit_query().unwrap();
     }
     assert!(report.running && report.samples >= 800, "{report:?}");
-    assert!(report.coverage_pct > 50, "{report:?}");
-    assert!(report.residual_rms_nt < 500.0, "{report:?}");
+    assert!(report.coverage_pct >= 60, "{report:?}");
     let est = report.estimate.expect("estimate");
     let want = coefficients();
-    for k in 0..3 {
-        // Bias in counts (≈ 36 per nT). The fit's precision is checked on exact
-        // samples by the on-target test; here the samples are windows of a
-        // moving feed, so within 200 nT.
-        assert!((est.bias[k] - want.bias[k]).abs() / COUNTS_PER_NT < 200.0, "{:?} vs {:?}", est.bias, want.bias);
+    let bias_err_nt: Vec<f32> = (0..3).map(|k| (est.bias[k] - want.bias[k]).abs() / COUNTS_PER_NT).collect();
+    eprintln!("on-board fit bias error {bias_err_nt:?} nT, residual {} nT RMS, coverage {} %", report.residual_rms_nt, report.coverage_pct);
+    // Measured: 0.21–0.22 nT RMS when the board's output windows fall inside
+    // the feed's steps, 44 nT when they straddle them (timing decides; both
+    // seen on 2026-11-22); 66–68 % coverage. Was < 500 nT, > 50 %.
+    assert!(report.residual_rms_nt < 150.0, "{report:?}");
+    for e in &bias_err_nt {
+        // The fit's precision is checked on exact samples by the on-target
+        // test; here the samples are windows of a moving feed.
+        // Measured on 2026-11-22 over 13 runs: bimodal, like the residual —
+        // worst 0.12 nT when the windows fall inside the steps, 56.6 nT (x;
+        // 19.8 y, 17.6 z) when they straddle them. Was 200 nT.
+        assert!(*e < 150.0, "{:?} vs {:?}", est.bias, want.bias);
     }
     let stopped = link.fit_stop().unwrap();
     assert!(!stopped.running);
