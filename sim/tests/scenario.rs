@@ -11,11 +11,13 @@ fn paper_like_scenario_meets_the_acceptance_numbers() {
         let o = evaluate("paper-like", SensorModel::paper_like(), seed).unwrap();
         assert!(o.step_axis_fit_nt.abs() >= 300.0, "the sphere fit must leave a paper-like step");
         assert!(o.step_paper_nt.abs() <= 20.0);
-        assert!(o.step_ours_nt.abs() <= 5.0);
-        assert!(o.heading_rms_ours_deg <= 0.5);
+        // Measured 2026-11-22 (seeds 1–3): step 0.0–0.4 nT, heading 0.22°,
+        // field 3.6–5.1 nT, delay 2.12–2.13 s (were ≤ 5 nT, 0.5°, 50 nT, ±0.3 s).
+        assert!(o.step_ours_nt.abs() <= 1.5);
+        assert!(o.heading_rms_ours_deg <= 0.35);
         assert!(o.heading_rms_ours_deg < o.heading_rms_paper_deg);
-        assert!(o.field_error_ours_nt <= 50.0);
-        assert!((o.gps_delay_ours_s - 2.0).abs() < 0.3);
+        assert!(o.field_error_ours_nt <= 20.0);
+        assert!((o.gps_delay_ours_s - 2.0).abs() < 0.2);
     }
 }
 
@@ -27,8 +29,10 @@ fn hull_coupled_scenario_defeats_the_papers_sz_search_but_not_ours() {
         let o = evaluate("hull-coupled", SensorModel::hull_coupled(), seed).unwrap();
         assert!(o.step_axis_fit_nt.abs() >= 300.0);
         assert!(o.step_paper_nt.abs() > 100.0, "the paper's correction cannot remove this step");
-        assert!(o.step_ours_nt.abs() <= 5.0);
-        assert!(o.heading_rms_ours_deg <= 0.5);
-        assert!(o.field_error_ours_nt <= 50.0);
+        // Measured 2026-11-22 (seeds 4–5): step 0.2–0.4 nT, heading 0.22°,
+        // field 4.1–7.6 nT (were ≤ 5 nT, 0.5°, 50 nT).
+        assert!(o.step_ours_nt.abs() <= 1.5);
+        assert!(o.heading_rms_ours_deg <= 0.35);
+        assert!(o.field_error_ours_nt <= 25.0);
     }
 }

@@ -54,7 +54,9 @@ fn j_falls_as_n_grows_under_strong_noise() {
     for solver in [identify_pairwise::<f64> as fn(&[Vec3<f64>], Vec3<f64>) -> _, identify_linear::<f64>] {
         let (j60, j720) = (mean_j(60, solver), mean_j(720, solver));
         assert!(j720 < 0.6 * j60, "J(60) = {j60}, J(720) = {j720}");
-        assert!(j720 < 0.2, "J(720) = {j720}");
+        eprintln!("J(60) = {j60:.4}, J(720) = {j720:.4}");
+        // Measured 2026-11-22: J(720) ≈ 0.020 for both solvers (was < 0.2).
+        assert!(j720 < 0.06, "J(720) = {j720}");
     }
 }
 
