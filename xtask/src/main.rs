@@ -249,7 +249,8 @@ fn cmd_test() -> Result<()> {
             if let Err(e) = &reproduced {
                 eprintln!("the saved session does not reproduce offline: {e:#}");
             }
-            let ok = verified && after <= 0.5 && after < before / 5.0 && field <= 50.0 && reproduced.is_ok();
+            // Measured 2026-11-22 (short plan): 8.97° → 0.24°, 11.0 nT (were ≤ 0.5°, ≤ 50 nT).
+            let ok = verified && after <= 0.35 && after < before / 5.0 && field <= 30.0 && reproduced.is_ok();
             if !ok {
                 eprintln!("demo session out of bounds: heading {before:.2}° → {after:.2}°, field {field:.1} nT, verified {verified}");
             }
@@ -260,7 +261,7 @@ fn cmd_test() -> Result<()> {
             false
         }
     };
-    suites.push(Suite { name: "demo session: heading ≤ 0.5° and field ≤ 50 nT after, verified upload", passed: u64::from(demo_ok), failed: u64::from(!demo_ok), ok: demo_ok });
+    suites.push(Suite { name: "demo session: heading ≤ 0.35° and field ≤ 30 nT after, verified upload", passed: u64::from(demo_ok), failed: u64::from(!demo_ok), ok: demo_ok });
 
     eprintln!();
     eprintln!("== summary");
