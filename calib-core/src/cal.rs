@@ -9,9 +9,12 @@ use crate::heading::{heading_of_levelled, wrap_two_pi, Tilt, Vec3};
 use crate::linalg::{det3, identity3, mul_mat_vec, Mat3};
 use crate::Real;
 
-/// Which model produced a field calibration.
+/// Which model produced a field calibration. One type for the whole stack:
+/// the fits, the wire (on-board fit) and the calibration document.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
 pub enum ModelKind {
     /// Bias and one scale (sphere).
     Sphere,

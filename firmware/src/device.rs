@@ -16,7 +16,7 @@ use calib_core::heading::Tilt;
 use calib_core::fit::{AxisRls, FitError, FullRls, Normalization, SphereRls};
 use calib_core::quality::CoverageMask;
 use magcal_protocol::{
-    CoefficientSource, Coefficients, FitModel, FitReport, Health, LinkError, RequestBody, ResponseBody, Sample, StreamMode,
+    CoefficientSource, Coefficients, ModelKind, FitReport, Health, DeviceError, RequestBody, ResponseBody, Sample, StreamMode,
     ATTITUDE_TIMEOUT_MS, UNLOCK_TIMEOUT_MS, UNLOCK_XOR,
 };
 
@@ -39,16 +39,16 @@ pub fn default_coefficients() -> Coefficients {
 }
 
 /// Checks a set against physical bounds and converts it.
-pub fn validate(c: &Coefficients) -> Result<Calibration<f32>, LinkError> {
+pub fn validate(c: &Coefficients) -> Result<Calibration<f32>, DeviceError> {
     let field = FieldCal { bias: c.bias, matrix: c.matrix };
-    field.validate(FULL_SCALE_COUNTS as f32).map_err(|_| LinkError::InvalidCoefficients)?;
+    field.validate(FULL_SCALE_COUNTS as f32).map_err(|_| DeviceError::InvalidCoefficients)?;
     let swing_ok = c.swing.iter().all(|v| v.is_finite() && v.abs() < 1.0);
     let decl_ok = c.declination_rad.is_finite() && c.declination_rad.abs() <= core::f32::consts::PI;
     let field_ok = c.field_nt >= FIELD_RANGE_NT.0 && c.field_nt <= FIELD_RANGE_NT.1;
     // A gain far from the chain's means the set was made for another sensor.
     let gain = (c.matrix[0][0].abs() + c.matrix[1][1].abs() + c.matrix[2][2].abs()) / 3.0 * COUNTS_PER_NT;
     if !(swing_ok && decl_ok && field_ok && gain > 0.2 && gain < 5.0) {
-        return Err(LinkError::InvalidCoefficients);
+        return Err(DeviceError::InvalidCoefficients);
     }
     Ok(Calibration { field, swing: Swing::from_array(c.swing), declination_rad: c.declination_rad })
 }
@@ -82,7 +82,7 @@ enum Rls {
 }
 
 struct OnboardFit {
-    model: FitModel,
+    model: ModelKind,
     field_nt: f32,
     rls: Rls,
     coverage: CoverageMask,
@@ -97,14 +97,17 @@ struct OnboardFit {
 const RECENT: usize = 32;
 
 impl OnboardFit {
-    fn new(model: FitModel, field_nt: f32, centre: [f32; 3]) -> Self {
+    /// `None` for a model the board does not fit (triangular: fit `full`,
+    /// the same calibration, and factor it on the host).
+    fn new(model: ModelKind, field_nt: f32, centre: [f32; 3]) -> Option<Self> {
         let norm = Normalization { centre, scale: field_nt * COUNTS_PER_NT };
         let rls = match model {
-            FitModel::Sphere => Rls::Sphere(SphereRls::new(norm)),
-            FitModel::Axis => Rls::Axis(AxisRls::new(norm)),
-            FitModel::Full => Rls::Full(FullRls::new(norm)),
+            ModelKind::Sphere => Rls::Sphere(SphereRls::new(norm)),
+            ModelKind::Axis => Rls::Axis(AxisRls::new(norm)),
+            ModelKind::Full => Rls::Full(FullRls::new(norm)),
+            ModelKind::Triangular => return None,
         };
-        Self { model, field_nt, rls, coverage: CoverageMask::new(), running: true, recent: heapless::Deque::new(), rejected: 0 }
+        Some(Self { model, field_nt, rls, coverage: CoverageMask::new(), running: true, recent: heapless::Deque::new(), rejected: 0 })
     }
 
     /// Absorbs a sample; refuses (`false`) one whose distance from the
@@ -190,7 +193,7 @@ pub struct Device {
     output_rate_hz: u8,
     attitude: Option<(Tilt<f32>, u32)>,
     fit: Option<OnboardFit>,
-    last_error: Option<LinkError>,
+    last_error: Option<DeviceError>,
     counters: DeviceCounters,
 }
 
@@ -211,7 +214,7 @@ impl Device {
             None => {
                 let c = default_coefficients();
                 let cal = validate(&c).unwrap_or_else(|_| Calibration::identity());
-                (c, CoefficientSource::Default, 0, cal, Some(LinkError::Storage))
+                (c, CoefficientSource::Default, 0, cal, Some(DeviceError::Storage))
             }
         };
         Self {
@@ -251,7 +254,7 @@ impl Device {
         self.unlocked_until_ms.is_some_and(|t| now_ms.wrapping_sub(t) as i32 <= 0) && !self.mission
     }
 
-    fn refuse(&mut self, e: LinkError) -> ResponseBody {
+    fn refuse(&mut self, e: DeviceError) -> ResponseBody {
         self.last_error = Some(e);
         ResponseBody::Error(e)
     }
@@ -288,7 +291,7 @@ impl Device {
         match *req {
             // Answered by the link layer; here for completeness.
             RequestBody::Ping { nonce } => ResponseBody::Pong { nonce },
-            RequestBody::Identify => ResponseBody::Error(LinkError::Unsupported),
+            RequestBody::Identify => ResponseBody::Error(DeviceError::Unsupported),
             RequestBody::Status => {
                 let mut h = Health {
                     uptime_ms: now_ms,
@@ -320,7 +323,7 @@ impl Device {
             }
             RequestBody::SetOutputRate { hz } => {
                 if !(1..=100).contains(&hz) {
-                    return self.refuse(LinkError::BadArgument);
+                    return self.refuse(DeviceError::BadArgument);
                 }
                 self.output_rate_hz = hz;
                 ResponseBody::Ack
@@ -328,7 +331,7 @@ impl Device {
             RequestBody::Attitude { roll_rad, pitch_rad } => {
                 let ok = roll_rad.is_finite() && pitch_rad.is_finite() && roll_rad.abs() <= core::f32::consts::PI && pitch_rad.abs() <= core::f32::consts::FRAC_PI_2;
                 if !ok {
-                    return self.refuse(LinkError::BadArgument);
+                    return self.refuse(DeviceError::BadArgument);
                 }
                 // The trigonometry once per attitude, not once per sample.
                 self.attitude = Some((Tilt::new(roll_rad, pitch_rad), now_ms));
@@ -336,9 +339,12 @@ impl Device {
             }
             RequestBody::FitStart { model, field_nt } => {
                 if !(field_nt >= FIELD_RANGE_NT.0 && field_nt <= FIELD_RANGE_NT.1) {
-                    return self.refuse(LinkError::BadArgument);
+                    return self.refuse(DeviceError::BadArgument);
                 }
-                self.fit = Some(OnboardFit::new(model, field_nt, self.calibration.field.bias));
+                let Some(fit) = OnboardFit::new(model, field_nt, self.calibration.field.bias) else {
+                    return self.refuse(DeviceError::Unsupported);
+                };
+                self.fit = Some(fit);
                 ResponseBody::Fit(self.fit_report())
             }
             RequestBody::FitStop => {
@@ -351,10 +357,10 @@ impl Device {
             RequestBody::ReadCoefficients => ResponseBody::Coefficients { coefficients: self.coefficients, source: self.source, seq: self.seq },
             RequestBody::Unlock { key } => {
                 if self.mission {
-                    return self.refuse(LinkError::MissionMode);
+                    return self.refuse(DeviceError::MissionMode);
                 }
                 if key != self.challenge ^ UNLOCK_XOR {
-                    return self.refuse(LinkError::BadKey);
+                    return self.refuse(DeviceError::BadKey);
                 }
                 self.unlocked_until_ms = Some(now_ms.wrapping_add(UNLOCK_TIMEOUT_MS));
                 // One key, one unlock: a replayed Unlock frame is refused.
@@ -363,36 +369,36 @@ impl Device {
             }
             RequestBody::WriteCoefficients(c) => {
                 if self.mission {
-                    return self.refuse(LinkError::MissionMode);
+                    return self.refuse(DeviceError::MissionMode);
                 }
                 if !self.unlocked(now_ms) {
-                    return self.refuse(LinkError::Locked);
+                    return self.refuse(DeviceError::Locked);
                 }
                 if validate(&c).is_err() {
-                    return self.refuse(LinkError::InvalidCoefficients);
+                    return self.refuse(DeviceError::InvalidCoefficients);
                 }
                 self.staged = Some(c);
                 ResponseBody::Ack
             }
             RequestBody::Commit { crc } => {
                 if self.mission {
-                    return self.refuse(LinkError::MissionMode);
+                    return self.refuse(DeviceError::MissionMode);
                 }
                 if !self.unlocked(now_ms) {
-                    return self.refuse(LinkError::Locked);
+                    return self.refuse(DeviceError::Locked);
                 }
                 let Some(staged) = self.staged else {
-                    return self.refuse(LinkError::NothingStaged);
+                    return self.refuse(DeviceError::NothingStaged);
                 };
                 if staged.crc() != crc {
-                    return self.refuse(LinkError::CommitMismatch);
+                    return self.refuse(DeviceError::CommitMismatch);
                 }
                 let Ok(cal) = validate(&staged) else {
-                    return self.refuse(LinkError::InvalidCoefficients);
+                    return self.refuse(DeviceError::InvalidCoefficients);
                 };
                 let mut buf = [0u8; 128];
                 let Some(n) = encode_coefficients(&staged, &mut buf) else {
-                    return self.refuse(LinkError::Storage);
+                    return self.refuse(DeviceError::Storage);
                 };
                 match store.save(buf.get(..n).unwrap_or(&[])) {
                     Ok(seq) => {
@@ -405,7 +411,7 @@ impl Device {
                         self.last_error = None;
                         ResponseBody::Committed { seq }
                     }
-                    Err(()) => self.refuse(LinkError::Storage),
+                    Err(()) => self.refuse(DeviceError::Storage),
                 }
             }
             RequestBody::SetMissionMode { enabled } => {

@@ -5,7 +5,7 @@
 //! with a typed error and counted; nothing here can panic on what arrives.
 
 use magcal_protocol::{
-    self as proto, FrameDecoder, Identity, LinkError, Name, Platform, Request, RequestBody,
+    self as proto, FrameDecoder, Identity, DeviceError, Name, Platform, Request, RequestBody,
     Response, ResponseBody, MAX_FRAME_LEN,
 };
 
@@ -77,7 +77,7 @@ impl LinkServer {
             }
             Err(e) => {
                 self.counters.bad_frames = self.counters.bad_frames.wrapping_add(1);
-                self.reply(None, ResponseBody::Error(LinkError::Frame(e))).map(LinkEvent::Reply)
+                self.reply(None, ResponseBody::Error(DeviceError::Frame(e))).map(LinkEvent::Reply)
             }
         }
     }
@@ -185,7 +185,7 @@ mod tests {
         assert_eq!(replies[0].seq, None);
         assert!(matches!(
             replies[0].body,
-            ResponseBody::Error(LinkError::Frame(FrameError::Crc | FrameError::Cobs))
+            ResponseBody::Error(DeviceError::Frame(FrameError::Crc | FrameError::Cobs))
         ));
         assert_eq!(replies[1], Response { seq: Some(2), body: ResponseBody::Pong { nonce: 6 } });
         assert_eq!(s.counters(), LinkCounters { requests: 1, bad_frames: 1, encode_failures: 0 });
@@ -198,6 +198,6 @@ mod tests {
         junk.push(0);
         let replies = feed(&mut s, &junk);
         assert_eq!(replies.len(), 1);
-        assert_eq!(replies[0].body, ResponseBody::Error(LinkError::Frame(FrameError::TooLong)));
+        assert_eq!(replies[0].body, ResponseBody::Error(DeviceError::Frame(FrameError::TooLong)));
     }
 }

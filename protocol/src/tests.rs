@@ -1,6 +1,8 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
 
 use super::*;
+use crate::frame::CRC32;
+use serde::Serialize;
 use proptest::prelude::*;
 
 fn frame_of<T: Serialize>(m: &T) -> ([u8; MAX_FRAME_LEN], usize) {
@@ -71,7 +73,7 @@ fn messages_round_trip() {
     let q = Request { seq: 65535, body: RequestBody::Identify };
     let (f, n) = frame_of(&q);
     assert_eq!(decode::<Request>(&f[..n]).unwrap(), q);
-    let e = Response { seq: None, body: ResponseBody::Error(LinkError::Frame(FrameError::Crc)) };
+    let e = Response { seq: None, body: ResponseBody::Error(DeviceError::Frame(FrameError::Crc)) };
     let (f, n) = frame_of(&e);
     assert_eq!(decode::<Response>(&f[..n]).unwrap(), e);
 }
@@ -181,7 +183,7 @@ fn the_largest_messages_fit_in_a_frame() {
         Response { seq: Some(u16::MAX), body: ResponseBody::Coefficients { coefficients: c, source: CoefficientSource::Stored, seq: u32::MAX } },
         Response {
             seq: Some(u16::MAX),
-            body: ResponseBody::Fit(FitReport { running: true, model: Some(FitModel::Full), samples: u32::MAX, coverage_pct: 100, residual_rms_nt: 1.0, estimate: Some(c) }),
+            body: ResponseBody::Fit(FitReport { running: true, model: Some(ModelKind::Full), samples: u32::MAX, coverage_pct: 100, residual_rms_nt: 1.0, estimate: Some(c) }),
         },
         Response {
             seq: Some(u16::MAX),
@@ -189,7 +191,7 @@ fn the_largest_messages_fit_in_a_frame() {
                 uptime_ms: u32::MAX, pairs: u32::MAX, samples: u32::MAX, saturated: u32::MAX, acq_errors: u32::MAX, overruns: u32::MAX,
                 rx_dropped: u32::MAX, tx_dropped: u32::MAX, bad_frames: u32::MAX, requests: u32::MAX, mission_mode: true, unlocked: true,
                 unlock_challenge: u32::MAX, coefficient_source: CoefficientSource::Default, coefficient_seq: u32::MAX,
-                last_error: Some(LinkError::Frame(FrameError::UnsupportedVersion { got: 255 })), output_rate_hz: 100, stream: StreamMode::Both, feed_updates: u32::MAX,
+                last_error: Some(DeviceError::Frame(FrameError::UnsupportedVersion { got: 255 })), output_rate_hz: 100, stream: StreamMode::Both, feed_updates: u32::MAX,
             }),
         },
         Response { seq: None, body: ResponseBody::Sample(Sample { t_ms: u32::MAX, raw: Some([1.0; 3]), field_nt: Some([2.0; 3]), heading_rad: Some(3.0), saturated: true, feed_seq: Some(u32::MAX) }) },
@@ -205,4 +207,36 @@ fn the_largest_messages_fit_in_a_frame() {
     // The commit CRC is the CRC-32 of the postcard bytes, so both sides agree.
     let mut buf = [0u8; 128];
     assert_eq!(c.crc(), CRC32.checksum(postcard::to_slice(&c, &mut buf).unwrap()));
+}
+
+/// The wire format is pinned: these frames were encoded by the protocol as
+/// it was before the ICD/framing split and the move to calib-core's
+/// `ModelKind` (commit f08d520), so firmware and host of either side of that
+/// change still understand each other.
+#[test]
+fn frames_are_byte_identical_to_the_previous_release() {
+    let mut buf = [0u8; MAX_FRAME_LEN];
+    let c = Coefficients {
+        bias: [1.0, -2.0, 3.5],
+        matrix: [[0.03, 0.0, 0.001], [0.0, 0.028, 0.0], [0.001, 0.0, 0.029]],
+        swing: [0.01, 0.0, -0.002, 0.0, 0.0],
+        declination_rad: 0.05,
+        field_nt: 48730.0,
+    };
+    let golden: [&[u8]; 3] = [
+        &[5, 2, 7, 6, 2, 8, 90, 62, 71, 207, 50, 111, 134, 0],
+        &[
+            4, 2, 7, 11, 1, 3, 128, 63, 1, 1, 2, 192, 1, 7, 96, 64, 143, 194, 245, 60, 1, 1, 1, 5, 111, 18, 131, 58, 1, 1, 1, 5, 66, 96, 229, 60, 1, 1, 1, 5, 111, 18,
+            131, 58, 1, 1, 1, 9, 104, 145, 237, 60, 10, 215, 35, 60, 1, 1, 1, 5, 111, 18, 3, 187, 1, 1, 1, 1, 1, 1, 1, 5, 205, 204, 76, 61, 8, 90, 62, 71, 115, 127,
+            216, 72, 0,
+        ],
+        &[13, 2, 7, 12, 177, 238, 232, 135, 1, 76, 142, 81, 42, 0],
+    ];
+    let bodies = [RequestBody::FitStart { model: ModelKind::Full, field_nt: 48730.0 }, RequestBody::WriteCoefficients(c), RequestBody::Commit { crc: c.crc() }];
+    for (body, want) in bodies.into_iter().zip(golden) {
+        let n = encode(&Request { seq: 7, body }, &mut buf).unwrap();
+        assert_eq!(&buf[..n], want);
+    }
+    let n = encode(&Response { seq: Some(9), body: ResponseBody::Error(DeviceError::CommitMismatch) }, &mut buf).unwrap();
+    assert_eq!(&buf[..n], &[10, 2, 1, 9, 2, 8, 39, 18, 98, 55, 0]);
 }

@@ -48,7 +48,7 @@ fn boot_without_a_stored_set_uses_defaults_and_says_so() {
     match req(&mut d, RequestBody::Status, 5, &mut s) {
         ResponseBody::Status(h) => {
             assert_eq!(h.coefficient_source, CoefficientSource::Default);
-            assert_eq!(h.last_error, Some(LinkError::Storage));
+            assert_eq!(h.last_error, Some(DeviceError::Storage));
             assert_eq!(h.unlock_challenge, CHALLENGE);
             assert!(!h.unlocked);
         }
@@ -68,28 +68,28 @@ fn the_write_path_needs_unlock_validation_and_a_matching_commit() {
     let mut d = device();
     let mut s = store();
     let c = good();
-    assert_eq!(req(&mut d, RequestBody::WriteCoefficients(c), 10, &mut s), ResponseBody::Error(LinkError::Locked));
-    assert_eq!(req(&mut d, RequestBody::Unlock { key: CHALLENGE }, 10, &mut s), ResponseBody::Error(LinkError::BadKey));
+    assert_eq!(req(&mut d, RequestBody::WriteCoefficients(c), 10, &mut s), ResponseBody::Error(DeviceError::Locked));
+    assert_eq!(req(&mut d, RequestBody::Unlock { key: CHALLENGE }, 10, &mut s), ResponseBody::Error(DeviceError::BadKey));
     assert_eq!(req(&mut d, RequestBody::Unlock { key: CHALLENGE ^ UNLOCK_XOR }, 10, &mut s), ResponseBody::Ack);
     let mut mirrored = c;
     mirrored.matrix[0][0] = -mirrored.matrix[0][0];
-    assert_eq!(req(&mut d, RequestBody::WriteCoefficients(mirrored), 11, &mut s), ResponseBody::Error(LinkError::InvalidCoefficients));
+    assert_eq!(req(&mut d, RequestBody::WriteCoefficients(mirrored), 11, &mut s), ResponseBody::Error(DeviceError::InvalidCoefficients));
     let mut wrong_field = c;
     wrong_field.field_nt = 5.0;
-    assert_eq!(req(&mut d, RequestBody::WriteCoefficients(wrong_field), 11, &mut s), ResponseBody::Error(LinkError::InvalidCoefficients));
-    assert_eq!(req(&mut d, RequestBody::Commit { crc: c.crc() }, 12, &mut s), ResponseBody::Error(LinkError::NothingStaged));
+    assert_eq!(req(&mut d, RequestBody::WriteCoefficients(wrong_field), 11, &mut s), ResponseBody::Error(DeviceError::InvalidCoefficients));
+    assert_eq!(req(&mut d, RequestBody::Commit { crc: c.crc() }, 12, &mut s), ResponseBody::Error(DeviceError::NothingStaged));
     assert_eq!(req(&mut d, RequestBody::WriteCoefficients(c), 12, &mut s), ResponseBody::Ack);
     // Staged is not in use yet.
     assert!(matches!(req(&mut d, RequestBody::ReadCoefficients, 12, &mut s), ResponseBody::Coefficients { source: CoefficientSource::Default, .. }));
-    assert_eq!(req(&mut d, RequestBody::Commit { crc: c.crc() ^ 1 }, 13, &mut s), ResponseBody::Error(LinkError::CommitMismatch));
+    assert_eq!(req(&mut d, RequestBody::Commit { crc: c.crc() ^ 1 }, 13, &mut s), ResponseBody::Error(DeviceError::CommitMismatch));
     assert_eq!(req(&mut d, RequestBody::Commit { crc: c.crc() }, 13, &mut s), ResponseBody::Committed { seq: 1 });
     assert_eq!(req(&mut d, RequestBody::ReadCoefficients, 14, &mut s), ResponseBody::Coefficients { coefficients: c, source: CoefficientSource::Stored, seq: 1 });
     // What was stored decodes to the same set.
     assert_eq!(decode_coefficients(&s.saved[0]).unwrap().0, c);
     // The unlock is spent by the commit.
-    assert_eq!(req(&mut d, RequestBody::WriteCoefficients(c), 15, &mut s), ResponseBody::Error(LinkError::Locked));
+    assert_eq!(req(&mut d, RequestBody::WriteCoefficients(c), 15, &mut s), ResponseBody::Error(DeviceError::Locked));
     // And a replayed Unlock frame does not open it again: the challenge moved on.
-    assert_eq!(req(&mut d, RequestBody::Unlock { key: CHALLENGE ^ UNLOCK_XOR }, 16, &mut s), ResponseBody::Error(LinkError::BadKey));
+    assert_eq!(req(&mut d, RequestBody::Unlock { key: CHALLENGE ^ UNLOCK_XOR }, 16, &mut s), ResponseBody::Error(DeviceError::BadKey));
     let ResponseBody::Status(h) = req(&mut d, RequestBody::Status, 16, &mut s) else { panic!() };
     assert_ne!(h.unlock_challenge, CHALLENGE);
     assert_eq!(req(&mut d, RequestBody::Unlock { key: h.unlock_challenge ^ UNLOCK_XOR }, 16, &mut s), ResponseBody::Ack);
@@ -102,7 +102,7 @@ fn a_failed_flash_write_keeps_the_old_set_in_use() {
     let c = good();
     req(&mut d, RequestBody::Unlock { key: CHALLENGE ^ UNLOCK_XOR }, 0, &mut s);
     req(&mut d, RequestBody::WriteCoefficients(c), 0, &mut s);
-    assert_eq!(req(&mut d, RequestBody::Commit { crc: c.crc() }, 0, &mut s), ResponseBody::Error(LinkError::Storage));
+    assert_eq!(req(&mut d, RequestBody::Commit { crc: c.crc() }, 0, &mut s), ResponseBody::Error(DeviceError::Storage));
     assert!(matches!(req(&mut d, RequestBody::ReadCoefficients, 0, &mut s), ResponseBody::Coefficients { source: CoefficientSource::Default, .. }));
 }
 
@@ -111,14 +111,14 @@ fn mission_mode_and_expiry_lock_the_writes() {
     let mut d = device();
     let mut s = store();
     req(&mut d, RequestBody::Unlock { key: CHALLENGE ^ UNLOCK_XOR }, 1000, &mut s);
-    assert_eq!(req(&mut d, RequestBody::WriteCoefficients(good()), 1000 + UNLOCK_TIMEOUT_MS + 1, &mut s), ResponseBody::Error(LinkError::Locked));
+    assert_eq!(req(&mut d, RequestBody::WriteCoefficients(good()), 1000 + UNLOCK_TIMEOUT_MS + 1, &mut s), ResponseBody::Error(DeviceError::Locked));
     assert_eq!(req(&mut d, RequestBody::SetMissionMode { enabled: true }, 2000, &mut s), ResponseBody::Ack);
-    assert_eq!(req(&mut d, RequestBody::Unlock { key: CHALLENGE ^ UNLOCK_XOR }, 2000, &mut s), ResponseBody::Error(LinkError::MissionMode));
-    assert_eq!(req(&mut d, RequestBody::WriteCoefficients(good()), 2000, &mut s), ResponseBody::Error(LinkError::MissionMode));
-    assert_eq!(req(&mut d, RequestBody::Commit { crc: 0 }, 2000, &mut s), ResponseBody::Error(LinkError::MissionMode));
-    assert_eq!(req(&mut d, RequestBody::SetOutputRate { hz: 0 }, 2000, &mut s), ResponseBody::Error(LinkError::BadArgument));
-    assert_eq!(req(&mut d, RequestBody::SetOutputRate { hz: 101 }, 2000, &mut s), ResponseBody::Error(LinkError::BadArgument));
-    assert_eq!(req(&mut d, RequestBody::Attitude { roll_rad: f32::NAN, pitch_rad: 0.0 }, 2000, &mut s), ResponseBody::Error(LinkError::BadArgument));
+    assert_eq!(req(&mut d, RequestBody::Unlock { key: CHALLENGE ^ UNLOCK_XOR }, 2000, &mut s), ResponseBody::Error(DeviceError::MissionMode));
+    assert_eq!(req(&mut d, RequestBody::WriteCoefficients(good()), 2000, &mut s), ResponseBody::Error(DeviceError::MissionMode));
+    assert_eq!(req(&mut d, RequestBody::Commit { crc: 0 }, 2000, &mut s), ResponseBody::Error(DeviceError::MissionMode));
+    assert_eq!(req(&mut d, RequestBody::SetOutputRate { hz: 0 }, 2000, &mut s), ResponseBody::Error(DeviceError::BadArgument));
+    assert_eq!(req(&mut d, RequestBody::SetOutputRate { hz: 101 }, 2000, &mut s), ResponseBody::Error(DeviceError::BadArgument));
+    assert_eq!(req(&mut d, RequestBody::Attitude { roll_rad: f32::NAN, pitch_rad: 0.0 }, 2000, &mut s), ResponseBody::Error(DeviceError::BadArgument));
 }
 
 #[test]
@@ -148,8 +148,8 @@ fn the_onboard_fit_converges_to_the_truth() {
     let d_mat = [[1.03, 0.01, 0.0], [0.01, 0.97, 0.02], [0.0, 0.02, 1.01]];
     let mut dev = device();
     let mut s = store();
-    assert!(matches!(req(&mut dev, RequestBody::FitStart { model: FitModel::Full, field_nt: 5.0 }, 0, &mut s), ResponseBody::Error(LinkError::BadArgument)));
-    assert!(matches!(req(&mut dev, RequestBody::FitStart { model: FitModel::Full, field_nt: f as f32 }, 0, &mut s), ResponseBody::Fit(_)));
+    assert!(matches!(req(&mut dev, RequestBody::FitStart { model: ModelKind::Full, field_nt: 5.0 }, 0, &mut s), ResponseBody::Error(DeviceError::BadArgument)));
+    assert!(matches!(req(&mut dev, RequestBody::FitStart { model: ModelKind::Full, field_nt: f as f32 }, 0, &mut s), ResponseBody::Fit(_)));
     let mut rng = SplitMix64::new(3);
     let mut truth_cal = None;
     for _ in 0..3000 {
@@ -182,3 +182,11 @@ fn the_onboard_fit_converges_to_the_truth() {
     assert!(matches!(req(&mut dev, RequestBody::FitStop, 0, &mut s), ResponseBody::Fit(FitReport { running: false, .. })));
 }
 
+
+#[test]
+fn the_triangular_model_is_not_fitted_on_board() {
+    let mut dev = Device::new(Boot { stored: None, challenge: 1 });
+    let mut s = store();
+    let r = req(&mut dev, RequestBody::FitStart { model: ModelKind::Triangular, field_nt: 48_730.0 }, 0, &mut s);
+    assert_eq!(r, ResponseBody::Error(DeviceError::Unsupported));
+}

@@ -6,7 +6,7 @@ use std::io::{self, Read, Write};
 use std::time::{Duration, Instant};
 
 use magcal_protocol::{
-    self as proto, Coefficients, CoefficientSource, FitModel, FitReport, FrameDecoder, FrameError, Health, Identity, Request,
+    self as proto, Coefficients, CoefficientSource, ModelKind, FitReport, FrameDecoder, FrameError, Health, Identity, Request,
     RequestBody, Response, ResponseBody, Sample, StreamMode, MAX_FRAME_LEN, UNLOCK_XOR,
 };
 
@@ -42,7 +42,7 @@ pub enum ClientError {
     Encode(FrameError),
     /// The board said our frame was bad, or refused the request.
     #[error("board refused the request: {0}")]
-    Remote(proto::LinkError),
+    Remote(proto::DeviceError),
     /// The board answered with something that does not answer the request.
     #[error("unexpected reply: {0}")]
     Unexpected(String),
@@ -261,7 +261,7 @@ impl<P: Read + Write> BoardClient<P> {
     }
 
     /// Starts the on-board fit.
-    pub fn fit_start(&mut self, model: FitModel, field_nt: f32) -> Result<FitReport, ClientError> {
+    pub fn fit_start(&mut self, model: ModelKind, field_nt: f32) -> Result<FitReport, ClientError> {
         match self.request(RequestBody::FitStart { model, field_nt })? {
             ResponseBody::Fit(r) => Ok(r),
             other => Err(ClientError::Unexpected(format!("{other:?}"))),
@@ -403,9 +403,9 @@ mod tests {
     #[test]
     fn a_remote_refusal_is_reported_not_retried_forever() {
         let mut link = board(
-            |q| vec![Response { seq: Some(q.seq), body: ResponseBody::Error(proto::LinkError::Unsupported) }],
+            |q| vec![Response { seq: Some(q.seq), body: ResponseBody::Error(proto::DeviceError::Unsupported) }],
             0,
         );
-        assert!(matches!(link.identify(), Err(ClientError::Remote(proto::LinkError::Unsupported))));
+        assert!(matches!(link.identify(), Err(ClientError::Remote(proto::DeviceError::Unsupported))));
     }
 }

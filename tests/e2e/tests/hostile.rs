@@ -9,7 +9,7 @@ use calib_core::conformance::SplitMix64;
 use e2e_tests::boot;
 use firmware::acquisition::COUNTS_PER_NT;
 use host_tools::board::{BoardClient, ClientError};
-use magcal_protocol::{self as proto, CoefficientSource, Coefficients, LinkError as Remote, Request, RequestBody, Response, ResponseBody, MAX_FRAME_LEN, UNLOCK_XOR};
+use magcal_protocol::{self as proto, CoefficientSource, Coefficients, DeviceError as Remote, Request, RequestBody, Response, ResponseBody, MAX_FRAME_LEN, UNLOCK_XOR};
 
 fn coefficients(bias_x: f32) -> Coefficients {
     let g = 1.0 / COUNTS_PER_NT;

@@ -6,7 +6,7 @@ use std::time::Duration;
 
 use e2e_tests::{boot, magcal_bin};
 use host_tools::board::{BoardClient, ClientError};
-use magcal_protocol::{self as proto, FrameError, LinkError as Remote, Platform, Response, ResponseBody};
+use magcal_protocol::{self as proto, FrameError, DeviceError as Remote, Platform, Response, ResponseBody};
 
 #[test]
 fn identify_over_the_pty() {

@@ -11,7 +11,7 @@ use calib_core::linalg::{inverse3, mul_mat_vec};
 use e2e_tests::boot_with_feed;
 use firmware::acquisition::COUNTS_PER_NT;
 use host_tools::board::{FeedWriter, BoardClient, ClientError};
-use magcal_protocol::{CoefficientSource, Coefficients, LinkError as Remote, StreamMode};
+use magcal_protocol::{CoefficientSource, Coefficients, DeviceError as Remote, StreamMode};
 
 /// The hull's distortion (nT → nT) and hard iron (nT).
 const D: [[f64; 3]; 3] = [[1.04, 0.02, -0.01], [0.02, 0.95, 0.015], [-0.01, 0.015, 1.02]];
@@ -101,7 +101,7 @@ fn the_onboard_fit_runs_on_the_mcu_and_reports_convergence() {
     let mut feed = FeedWriter::open(board.sensor_port().expect("feed pty")).expect("open feed");
     link.identify().expect("identify");
     link.set_output_rate(100).unwrap();
-    link.fit_start(magcal_protocol::FitModel::Full, 48_730.0).unwrap();
+    link.fit_start(magcal_protocol::ModelKind::Full, 48_730.0).unwrap();
     // Until the first feed frame arrives the bridges read zero: the board's
     // plausibility gate keeps those samples out of the fit.
     // Tumble the simulated sensor smoothly (a spiral over the sphere, 1.5° a

@@ -18,7 +18,7 @@ mod tests {
     use calib_core::heading::{magnetic_heading_rad, ned_field, ned_to_body, wrap_pi};
     use firmware::link::{DeviceInfo, LinkEvent, LinkServer};
     use magcal_protocol::{
-        self as proto, FrameError, LinkError, Platform, Request, RequestBody, Response,
+        self as proto, FrameError, DeviceError, Platform, Request, RequestBody, Response,
         ResponseBody, MAX_FRAME_LEN,
     };
 
@@ -84,7 +84,7 @@ mod tests {
                 assert_eq!(r.seq, None);
                 assert!(matches!(
                     r.body,
-                    ResponseBody::Error(LinkError::Frame(FrameError::Crc | FrameError::Cobs))
+                    ResponseBody::Error(DeviceError::Frame(FrameError::Crc | FrameError::Cobs))
                 ));
                 replies += 1;
             }

@@ -1,0 +1,323 @@
+//! The interface both sides compile (the ICD): every message of the host
+//! link and of the QEMU board's sensor feed, and the constants that give
+//! them meaning. Nothing here knows how messages travel; see
+//! [`crate::frame`].
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::DeviceError;
+use crate::frame::CRC32;
+
+/// Capacity of the short text fields (names, version strings).
+pub const NAME_LEN: usize = 24;
+
+/// A short, bounded text field.
+pub type Name = heapless::String<NAME_LEN>;
+
+/// A request from the host. `seq` is echoed in the response so the host can
+/// match replies to requests and drop stale ones.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Request {
+    /// Host-chosen sequence number, echoed in the [`Response`].
+    pub seq: u16,
+    /// What is asked.
+    pub body: RequestBody,
+}
+
+/// What the host can ask. Every request gets exactly one [`Response`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum RequestBody {
+    /// Liveness check; the board echoes `nonce` in [`ResponseBody::Pong`].
+    Ping {
+        /// Arbitrary value echoed back.
+        nonce: u32,
+    },
+    /// Ask for the firmware's [`Identity`].
+    Identify,
+    /// Ask for [`Health`].
+    Status,
+    /// Choose what is streamed (as unsolicited [`ResponseBody::Sample`] frames).
+    SetStream(StreamMode),
+    /// Output rate, 1–100 Hz.
+    SetOutputRate {
+        /// Samples per second.
+        hz: u8,
+    },
+    /// Attitude from the vehicle's AHRS, for the heading. Stale after
+    /// [`ATTITUDE_TIMEOUT_MS`].
+    Attitude {
+        /// Roll, radians.
+        roll_rad: f32,
+        /// Pitch, radians.
+        pitch_rad: f32,
+    },
+    /// Start the on-board recursive fit (restarts one in progress).
+    FitStart {
+        /// Which model.
+        model: ModelKind,
+        /// Reference field intensity, nT.
+        field_nt: f32,
+    },
+    /// Stop the on-board fit (its last state stays readable).
+    FitStop,
+    /// Ask for the fit's [`FitReport`].
+    FitQuery,
+    /// Ask for the coefficients in use.
+    ReadCoefficients,
+    /// Unlock coefficient writes: `key` must be the [`Health::unlock_challenge`]
+    /// of this boot XOR [`UNLOCK_XOR`]. Refused in mission mode. Expires after
+    /// [`UNLOCK_TIMEOUT_MS`].
+    Unlock {
+        /// The response to the challenge.
+        key: u32,
+    },
+    /// Stage coefficients (validated, not yet used or stored). Needs unlock.
+    WriteCoefficients(Coefficients),
+    /// Store the staged coefficients in flash and use them. `crc` must be
+    /// [`Coefficients::crc`] of what was staged. Needs unlock.
+    Commit {
+        /// CRC-32 of the staged coefficients.
+        crc: u32,
+    },
+    /// Enter or leave mission mode (locks coefficient writes).
+    SetMissionMode {
+        /// Mission mode on.
+        enabled: bool,
+    },
+}
+
+/// An attitude older than this is not used for the heading, ms.
+pub const ATTITUDE_TIMEOUT_MS: u32 = 500;
+/// An unlock lasts this long, ms.
+pub const UNLOCK_TIMEOUT_MS: u32 = 60_000;
+/// XORed with the challenge to unlock (a deliberate act, not a secret).
+pub const UNLOCK_XOR: u32 = 0x4D41_4743; // "MAGC"
+
+/// What the board streams.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum StreamMode {
+    /// Nothing.
+    Off,
+    /// Raw counts only.
+    Raw,
+    /// Calibrated field and heading only.
+    Calibrated,
+    /// Both.
+    Both,
+}
+
+/// On-board fit models: calib-core's [`ModelKind`] (the board fits sphere,
+/// axis and full; it refuses the triangular form, which is the full
+/// ellipsoid factored differently — fit `full` and factor on the host).
+pub use calib_core::cal::ModelKind;
+
+/// The coefficients the board applies: `h = matrix·(raw − bias)`, heading
+/// swing correction `[A, B, C, D, E]` (radians), declination.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Coefficients {
+    /// Hard-iron bias, ADC counts.
+    pub bias: [f32; 3],
+    /// Counts → nT.
+    pub matrix: [[f32; 3]; 3],
+    /// Swing terms A…E, radians.
+    pub swing: [f32; 5],
+    /// Declination, radians, east positive.
+    pub declination_rad: f32,
+    /// Reference intensity of the calibration, nT.
+    pub field_nt: f32,
+}
+
+impl Coefficients {
+    /// CRC-32 of the postcard encoding: what `Commit` must quote.
+    pub fn crc(&self) -> u32 {
+        let mut buf = [0u8; 128];
+        match postcard::to_slice(self, &mut buf) {
+            Ok(b) => CRC32.checksum(b),
+            Err(_) => 0,
+        }
+    }
+}
+
+/// Where the coefficients in use came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum CoefficientSource {
+    /// Loaded from flash (valid CRC and bounds).
+    Stored,
+    /// Nothing valid stored: the nominal chain gain, no bias.
+    Default,
+}
+
+/// One output sample (streamed).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Sample {
+    /// Milliseconds since boot.
+    pub t_ms: u32,
+    /// Raw field, counts (when streaming raw).
+    pub raw: Option<[f32; 3]>,
+    /// Calibrated field, nT (when streaming calibrated).
+    pub field_nt: Option<[f32; 3]>,
+    /// True heading, radians in [0, 2π), when a fresh attitude is known.
+    pub heading_rad: Option<f32>,
+    /// A channel was saturated during this sample.
+    pub saturated: bool,
+    /// QEMU board: the sensor-feed frame every pair of this sample saw
+    /// (`None` on the board, or when the feed changed within the sample).
+    pub feed_seq: Option<u32>,
+}
+
+/// Counters and state.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Health {
+    /// Milliseconds since boot.
+    pub uptime_ms: u32,
+    /// Set/reset pairs acquired.
+    pub pairs: u32,
+    /// Output samples produced.
+    pub samples: u32,
+    /// Pairs with a saturated channel.
+    pub saturated: u32,
+    /// Failed acquisitions.
+    pub acq_errors: u32,
+    /// Acquisition deadlines missed.
+    pub overruns: u32,
+    /// Received bytes dropped (queue full or UART error).
+    pub rx_dropped: u32,
+    /// Outgoing frames dropped (queue full).
+    pub tx_dropped: u32,
+    /// Damaged frames received.
+    pub bad_frames: u32,
+    /// Requests served.
+    pub requests: u32,
+    /// Mission mode on.
+    pub mission_mode: bool,
+    /// Coefficient writes unlocked.
+    pub unlocked: bool,
+    /// This boot's unlock challenge.
+    pub unlock_challenge: u32,
+    /// Where the coefficients came from.
+    pub coefficient_source: CoefficientSource,
+    /// Sequence number of the stored record in use (0 for defaults).
+    pub coefficient_seq: u32,
+    /// The last refusal or failure.
+    pub last_error: Option<DeviceError>,
+    /// Output rate, Hz.
+    pub output_rate_hz: u8,
+    /// What is streamed.
+    pub stream: StreamMode,
+    /// Sensor-feed updates received (QEMU board).
+    pub feed_updates: u32,
+}
+
+/// The on-board fit's state.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FitReport {
+    /// Absorbing samples now.
+    pub running: bool,
+    /// Model (None before the first start).
+    pub model: Option<ModelKind>,
+    /// Samples absorbed.
+    pub samples: u32,
+    /// Percent of field-direction bins visited.
+    pub coverage_pct: u8,
+    /// RMS of |h| − F with the current estimate over recent samples, nT.
+    pub residual_rms_nt: f32,
+    /// The current estimate, when it exists and passes the physical checks.
+    pub estimate: Option<Coefficients>,
+}
+
+/// A reply from the board.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Response {
+    /// The request's `seq`, or `None` when the request could not be decoded
+    /// far enough to know it.
+    pub seq: Option<u16>,
+    /// The answer.
+    pub body: ResponseBody,
+}
+
+/// What the board answers.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ResponseBody {
+    /// Answer to [`RequestBody::Ping`].
+    Pong {
+        /// The request's nonce.
+        nonce: u32,
+    },
+    /// Answer to [`RequestBody::Identify`].
+    Identity(Identity),
+    /// The request was refused or could not be read.
+    Error(DeviceError),
+    /// Done.
+    Ack,
+    /// Answer to [`RequestBody::Status`].
+    Status(Health),
+    /// Answer to the fit requests.
+    Fit(FitReport),
+    /// Answer to [`RequestBody::ReadCoefficients`].
+    Coefficients {
+        /// In use.
+        coefficients: Coefficients,
+        /// Where they came from.
+        source: CoefficientSource,
+        /// Stored record's sequence (0 for defaults).
+        seq: u32,
+    },
+    /// Answer to [`RequestBody::Commit`]: stored and in use.
+    Committed {
+        /// The new record's sequence number.
+        seq: u32,
+    },
+    /// A streamed sample (sent with `seq: None`).
+    Sample(Sample),
+}
+
+/// Who is on the other end of the link.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Identity {
+    /// Firmware name.
+    pub name: Name,
+    /// Firmware version (semver of the `firmware` crate).
+    pub firmware_version: Name,
+    /// The wire format the firmware speaks ([`PROTOCOL_VERSION`] of its build).
+    pub protocol_version: u8,
+    /// Where it runs.
+    pub platform: Platform,
+    /// Milliseconds since boot.
+    pub uptime_ms: u32,
+}
+
+/// The hardware the firmware found itself on at boot.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Platform {
+    /// The STM32F405 board (RCC reports the internal oscillator running).
+    Silicon,
+    /// QEMU's `netduinoplus2` machine (RCC is not modelled).
+    Qemu,
+}
+
+/// Messages on the QEMU board's sensor feed (USART2): the host plays the
+/// magnetometer bridges.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SensorFeed {
+    /// Feed sequence number.
+    pub seq: u32,
+    /// The field at each bridge, nT (the hull's distortion included); the
+    /// board converts it with its own chain gain.
+    pub field_nt: [f32; 3],
+    /// Bridge offsets, counts (`None`: unchanged — keeps the frame short).
+    pub offset_counts: Option<[f32; 3]>,
+}
+
