@@ -254,12 +254,12 @@ impl Decimator {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sim_adc::{SimAdc, SimPin, SimSensor};
+    use crate::ads131m04_model::{Ads131m04Model, StrapPinModel, BridgeModel};
     use embedded_hal_mock::eh1::delay::NoopDelay;
 
-    fn front_end(sensor: &'static SimSensor) -> Acquisition<SimAdc, SimPin, SimPin> {
-        let strap = SetResetStrap::new(SimPin::set(sensor), SimPin::reset(sensor));
-        Acquisition::new(SimAdc::new(sensor), strap).unwrap()
+    fn front_end(sensor: &'static BridgeModel) -> Acquisition<Ads131m04Model, StrapPinModel, StrapPinModel> {
+        let strap = SetResetStrap::new(StrapPinModel::set(sensor), StrapPinModel::reset(sensor));
+        Acquisition::new(Ads131m04Model::new(sensor), strap).unwrap()
     }
 
     #[test]
@@ -272,7 +272,7 @@ mod tests {
 
     #[test]
     fn set_reset_differencing_removes_the_bridge_offset() {
-        static SENSOR: SimSensor = SimSensor::new();
+        static SENSOR: BridgeModel = BridgeModel::new();
         SENSOR.set_truth([12_345.0, -6_789.0, 250_000.0], [40_000.0, -35_000.0, 1_000.0]);
         let mut acq = front_end(&SENSOR);
         let p = acq.acquire_pair(&mut NoopDelay).unwrap();
@@ -290,7 +290,7 @@ mod tests {
 
     #[test]
     fn saturation_is_flagged_and_counted() {
-        static SENSOR: SimSensor = SimSensor::new();
+        static SENSOR: BridgeModel = BridgeModel::new();
         SENSOR.set_truth([8_300_000.0, 0.0, 0.0], [0.0; 3]);
         let mut acq = front_end(&SENSOR);
         let p = acq.acquire_pair(&mut NoopDelay).unwrap();

@@ -10,7 +10,7 @@ use embedded_hal::spi::{Error as SpiErrorTrait, ErrorKind, ErrorType, Operation,
 use embedded_storage::nor_flash::NorFlash;
 
 use crate::device::CoefficientStore;
-use crate::sim_adc::{SimAdc, SimPin};
+use crate::ads131m04_model::{Ads131m04Model, StrapPinModel};
 use crate::store::{RamFlash, Record, Store};
 
 /// The ADC's bus: the real SPI device, or the simulated ADC.
@@ -18,7 +18,7 @@ pub enum BoardSpi<R> {
     /// SPI1 with its chip select (board).
     Real(R),
     /// The ADS131M04 model (QEMU).
-    Sim(SimAdc),
+    Model(Ads131m04Model),
 }
 
 /// An SPI error of either bus.
@@ -46,7 +46,7 @@ impl<R: SpiDevice> SpiDevice for BoardSpi<R> {
     fn transaction(&mut self, operations: &mut [Operation<'_, u8>]) -> Result<(), BoardSpiError> {
         match self {
             BoardSpi::Real(r) => r.transaction(operations).map_err(|e| BoardSpiError(e.kind())),
-            BoardSpi::Sim(s) => s.transaction(operations).map_err(|e: Infallible| match e {}),
+            BoardSpi::Model(s) => s.transaction(operations).map_err(|e: Infallible| match e {}),
         }
     }
 }
@@ -56,7 +56,7 @@ pub enum BoardPin<P> {
     /// A push-pull output (board).
     Real(P),
     /// The simulated strap (QEMU).
-    Sim(SimPin),
+    Model(StrapPinModel),
 }
 
 impl<P: OutputPin> PinErrorType for BoardPin<P> {
@@ -67,13 +67,13 @@ impl<P: OutputPin> OutputPin for BoardPin<P> {
     fn set_high(&mut self) -> Result<(), Self::Error> {
         match self {
             BoardPin::Real(p) => p.set_high().map_err(|_| embedded_hal::digital::ErrorKind::Other),
-            BoardPin::Sim(p) => p.set_high().map_err(|e: Infallible| match e {}),
+            BoardPin::Model(p) => p.set_high().map_err(|e: Infallible| match e {}),
         }
     }
     fn set_low(&mut self) -> Result<(), Self::Error> {
         match self {
             BoardPin::Real(p) => p.set_low().map_err(|_| embedded_hal::digital::ErrorKind::Other),
-            BoardPin::Sim(p) => p.set_low().map_err(|e: Infallible| match e {}),
+            BoardPin::Model(p) => p.set_low().map_err(|e: Infallible| match e {}),
         }
     }
 }

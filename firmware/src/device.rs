@@ -172,6 +172,31 @@ impl OnboardFit {
     }
 }
 
+/// The counters a status report needs that the device does not own: the
+/// acquisition's, the link's, the UARTs' and the sensor feed's. The app
+/// reads them when a request arrives and hands them to [`Device::handle`].
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct BoardCounters {
+    /// Set/reset pairs acquired.
+    pub pairs: u32,
+    /// Pairs with a saturated channel.
+    pub saturated: u32,
+    /// ADC errors.
+    pub acq_errors: u32,
+    /// Acquisition deadlines missed.
+    pub overruns: u32,
+    /// Received bytes dropped (queue full, UART errors).
+    pub rx_dropped: u32,
+    /// Reply or sample frames dropped (transmit queue full).
+    pub tx_dropped: u32,
+    /// Damaged frames received.
+    pub bad_frames: u32,
+    /// Requests served.
+    pub requests: u32,
+    /// Sensor-feed frames applied (QEMU board).
+    pub feed_updates: u32,
+}
+
 /// Counters the device keeps (the link and acquisition keep their own).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct DeviceCounters {
@@ -285,38 +310,58 @@ impl Device {
         }
     }
 
-    /// Serves one request. `health` fills the counters the device does not
-    /// own (link, acquisition).
-    pub fn handle(&mut self, req: &RequestBody, now_ms: u32, store: &mut impl CoefficientStore, health: impl FnOnce(&mut Health)) -> ResponseBody {
+    /// Serves one request. `board` holds the counters the device does not
+    /// own (acquisition, link, UART, feed), for a status report.
+    pub fn handle(&mut self, req: &RequestBody, now_ms: u32, store: &mut impl CoefficientStore, board: &BoardCounters) -> ResponseBody {
         match *req {
             // Answered by the link layer; here for completeness.
             RequestBody::Ping { nonce } => ResponseBody::Pong { nonce },
             RequestBody::Identify => ResponseBody::Error(DeviceError::Unsupported),
-            RequestBody::Status => {
-                let mut h = Health {
-                    uptime_ms: now_ms,
-                    pairs: 0,
-                    samples: self.counters.samples,
-                    saturated: 0,
-                    acq_errors: 0,
-                    overruns: 0,
-                    rx_dropped: 0,
-                    tx_dropped: 0,
-                    bad_frames: 0,
-                    requests: 0,
-                    mission_mode: self.mission,
-                    unlocked: self.unlocked(now_ms),
-                    unlock_challenge: self.challenge,
-                    coefficient_source: self.source,
-                    coefficient_seq: self.seq,
-                    last_error: self.last_error,
-                    output_rate_hz: self.output_rate_hz,
-                    stream: self.stream,
-                    feed_updates: 0,
-                };
-                health(&mut h);
-                ResponseBody::Status(h)
+            RequestBody::Status => ResponseBody::Status(self.health(now_ms, board)),
+            RequestBody::SetStream(_) | RequestBody::SetOutputRate { .. } | RequestBody::Attitude { .. } => self.handle_output(req, now_ms),
+            RequestBody::FitStart { .. } | RequestBody::FitStop | RequestBody::FitQuery => self.handle_fit(req),
+            RequestBody::ReadCoefficients | RequestBody::Unlock { .. } | RequestBody::WriteCoefficients(_) | RequestBody::Commit { .. } => {
+                self.handle_coefficients(req, now_ms, store)
             }
+            RequestBody::SetMissionMode { enabled } => {
+                self.mission = enabled;
+                if enabled {
+                    self.unlocked_until_ms = None;
+                    self.staged = None;
+                }
+                ResponseBody::Ack
+            }
+        }
+    }
+
+    /// The one health snapshot: the device's own state and `board`'s counters.
+    pub fn health(&self, now_ms: u32, board: &BoardCounters) -> Health {
+        Health {
+            uptime_ms: now_ms,
+            pairs: board.pairs,
+            samples: self.counters.samples,
+            saturated: board.saturated,
+            acq_errors: board.acq_errors,
+            overruns: board.overruns,
+            rx_dropped: board.rx_dropped,
+            tx_dropped: board.tx_dropped,
+            bad_frames: board.bad_frames,
+            requests: board.requests,
+            mission_mode: self.mission,
+            unlocked: self.unlocked(now_ms),
+            unlock_challenge: self.challenge,
+            coefficient_source: self.source,
+            coefficient_seq: self.seq,
+            last_error: self.last_error,
+            output_rate_hz: self.output_rate_hz,
+            stream: self.stream,
+            feed_updates: board.feed_updates,
+        }
+    }
+
+    /// What the board streams and how: stream mode, output rate, attitude.
+    fn handle_output(&mut self, req: &RequestBody, now_ms: u32) -> ResponseBody {
+        match *req {
             RequestBody::SetStream(mode) => {
                 self.stream = mode;
                 ResponseBody::Ack
@@ -337,6 +382,13 @@ impl Device {
                 self.attitude = Some((Tilt::new(roll_rad, pitch_rad), now_ms));
                 ResponseBody::Ack
             }
+            _ => ResponseBody::Error(DeviceError::Unsupported),
+        }
+    }
+
+    /// The on-board fit: start, stop, query.
+    fn handle_fit(&mut self, req: &RequestBody) -> ResponseBody {
+        match *req {
             RequestBody::FitStart { model, field_nt } => {
                 if !(field_nt >= FIELD_RANGE_NT.0 && field_nt <= FIELD_RANGE_NT.1) {
                     return self.refuse(DeviceError::BadArgument);
@@ -354,6 +406,14 @@ impl Device {
                 ResponseBody::Fit(self.fit_report())
             }
             RequestBody::FitQuery => ResponseBody::Fit(self.fit_report()),
+            _ => ResponseBody::Error(DeviceError::Unsupported),
+        }
+    }
+
+    /// The coefficients: read, unlock, stage, commit (validated, stored,
+    /// then used).
+    fn handle_coefficients(&mut self, req: &RequestBody, now_ms: u32, store: &mut impl CoefficientStore) -> ResponseBody {
+        match *req {
             RequestBody::ReadCoefficients => ResponseBody::Coefficients { coefficients: self.coefficients, source: self.source, seq: self.seq },
             RequestBody::Unlock { key } => {
                 if self.mission {
@@ -414,14 +474,7 @@ impl Device {
                     Err(()) => self.refuse(DeviceError::Storage),
                 }
             }
-            RequestBody::SetMissionMode { enabled } => {
-                self.mission = enabled;
-                if enabled {
-                    self.unlocked_until_ms = None;
-                    self.staged = None;
-                }
-                ResponseBody::Ack
-            }
+            _ => ResponseBody::Error(DeviceError::Unsupported),
         }
     }
 

@@ -13,7 +13,7 @@ pub mod adc;
 pub mod board;
 pub mod device;
 pub mod link;
-pub mod sim_adc;
+pub mod ads131m04_model;
 pub mod store;
 pub mod uart;
 

@@ -65,13 +65,13 @@ mod app {
     use firmware::acquisition::{AcqCounters, Acquisition, Decimator, SetResetStrap};
     use firmware::board::{BoardPin, BoardSpi, BoardStore, QemuFlash};
     use firmware::board_hw::{boot_challenge, BoardFlash, CycleDelay, STORE_SECTORS};
-    use firmware::device::{decode_coefficients, Boot, Device};
+    use firmware::device::{decode_coefficients, BoardCounters, Boot, Device};
     use firmware::link::{DeviceInfo, LinkEvent, LinkServer};
     use firmware::platform;
-    use firmware::sim_adc::{SimAdc, SimPin, SimSensor};
+    use firmware::ads131m04_model::{Ads131m04Model, BridgeModel, FeedReceiver, StrapPinModel};
     use firmware::store::Store;
     use firmware::uart::TxQueue;
-    use magcal_protocol::{self as proto, FrameDecoder, Platform, Response, ResponseBody, SensorFeed, MAX_FRAME_LEN};
+    use magcal_protocol::{self as proto, Platform, Response, ResponseBody, MAX_FRAME_LEN};
     use rtic_monotonics::systick::prelude::*;
     use rtic_sync::channel::{Receiver, Sender};
     use rtic_sync::make_channel;
@@ -93,7 +93,7 @@ mod app {
     type FrontEnd = Acquisition<BoardSpi<Spi1>, BoardPin<PB0<Output>>, BoardPin<PB1<Output>>>;
 
     /// The bridges of the QEMU board.
-    static SIM_SENSOR: SimSensor = SimSensor::new();
+    static BRIDGES: BridgeModel = BridgeModel::new();
     /// Bytes lost on the UARTs (queue full or line errors).
     static RX_DROPPED: AtomicU32 = AtomicU32::new(0);
     /// Acquisition deadlines missed.
@@ -113,12 +113,10 @@ mod app {
         rx2: Rx<USART2>,
         feed_sender: Sender<'static, u8, RX_QUEUE>,
         link: LinkServer,
-        platform: Platform,
         front: Option<FrontEnd>,
         store: BoardStore<BoardFlash>,
         watchdog: Option<IndependentWatchdog>,
         delay: CycleDelay,
-        platform2: Platform,
     }
 
     #[init]
@@ -163,7 +161,7 @@ mod app {
                     Err(_) => firmware::halt("SPI1 chip select refused"),
                 }
             }
-            Platform::Qemu => (BoardSpi::Sim(SimAdc::new(&SIM_SENSOR)), BoardPin::Sim(SimPin::set(&SIM_SENSOR)), BoardPin::Sim(SimPin::reset(&SIM_SENSOR))),
+            Platform::Qemu => (BoardSpi::Model(Ads131m04Model::new(&BRIDGES)), BoardPin::Model(StrapPinModel::set(&BRIDGES)), BoardPin::Model(StrapPinModel::reset(&BRIDGES))),
         };
         let mut delay = CycleDelay::new(sysclk_hz);
         let front = match Acquisition::new(spi, SetResetStrap::new(set_pin, reset_pin)) {
@@ -211,7 +209,7 @@ mod app {
         defmt::info!("magcal-fw {} up on {}, sysclk {} Hz", firmware::FIRMWARE_VERSION, platform, sysclk_hz);
         (
             Shared { tx: TxQueue::new(tx), device, acq: AcqCounters::default() },
-            Local { rx, rx_sender, rx2, feed_sender, link: LinkServer::new(), platform, front, store, watchdog, delay, platform2: platform },
+            Local { rx, rx_sender, rx2, feed_sender, link: LinkServer::new(), front, store, watchdog, delay },
         )
     }
 
@@ -258,10 +256,10 @@ mod app {
     }
 
     /// Frames → requests → one reply each.
-    #[task(priority = 1, local = [link, platform, store], shared = [tx, device, acq])]
+    #[task(priority = 1, local = [link, store], shared = [tx, device, acq])]
     async fn link(mut cx: link::Context, mut bytes: Receiver<'static, u8, RX_QUEUE>) {
         while let Ok(byte) = bytes.recv().await {
-            let info = DeviceInfo { platform: *cx.local.platform, uptime_ms: now_ms() };
+            let info = DeviceInfo { platform: platform::detect_cached(), uptime_ms: now_ms() };
             let reply = match cx.local.link.on_byte(byte, &info) {
                 None => continue,
                 Some(LinkEvent::Reply(frame)) => Some(frame),
@@ -270,19 +268,18 @@ mod app {
                     let link_counters = cx.local.link.counters();
                     let acq = cx.shared.acq.lock(|a| *a);
                     let tx_dropped = cx.shared.tx.lock(|t| t.dropped_frames());
-                    let body = cx.shared.device.lock(|d| {
-                        d.handle(&req.body, now_ms(), store, |h| {
-                            h.pairs = acq.pairs;
-                            h.saturated = acq.saturated;
-                            h.acq_errors = acq.errors;
-                            h.overruns = OVERRUNS.load(Ordering::Relaxed);
-                            h.rx_dropped = RX_DROPPED.load(Ordering::Relaxed);
-                            h.tx_dropped = tx_dropped;
-                            h.bad_frames = link_counters.bad_frames;
-                            h.requests = link_counters.requests;
-                            h.feed_updates = SIM_SENSOR.updates();
-                        })
-                    });
+                    let board = BoardCounters {
+                        pairs: acq.pairs,
+                        saturated: acq.saturated,
+                        acq_errors: acq.errors,
+                        overruns: OVERRUNS.load(Ordering::Relaxed),
+                        rx_dropped: RX_DROPPED.load(Ordering::Relaxed),
+                        tx_dropped,
+                        bad_frames: link_counters.bad_frames,
+                        requests: link_counters.requests,
+                        feed_updates: BRIDGES.updates(),
+                    };
+                    let body = cx.shared.device.lock(|d| d.handle(&req.body, now_ms(), store, &board));
                     cx.local.link.reply(Some(req.seq), body)
                 }
             };
@@ -297,23 +294,14 @@ mod app {
     /// The sensor feed: the host's truth for the simulated bridges.
     #[task(priority = 1)]
     async fn feed(_cx: feed::Context, mut bytes: Receiver<'static, u8, RX_QUEUE>) {
-        let mut decoder = FrameDecoder::new();
-        let mut offsets = [0.0f32; 3];
+        let mut receiver = FeedReceiver::new();
         while let Ok(byte) = bytes.recv().await {
-            if let Some(Ok(body)) = decoder.push(byte) {
-                if let Ok(f) = proto::decode_body::<SensorFeed>(body) {
-                    let g = firmware::acquisition::COUNTS_PER_NT;
-                    if let Some(o) = f.offset_counts {
-                        offsets = o;
-                    }
-                    SIM_SENSOR.set_truth_seq(f.field_nt.map(|v| v * g), offsets, f.seq);
-                }
-            }
+            receiver.on_byte(byte, &BRIDGES);
         }
     }
 
     /// Acquisition at the pair rate; decimation, correction, streaming.
-    #[task(priority = 2, local = [front, delay, watchdog, platform2], shared = [tx, device, acq])]
+    #[task(priority = 2, local = [front, delay, watchdog], shared = [tx, device, acq])]
     async fn acquire(mut cx: acquire::Context) {
         let period = rtic_monotonics::fugit::MillisDurationU32::from_ticks(1_000 / PAIR_RATE_HZ);
         let mut next = Mono::now();
@@ -326,7 +314,7 @@ mod app {
                 w.feed();
             }
             let Some(front) = cx.local.front.as_mut() else { continue };
-            let tag = (*cx.local.platform2 == Platform::Qemu).then(|| SIM_SENSOR.seq());
+            let tag = (platform::detect_cached() == Platform::Qemu).then(|| BRIDGES.seq());
             let pair = front.acquire_pair(cx.local.delay);
             let counters = front.counters();
             cx.shared.acq.lock(|a| *a = counters);

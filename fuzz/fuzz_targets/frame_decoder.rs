@@ -2,7 +2,7 @@
 //! (frame decoder, link server, device) must answer or ignore, never panic,
 //! and never switch coefficients without a valid unlock and commit.
 #![no_main]
-use firmware::device::{Boot, CoefficientStore, Device};
+use firmware::device::{BoardCounters, Boot, CoefficientStore, Device};
 use firmware::link::{DeviceInfo, LinkEvent, LinkServer};
 use libfuzzer_sys::fuzz_target;
 use magcal_protocol::{self as proto, CoefficientSource, Platform, Request, RequestBody, Response, ResponseBody};
@@ -26,7 +26,7 @@ fuzz_target!(|data: &[u8]| {
                 assert!(proto::decode::<Response>(&frame).is_ok());
             }
             Some(LinkEvent::Request(Request { seq, body })) => {
-                let reply = device.handle(&body, 0, &mut store, |_| {});
+                let reply = device.handle(&body, 0, &mut store, &BoardCounters::default());
                 if let ResponseBody::Committed { .. } = reply {
                     // Only a commit after an unlock with the right key gets here.
                     assert!(matches!(body, RequestBody::Commit { .. }));
@@ -38,7 +38,7 @@ fuzz_target!(|data: &[u8]| {
     }
     let _ = proto::decode::<Request>(data);
     if store.0 == 0 {
-        let r = device.handle(&RequestBody::ReadCoefficients, 0, &mut store, |_| {});
+        let r = device.handle(&RequestBody::ReadCoefficients, 0, &mut store, &BoardCounters::default());
         assert!(matches!(r, ResponseBody::Coefficients { source: CoefficientSource::Default, .. }));
     }
 });

@@ -24,7 +24,7 @@ mod bench {
     use cortex_m::peripheral::{syst::SystClkSource, SYST};
     use cortex_m_semihosting::{debug, hprintln};
     use firmware::acquisition::{Acquisition, SetResetStrap};
-    use firmware::sim_adc::{SimAdc, SimPin, SimSensor};
+    use firmware::ads131m04_model::{Ads131m04Model, StrapPinModel, BridgeModel};
     use stm32f4xx_hal as _;
 
     /// SysTick ticks per instruction with `-icount shift=0` at 168 MHz.
@@ -50,7 +50,7 @@ mod bench {
         fn delay_ns(&mut self, _: u32) {}
     }
 
-    static SENSOR: SimSensor = SimSensor::new();
+    static SENSOR: BridgeModel = BridgeModel::new();
 
     #[cortex_m_rt::entry]
     fn main() -> ! {
@@ -115,8 +115,8 @@ mod bench {
         // One set/reset pair through the real driver (over the ADC model,
         // whose own frame building is included: an upper bound).
         SENSOR.set_truth([1_000_000.0, -500_000.0, 1_500_000.0], [20_000.0; 3]);
-        let strap = SetResetStrap::new(SimPin::set(&SENSOR), SimPin::reset(&SENSOR));
-        let Ok(mut acq) = Acquisition::new(SimAdc::new(&SENSOR), strap) else {
+        let strap = SetResetStrap::new(StrapPinModel::set(&SENSOR), StrapPinModel::reset(&SENSOR));
+        let Ok(mut acq) = Acquisition::new(Ads131m04Model::new(&SENSOR), strap) else {
             debug::exit(debug::EXIT_FAILURE);
             loop {}
         };

@@ -38,7 +38,7 @@ fn device() -> Device {
 }
 
 fn req(d: &mut Device, r: RequestBody, now: u32, s: &mut MemStore) -> ResponseBody {
-    d.handle(&r, now, s, |_| {})
+    d.handle(&r, now, s, &BoardCounters::default())
 }
 
 #[test]

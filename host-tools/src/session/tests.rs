@@ -6,7 +6,7 @@ use std::collections::VecDeque;
 use std::io;
 use std::rc::Rc;
 
-use firmware::device::{Boot, CoefficientStore, Device};
+use firmware::device::{BoardCounters, Boot, CoefficientStore, Device};
 use firmware::link::{DeviceInfo, LinkEvent, LinkServer};
 use magcal_protocol::{CoefficientSource, Platform};
 
@@ -73,7 +73,7 @@ impl Write for Conn {
             match link.on_byte(b, &info) {
                 Some(LinkEvent::Reply(f)) => self.out.extend(f),
                 Some(LinkEvent::Request(r)) => {
-                    let body = device.handle(&r.body, 0, store, |_| {});
+                    let body = device.handle(&r.body, 0, store, &BoardCounters::default());
                     if let Some(f) = link.reply(Some(r.seq), body) {
                         self.out.extend(f);
                     }

@@ -132,8 +132,8 @@ mod tests {
     #[test]
     fn sampling_correction_and_output_on_the_mcu() {
         use firmware::acquisition::{Acquisition, Decimator, SetResetStrap, COUNTS_PER_NT};
-        use firmware::device::{Boot, CoefficientStore, Device};
-        use firmware::sim_adc::{SimAdc, SimPin, SimSensor};
+        use firmware::device::{BoardCounters, Boot, CoefficientStore, Device};
+        use firmware::ads131m04_model::{Ads131m04Model, StrapPinModel, BridgeModel};
         use magcal_protocol::{Coefficients, RequestBody, StreamMode};
 
         struct NoStore;
@@ -146,7 +146,7 @@ mod tests {
         impl embedded_hal::delay::DelayNs for NoDelay {
             fn delay_ns(&mut self, _: u32) {}
         }
-        static SENSOR: SimSensor = SimSensor::new();
+        static SENSOR: BridgeModel = BridgeModel::new();
         let g = 1.0 / COUNTS_PER_NT;
         let c = Coefficients {
             bias: [50_000.0, -30_000.0, 10_000.0],
@@ -156,10 +156,10 @@ mod tests {
             field_nt: 48_730.0,
         };
         let mut dev = Device::new(Boot { stored: Some((c, 1)), challenge: 0 });
-        dev.handle(&RequestBody::SetStream(StreamMode::Both), 0, &mut NoStore, |_| {});
-        dev.handle(&RequestBody::Attitude { roll_rad: 0.1, pitch_rad: 0.05 }, 0, &mut NoStore, |_| {});
-        let strap = SetResetStrap::new(SimPin::set(&SENSOR), SimPin::reset(&SENSOR));
-        let mut acq = Acquisition::new(SimAdc::new(&SENSOR), strap).unwrap();
+        dev.handle(&RequestBody::SetStream(StreamMode::Both), 0, &mut NoStore, &BoardCounters::default());
+        dev.handle(&RequestBody::Attitude { roll_rad: 0.1, pitch_rad: 0.05 }, 0, &mut NoStore, &BoardCounters::default());
+        let strap = SetResetStrap::new(StrapPinModel::set(&SENSOR), StrapPinModel::reset(&SENSOR));
+        let mut acq = Acquisition::new(Ads131m04Model::new(&SENSOR), strap).unwrap();
         let field_nt = [20_000.0f32, -15_000.0, 40_000.0];
         // What the bridges see: the calibration's inverse applied to the field.
         let counts = [

@@ -2,7 +2,7 @@
 //! the same [`SpiDevice`] interface the real driver uses, so the driver, the
 //! set/reset sequencing and everything after them run unchanged in
 //! emulation. QEMU has no ADC behind its SPI; the field it "measures" comes
-//! from the host over USART2 ([`SimSensor::set_truth`]).
+//! from the host over USART2 ([`BridgeModel::set_truth`]).
 //!
 //! The model follows the part's frame protocol: a response one frame late,
 //! RESET answered `0xFF24`, RREG/WREG on a register file, CRC-16-CCITT on
@@ -34,17 +34,17 @@ struct State {
 
 /// The magnetic truth the simulated bridges see, shared between the feed
 /// (USART2) and the simulated ADC.
-pub struct SimSensor {
+pub struct BridgeModel {
     state: Mutex<Cell<State>>,
 }
 
-impl Default for SimSensor {
+impl Default for BridgeModel {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl SimSensor {
+impl BridgeModel {
     /// Zero field, zero offset.
     pub const fn new() -> Self {
         Self {
@@ -58,7 +58,7 @@ impl SimSensor {
         self.set_truth_seq(field_counts, offset_counts, 0);
     }
 
-    /// [`SimSensor::set_truth`], tagged with the feed frame's sequence number.
+    /// [`BridgeModel::set_truth`], tagged with the feed frame's sequence number.
     pub fn set_truth_seq(&self, field_counts: [f32; 3], offset_counts: [f32; 3], seq: u32) {
         critical_section::with(|cs| {
             let cell = self.state.borrow(cs);
@@ -96,27 +96,27 @@ impl SimSensor {
 }
 
 /// A strap GPIO of the simulated board: driving it high pulses the strap.
-pub struct SimPin {
-    sensor: &'static SimSensor,
+pub struct StrapPinModel {
+    sensor: &'static BridgeModel,
     polarity: Polarity,
 }
 
-impl SimPin {
+impl StrapPinModel {
     /// The SET pulse pin.
-    pub fn set(sensor: &'static SimSensor) -> Self {
+    pub fn set(sensor: &'static BridgeModel) -> Self {
         Self { sensor, polarity: Polarity::Set }
     }
     /// The RESET pulse pin.
-    pub fn reset(sensor: &'static SimSensor) -> Self {
+    pub fn reset(sensor: &'static BridgeModel) -> Self {
         Self { sensor, polarity: Polarity::Reset }
     }
 }
 
-impl PinErrorType for SimPin {
+impl PinErrorType for StrapPinModel {
     type Error = Infallible;
 }
 
-impl OutputPin for SimPin {
+impl OutputPin for StrapPinModel {
     fn set_high(&mut self) -> Result<(), Infallible> {
         self.sensor.set_polarity(self.polarity);
         Ok(())
@@ -130,16 +130,16 @@ impl OutputPin for SimPin {
 const POWER_ON: [(u8, u16); 5] = [(0x00, 0x2410), (0x01, 0x0500), (0x02, 0x0510), (0x03, 0x0F0E), (0x04, 0x0000)];
 
 /// The simulated ADS131M04.
-pub struct SimAdc {
-    sensor: &'static SimSensor,
+pub struct Ads131m04Model {
+    sensor: &'static BridgeModel,
     regs: [u16; 64],
     pending: u16,
     frames: u32,
 }
 
-impl SimAdc {
+impl Ads131m04Model {
     /// A device just powered on.
-    pub fn new(sensor: &'static SimSensor) -> Self {
+    pub fn new(sensor: &'static BridgeModel) -> Self {
         let mut adc = Self { sensor, regs: [0; 64], pending: 0, frames: 0 };
         adc.power_on();
         adc
@@ -225,11 +225,11 @@ fn clamp_code(v: f32) -> i32 {
     (if c >= 0.0 { c + 0.5 } else { c - 0.5 }) as i32
 }
 
-impl ErrorType for SimAdc {
+impl ErrorType for Ads131m04Model {
     type Error = Infallible;
 }
 
-impl SpiDevice for SimAdc {
+impl SpiDevice for Ads131m04Model {
     fn transaction(&mut self, operations: &mut [Operation<'_, u8>]) -> Result<(), Infallible> {
         for op in operations.iter_mut() {
             match op {
@@ -247,5 +247,72 @@ impl SpiDevice for SimAdc {
             }
         }
         Ok(())
+    }
+}
+
+/// The QEMU board's sensor feed (USART2): frames from the host that set what
+/// the modelled bridges see. The body of the firmware's `feed` task.
+pub struct FeedReceiver {
+    decoder: magcal_protocol::FrameDecoder,
+    offsets: [f32; 3],
+}
+
+impl Default for FeedReceiver {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl FeedReceiver {
+    /// A receiver with no frame yet (bridge offsets zero).
+    pub const fn new() -> Self {
+        Self { decoder: magcal_protocol::FrameDecoder::new(), offsets: [0.0; 3] }
+    }
+
+    /// One byte from USART2. A complete, valid [`magcal_protocol::SensorFeed`]
+    /// frame sets `bridges` (field converted with the chain gain, offsets
+    /// kept when the frame leaves them out) and returns its sequence number;
+    /// damaged frames are ignored.
+    pub fn on_byte(&mut self, byte: u8, bridges: &BridgeModel) -> Option<u32> {
+        let Some(Ok(body)) = self.decoder.push(byte) else { return None };
+        let f = magcal_protocol::decode_body::<magcal_protocol::SensorFeed>(body).ok()?;
+        if let Some(o) = f.offset_counts {
+            self.offsets = o;
+        }
+        let g = crate::acquisition::COUNTS_PER_NT;
+        bridges.set_truth_seq(f.field_nt.map(|v| v * g), self.offsets, f.seq);
+        Some(f.seq)
+    }
+}
+
+#[cfg(test)]
+mod feed_tests {
+    #![allow(clippy::unwrap_used, clippy::indexing_slicing)]
+    use super::*;
+    use magcal_protocol::{encode, SensorFeed, MAX_FRAME_LEN};
+
+    fn frame(f: &SensorFeed) -> ([u8; MAX_FRAME_LEN], usize) {
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        let n = encode(f, &mut buf).unwrap();
+        (buf, n)
+    }
+
+    #[test]
+    fn feed_frames_set_the_bridges_and_damage_is_ignored() {
+        static BRIDGES: BridgeModel = BridgeModel::new();
+        let mut rx = FeedReceiver::new();
+        let (a, n) = frame(&SensorFeed { seq: 5, field_nt: [1000.0, -2000.0, 500.0], offset_counts: Some([10.0, 20.0, 30.0]) });
+        let got: Vec<Option<u32>> = a[..n].iter().map(|&b| rx.on_byte(b, &BRIDGES)).collect();
+        assert_eq!(got.iter().flatten().copied().collect::<Vec<_>>(), vec![5]);
+        assert_eq!((BRIDGES.seq(), BRIDGES.updates()), (5, 1));
+        // A damaged frame changes nothing; the next good one, without
+        // offsets, keeps the previous offsets.
+        let (mut b, n) = frame(&SensorFeed { seq: 6, field_nt: [0.0; 3], offset_counts: None });
+        b[3] ^= 0x40;
+        assert!(b[..n].iter().all(|&x| rx.on_byte(x, &BRIDGES).is_none()));
+        assert_eq!((BRIDGES.seq(), BRIDGES.updates()), (5, 1));
+        let (c, n) = frame(&SensorFeed { seq: 7, field_nt: [0.0; 3], offset_counts: None });
+        assert_eq!(c[..n].iter().filter_map(|&x| rx.on_byte(x, &BRIDGES)).last(), Some(7));
+        assert_eq!(rx.offsets, [10.0, 20.0, 30.0]);
     }
 }
