@@ -172,6 +172,11 @@ impl OnboardFit {
     }
 }
 
+/// The boot challenge the fuzz target's seed corpus is written for
+/// (`fuzz/seeds/frame_decoder/`): its unlock frames carry
+/// `FUZZ_CHALLENGE ^ UNLOCK_XOR`.
+pub const FUZZ_CHALLENGE: u32 = 0x5EED;
+
 /// The counters a status report needs that the device does not own: the
 /// acquisition's, the link's, the UARTs' and the sensor feed's. The app
 /// reads them when a request arrives and hands them to [`Device::handle`].

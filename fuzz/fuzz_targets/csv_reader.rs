@@ -2,8 +2,8 @@
 //! never panics.
 #![no_main]
 use calib_core::cal::ModelKind;
-use host_tools::pipeline::{fit_recording, FitOptions};
-use host_tools::recording::Recording;
+use host_tools::compute::{fit_recording, FitOptions};
+use host_tools::data::recording::Recording;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

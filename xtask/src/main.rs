@@ -230,7 +230,7 @@ fn cmd_test() -> Result<()> {
     let fuzz_built = run(cargo().current_dir(root().join("fuzz")).args(["fuzz", "build", "--sanitizer", "none", "-O"])).is_ok();
     for target in ["frame_decoder", "coefficient_record", "csv_reader", "caldoc_loader"] {
         let ok = fuzz_built
-            && run(cargo().current_dir(root().join("fuzz")).args(["fuzz", "run", "--sanitizer", "none", "-O", target, "--", "-max_total_time=10"])).is_ok();
+            && run(cargo().current_dir(root().join("fuzz")).args(["fuzz", "run", "--sanitizer", "none", "-O", target]).args(fuzz_corpus(target)).args(["--", "-max_total_time=10"])).is_ok();
         if ok { fuzz_passed += 1 } else { fuzz_failed += 1 }
     }
     suites.push(Suite { name: "fuzz: frame decoder, coefficient record, CSV reader, calibration JSON", passed: fuzz_passed, failed: fuzz_failed, ok: fuzz_failed == 0 });
@@ -288,6 +288,20 @@ fn cmd_demo() -> Result<()> {
     let summary = demo_session(&elf, &magcal, &out_dir, "demo")?;
     println!("{}", serde_json::to_string_pretty(&summary)?);
     Ok(())
+}
+
+/// The corpus directories of a fuzz target: the working corpus (new inputs
+/// go there; ignored by git) and, where there are any, the committed seeds.
+fn fuzz_corpus(target: &str) -> Vec<PathBuf> {
+    let fuzz = root().join("fuzz");
+    let work = fuzz.join("corpus").join(target);
+    let seeds = fuzz.join("seeds").join(target);
+    let _ = std::fs::create_dir_all(&work);
+    if seeds.is_dir() {
+        vec![work, seeds]
+    } else {
+        vec![work]
+    }
 }
 
 /// `target/demo/summary.json`: the session's summary with where its logs are.

@@ -190,3 +190,55 @@ fn the_triangular_model_is_not_fitted_on_board() {
     let r = req(&mut dev, RequestBody::FitStart { model: ModelKind::Triangular, field_nt: 48_730.0 }, 0, &mut s);
     assert_eq!(r, ResponseBody::Error(DeviceError::Unsupported));
 }
+
+/// The fuzz target's seeds: valid unlock / write / commit sequences (and a
+/// few refusals on the way) so that libFuzzer starts on the deep paths. The
+/// files in `fuzz/seeds/frame_decoder/` must be what this writes; run with
+/// `MAGCAL_WRITE_FUZZ_SEEDS=1` to rewrite them after a protocol change.
+#[test]
+fn fuzz_seed_corpus_is_current() {
+    use magcal_protocol::{encode, Request, MAX_FRAME_LEN, UNLOCK_XOR};
+    let frame = |seq: u16, body: RequestBody| {
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        let n = encode(&Request { seq, body }, &mut buf).unwrap();
+        buf[..n].to_vec()
+    };
+    let c = good();
+    let mut bad = c;
+    bad.matrix[1][1] *= 20.0;
+    let key = FUZZ_CHALLENGE ^ UNLOCK_XOR;
+    let seeds: Vec<Vec<Vec<u8>>> = vec![
+        vec![frame(1, RequestBody::Unlock { key }), frame(2, RequestBody::WriteCoefficients(c)), frame(3, RequestBody::Commit { crc: c.crc() })],
+        vec![
+            frame(1, RequestBody::Status),
+            frame(2, RequestBody::Unlock { key }),
+            frame(3, RequestBody::WriteCoefficients(bad)),
+            frame(4, RequestBody::WriteCoefficients(c)),
+            frame(5, RequestBody::Commit { crc: c.crc() ^ 1 }),
+            frame(6, RequestBody::Commit { crc: c.crc() }),
+            frame(7, RequestBody::ReadCoefficients),
+        ],
+        vec![frame(1, RequestBody::SetMissionMode { enabled: true }), frame(2, RequestBody::Unlock { key }), frame(3, RequestBody::SetMissionMode { enabled: false }), frame(4, RequestBody::Unlock { key })],
+        vec![frame(1, RequestBody::FitStart { model: ModelKind::Full, field_nt: 48_730.0 }), frame(2, RequestBody::FitQuery), frame(3, RequestBody::SetStream(StreamMode::Both)), frame(4, RequestBody::Attitude { roll_rad: 0.1, pitch_rad: -0.05 })],
+    ];
+    // The first seed does commit on a device with the fuzz target's challenge.
+    let mut dev = Device::new(Boot { stored: None, challenge: FUZZ_CHALLENGE });
+    let mut s = store();
+    let mut replies = Vec::new();
+    for f in &seeds[0] {
+        let Request { body, .. } = magcal_protocol::decode::<Request>(f).unwrap();
+        replies.push(req(&mut dev, body, 0, &mut s));
+    }
+    assert!(matches!(replies[2], ResponseBody::Committed { .. }), "{replies:?}");
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../fuzz/seeds/frame_decoder");
+    let write = std::env::var_os("MAGCAL_WRITE_FUZZ_SEEDS").is_some();
+    for (i, frames) in seeds.iter().enumerate() {
+        let bytes: Vec<u8> = frames.concat();
+        let path = dir.join(format!("seed-{i}"));
+        if write {
+            std::fs::create_dir_all(&dir).unwrap();
+            std::fs::write(&path, &bytes).unwrap();
+        }
+        assert_eq!(std::fs::read(&path).ok().as_deref(), Some(bytes.as_slice()), "{} is stale: rerun with MAGCAL_WRITE_FUZZ_SEEDS=1", path.display());
+    }
+}
