@@ -110,6 +110,7 @@ impl<T: Real> FieldCal<T> {
 /// radians: `δψ = A + B sin ψ + C cos ψ + D sin 2ψ + E cos 2ψ`.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Swing<T> {
     /// Constant offset.
     pub a: T,

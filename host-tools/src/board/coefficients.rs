@@ -5,7 +5,9 @@ use calib_core::cal::{FieldCal, ModelKind};
 use magcal_protocol::Coefficients;
 
 use crate::data::results::Quality;
-use crate::data::{CalDoc, SwingDoc};
+use calib_core::cal::Swing;
+
+use crate::data::CalDoc;
 
 /// The board's coefficients for a calibration document.
 pub fn to_coefficients(doc: &CalDoc) -> Coefficients {
@@ -27,7 +29,7 @@ pub fn doc_from_coefficients(c: &Coefficients) -> CalDoc {
     doc.declination_deg = Some(f64::from(c.declination_rad).to_degrees());
     let [a, b, c_, d, e] = c.swing.map(f64::from);
     if [a, b, c_, d, e].iter().any(|v| *v != 0.0) {
-        doc.swing = Some(SwingDoc { a, b, c: c_, d, e });
+        doc.swing = Some(Swing { a, b, c: c_, d, e });
     }
     doc
 }
@@ -41,7 +43,7 @@ mod tests {
         let field = FieldCal { bias: [1500.5, -2300.25, 800.0], matrix: [[0.028, 1e-4, 0.0], [1e-4, 0.0279, -2e-5], [0.0, -2e-5, 0.0281]] };
         let mut doc = CalDoc::new(ModelKind::Full, &field, 48_730.0, Quality::default());
         doc.declination_deg = Some(5.25);
-        doc.swing = Some(SwingDoc { a: 0.01, b: -0.002, c: 0.003, d: 0.0, e: 0.0005 });
+        doc.swing = Some(Swing { a: 0.01, b: -0.002, c: 0.003, d: 0.0, e: 0.0005 });
         let back = doc_from_coefficients(&to_coefficients(&doc));
         for k in 0..3 {
             assert!((back.bias[k] - doc.bias[k]).abs() <= doc.bias[k].abs() * 1e-7);

@@ -7,7 +7,7 @@ use calib_core::swing::{aligned_pairs, estimate_delay, fit_swing, SwingFit, Swin
 use super::units::check_units;
 use super::ComputeError;
 use crate::data::results::SwingQuality;
-use crate::data::{CalDoc, Recording, SwingDoc};
+use crate::data::{CalDoc, Recording};
 
 /// How to treat the reference's delay.
 #[derive(Debug, Clone, Copy)]
@@ -88,7 +88,7 @@ pub fn swing_recording(rec: &Recording, doc: &CalDoc, delay: Delay) -> Result<(C
     let fit = fit_swing(aligned_pairs(t, &headings, t, &steady, delay_s, gap))?;
     let mut out = doc.clone();
     let s = fit.swing;
-    out.swing = Some(SwingDoc { a: s.a, b: s.b, c: s.c, d: s.d, e: s.e });
+    out.swing = Some(s);
     let mut warnings: Vec<String> = Vec::new();
     if turning > 0 {
         warnings.push(format!("{turning} reference samples taken while turning faster than {MAX_SWING_TURN_RATE_DEG_S}°/s were used for the delay only"));

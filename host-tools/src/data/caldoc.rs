@@ -44,21 +44,6 @@ pub enum CalDocError {
     },
 }
 
-/// Swing coefficients in radians.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct SwingDoc {
-    /// A.
-    pub a: f64,
-    /// B.
-    pub b: f64,
-    /// C.
-    pub c: f64,
-    /// D.
-    pub d: f64,
-    /// E.
-    pub e: f64,
-}
-
 /// The calibration document.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CalDoc {
@@ -76,7 +61,7 @@ pub struct CalDoc {
     pub declination_deg: Option<f64>,
     /// Swing (heading) correction.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub swing: Option<SwingDoc>,
+    pub swing: Option<Swing<f64>>,
     /// Residuals, coverage, warnings of each step.
     #[serde(default)]
     pub quality: Quality,
@@ -143,7 +128,7 @@ impl CalDoc {
     pub fn calibration(&self) -> Calibration<f64> {
         Calibration {
             field: self.field_cal(),
-            swing: self.swing.map(|s| Swing { a: s.a, b: s.b, c: s.c, d: s.d, e: s.e }).unwrap_or_else(Swing::zero),
+            swing: self.swing.unwrap_or_else(Swing::zero),
             declination_rad: self.declination_deg.unwrap_or(0.0).to_radians(),
         }
     }
@@ -204,7 +189,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("cal.json");
         let mut d = doc();
-        d.swing = Some(SwingDoc { a: 0.14199, b: -0.01101, c: 0.01071, d: 0.0061, e: 0.05528 });
+        d.swing = Some(Swing { a: 0.14199, b: -0.01101, c: 0.01071, d: 0.0061, e: 0.05528 });
         d.save(&p).unwrap();
         // The contract of docs/INTERFACES.md, written out here apart from CalDoc.
         #[derive(serde::Deserialize)]

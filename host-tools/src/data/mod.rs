@@ -5,5 +5,5 @@ pub mod caldoc;
 pub mod recording;
 pub mod results;
 
-pub use caldoc::{CalDoc, CalDocError, SwingDoc};
+pub use caldoc::{CalDoc, CalDocError};
 pub use recording::{Recording, RecordingError};
