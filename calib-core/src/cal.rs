@@ -24,6 +24,9 @@ pub enum ModelKind {
     Full,
     /// Upper-triangular non-orthogonality and gain (paper 001).
     Triangular,
+    /// Bias and a symmetric soft-iron matrix from the gyro-aided fit
+    /// ([`crate::gyro`]): for vehicles that cannot tumble.
+    Gyro,
 }
 
 impl ModelKind {
@@ -34,6 +37,7 @@ impl ModelKind {
             ModelKind::Axis => "axis",
             ModelKind::Full => "full",
             ModelKind::Triangular => "triangular",
+            ModelKind::Gyro => "gyro",
         }
     }
 }

@@ -19,6 +19,7 @@ pub mod backstep;
 pub mod cal;
 pub mod conformance;
 pub mod fit;
+pub mod gyro;
 pub mod heading;
 pub mod linalg;
 pub mod lsq;

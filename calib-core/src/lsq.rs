@@ -144,6 +144,40 @@ impl<T: Real, const N: usize> QrRls<T, N> {
         d
     }
 
+    /// `(RᵀR)⁻¹ = R⁻¹R⁻ᵀ`, the unscaled covariance of the estimate (multiply
+    /// by the residual variance for the parameters' covariance). `None` when
+    /// a direction has no information.
+    pub fn covariance(&self) -> Option<[[T; N]; N]> {
+        let max = self.information_diagonal().iter().fold(T::ZERO, |m, &v| m.max(v));
+        let tol = max * rank_tolerance::<T>();
+        // R⁻¹ (upper triangular) by back substitution, column by column.
+        let mut inv = [[T::ZERO; N]; N];
+        for j in 0..N {
+            for i in (0..=j).rev() {
+                let d = self.r[i][i];
+                if !(d.abs() > tol) {
+                    return None;
+                }
+                let mut s = if i == j { T::ONE } else { T::ZERO };
+                for k in i + 1..=j {
+                    s -= self.r[i][k] * inv[k][j];
+                }
+                inv[i][j] = s / d;
+            }
+        }
+        let mut cov = [[T::ZERO; N]; N];
+        for i in 0..N {
+            for j in 0..N {
+                let mut s = T::ZERO;
+                for k in i.max(j)..N {
+                    s += inv[i][k] * inv[j][k];
+                }
+                cov[i][j] = s;
+            }
+        }
+        Some(cov)
+    }
+
     /// The least-squares estimate by back substitution.
     pub fn solve(&self) -> Result<[T; N], SolveError> {
         self.solve_leading(N)

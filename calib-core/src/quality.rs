@@ -149,10 +149,16 @@ impl<T: Real> Gates<T> {
     /// extrapolation; the axis model is what paper 000 fits from an AUV's
     /// swing test (yaw all round, roll ±55°, pitch ±10°).
     pub fn for_model(kind: ModelKind) -> Self {
+        // A sphere's centre from a cap of directions is an extrapolation
+        // too: on BROAD trial 05 (19 % of the bins, |roll|, |pitch| ≤ 25°)
+        // it gave 7.5° of heading error where the true calibration gives
+        // 2.2°. The gyro-aided model does not rest on coverage: its own
+        // covariance says what the data determine.
         let min_coverage_pct = match kind {
-            ModelKind::Sphere => 15,
+            ModelKind::Sphere => 30,
             ModelKind::Axis => 25,
             ModelKind::Full | ModelKind::Triangular => 40,
+            ModelKind::Gyro => 0,
         };
         Self { min_coverage_pct, max_residual_pct: T::from_f64(2.0) }
     }

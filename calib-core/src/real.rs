@@ -28,6 +28,8 @@ pub trait Real:
     const TAU: Self;
     /// Machine epsilon.
     const EPSILON: Self;
+    /// Not a number ("not determined").
+    const NAN: Self;
 
     /// Converts from `f64`, rounding to nearest.
     fn from_f64(v: f64) -> Self;
@@ -65,6 +67,7 @@ macro_rules! impl_real {
             const PI: Self = core::f64::consts::PI as $t;
             const TAU: Self = core::f64::consts::TAU as $t;
             const EPSILON: Self = <$t>::EPSILON;
+            const NAN: Self = <$t>::NAN;
             #[inline]
             fn from_f64(v: f64) -> Self {
                 v as $t

@@ -98,14 +98,15 @@ const RECENT: usize = 32;
 
 impl OnboardFit {
     /// `None` for a model the board does not fit (triangular: fit `full`,
-    /// the same calibration, and factor it on the host).
+    /// the same calibration, and factor it on the host; gyro: the board
+    /// receives no rotation rates yet, the host fits it from the recording).
     fn new(model: ModelKind, field_nt: f32, centre: [f32; 3]) -> Option<Self> {
         let norm = Normalization { centre, scale: field_nt * COUNTS_PER_NT };
         let rls = match model {
             ModelKind::Sphere => Rls::Sphere(SphereRls::new(norm)),
             ModelKind::Axis => Rls::Axis(AxisRls::new(norm)),
             ModelKind::Full => Rls::Full(FullRls::new(norm)),
-            ModelKind::Triangular => return None,
+            ModelKind::Triangular | ModelKind::Gyro => return None,
         };
         Some(Self { model, field_nt, rls, coverage: CoverageMask::new(), running: true, recent: heapless::Deque::new(), rejected: 0 })
     }

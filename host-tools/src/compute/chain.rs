@@ -49,7 +49,7 @@ pub struct Chain {
 /// with the site's declination.
 pub fn axis_step(swing: &Recording, site: &Site) -> Result<CalDoc, ComputeError> {
     let field = site.field()?;
-    let mut step1 = fit_recording(swing, &FitOptions { model: ModelKind::Axis, field_nt: field.total_nt(), saturation: None, allow_weak: false })?;
+    let mut step1 = fit_recording(swing, &FitOptions { model: ModelKind::Axis, field_nt: field.total_nt(), saturation: None, allow_weak: false, gyro_lag_s: 0.0 })?;
     step1.declination_deg = Some(field.declination_deg());
     Ok(step1)
 }

@@ -23,6 +23,8 @@ pub struct FitOptions {
     pub saturation: Option<f64>,
     /// Return coefficients even when the quality gates fail (with warnings).
     pub allow_weak: bool,
+    /// Gyro model: the magnetometer's lag behind the gyro, s.
+    pub gyro_lag_s: f64,
 }
 
 fn fit_quality(q: &Quality<f64>, skipped_rows: usize, warnings: Vec<String>, units: String) -> FitQuality {
@@ -50,13 +52,20 @@ pub fn fit_recording(rec: &Recording, opts: &FitOptions) -> Result<CalDoc, Compu
         return Err(ComputeError::NoSamples);
     }
     calib_core::fit::check_samples(&samples, 1, opts.saturation)?;
-    let fitted = match opts.model {
+    let mut warnings = Vec::new();
+    let mut gyro_quality = None;
+    let cal = match opts.model {
         ModelKind::Sphere => fit_batch::<Sphere, 4, f64>(&samples, opts.field_nt),
         ModelKind::Axis => fit_batch::<Axis, 6, f64>(&samples, opts.field_nt),
         ModelKind::Full | ModelKind::Triangular => fit_batch::<Full, 9, f64>(&samples, opts.field_nt),
-    };
-    let cal = fitted.map_err(|e| explain_failure(e, &samples, opts))?;
-    let mut warnings = Vec::new();
+        ModelKind::Gyro => {
+            let (cal, q) = super::gyro::fit_gyro_recording(rec, opts.field_nt, opts.gyro_lag_s)?;
+            warnings.extend(q.weakly_determined.iter().cloned());
+            gyro_quality = Some(q);
+            Ok(cal)
+        }
+    }
+    .map_err(|e| explain_failure(e, &samples, opts))?;
     let q = assess(&cal, &samples, opts.field_nt);
     if let Err(e) = Gates::for_model(opts.model).check(&q) {
         if !opts.allow_weak {
@@ -77,7 +86,9 @@ pub fn fit_recording(rec: &Recording, opts: &FitOptions) -> Result<CalDoc, Compu
     // Which units the raw data look like (the fit works in any).
     let radius = opts.field_nt / ((cal.matrix[0][0].abs() + cal.matrix[1][1].abs() + cal.matrix[2][2].abs()) / 3.0);
     let units = units_guess(radius, opts.field_nt);
-    Ok(CalDoc::new(kind, &cal, opts.field_nt, ResultsQuality { fit: Some(fit_quality(&q, skipped, warnings, units)), ..Default::default() }))
+    let predicted_heading_rms_deg = gyro_quality.as_ref().map(|g| g.predicted_heading_rms_deg);
+    let quality = ResultsQuality { fit: Some(fit_quality(&q, skipped, warnings, units)), gyro: gyro_quality, predicted_heading_rms_deg, ..Default::default() };
+    Ok(CalDoc::new(kind, &cal, opts.field_nt, quality))
 }
 
 /// When a model cannot be fitted, the usual cause is data that visit too

@@ -17,6 +17,7 @@ use calib_core::swing::SwingError;
 pub mod backstep;
 pub mod chain;
 pub mod fit;
+pub mod gyro;
 pub mod ortho;
 pub mod swing;
 pub mod truth;
@@ -57,6 +58,9 @@ pub enum ComputeError {
     /// The back-stepping could not run.
     #[error("{0}")]
     Backstep(String),
+    /// The gyro-aided fit cannot use the recording.
+    #[error("{0}")]
+    Gyro(String),
     /// The reference field could not be computed.
     #[error("{0}")]
     Geomag(#[from] crate::geomag::GeomagError),

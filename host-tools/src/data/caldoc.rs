@@ -80,7 +80,7 @@ mod model_name {
     }
     pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<ModelKind, D::Error> {
         let name = String::deserialize(d)?;
-        super::model_kind(&name).ok_or_else(|| D::Error::custom(format!("unknown model `{name}` (expected sphere, axis, full or triangular)")))
+        super::model_kind(&name).ok_or_else(|| D::Error::custom(format!("unknown model `{name}` (expected sphere, axis, full, triangular or gyro)")))
     }
 }
 
@@ -91,6 +91,7 @@ pub fn model_kind(name: &str) -> Option<ModelKind> {
         "axis" => Some(ModelKind::Axis),
         "full" => Some(ModelKind::Full),
         "triangular" => Some(ModelKind::Triangular),
+        "gyro" => Some(ModelKind::Gyro),
         _ => None,
     }
 }

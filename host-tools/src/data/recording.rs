@@ -96,6 +96,12 @@ pub struct Recording {
     pub lat_deg: Option<Vec<f64>>,
     /// `lon_deg`.
     pub lon_deg: Option<Vec<f64>>,
+    /// `gx`, rad/s (body x rate from the gyro).
+    pub gx_rad_s: Option<Vec<f64>>,
+    /// `gy`, rad/s.
+    pub gy_rad_s: Option<Vec<f64>>,
+    /// `gz`, rad/s.
+    pub gz_rad_s: Option<Vec<f64>>,
 }
 
 impl Recording {
@@ -113,6 +119,12 @@ impl Recording {
     /// with their row indices.
     pub fn complete_mag(&self) -> (Vec<usize>, Vec<[f64; 3]>) {
         self.mag.iter().enumerate().filter(|(_, m)| m.iter().all(|v| v.is_finite())).map(|(i, m)| (i, *m)).unzip()
+    }
+
+    /// The gyro's three columns, when the recording has all of them.
+    pub fn gyro_rad_s(&self) -> Option<Vec<[f64; 3]>> {
+        let (x, y, z) = (self.gx_rad_s.as_ref()?, self.gy_rad_s.as_ref()?, self.gz_rad_s.as_ref()?);
+        Some(x.iter().zip(y).zip(z).map(|((&a, &b), &c)| [a, b, c]).collect())
     }
 
     /// Reads a CSV recording. `mx, my, mz` are required; the rest optional.
@@ -135,9 +147,9 @@ impl Recording {
             col(name).ok_or_else(|| RecordingError::MissingColumn { path: path.into(), column: name, header: header_list.clone() })
         };
         let (ix, iy, iz) = (required("mx")?, required("my")?, required("mz")?);
-        let opt = ["t", "roll_deg", "pitch_deg", "ref_heading_deg", "lat_deg", "lon_deg"].map(|n| col(n).map(|i| (n, i)));
+        let opt = ["t", "roll_deg", "pitch_deg", "ref_heading_deg", "lat_deg", "lon_deg", "gx", "gy", "gz"].map(|n| col(n).map(|i| (n, i)));
         let mut rec = Recording::default();
-        let mut optional: [Vec<f64>; 6] = Default::default();
+        let mut optional: [Vec<f64>; 9] = Default::default();
         let mut previous_t = f64::NEG_INFINITY;
         for (row, result) in rdr.records().enumerate() {
             let record = result.map_err(csv_err)?;
@@ -174,7 +186,7 @@ impl Recording {
         if rec.mag.is_empty() {
             return Err(RecordingError::NoRows(path.into()));
         }
-        let [t, roll, pitch, reference, lat, lon] = optional;
+        let [t, roll, pitch, reference, lat, lon, gx, gy, gz] = optional;
         let keep = |k: usize, v: Vec<f64>| opt[k].map(|_| v);
         rec.t_s = keep(0, t);
         rec.roll_deg = keep(1, roll);
@@ -182,6 +194,9 @@ impl Recording {
         rec.ref_heading_deg = keep(3, reference);
         rec.lat_deg = keep(4, lat);
         rec.lon_deg = keep(5, lon);
+        rec.gx_rad_s = keep(6, gx);
+        rec.gy_rad_s = keep(7, gy);
+        rec.gz_rad_s = keep(8, gz);
         Ok(rec)
     }
 
@@ -202,6 +217,9 @@ impl Recording {
             ("ref_heading_deg", &self.ref_heading_deg),
             ("lat_deg", &self.lat_deg),
             ("lon_deg", &self.lon_deg),
+            ("gx", &self.gx_rad_s),
+            ("gy", &self.gy_rad_s),
+            ("gz", &self.gz_rad_s),
         ]
         .into_iter()
         .filter_map(|(n, c)| c.as_ref().map(|c| (n, c)))

@@ -22,6 +22,42 @@ pub struct Quality {
     /// The swing (heading) fit.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub swing: Option<SwingQuality>,
+    /// The gyro-aided fit's diagnostics.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gyro: Option<GyroQuality>,
+    /// The 1σ heading error over all headings that the fit's own uncertainty
+    /// predicts, degrees (`docs/INTERFACES.md`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub predicted_heading_rms_deg: Option<f64>,
+}
+
+/// What the gyro-aided fit determined, and how well.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct GyroQuality {
+    /// Windows of integrated gyro rotation used.
+    pub kinematic_windows: u32,
+    /// Levelled-vertical equations used (rows with roll and pitch).
+    pub attitude_rows: u32,
+    /// Integration window, s.
+    pub window_s: f64,
+    /// The magnetometer's lag behind the gyro that was applied, s.
+    pub gyro_lag_s: f64,
+    /// The gyro's bias, estimated, rad/s.
+    pub gyro_bias_rad_s: [f64; 3],
+    /// The levelled vertical field, nT.
+    pub vertical_nt: f64,
+    /// RMS residual of the kinematic and attitude equations, nT.
+    pub residual_rms_nt: f64,
+    /// 1σ of the hard iron, raw units.
+    pub bias_sigma_raw: [f64; 3],
+    /// 1σ of the soft-iron entries relative to the x gain
+    /// (`yy zz xy xz yz`).
+    pub matrix_sigma_rel: [f64; 5],
+    /// The 1σ heading error the covariance predicts, degrees.
+    pub predicted_heading_rms_deg: f64,
+    /// The parameters the data determine weakly, one sentence each.
+    #[serde(default)]
+    pub weakly_determined: Vec<String>,
 }
 
 impl Quality {

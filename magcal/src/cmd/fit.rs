@@ -18,6 +18,7 @@ fn model_parser() -> impl clap::builder::TypedValueParser<Value = ModelKind> {
         PossibleValue::new("axis").help("Bias and three axis scales (paper 000, eqs 12–17)"),
         PossibleValue::new("full").help("Bias and a symmetric soft-iron matrix"),
         PossibleValue::new("triangular").help("Bias and paper 001's upper-triangular non-orthogonality and gains"),
+        PossibleValue::new("gyro").help("Gyro-aided: bias and symmetric soft iron from how the readings rotate (needs t, gx, gy, gz; roll_deg, pitch_deg help) — for vehicles that cannot tumble"),
     ])
     .try_map(|name| model_kind(&name).ok_or_else(|| format!("unknown model `{name}`")))
 }
@@ -39,6 +40,10 @@ pub struct Args {
     /// Raw magnitude at which the sensor saturates (per axis).
     #[arg(long)]
     saturation: Option<f64>,
+    /// The magnetometer's lag behind the gyro, s (gyro model): the rates are
+    /// read this much earlier than each field sample.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    gyro_lag_s: f64,
     /// Return coefficients even when the quality gates fail.
     #[arg(long)]
     allow_weak: bool,
@@ -55,7 +60,7 @@ pub fn run(a: Args) -> Result<()> {
     let reference = reference_field(a.field_nt, &a.site)?;
     let rec = Recording::read(&a.input)?;
     let model = a.model;
-    let opts = FitOptions { model, field_nt: reference.total_nt(), saturation: a.saturation, allow_weak: a.allow_weak };
+    let opts = FitOptions { model, field_nt: reference.total_nt(), saturation: a.saturation, allow_weak: a.allow_weak, gyro_lag_s: a.gyro_lag_s };
     let mut doc = compute::fit_recording(&rec, &opts).with_context(|| format!("{}: {} fit", a.input.display(), model.name()))?;
     if a.site.lat.is_some() {
         doc.declination_deg = Some(reference.declination_deg());

@@ -1,0 +1,239 @@
+use super::*;
+use crate::conformance::SplitMix64;
+use crate::heading::{magnetic_heading_rad, ned_field, ned_to_body, wrap_pi};
+use crate::linalg::inverse3;
+
+#[test]
+fn a_quarter_turn_to_starboard_moves_north_to_port() {
+    // Yawing right by 90° (z down): a north-pointing vector that was ahead
+    // is now on the left, body −y.
+    let r = body_step_rotation([0.0, 0.0, core::f64::consts::FRAC_PI_2]);
+    let v = mul_mat_vec(&r, [1.0, 0.0, 0.0]);
+    assert!((v[0]).abs() < 1e-12 && (v[1] + 1.0).abs() < 1e-12 && v[2].abs() < 1e-12, "{v:?}");
+    // Two half steps about one axis make the whole step; tiny angles use the
+    // series and still give a rotation.
+    let half = body_step_rotation([0.3, -0.2, 0.5]);
+    let whole = body_step_rotation([0.6, -0.4, 1.0]);
+    let two = mul_mat(&half, &half);
+    for i in 0..3 {
+        for j in 0..3 {
+            assert!((two[i][j] - whole[i][j]).abs() < 1e-12);
+        }
+    }
+    let tiny = body_step_rotation([1e-6, 2e-6, -1e-6]);
+    assert!((crate::linalg::det3(&tiny) - 1.0).abs() < 1e-12);
+}
+
+/// A vehicle that turns through every heading with limited roll and pitch,
+/// written from rigid-body kinematics (Z-Y-X Euler angles and their rates),
+/// not from the fit's equations; the sensor distorts the true body field
+/// with a symmetric soft iron and a hard iron and adds noise; the gyro adds
+/// its bias and noise.
+struct Vehicle {
+    roll_amp_rad: f64,
+    pitch_amp_rad: f64,
+    gyro_bias_rad_s: [f64; 3],
+    mag_noise_raw: f64,
+    gyro_noise_rad_s: f64,
+}
+
+/// Soft iron and sensitivity, raw per 10 nT (a 0.1 µT count, as in BROAD):
+/// scales ±6 %, couplings 5–7 %.
+const D: [[f64; 3]; 3] = [[1.06, 0.07, -0.05], [0.07, 0.95, 0.06], [-0.05, 0.06, 1.02]];
+const B_RAW: [f64; 3] = [2_800.0, -1_500.0, 2_200.0];
+const F_NT: f64 = 48_000.0;
+const INCLINATION_DEG: f64 = 62.0;
+const DT_S: f64 = 0.04;
+
+/// `(samples, true magnetic headings)`.
+fn record(v: &Vehicle, seconds: f64, seed: u64, phase: f64) -> (Vec<GyroSample<f64>>, Vec<f64>) {
+    let mut rng = SplitMix64::new(seed);
+    let ned = ned_field(F_NT, INCLINATION_DEG.to_radians(), 0.0);
+    let n = (seconds / DT_S) as usize;
+    let (mut out, mut headings) = (Vec::new(), Vec::new());
+    for i in 0..n {
+        let t = i as f64 * DT_S;
+        // Euler angles and their rates.
+        let (wy, wr, wp) = (core::f64::consts::TAU / 40.0, core::f64::consts::TAU / 6.3, core::f64::consts::TAU / 9.1);
+        let yaw = phase + wy * t + 0.6 * (0.21 * t).sin();
+        let yaw_dot = wy + 0.6 * 0.21 * (0.21 * t).cos();
+        let roll = v.roll_amp_rad * (wr * t).sin();
+        let roll_dot = v.roll_amp_rad * wr * (wr * t).cos();
+        let pitch = v.pitch_amp_rad * (wp * t + 1.0).sin();
+        let pitch_dot = v.pitch_amp_rad * wp * (wp * t + 1.0).cos();
+        let (sr, cr, sp, cp) = (roll.sin(), roll.cos(), pitch.sin(), pitch.cos());
+        let omega = [roll_dot - yaw_dot * sp, pitch_dot * cr + yaw_dot * sr * cp, -pitch_dot * sr + yaw_dot * cr * cp];
+        let h = ned_to_body(ned, roll, pitch, yaw);
+        let raw: [f64; 3] = core::array::from_fn(|k| {
+            (0..3).map(|j| D[k][j] * h[j] / 10.0).sum::<f64>() + B_RAW[k] + v.mag_noise_raw * rng.gauss()
+        });
+        let rate = core::array::from_fn(|k| omega[k] + v.gyro_bias_rad_s[k] + v.gyro_noise_rad_s * rng.gauss());
+        out.push(GyroSample { t_s: t, raw, rate_rad_s: rate, roll_rad: roll, pitch_rad: pitch });
+        headings.push(yaw);
+    }
+    (out, headings)
+}
+
+fn heading_rms_deg(cal: &FieldCal<f64>, samples: &[GyroSample<f64>], truth: &[f64]) -> f64 {
+    let errs: Vec<f64> = samples
+        .iter()
+        .zip(truth)
+        .map(|(s, &t)| wrap_pi(magnetic_heading_rad(cal.apply(s.raw), s.roll_rad, s.pitch_rad) - t))
+        .collect();
+    (errs.iter().map(|e| e * e).sum::<f64>() / errs.len() as f64).sqrt().to_degrees()
+}
+
+fn true_cal() -> FieldCal<f64> {
+    let mut d = D;
+    for row in d.iter_mut() {
+        for v in row.iter_mut() {
+            *v /= 10.0;
+        }
+    }
+    FieldCal { bias: B_RAW, matrix: inverse3(&d).unwrap() }
+}
+
+fn limited(roll_deg: f64, pitch_deg: f64) -> Vehicle {
+    Vehicle {
+        roll_amp_rad: roll_deg.to_radians(),
+        pitch_amp_rad: pitch_deg.to_radians(),
+        gyro_bias_rad_s: [0.004, -0.006, 0.008],
+        mag_noise_raw: 0.5,
+        gyro_noise_rad_s: 0.002,
+    }
+}
+
+#[test]
+fn limited_tilt_recovers_soft_and_hard_iron_and_the_gyro_bias() {
+    let v = limited(15.0, 5.0);
+    let (cal_data, _) = record(&v, 240.0, 1, 0.0);
+    let (val_data, val_truth) = record(&v, 120.0, 2, 1.3);
+    let cfg = GyroConfig::new(0.1);
+    let (est, gyro_bias) = fit_gyro_batch(&cal_data, &cfg, F_NT).unwrap();
+    let truth = true_cal();
+    let bias_err: Vec<f64> = (0..3).map(|k| est.cal.bias[k] - truth.bias[k]).collect();
+    let mut rel = 0.0f64;
+    for i in 0..3 {
+        for j in 0..3 {
+            rel = rel.max((est.cal.matrix[i][j] - truth.matrix[i][j]).abs() / truth.matrix[i][i]);
+        }
+    }
+    let hdg = heading_rms_deg(&est.cal, &val_data, &val_truth);
+    let noise_floor = heading_rms_deg(&truth, &val_data, &val_truth);
+    eprintln!("bias err {bias_err:?} raw (σ {:?}), matrix rel err {rel:.2e}, gyro bias {gyro_bias:?}, heading {hdg:.3}° (true cal {noise_floor:.3}°), predicted {:.3}°", est.bias_sigma_raw, est.predicted_heading_rms_rad.to_degrees());
+    // Measured: bias errors ≤ 1.3 raw of a 4 800-raw field (σ 0.1–0.25),
+    // matrix 2.6e-4, gyro bias within 2.5e-5 rad/s, heading 0.021° against
+    // the true calibration's 0.013° on the same noisy validation samples,
+    // predicted 0.004°.
+    for e in &bias_err {
+        assert!(e.abs() < 5.0, "{bias_err:?}");
+    }
+    assert!(rel < 1.5e-3, "{rel}");
+    for k in 0..3 {
+        assert!((gyro_bias[k] - v.gyro_bias_rad_s[k]).abs() < 2e-4, "{gyro_bias:?}");
+    }
+    assert!(hdg < 0.08, "{hdg}");
+    assert!(est.predicted_heading_rms_rad.to_degrees() < 0.03);
+    assert!((est.vertical_nt - F_NT * INCLINATION_DEG.to_radians().sin()).abs() < 0.01 * F_NT, "{}", est.vertical_nt);
+}
+
+#[test]
+fn without_the_gyro_bias_step_a_biased_gyro_costs_heading() {
+    // The same data, the bias left in: the alternation is what removes it.
+    let v = Vehicle { gyro_bias_rad_s: [0.02, -0.03, 0.03], ..limited(15.0, 5.0) };
+    let (cal_data, _) = record(&v, 240.0, 3, 0.0);
+    let (val_data, val_truth) = record(&v, 120.0, 4, 0.7);
+    let cfg = GyroConfig::new(0.1);
+    let mut plain = GyroFit::new(normalization_of(&cal_data).unwrap(), cfg);
+    for s in &cal_data {
+        plain.push(s);
+    }
+    let plain_hdg = heading_rms_deg(&plain.estimate(F_NT).unwrap().cal, &val_data, &val_truth);
+    let (est, _) = fit_gyro_batch(&cal_data, &cfg, F_NT).unwrap();
+    let hdg = heading_rms_deg(&est.cal, &val_data, &val_truth);
+    eprintln!("heading with the gyro bias left in {plain_hdg:.3}°, estimated {hdg:.3}°");
+    // Measured: 6.7° left in, 0.015° estimated.
+    assert!(hdg < 0.06 && plain_hdg > 2.0, "{plain_hdg} vs {hdg}");
+}
+
+#[test]
+fn the_recursive_fit_in_f32_matches_the_f64_reference() {
+    let v = limited(15.0, 5.0);
+    let (data, _) = record(&v, 240.0, 5, 0.0);
+    let (val_data, val_truth) = record(&v, 60.0, 6, 2.0);
+    let mut cfg = GyroConfig::new(0.1);
+    cfg.gyro_bias_rad_s = v.gyro_bias_rad_s;
+    let norm = normalization_of(&data).unwrap();
+    let mut f64_fit = GyroFit::new(norm, cfg);
+    let n32 = Normalization { centre: norm.centre.map(|v| v as f32), scale: norm.scale as f32 };
+    let cfg32 = GyroConfig { window_steps: 20, max_step_s: 0.1f32, gyro_bias_rad_s: cfg.gyro_bias_rad_s.map(|v| v as f32), attitude_weight: 1.0 };
+    let mut f32_fit = GyroFit::new(n32, cfg32);
+    for s in &data {
+        f64_fit.push(s);
+        f32_fit.push(&GyroSample {
+            t_s: s.t_s as f32,
+            raw: s.raw.map(|v| v as f32),
+            rate_rad_s: s.rate_rad_s.map(|v| v as f32),
+            roll_rad: s.roll_rad as f32,
+            pitch_rad: s.pitch_rad as f32,
+        });
+    }
+    let a = f64_fit.estimate(F_NT).unwrap().cal;
+    let b32 = f32_fit.estimate(F_NT as f32).unwrap().cal;
+    let b = FieldCal { bias: b32.bias.map(f64::from), matrix: b32.matrix.map(|r| r.map(f64::from)) };
+    let (ha, hb) = (heading_rms_deg(&a, &val_data, &val_truth), heading_rms_deg(&b, &val_data, &val_truth));
+    let db: Vec<f64> = (0..3).map(|k| (a.bias[k] - b.bias[k]).abs()).collect();
+    eprintln!("f64 {ha:.4}°, f32 {hb:.4}°, bias difference {db:?} raw");
+    // Measured: 0.024° (f64) and 0.032° (f32); biases within 1.5 raw of a
+    // 4 800-raw field. f32's rounding over 18 000 equations, not the method.
+    assert!((ha - hb).abs() < 0.03, "{ha} vs {hb}");
+    for d in db {
+        assert!(d < 5.0);
+    }
+}
+
+#[test]
+fn no_rotation_is_refused_not_guessed() {
+    let v = Vehicle { roll_amp_rad: 0.0, pitch_amp_rad: 0.0, ..limited(0.0, 0.0) };
+    let (mut data, _) = record(&v, 60.0, 7, 0.0);
+    // Hold the heading too: the vehicle sits still.
+    let first = data[0];
+    for (i, s) in data.iter_mut().enumerate() {
+        *s = GyroSample { t_s: i as f64 * DT_S, ..first };
+    }
+    let err = fit_gyro_batch(&data, &GyroConfig::new(0.1), F_NT).unwrap_err();
+    assert!(matches!(err, FitError::InsufficientExcitation { .. } | FitError::NotAnEllipsoid), "{err:?}");
+    // Gaps longer than the step limit leave no windows at all.
+    let sparse: Vec<_> = record(&limited(15.0, 5.0), 60.0, 8, 0.0).0.into_iter().step_by(10).collect();
+    let err = fit_gyro_batch(&sparse, &GyroConfig::new(0.1), F_NT).unwrap_err();
+    assert!(matches!(err, FitError::TooFewSamples { have: 0, .. }), "{err:?}");
+}
+
+/// Heading difference between two calibrations on the same samples: the
+/// calibration's own error, without the validation samples' noise.
+fn calibration_error_rms_deg(a: &FieldCal<f64>, b: &FieldCal<f64>, samples: &[GyroSample<f64>]) -> f64 {
+    let heading = |c: &FieldCal<f64>, s: &GyroSample<f64>| magnetic_heading_rad(c.apply(s.raw), s.roll_rad, s.pitch_rad);
+    let sum: f64 = samples.iter().map(|s| wrap_pi(heading(a, s) - heading(b, s)).powi(2)).sum();
+    (sum / samples.len() as f64).sqrt().to_degrees()
+}
+
+#[test]
+fn the_predicted_heading_error_is_calibrated_over_seeds() {
+    let v = Vehicle { mag_noise_raw: 3.0, ..limited(15.0, 5.0) };
+    let (mut observed, mut predicted) = (0.0, 0.0);
+    let seeds = 8;
+    for seed in 0..seeds {
+        let (data, _) = record(&v, 180.0, 100 + seed, seed as f64);
+        let (val, _) = record(&Vehicle { mag_noise_raw: 0.0, ..limited(15.0, 5.0) }, 60.0, 200 + seed, 0.5);
+        let (est, _) = fit_gyro_batch(&data, &GyroConfig::new(0.1), F_NT).unwrap();
+        let o = calibration_error_rms_deg(&est.cal, &true_cal(), &val);
+        let p = est.predicted_heading_rms_rad.to_degrees();
+        eprintln!("seed {seed}: observed {o:.4}°, predicted {p:.4}°");
+        observed += o * o;
+        predicted += p * p;
+    }
+    // Measured: 1.50 (one seed of eight at 2.4×), the others 1.1–1.9×.
+    let ratio = (observed / predicted).sqrt();
+    eprintln!("observed / predicted over {seeds} seeds: {ratio:.2}");
+    assert!((0.5..2.0).contains(&ratio), "{ratio}");
+}

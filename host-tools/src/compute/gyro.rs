@@ -1,0 +1,134 @@
+//! The gyro-aided fit ([`calib_core::gyro`]) on a recording: for a vehicle
+//! that cannot tumble. Reads `t`, `gx, gy, gz` and, where present,
+//! `roll_deg, pitch_deg`; says which parameters the data leave weak.
+
+use calib_core::cal::FieldCal;
+use calib_core::gyro::{fit_gyro_batch, GyroConfig, GyroSample, MAX_WINDOW_STEPS};
+
+use super::ComputeError;
+use crate::data::results::GyroQuality;
+use crate::data::Recording;
+
+/// Integration window: 0.7 s (20 steps at BROAD's 28.6 Hz gave the best
+/// heading on its calibration part; see `calib_core::gyro::GyroConfig`).
+pub const WINDOW_S: f64 = 0.7;
+
+/// A hard-iron 1σ above this fraction of the field (in raw units) is
+/// reported as weakly determined.
+const WEAK_BIAS_FRACTION: f64 = 0.005;
+/// A soft-iron entry's 1σ above this (relative to the x gain) is reported.
+const WEAK_MATRIX_REL: f64 = 0.01;
+/// A predicted heading error above this is reported, degrees.
+const WEAK_HEADING_DEG: f64 = 1.0;
+
+/// The gyro rates at `t − lag_s`, linearly interpolated between rows
+/// (NaN outside the recording or next to a missing rate).
+fn rates_at_lag(t: &[f64], rates: &[[f64; 3]], lag_s: f64) -> Vec<[f64; 3]> {
+    if lag_s == 0.0 {
+        return rates.to_vec();
+    }
+    t.iter()
+        .map(|&ti| {
+            let want = ti - lag_s;
+            let j = t.partition_point(|&x| x <= want);
+            if j == 0 || j >= t.len() {
+                return [f64::NAN; 3];
+            }
+            let (t0, t1) = (t[j - 1], t[j]);
+            let f = if t1 > t0 { (want - t0) / (t1 - t0) } else { 0.0 };
+            core::array::from_fn(|k| rates[j - 1][k] + f * (rates[j][k] - rates[j - 1][k]))
+        })
+        .collect()
+}
+
+fn median_step_s(t: &[f64]) -> Option<f64> {
+    let mut d: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).filter(|d| *d > 0.0).collect();
+    if d.is_empty() {
+        return None;
+    }
+    d.sort_by(f64::total_cmp);
+    Some(d[d.len() / 2])
+}
+
+/// Fits the gyro-aided calibration; the magnitude is scaled to `field_nt`.
+pub fn fit_gyro_recording(rec: &Recording, field_nt: f64, gyro_lag_s: f64) -> Result<(FieldCal<f64>, GyroQuality), ComputeError> {
+    let t = rec.t_s.as_ref().ok_or(ComputeError::NeedsColumn("t"))?;
+    let rates = rec.gyro_rad_s().ok_or(if rec.gx_rad_s.is_none() {
+        ComputeError::NeedsColumn("gx")
+    } else if rec.gy_rad_s.is_none() {
+        ComputeError::NeedsColumn("gy")
+    } else {
+        ComputeError::NeedsColumn("gz")
+    })?;
+    if !gyro_lag_s.is_finite() || gyro_lag_s.abs() > 1.0 {
+        return Err(ComputeError::Gyro(format!("--gyro-lag-s {gyro_lag_s}: expected a lag within ±1 s")));
+    }
+    let step_s = median_step_s(t).ok_or(ComputeError::Gyro("the `t` column does not advance: no rotation can be integrated".into()))?;
+    let rates = rates_at_lag(t, &rates, gyro_lag_s);
+    let nan = vec![f64::NAN; rec.len()];
+    let (roll, pitch) = (rec.roll_deg.as_ref().unwrap_or(&nan), rec.pitch_deg.as_ref().unwrap_or(&nan));
+    let samples: Vec<GyroSample<f64>> = (0..rec.len())
+        .map(|i| GyroSample { t_s: t[i], raw: rec.mag[i], rate_rad_s: rates[i], roll_rad: roll[i].to_radians(), pitch_rad: pitch[i].to_radians() })
+        .collect();
+    if samples.iter().any(|s| s.rate_rad_s.iter().any(|w| w.abs() > 35.0)) {
+        // 35 rad/s = 2 000 °/s, a MEMS gyro's largest range: larger values
+        // are deg/s or raw counts.
+        return Err(ComputeError::Gyro("gx, gy, gz exceed 35 rad/s (2 000°/s): the gyro columns must be in rad/s".into()));
+    }
+    let mut cfg = GyroConfig::new(1.5 * step_s);
+    cfg.window_steps = ((WINDOW_S / step_s).round() as usize).clamp(1, MAX_WINDOW_STEPS);
+    let (est, gyro_bias) = fit_gyro_batch(&samples, &cfg, field_nt)?;
+    let mut weak = Vec::new();
+    if est.attitude_rows == 0 {
+        weak.push("no roll_deg/pitch_deg: the vertical gain and hard iron rest on the gyro alone; record the AHRS attitude too".to_string());
+    }
+    let mean_gain = (est.cal.matrix[0][0] + est.cal.matrix[1][1] + est.cal.matrix[2][2]) / 3.0;
+    let radius_raw = field_nt / mean_gain.abs();
+    for (k, axis) in ["x", "y", "z"].iter().enumerate() {
+        let sigma = est.bias_sigma_raw[k];
+        if !(sigma <= WEAK_BIAS_FRACTION * radius_raw) {
+            weak.push(format!(
+                "the {axis} hard iron is weakly determined: 1σ {sigma:.1} raw units ({:.1} % of the field); more roll and pitch would tie it",
+                100.0 * sigma / radius_raw
+            ));
+        }
+    }
+    for (k, name) in ["yy", "zz", "xy", "xz", "yz"].iter().enumerate() {
+        let sigma = est.matrix_sigma_rel[k];
+        if !(sigma <= WEAK_MATRIX_REL) {
+            weak.push(format!("the soft-iron {name} entry is weakly determined: 1σ {:.1} % of the x gain", 100.0 * sigma));
+        }
+    }
+    let predicted_deg = est.predicted_heading_rms_rad.to_degrees();
+    if !(predicted_deg <= WEAK_HEADING_DEG) {
+        weak.push(format!("the fit's own uncertainty predicts {predicted_deg:.2}° of heading error (1σ): turn through more headings and attitudes"));
+    }
+    let quality = GyroQuality {
+        kinematic_windows: est.kinematic_windows,
+        attitude_rows: est.attitude_rows,
+        window_s: cfg.window_steps as f64 * step_s,
+        gyro_lag_s,
+        gyro_bias_rad_s: gyro_bias,
+        vertical_nt: est.vertical_nt,
+        residual_rms_nt: est.residual_rms_nt,
+        bias_sigma_raw: est.bias_sigma_raw,
+        matrix_sigma_rel: est.matrix_sigma_rel,
+        predicted_heading_rms_deg: predicted_deg,
+        weakly_determined: weak,
+    };
+    Ok((est.cal, quality))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_lag_reads_the_rates_earlier() {
+        let t = [0.0, 1.0, 2.0, 3.0];
+        let r = [[0.0; 3], [1.0; 3], [2.0; 3], [3.0; 3]];
+        let shifted = rates_at_lag(&t, &r, 0.25);
+        assert!(shifted[0][0].is_nan());
+        assert!((shifted[1][0] - 0.75).abs() < 1e-12 && (shifted[3][2] - 2.75).abs() < 1e-12);
+    }
+}
