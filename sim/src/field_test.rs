@@ -15,6 +15,10 @@
 //! whole counts. `D` carries scale, the steel hull's soft iron, misalignment
 //! and paper 001's non-orthogonality. The field is IGRF-14 along the track.
 //! Attitude from the AHRS is the truth plus noise and a small bias.
+//!
+//! The gyro ([`GyroModel`], [`Simulation::with_gyro`]): the body rates of the
+//! true attitude history (Z-Y-X Euler-angle kinematics), seen through a
+//! slightly misaligned triad, plus a constant bias and white noise.
 
 use std::path::Path;
 
@@ -296,9 +300,19 @@ fn empty(truth: Truth) -> Simulation {
 /// Table 2: roll only, roll + pitch, roll + pitch + yaw).
 pub const SWING_SEGMENTS_S: [(f64, f64, &str); 3] = [(0.0, 300.0, "roll"), (300.0, 730.0, "roll+pitch"), (730.0, 1330.0, "roll+pitch+yaw")];
 
-/// The swing test: the vehicle turned by a diver, thrusters off.
+/// The swing test: the vehicle turned by a diver, thrusters off (roll ±55°,
+/// pitch ±10°, as in paper 000).
 pub fn swing(sensor: &SensorModel, site: &Site, seed: u64, rate_hz: f64) -> Result<Simulation, SimError> {
+    swing_limited(sensor, site, seed, rate_hz, 55.0, 10.0)
+}
+
+/// The swing test with other roll and pitch amplitudes, degrees (a vehicle
+/// that cannot be rolled far: ±15° / ±5°).
+pub fn swing_limited(sensor: &SensorModel, site: &Site, seed: u64, rate_hz: f64, roll_amp_deg: f64, pitch_amp_deg: f64) -> Result<Simulation, SimError> {
     check_rate(rate_hz)?;
+    if !((0.0..=90.0).contains(&roll_amp_deg) && (0.0..=60.0).contains(&pitch_amp_deg)) {
+        return Err(SimError::Parameter(format!("swing amplitudes roll {roll_amp_deg}°, pitch {pitch_amp_deg}° are outside 0…90° / 0…60°")));
+    }
     let mut b = Builder { sim: empty(truth_for("swing", seed, sensor, site, None)?), sensor, rng: SplitMix64::new(seed) };
     let dt = 1.0 / rate_hz;
     let end = SWING_SEGMENTS_S[2].1;
@@ -306,16 +320,17 @@ pub fn swing(sensor: &SensorModel, site: &Site, seed: u64, rate_hz: f64) -> Resu
     let n = (end / dt) as usize;
     for k in 0..n {
         let t = k as f64 * dt;
-        let roll = 55.0 * (std::f64::consts::TAU * t / 37.0).sin();
-        let pitch = if t >= SWING_SEGMENTS_S[1].0 { 10.0 * (std::f64::consts::TAU * t / 23.0).sin() } else { 0.0 };
+        let roll = roll_amp_deg * (std::f64::consts::TAU * t / 37.0).sin();
+        let pitch = if t >= SWING_SEGMENTS_S[1].0 { pitch_amp_deg * (std::f64::consts::TAU * t / 23.0).sin() } else { 0.0 };
         // Yaw: held in the first two segments, then turned all round
-        // (−180…180°) at 3°/s, back and forth.
+        // (−180…180°) at 3°/s, back and forth, starting from the held yaw
+        // (a vehicle does not jump: the gyro sees every degree).
         let yaw = if t >= SWING_SEGMENTS_S[2].0 {
             let u = (t - SWING_SEGMENTS_S[2].0) * 3.0;
-            let tri = (u % 720.0 - 360.0).abs() - 180.0; // −180…180 triangle
+            let tri = (u % 720.0 - 360.0).abs() - 180.0; // 180 → −180 → 180 triangle
             yaw0 + tri
         } else {
-            yaw0
+            yaw0 + 180.0
         };
         b.push(t, site.lat_deg, site.lon_deg, site.decimal_year, [roll, pitch, yaw], false, f64::NAN)?;
     }
@@ -396,7 +411,69 @@ pub fn run(sensor: &SensorModel, site: &Site, params: &RunParams, seed: u64, rat
     Ok(b.sim)
 }
 
+/// A MEMS gyro mounted with the magnetometer.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct GyroModel {
+    /// Constant bias, rad/s.
+    pub bias_rad_s: [f64; 3],
+    /// White noise per axis and sample, rad/s (1σ).
+    pub noise_rad_s: f64,
+    /// Small rotation of the gyro triad against the magnetometer's axes,
+    /// rad (about x, y, z).
+    pub misalignment_rad: [f64; 3],
+}
+
+impl GyroModel {
+    /// A consumer MEMS gyro after its factory calibration: 0.2–0.3 °/s of
+    /// bias, 0.1 °/s of noise, axes within 0.2° of the magnetometer's.
+    pub fn mems() -> Self {
+        Self { bias_rad_s: [0.004, -0.003, 0.005], noise_rad_s: 0.002, misalignment_rad: [0.003, -0.002, 0.004] }
+    }
+}
+
 impl Simulation {
+    /// Adds `gx, gy, gz`: the body rates of the true attitude history
+    /// (Euler-angle rates by central differences over the sample interval,
+    /// turned into body rates by the Z-Y-X kinematics
+    /// `p = φ̇ − ψ̇ sin θ`, `q = θ̇ cos φ + ψ̇ sin φ cos θ`,
+    /// `r = −θ̇ sin φ + ψ̇ cos φ cos θ`), through the misaligned triad, plus
+    /// bias and noise (a generator of its own, so the magnetometer's noise
+    /// is the same with and without the gyro).
+    pub fn with_gyro(mut self, gyro: &GyroModel, seed: u64) -> Self {
+        let mut rng = SplitMix64::new(seed ^ 0x6779_726F);
+        let t = self.recording.t_s.clone().unwrap_or_default();
+        let n = t.len().min(self.true_heading_deg.len());
+        let [mx, my, mz] = gyro.misalignment_rad;
+        let misalign = [[1.0, -mz, my], [mz, 1.0, -mx], [-my, mx, 1.0]];
+        let (mut gx, mut gy, mut gz) = (Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n));
+        for i in 0..n {
+            let (a, b) = (i.saturating_sub(1), (i + 1).min(n - 1));
+            let span = t[b] - t[a];
+            let rate = |v: &[f64], wrap: bool| {
+                let mut d = v[b] - v[a];
+                if wrap {
+                    d = (d + 540.0).rem_euclid(360.0) - 180.0;
+                }
+                if span > 0.0 { d.to_radians() / span } else { 0.0 }
+            };
+            let (roll_dot, pitch_dot, yaw_dot) = (rate(&self.true_roll_deg, false), rate(&self.true_pitch_deg, false), rate(&self.true_heading_deg, true));
+            let (roll, pitch) = (self.true_roll_deg[i].to_radians(), self.true_pitch_deg[i].to_radians());
+            let body = [
+                roll_dot - yaw_dot * pitch.sin(),
+                pitch_dot * roll.cos() + yaw_dot * roll.sin() * pitch.cos(),
+                -pitch_dot * roll.sin() + yaw_dot * roll.cos() * pitch.cos(),
+            ];
+            let seen = mul_mat_vec(&misalign, body);
+            gx.push(seen[0] + gyro.bias_rad_s[0] + gyro.noise_rad_s * rng.gauss());
+            gy.push(seen[1] + gyro.bias_rad_s[1] + gyro.noise_rad_s * rng.gauss());
+            gz.push(seen[2] + gyro.bias_rad_s[2] + gyro.noise_rad_s * rng.gauss());
+        }
+        self.recording.gx_rad_s = Some(gx);
+        self.recording.gy_rad_s = Some(gy);
+        self.recording.gz_rad_s = Some(gz);
+        self
+    }
+
     /// Writes `path` (the recording plus truth columns) and `<path>.truth.json`.
     pub fn write(&self, path: &Path) -> Result<(), SimError> {
         self.recording.write_with_extra(

@@ -6,10 +6,10 @@
 //! are [`host_tools::compute::truth`]'s. Used by the acceptance tests and by
 //! `cargo xtask bench`.
 
-use host_tools::compute::{self, truth, BackstepMethod, ChainOptions, ComputeError, Delay};
+use host_tools::compute::{self, truth, BackstepMethod, ChainOptions, ComputeError, Delay, FirstStep};
 use host_tools::data::CalDoc;
 
-use crate::field_test::{self, paper_site, RunParams, SensorModel, SimError, Simulation};
+use crate::field_test::{self, paper_site, GyroModel, RunParams, SensorModel, SimError, Simulation};
 
 /// Why a scenario could not be evaluated.
 #[derive(Debug, thiserror::Error)]
@@ -69,8 +69,8 @@ pub fn evaluate(name: &str, sensor: SensorModel, seed: u64) -> Result<Outcome, S
 
     let step1 = compute::axis_step(&swing.recording, &site)?;
     let delay = Delay::Estimate { max_s: 5.0 };
-    let paper = compute::refine(step1.clone(), &swing.recording, &run.recording, &site, &ChainOptions { method: BackstepMethod::Paper, delay })?;
-    let ours = compute::refine(step1.clone(), &swing.recording, &run.recording, &site, &ChainOptions { method: BackstepMethod::Joint, delay })?;
+    let paper = compute::refine(step1.clone(), &swing.recording, &run.recording, &site, &ChainOptions { method: BackstepMethod::Paper, delay, ..Default::default() })?;
+    let ours = compute::refine(step1.clone(), &swing.recording, &run.recording, &site, &ChainOptions { method: BackstepMethod::Joint, delay, ..Default::default() })?;
     let (axis_swung, _, _) = compute::swing_recording(&run.recording, &step1, delay)?;
     let o = Outcome {
         step_axis_fit_nt: paper.backstep.before.step_nt,
@@ -88,4 +88,64 @@ pub fn evaluate(name: &str, sensor: SensorModel, seed: u64) -> Result<Outcome, S
         o.step_axis_fit_nt, o.step_paper_nt, o.step_ours_nt, o.heading_rms_axis_fit_deg, o.heading_rms_paper_deg, o.heading_rms_ours_deg, o.field_error_paper_nt, o.field_error_ours_nt, o.gps_delay_ours_s
     );
     Ok(o)
+}
+
+/// A swing test of limited roll and pitch, with or without a gyro.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct LimitedSwing {
+    /// Roll amplitude, degrees.
+    pub roll_amp_deg: f64,
+    /// Pitch amplitude, degrees.
+    pub pitch_amp_deg: f64,
+    /// The swing test records a gyro and the chain starts with the
+    /// gyro-aided fit (otherwise the paper's axis fit).
+    pub gyro: bool,
+}
+
+/// What the chain achieved after a limited swing test.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct LimitedOutcome {
+    /// The swing test.
+    pub swing: LimitedSwing,
+    /// Validation true-heading RMS of our chain, ° (`None` when refused).
+    pub heading_rms_deg: Option<f64>,
+    /// Validation |F| − IGRF RMS after the back-stepping, nT.
+    pub field_error_nt: Option<f64>,
+    /// Why the chain refused, when it did.
+    pub refused: Option<String>,
+}
+
+/// Our chain (joint back-stepping) after a swing test of the given roll and
+/// pitch amplitudes; with a gyro ([`GyroModel::mems`]) the chain starts with
+/// the gyro-aided fit. A refusal is an outcome, not an error.
+pub fn evaluate_limited(sensor: SensorModel, seed: u64, swing_kind: LimitedSwing) -> Result<LimitedOutcome, ScenarioError> {
+    let site = paper_site();
+    let mut swing = field_test::swing_limited(&sensor, &site, seed, 5.0, swing_kind.roll_amp_deg, swing_kind.pitch_amp_deg)?;
+    if swing_kind.gyro {
+        swing = swing.with_gyro(&GyroModel::mems(), seed);
+    }
+    let run = field_test::run(&sensor, &site, &RunParams::paper_like(), seed + 100, 2.0, "run")?;
+    let validation = field_test::run(&sensor, &site, &RunParams::validation(), seed + 200, 2.0, "validation")?;
+    let first_step = if swing_kind.gyro { FirstStep::Gyro } else { FirstStep::Axis };
+    let outcome = match compute::calibrate(&swing.recording, &run.recording, &site, &ChainOptions { first_step, ..Default::default() }) {
+        Ok(chain) => LimitedOutcome {
+            swing: swing_kind,
+            heading_rms_deg: Some(heading_rms_deg(&chain.final_doc, &validation)),
+            field_error_nt: Some(field_error_nt(&chain.backstepped, &validation)),
+            refused: None,
+        },
+        Err(e) => LimitedOutcome { swing: swing_kind, heading_rms_deg: None, field_error_nt: None, refused: Some(e.to_string()) },
+    };
+    eprintln!(
+        "swing ±{}° roll / ±{}° pitch, {}: {}",
+        swing_kind.roll_amp_deg,
+        swing_kind.pitch_amp_deg,
+        if swing_kind.gyro { "gyro-aided" } else { "axis fit" },
+        match (&outcome.heading_rms_deg, &outcome.refused) {
+            (Some(h), _) => format!("validation true-heading RMS {h:.3}°, field error {:.1} nT", outcome.field_error_nt.unwrap_or(f64::NAN)),
+            (None, Some(r)) => format!("refused: {r}"),
+            _ => String::new(),
+        }
+    );
+    Ok(outcome)
 }

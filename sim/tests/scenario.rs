@@ -36,3 +36,19 @@ fn hull_coupled_scenario_defeats_the_papers_sz_search_but_not_ours() {
         assert!(o.field_error_ours_nt <= 25.0);
     }
 }
+
+/// Issue 15: a swing test of ±15° roll / ±5° pitch with a gyro gives the
+/// heading of the full ±55° / ±10° swing test; without a gyro the axis fit
+/// refuses it rather than guessing.
+#[test]
+fn a_limited_swing_with_a_gyro_calibrates_as_well_as_the_full_one() {
+    use magcal_sim::scenario::{evaluate_limited, LimitedSwing};
+    let sensor = SensorModel::paper_like();
+    let full = evaluate_limited(sensor, 11, LimitedSwing { roll_amp_deg: 55.0, pitch_amp_deg: 10.0, gyro: true }).unwrap();
+    let limited = evaluate_limited(sensor, 11, LimitedSwing { roll_amp_deg: 15.0, pitch_amp_deg: 5.0, gyro: true }).unwrap();
+    let no_gyro = evaluate_limited(sensor, 11, LimitedSwing { roll_amp_deg: 15.0, pitch_amp_deg: 5.0, gyro: false }).unwrap();
+    let (f, l) = (full.heading_rms_deg.unwrap(), limited.heading_rms_deg.unwrap());
+    assert!((l - f).abs() < 0.1, "±15/±5 {l}° vs ±55/±10 {f}°");
+    assert!(l <= 0.35, "{l}");
+    assert!(no_gyro.refused.as_deref().is_some_and(|r| r.contains("of field directions were visited")), "{no_gyro:?}");
+}

@@ -121,10 +121,10 @@ fn limited_tilt_recovers_soft_and_hard_iron_and_the_gyro_bias() {
     let hdg = heading_rms_deg(&est.cal, &val_data, &val_truth);
     let noise_floor = heading_rms_deg(&truth, &val_data, &val_truth);
     eprintln!("bias err {bias_err:?} raw (σ {:?}), matrix rel err {rel:.2e}, gyro bias {gyro_bias:?}, heading {hdg:.3}° (true cal {noise_floor:.3}°), predicted {:.3}°", est.bias_sigma_raw, est.predicted_heading_rms_rad.to_degrees());
-    // Measured: bias errors ≤ 1.3 raw of a 4 800-raw field (σ 0.1–0.25),
-    // matrix 2.6e-4, gyro bias within 2.5e-5 rad/s, heading 0.021° against
+    // Measured: bias errors ≤ 2.2 raw of a 4 800-raw field (σ 0.1–0.25),
+    // matrix 6.3e-4, gyro bias within 2.5e-5 rad/s, heading 0.032° against
     // the true calibration's 0.013° on the same noisy validation samples,
-    // predicted 0.004°.
+    // predicted 0.006°.
     for e in &bias_err {
         assert!(e.abs() < 5.0, "{bias_err:?}");
     }
@@ -152,7 +152,7 @@ fn without_the_gyro_bias_step_a_biased_gyro_costs_heading() {
     let (est, _) = fit_gyro_batch(&cal_data, &cfg, F_NT).unwrap();
     let hdg = heading_rms_deg(&est.cal, &val_data, &val_truth);
     eprintln!("heading with the gyro bias left in {plain_hdg:.3}°, estimated {hdg:.3}°");
-    // Measured: 6.7° left in, 0.015° estimated.
+    // Measured: 6.7° left in, 0.028° estimated.
     assert!(hdg < 0.06 && plain_hdg > 2.0, "{plain_hdg} vs {hdg}");
 }
 
@@ -232,7 +232,7 @@ fn the_predicted_heading_error_is_calibrated_over_seeds() {
         observed += o * o;
         predicted += p * p;
     }
-    // Measured: 1.50 (one seed of eight at 2.4×), the others 1.1–1.9×.
+    // Measured: 1.6.
     let ratio = (observed / predicted).sqrt();
     eprintln!("observed / predicted over {seeds} seeds: {ratio:.2}");
     assert!((0.5..2.0).contains(&ratio), "{ratio}");

@@ -14,6 +14,17 @@ use crate::data::results::BackstepMethod;
 use crate::data::{CalDoc, Recording};
 use crate::geomag::Site;
 
+/// Which fit of the swing test starts the chain.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum FirstStep {
+    /// Paper 000's axis fit against IGRF (needs roll ±55°, pitch ±10°).
+    #[default]
+    Axis,
+    /// The gyro-aided fit ([`calib_core::gyro`]), scaled to IGRF: for a
+    /// swing test with a gyro and limited roll and pitch.
+    Gyro,
+}
+
 /// How the chain runs.
 #[derive(Debug, Clone, Copy)]
 pub struct ChainOptions {
@@ -21,12 +32,15 @@ pub struct ChainOptions {
     pub method: BackstepMethod,
     /// The GPS course's delay.
     pub delay: Delay,
+    /// The fit of the swing test.
+    pub first_step: FirstStep,
 }
 
 impl Default for ChainOptions {
-    /// Our joint back-stepping; the GPS delay estimated within 0…5 s.
+    /// The axis fit; our joint back-stepping; the GPS delay estimated
+    /// within 0…5 s.
     fn default() -> Self {
-        Self { method: BackstepMethod::Joint, delay: Delay::Estimate { max_s: 5.0 } }
+        Self { method: BackstepMethod::Joint, delay: Delay::Estimate { max_s: 5.0 }, first_step: FirstStep::Axis }
     }
 }
 
@@ -54,6 +68,15 @@ pub fn axis_step(swing: &Recording, site: &Site) -> Result<CalDoc, ComputeError>
     Ok(step1)
 }
 
+/// Step 1 with a gyro: the gyro-aided fit of the swing test, scaled to
+/// IGRF's intensity at the site, with the site's declination.
+pub fn gyro_step(swing: &Recording, site: &Site) -> Result<CalDoc, ComputeError> {
+    let field = site.field()?;
+    let mut step1 = fit_recording(swing, &FitOptions { model: ModelKind::Gyro, field_nt: field.total_nt(), saturation: None, allow_weak: false, gyro_lag_s: 0.0 })?;
+    step1.declination_deg = Some(field.declination_deg());
+    Ok(step1)
+}
+
 /// Steps 2 and 3 from a step-1 calibration: back-stepping on the run (with
 /// the swing test's magnitudes), then the swing fit on the run.
 pub fn refine(step1: CalDoc, swing: &Recording, run: &Recording, site: &Site, opts: &ChainOptions) -> Result<Chain, ComputeError> {
@@ -67,7 +90,11 @@ pub fn refine(step1: CalDoc, swing: &Recording, run: &Recording, site: &Site, op
     Ok(Chain { step1, backstepped, backstep, final_doc, delay_s })
 }
 
-/// The whole chain: [`axis_step`] then [`refine`].
+/// The whole chain: [`axis_step`] (or [`gyro_step`]) then [`refine`].
 pub fn calibrate(swing: &Recording, run: &Recording, site: &Site, opts: &ChainOptions) -> Result<Chain, ComputeError> {
-    refine(axis_step(swing, site)?, swing, run, site, opts)
+    let step1 = match opts.first_step {
+        FirstStep::Axis => axis_step(swing, site)?,
+        FirstStep::Gyro => gyro_step(swing, site)?,
+    };
+    refine(step1, swing, run, site, opts)
 }

@@ -93,10 +93,10 @@ pub fn fit_gyro_recording(rec: &Recording, field_nt: f64, gyro_lag_s: f64) -> Re
             ));
         }
     }
-    for (k, name) in ["yy", "zz", "xy", "xz", "yz"].iter().enumerate() {
+    for (k, name) in ["xy", "xz", "yx", "yy", "yz", "zx", "zy", "zz"].iter().enumerate() {
         let sigma = est.matrix_sigma_rel[k];
         if !(sigma <= WEAK_MATRIX_REL) {
-            weak.push(format!("the soft-iron {name} entry is weakly determined: 1σ {:.1} % of the x gain", 100.0 * sigma));
+            weak.push(format!("the matrix's {name} entry is weakly determined: 1σ {:.1} % of the x gain", 100.0 * sigma));
         }
     }
     let predicted_deg = est.predicted_heading_rms_rad.to_degrees();

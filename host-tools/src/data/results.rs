@@ -50,9 +50,9 @@ pub struct GyroQuality {
     pub residual_rms_nt: f64,
     /// 1σ of the hard iron, raw units.
     pub bias_sigma_raw: [f64; 3],
-    /// 1σ of the soft-iron entries relative to the x gain
-    /// (`yy zz xy xz yz`).
-    pub matrix_sigma_rel: [f64; 5],
+    /// 1σ of the matrix entries relative to the x gain
+    /// (`xy xz yx yy yz zx zy zz`).
+    pub matrix_sigma_rel: [f64; 8],
     /// The 1σ heading error the covariance predicts, degrees.
     pub predicted_heading_rms_deg: f64,
     /// The parameters the data determine weakly, one sentence each.

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::ValueEnum;
-use magcal_sim::field_test::{self, paper_site, truth_path, RunParams, SensorModel};
+use magcal_sim::field_test::{self, paper_site, truth_path, GyroModel, RunParams, SensorModel};
 use serde_json::json;
 
 /// Which field test.
@@ -57,6 +57,15 @@ pub struct Args {
     /// Runs: length of each leg, metres.
     #[arg(long)]
     leg_m: Option<f64>,
+    /// Swing test: roll amplitude, degrees (paper: 55).
+    #[arg(long, default_value_t = 55.0)]
+    roll_amp_deg: f64,
+    /// Swing test: pitch amplitude, degrees (paper: 10).
+    #[arg(long, default_value_t = 10.0)]
+    pitch_amp_deg: f64,
+    /// Record a MEMS gyro too (`gx, gy, gz`: bias, noise, a small misalignment).
+    #[arg(long)]
+    gyro: bool,
     /// Print a JSON summary on stdout.
     #[arg(long)]
     json: bool,
@@ -77,10 +86,11 @@ pub fn run(a: Args) -> Result<()> {
         p
     };
     let simulation = match a.scenario {
-        Scenario::Swing => field_test::swing(&sensor, &site, a.seed, a.rate_hz)?,
+        Scenario::Swing => field_test::swing_limited(&sensor, &site, a.seed, a.rate_hz, a.roll_amp_deg, a.pitch_amp_deg)?,
         Scenario::Run => field_test::run(&sensor, &site, &tune(RunParams::paper_like()), a.seed, a.rate_hz, "run")?,
         Scenario::Validation => field_test::run(&sensor, &site, &tune(RunParams::validation()), a.seed, a.rate_hz, "validation")?,
     };
+    let simulation = if a.gyro { simulation.with_gyro(&GyroModel::mems(), a.seed) } else { simulation };
     simulation.write(&a.out)?;
     let truth = truth_path(&a.out);
     eprintln!("wrote {} ({} rows) and {}", a.out.display(), simulation.recording.len(), truth.display());
