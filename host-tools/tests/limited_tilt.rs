@@ -8,8 +8,8 @@
 use std::path::{Path, PathBuf};
 
 use calib_core::cal::{FieldCal, ModelKind};
-use calib_core::heading::{magnetic_heading_rad, wrap_pi};
-use host_tools::compute::{fit_recording, ComputeError, FitOptions};
+use calib_core::heading::magnetic_heading_rad;
+use host_tools::compute::{fit_recording, truth, ComputeError, FitOptions};
 use host_tools::data::recording::Recording;
 
 /// The lab's mean intensity on the calibration part (the data's README).
@@ -45,12 +45,10 @@ fn validation_heading_rms_deg(cal: &FieldCal<f64>) -> f64 {
     let rec = Recording::read(&data("05_validate.csv")).unwrap();
     let optical = optical_heading_deg();
     let (roll, pitch) = (rec.roll_deg.unwrap(), rec.pitch_deg.unwrap());
-    let err: Vec<f64> = (0..rec.mag.len())
-        .map(|i| wrap_pi(magnetic_heading_rad(cal.apply(rec.mag[i]), roll[i].to_radians(), pitch[i].to_radians()) - optical[i].to_radians()))
-        .collect();
-    let offset = err.iter().map(|e| e.sin()).sum::<f64>().atan2(err.iter().map(|e| e.cos()).sum::<f64>());
-    let n = err.len() as f64;
-    (err.iter().map(|e| wrap_pi(e - offset).powi(2)).sum::<f64>() / n).sqrt().to_degrees()
+    let headings = (0..rec.mag.len()).map(|i| magnetic_heading_rad(cal.apply(rec.mag[i]), roll[i].to_radians(), pitch[i].to_radians()));
+    let (rms, _) = truth::heading_rms_after_offset_deg(headings.zip(optical));
+    assert_eq!(rms.samples, 990);
+    rms.rms
 }
 
 fn opts(model: ModelKind) -> FitOptions {

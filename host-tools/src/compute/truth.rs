@@ -38,6 +38,19 @@ pub fn heading_rms_deg(pairs: impl IntoIterator<Item = (f64, f64)>) -> Rms {
     Rms { rms: r.rms.to_degrees(), ..r }
 }
 
+/// As [`heading_rms_deg`] after removing the one constant offset that fits
+/// best (the circular mean of the errors), as a declination or a mounting
+/// offset would: for a reference whose north is not the calibration's
+/// (a lab's optical frame, a magnetic reference). Returns the RMS and the
+/// offset removed, degrees.
+pub fn heading_rms_after_offset_deg(pairs: impl IntoIterator<Item = (f64, f64)>) -> (Rms, f64) {
+    let errors: Vec<f64> = pairs.into_iter().map(|(m, t)| wrap_pi(m - t.to_radians())).filter(|e| e.is_finite()).collect();
+    let offset = errors.iter().map(|e| e.sin()).sum::<f64>().atan2(errors.iter().map(|e| e.cos()).sum::<f64>());
+    let ss: f64 = errors.iter().map(|e| wrap_pi(e - offset).powi(2)).sum();
+    let r = Rms::from_sum(ss, errors.len());
+    (Rms { rms: r.rms.to_degrees(), ..r }, offset.to_degrees())
+}
+
 /// The true heading (rad) that a calibration gives at every row of a
 /// recording (field, tilt from the recording's roll and pitch, swing,
 /// declination); NaN where a column is missing.
