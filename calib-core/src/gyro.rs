@@ -278,6 +278,11 @@ impl<T: Real> GyroFit<T> {
         }
     }
 
+    /// The normalisation in use.
+    pub fn normalization(&self) -> &Normalization<T> {
+        &self.norm
+    }
+
     /// Kinematic windows absorbed.
     pub fn kinematic_windows(&self) -> u32 {
         self.kinematic_windows

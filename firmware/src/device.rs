@@ -14,6 +14,7 @@
 use calib_core::cal::{Calibration, FieldCal, Swing};
 use calib_core::heading::Tilt;
 use calib_core::fit::{AxisRls, FitError, FullRls, Normalization, SphereRls};
+use calib_core::gyro::{GyroConfig, GyroFit, GyroSample, MAX_WINDOW_STEPS};
 use calib_core::quality::CoverageMask;
 use magcal_protocol::{
     CoefficientSource, Coefficients, ModelKind, FitReport, Health, DeviceError, RequestBody, ResponseBody, Sample, StreamMode,
@@ -79,7 +80,28 @@ enum Rls {
     Sphere(SphereRls<f32>),
     Axis(AxisRls<f32>),
     Full(FullRls<f32>),
+    /// The gyro-aided fit, with the board time it started (its samples'
+    /// times count from there, so `f32` keeps millisecond resolution).
+    Gyro(GyroFit<f32>, u32),
 }
+
+/// Body rates and attitude from the AHRS ([`RequestBody::Motion`]), with the
+/// board time they arrived.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Motion {
+    roll_rad: f32,
+    pitch_rad: f32,
+    rate_rad_s: [f32; 3],
+    at_ms: u32,
+}
+
+/// The largest body rate a [`RequestBody::Motion`] may carry, rad/s
+/// (2 000°/s, a MEMS gyro's widest range).
+const MAX_RATE_RAD_S: f32 = 35.0;
+
+/// The gyro-aided fit's integration window on the board, s (as the host's
+/// `host_tools::compute::gyro::WINDOW_S`).
+const GYRO_WINDOW_S: f32 = 0.7;
 
 struct OnboardFit {
     model: ModelKind,
@@ -98,15 +120,22 @@ const RECENT: usize = 32;
 
 impl OnboardFit {
     /// `None` for a model the board does not fit (triangular: fit `full`,
-    /// the same calibration, and factor it on the host; gyro: the board
-    /// receives no rotation rates yet, the host fits it from the recording).
-    fn new(model: ModelKind, field_nt: f32, centre: [f32; 3]) -> Option<Self> {
+    /// the same calibration, and factor it on the host). The gyro-aided fit
+    /// integrates the rates of [`RequestBody::Motion`] between output
+    /// samples (`output_rate_hz`).
+    fn new(model: ModelKind, field_nt: f32, centre: [f32; 3], output_rate_hz: u8, now_ms: u32) -> Option<Self> {
         let norm = Normalization { centre, scale: field_nt * COUNTS_PER_NT };
         let rls = match model {
             ModelKind::Sphere => Rls::Sphere(SphereRls::new(norm)),
             ModelKind::Axis => Rls::Axis(AxisRls::new(norm)),
             ModelKind::Full => Rls::Full(FullRls::new(norm)),
-            ModelKind::Triangular | ModelKind::Gyro => return None,
+            ModelKind::Gyro => {
+                let period_s = 1.0 / f32::from(output_rate_hz.max(1));
+                let mut cfg = GyroConfig::new(3.0 * period_s);
+                cfg.window_steps = ((GYRO_WINDOW_S / period_s + 0.5) as usize).clamp(1, MAX_WINDOW_STEPS);
+                Rls::Gyro(GyroFit::new(norm, cfg), now_ms)
+            }
+            ModelKind::Triangular => return None,
         };
         Some(Self { model, field_nt, rls, coverage: CoverageMask::new(), running: true, recent: heapless::Deque::new(), rejected: 0 })
     }
@@ -114,7 +143,7 @@ impl OnboardFit {
     /// Absorbs a sample; refuses (`false`) one whose distance from the
     /// fit's centre is implausible for the reference field (a dead channel,
     /// a stuck feed, a magnet held against the hull).
-    fn push(&mut self, raw: [f32; 3]) -> bool {
+    fn push(&mut self, raw: [f32; 3], motion: Option<Motion>, now_ms: u32) -> bool {
         let c = self.centre();
         let d = [raw[0] - c[0], raw[1] - c[1], raw[2] - c[2]];
         let r = libm::sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
@@ -124,9 +153,29 @@ impl OnboardFit {
             return false;
         }
         match &mut self.rls {
-            Rls::Sphere(r) => r.push(raw),
-            Rls::Axis(r) => r.push(raw),
-            Rls::Full(r) => r.push(raw),
+            Rls::Sphere(r) => {
+                r.push(raw);
+            }
+            Rls::Axis(r) => {
+                r.push(raw);
+            }
+            Rls::Full(r) => {
+                r.push(raw);
+            }
+            Rls::Gyro(g, start_ms) => {
+                // Without fresh rates the sample breaks the chain of
+                // integrated rotations (NaN rates are refused by the fit).
+                let fresh = motion.filter(|m| now_ms.wrapping_sub(m.at_ms) <= ATTITUDE_TIMEOUT_MS);
+                let (rate_rad_s, roll_rad, pitch_rad) = match fresh {
+                    Some(m) => (m.rate_rad_s, m.roll_rad, m.pitch_rad),
+                    None => ([f32::NAN; 3], f32::NAN, f32::NAN),
+                };
+                let t_s = now_ms.wrapping_sub(*start_ms) as f32 / 1000.0;
+                if !g.push(&GyroSample { t_s, raw, rate_rad_s, roll_rad, pitch_rad }) {
+                    self.rejected = self.rejected.saturating_add(1);
+                    return false;
+                }
+            }
         };
         self.coverage.add(d);
         if self.recent.is_full() {
@@ -153,6 +202,7 @@ impl OnboardFit {
             Rls::Sphere(r) => r.normalization().centre,
             Rls::Axis(r) => r.normalization().centre,
             Rls::Full(r) => r.normalization().centre,
+            Rls::Gyro(g, _) => g.normalization().centre,
         }
     }
 
@@ -161,6 +211,7 @@ impl OnboardFit {
             Rls::Sphere(r) => r.count(),
             Rls::Axis(r) => r.count(),
             Rls::Full(r) => r.count(),
+            Rls::Gyro(g, _) => g.kinematic_windows(),
         }
     }
 
@@ -169,6 +220,7 @@ impl OnboardFit {
             Rls::Sphere(r) => r.estimate(self.field_nt),
             Rls::Axis(r) => r.estimate(self.field_nt),
             Rls::Full(r) => r.estimate(self.field_nt),
+            Rls::Gyro(g, _) => g.estimate(self.field_nt).map(|e| e.cal),
         }
     }
 }
@@ -223,6 +275,7 @@ pub struct Device {
     stream: StreamMode,
     output_rate_hz: u8,
     attitude: Option<(Tilt<f32>, u32)>,
+    motion: Option<Motion>,
     fit: Option<OnboardFit>,
     last_error: Option<DeviceError>,
     counters: DeviceCounters,
@@ -260,6 +313,7 @@ impl Device {
             stream: StreamMode::Off,
             output_rate_hz: 10,
             attitude: None,
+            motion: None,
             fit: None,
             last_error,
             counters: DeviceCounters::default(),
@@ -324,8 +378,8 @@ impl Device {
             RequestBody::Ping { nonce } => ResponseBody::Pong { nonce },
             RequestBody::Identify => ResponseBody::Error(DeviceError::Unsupported),
             RequestBody::Status => ResponseBody::Status(self.health(now_ms, board)),
-            RequestBody::SetStream(_) | RequestBody::SetOutputRate { .. } | RequestBody::Attitude { .. } => self.handle_output(req, now_ms),
-            RequestBody::FitStart { .. } | RequestBody::FitStop | RequestBody::FitQuery => self.handle_fit(req),
+            RequestBody::SetStream(_) | RequestBody::SetOutputRate { .. } | RequestBody::Attitude { .. } | RequestBody::Motion { .. } => self.handle_output(req, now_ms),
+            RequestBody::FitStart { .. } | RequestBody::FitStop | RequestBody::FitQuery => self.handle_fit(req, now_ms),
             RequestBody::ReadCoefficients | RequestBody::Unlock { .. } | RequestBody::WriteCoefficients(_) | RequestBody::Commit { .. } => {
                 self.handle_coefficients(req, now_ms, store)
             }
@@ -388,18 +442,31 @@ impl Device {
                 self.attitude = Some((Tilt::new(roll_rad, pitch_rad), now_ms));
                 ResponseBody::Ack
             }
+            RequestBody::Motion { roll_rad, pitch_rad, rate_rad_s } => {
+                let ok = roll_rad.is_finite()
+                    && pitch_rad.is_finite()
+                    && roll_rad.abs() <= core::f32::consts::PI
+                    && pitch_rad.abs() <= core::f32::consts::FRAC_PI_2
+                    && rate_rad_s.iter().all(|w| w.is_finite() && w.abs() <= MAX_RATE_RAD_S);
+                if !ok {
+                    return self.refuse(DeviceError::BadArgument);
+                }
+                self.attitude = Some((Tilt::new(roll_rad, pitch_rad), now_ms));
+                self.motion = Some(Motion { roll_rad, pitch_rad, rate_rad_s, at_ms: now_ms });
+                ResponseBody::Ack
+            }
             _ => ResponseBody::Error(DeviceError::Unsupported),
         }
     }
 
     /// The on-board fit: start, stop, query.
-    fn handle_fit(&mut self, req: &RequestBody) -> ResponseBody {
+    fn handle_fit(&mut self, req: &RequestBody, now_ms: u32) -> ResponseBody {
         match *req {
             RequestBody::FitStart { model, field_nt } => {
                 if !(field_nt >= FIELD_RANGE_NT.0 && field_nt <= FIELD_RANGE_NT.1) {
                     return self.refuse(DeviceError::BadArgument);
                 }
-                let Some(fit) = OnboardFit::new(model, field_nt, self.calibration.field.bias) else {
+                let Some(fit) = OnboardFit::new(model, field_nt, self.calibration.field.bias, self.output_rate_hz, now_ms) else {
                     return self.refuse(DeviceError::Unsupported);
                 };
                 self.fit = Some(fit);
@@ -491,7 +558,7 @@ impl Device {
         self.counters.samples = self.counters.samples.wrapping_add(1);
         if let Some(f) = &mut self.fit {
             if f.running && !raw.saturated {
-                f.push(raw.field_counts);
+                f.push(raw.field_counts, self.motion, now_ms);
             }
         }
         let field = self.calibration.field.apply(raw.field_counts);

@@ -86,6 +86,19 @@ pub enum RequestBody {
         /// Mission mode on.
         enabled: bool,
     },
+    /// Attitude and body rotation rates from the vehicle's AHRS: the
+    /// [`RequestBody::Attitude`] for the heading plus what the on-board
+    /// gyro-aided fit ([`ModelKind::Gyro`]) needs. Stale after
+    /// [`ATTITUDE_TIMEOUT_MS`]. (Last in the enum: earlier variants keep
+    /// their wire tags.)
+    Motion {
+        /// Roll, radians.
+        roll_rad: f32,
+        /// Pitch, radians.
+        pitch_rad: f32,
+        /// Body rates (x forward, y right, z down), rad/s.
+        rate_rad_s: [f32; 3],
+    },
 }
 
 /// An attitude older than this is not used for the heading, ms.

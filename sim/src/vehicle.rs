@@ -109,6 +109,7 @@ impl<W: Write> Vehicle for SimVehicle<W> {
             lon_deg: col(&r.lon_deg),
             true_heading_deg: sim.true_heading_deg.get(i).copied().unwrap_or(f64::NAN),
             feed_seq: None,
+            rate_rad_s: [col(&r.gx_rad_s), col(&r.gy_rad_s), col(&r.gz_rad_s)],
         };
         // The simulator's `mag` column is the field at the bridges in nT.
         let seq = self.feed.send(r.mag[i].map(|v| v as f32), BRIDGE_OFFSETS_COUNTS)?;

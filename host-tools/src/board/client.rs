@@ -255,6 +255,12 @@ impl<P: Read + Write> BoardClient<P> {
         self.expect_ack(RequestBody::Attitude { roll_rad, pitch_rad })
     }
 
+    /// Sends the vehicle's attitude and body rates (for the heading and the
+    /// board's gyro-aided fit).
+    pub fn motion(&mut self, roll_rad: f32, pitch_rad: f32, rate_rad_s: [f32; 3]) -> Result<(), ClientError> {
+        self.expect_ack(RequestBody::Motion { roll_rad, pitch_rad, rate_rad_s })
+    }
+
     /// Enters or leaves mission mode.
     pub fn set_mission_mode(&mut self, enabled: bool) -> Result<(), ClientError> {
         self.expect_ack(RequestBody::SetMissionMode { enabled })

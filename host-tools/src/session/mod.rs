@@ -27,7 +27,7 @@ use magcal_protocol::{Sample, StreamMode};
 
 use crate::board::coefficients::{doc_from_coefficients, to_coefficients};
 use crate::board::{BoardClient, ClientError};
-use crate::compute::{self, truth, Chain, ChainOptions, ComputeError};
+use crate::compute::{self, truth, Chain, ChainOptions, ComputeError, FirstStep};
 use crate::data::results::{OnboardFitSummary, SessionSettings, SessionSummary, ValidationMetrics};
 use crate::data::CalDoc;
 use crate::geomag::Site;
@@ -145,7 +145,10 @@ pub fn run<P: Read + Write>(
 
     // 3. Computation, saved beside the recordings.
     eprintln!("3/5 computing: axis fit against IGRF, back-stepping, swing fit against the GPS course");
-    let chain = compute::calibrate(&swing.recording, &run.recording, &cfg.site, &ChainOptions::default())?;
+    // A swing test with a gyro starts with the gyro-aided fit, which needs
+    // no full tumble; without, the paper's axis fit.
+    let first_step = if swing.recording.gyro_rad_s().is_some_and(|g| g.iter().any(|w| w.iter().all(|v| v.is_finite()))) { FirstStep::Gyro } else { FirstStep::Axis };
+    let chain = compute::calibrate(&swing.recording, &run.recording, &cfg.site, &ChainOptions { first_step, ..ChainOptions::default() })?;
     for (name, doc) in [("cal_step1.json", &chain.step1), ("cal_backstep.json", &chain.backstepped), ("cal_final.json", &chain.final_doc)] {
         doc.save(&cfg.out_dir.join(name)).map_err(io_error)?;
     }

@@ -91,6 +91,13 @@ pub fn record<P: Read + Write>(
                 c.push(v);
             }
         }
+        // The gyro's columns once a step has rates (earlier rows NaN).
+        if step.rate_rad_s.iter().any(|w| w.is_finite()) || rec.gx_rad_s.is_some() {
+            let rows = rec.mag.len() - 1;
+            for (col, v) in [(&mut rec.gx_rad_s, step.rate_rad_s[0]), (&mut rec.gy_rad_s, step.rate_rad_s[1]), (&mut rec.gz_rad_s, step.rate_rad_s[2])] {
+                col.get_or_insert_with(|| vec![f64::NAN; rows]).push(v);
+            }
+        }
         on_step(i, &step, &sample, link)?;
         samples.push(sample);
         truth.push(step.true_heading_deg);
@@ -110,7 +117,12 @@ pub fn record<P: Read + Write>(
 /// number (re-sending the stimulus if it seems lost), otherwise the next one.
 fn take_sample<P: Read + Write>(link: &mut BoardClient<P>, vehicle: &mut dyn Vehicle, step: &Step, send_attitude: bool, timeout: Duration) -> Result<Sample, SessionError> {
     if send_attitude {
-        link.attitude(step.roll_deg.to_radians() as f32, step.pitch_deg.to_radians() as f32)?;
+        let (roll, pitch) = (step.roll_deg.to_radians() as f32, step.pitch_deg.to_radians() as f32);
+        if step.rate_rad_s.iter().all(|w| w.is_finite()) {
+            link.motion(roll, pitch, step.rate_rad_s.map(|w| w as f32))?;
+        } else {
+            link.attitude(roll, pitch)?;
+        }
     }
     let deadline = Instant::now() + timeout;
     let mut repeat_at = Instant::now() + Duration::from_millis(300);

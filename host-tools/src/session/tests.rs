@@ -78,7 +78,7 @@ impl Write for Conn {
                         self.out.extend(f);
                     }
                     // A streaming board answers each attitude with a sample.
-                    if let magcal_protocol::RequestBody::Attitude { roll_rad, .. } = r.body {
+                    if let magcal_protocol::RequestBody::Attitude { roll_rad, .. } | magcal_protocol::RequestBody::Motion { roll_rad, .. } = r.body {
                         let s = magcal_protocol::Sample { t_ms: 0, raw: Some([roll_rad * 1000.0, 2.0, 3.0]), field_nt: None, heading_rad: None, saturated: false, feed_seq: None };
                         if let Some(f) = link.reply(None, magcal_protocol::ResponseBody::Sample(s)) {
                             self.out.extend(f);
@@ -208,6 +208,24 @@ fn a_real_vehicle_recording_survives_a_link_drop() {
     assert_eq!(samples.len(), 20);
     assert_eq!(rec.lat_deg.as_ref().unwrap()[3], 36.9);
     assert!(rec.ref_heading_deg.as_ref().unwrap()[0].is_nan());
+}
+
+#[test]
+fn a_navigation_stream_with_a_gyro_sends_motion_and_records_the_rates() {
+    let b = board();
+    let nav = "t,roll_deg,pitch_deg,gx,gy,gz\n".to_string()
+        + &(0..10).map(|k| format!("{k},{},0,0.1,-0.2,{}", k as f64, if k == 4 { "".to_string() } else { format!("{}", 0.01 * k as f64) })).collect::<Vec<_>>().join("\n");
+    let mut vehicle = NavVehicle::new(std::io::Cursor::new(nav.into_bytes()), std::io::Cursor::new(Vec::new()), None);
+    assert!(vehicle.begin(Phase::Swing).unwrap());
+    let mut link = BoardClient::new(Conn { board: b.clone(), out: VecDeque::new(), write_budget: None, read_budget: None, delivered: vec![] });
+    let Recorded { recording: rec, .. } = record(&mut link, &mut vehicle, true, None, |_, _, _, _| Ok(())).unwrap();
+    let g = rec.gyro_rad_s().expect("gx, gy, gz recorded");
+    assert_eq!(g[3], [0.1, -0.2, 0.03]);
+    assert!(g[4][2].is_nan(), "a missing rate stays missing");
+    // The real device logic accepted the rates with the attitude (a refused
+    // Motion would have failed the step): its samples carry the roll sent
+    // (the mock board echoes it).
+    assert!((rec.mag[7][0] - 7f64.to_radians() * 1000.0).abs() < 1e-3, "{:?}", rec.mag[7]);
 }
 
 #[test]

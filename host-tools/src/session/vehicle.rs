@@ -51,6 +51,10 @@ pub struct Step {
     pub true_heading_deg: f64,
     /// The sensor-feed frame the board must have seen (simulated vehicle).
     pub feed_seq: Option<u32>,
+    /// Body rates from the AHRS's gyro, rad/s (NaN when not available):
+    /// sent to the board with the attitude, for its gyro-aided fit, and
+    /// recorded as `gx, gy, gz`.
+    pub rate_rad_s: [f64; 3],
 }
 
 /// A source of steps: applies each step's stimulus to the board (simulated)
@@ -77,13 +81,13 @@ pub trait Vehicle {
 
 /// Navigation columns a stream may carry (`t`, `roll_deg`, `pitch_deg`
 /// required).
-const NAV_COLUMNS: [&str; 7] = ["t", "roll_deg", "pitch_deg", "ref_heading_deg", "lat_deg", "lon_deg", "true_heading_deg"];
+const NAV_COLUMNS: [&str; 10] = ["t", "roll_deg", "pitch_deg", "ref_heading_deg", "lat_deg", "lon_deg", "true_heading_deg", "gx", "gy", "gz"];
 
 /// One navigation stream: CSV lines in the INTERFACES.md columns from a
 /// file, a FIFO or stdin, one line per step.
 pub struct NavStream<R> {
     lines: std::io::Lines<R>,
-    columns: [Option<usize>; 7],
+    columns: [Option<usize>; 10],
     line_no: usize,
 }
 
@@ -128,6 +132,7 @@ impl<R: BufRead> NavStream<R> {
                         lon_deg: v[5],
                         true_heading_deg: v[6],
                         feed_seq: None,
+                        rate_rad_s: [v[7], v[8], v[9]],
                     }))
                 }
                 _ => eprintln!("  navigation line {} skipped: not numbers: {line}", self.line_no),
