@@ -132,9 +132,14 @@ impl<T: Real> Normalization<T> {
     /// Centre at the mean of the samples, scale by their RMS distance from
     /// it. `None` for empty, non-finite or all-equal input.
     pub fn from_samples(samples: &[Vec3<T>]) -> Option<Self> {
-        let n = T::from_f64(samples.len() as f64);
+        Self::from_raw_iter(samples.iter().copied())
+    }
+
+    /// As [`Self::from_samples`] over any re-iterable source (walked twice).
+    pub fn from_raw_iter<I: Iterator<Item = Vec3<T>> + Clone>(samples: I) -> Option<Self> {
+        let n = T::from_f64(samples.clone().count() as f64);
         let mut mean = [T::ZERO; 3];
-        for s in samples {
+        for s in samples.clone() {
             for k in 0..3 {
                 mean[k] += s[k];
             }

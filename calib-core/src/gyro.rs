@@ -541,27 +541,11 @@ fn run<T: Real>(samples: &[GyroSample<T>], norm: Normalization<T>, cfg: &GyroCon
 
 /// Centre and scale of the finite raw samples (as [`Normalization::from_samples`]).
 fn normalization_of<T: Real>(samples: &[GyroSample<T>]) -> Option<Normalization<T>> {
-    let finite = || samples.iter().filter(|s| s.raw.iter().all(|v| v.is_finite()));
-    let n = finite().count();
-    if n < 2 {
+    let finite = samples.iter().map(|s| s.raw).filter(|r| r.iter().all(|v| v.is_finite()));
+    if finite.clone().count() < 2 {
         return None;
     }
-    let nn = T::from_f64(n as f64);
-    let mut mean = [T::ZERO; 3];
-    for s in finite() {
-        for k in 0..3 {
-            mean[k] += s.raw[k] / nn;
-        }
-    }
-    let mut ss = T::ZERO;
-    for s in finite() {
-        for k in 0..3 {
-            let d = s.raw[k] - mean[k];
-            ss += d * d;
-        }
-    }
-    let scale = (ss / nn).sqrt();
-    (scale > T::ZERO && scale.is_finite()).then_some(Normalization { centre: mean, scale })
+    Normalization::from_raw_iter(finite)
 }
 
 /// One Gauss–Newton step for the gyro bias with the field fixed: minimises
