@@ -23,7 +23,8 @@ pub struct FitOptions {
     pub saturation: Option<f64>,
     /// Return coefficients even when the quality gates fail (with warnings).
     pub allow_weak: bool,
-    /// Gyro model: the magnetometer's lag behind the gyro, s.
+    /// Gyro model: the magnetometer's lag behind the gyro, s (NaN: estimate
+    /// it from the data).
     pub gyro_lag_s: f64,
 }
 

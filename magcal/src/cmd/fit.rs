@@ -42,8 +42,11 @@ pub struct Args {
     saturation: Option<f64>,
     /// The magnetometer's lag behind the gyro, s (gyro model): the rates are
     /// read this much earlier than each field sample.
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, conflicts_with = "estimate_gyro_lag")]
     gyro_lag_s: f64,
+    /// Estimate that lag from the data instead (gyro model; within ±0.25 s).
+    #[arg(long)]
+    estimate_gyro_lag: bool,
     /// Return coefficients even when the quality gates fail.
     #[arg(long)]
     allow_weak: bool,
@@ -60,7 +63,7 @@ pub fn run(a: Args) -> Result<()> {
     let reference = reference_field(a.field_nt, &a.site)?;
     let rec = Recording::read(&a.input)?;
     let model = a.model;
-    let opts = FitOptions { model, field_nt: reference.total_nt(), saturation: a.saturation, allow_weak: a.allow_weak, gyro_lag_s: a.gyro_lag_s };
+    let opts = FitOptions { model, field_nt: reference.total_nt(), saturation: a.saturation, allow_weak: a.allow_weak, gyro_lag_s: if a.estimate_gyro_lag { f64::NAN } else { a.gyro_lag_s } };
     let mut doc = compute::fit_recording(&rec, &opts).with_context(|| format!("{}: {} fit", a.input.display(), model.name()))?;
     if a.site.lat.is_some() {
         doc.declination_deg = Some(reference.declination_deg());
