@@ -90,8 +90,8 @@ pub enum BoardStore<F> {
 }
 
 impl<F: NorFlash> BoardStore<F> {
-    /// The newest valid record.
-    pub fn load(&mut self) -> Option<Record> {
+    /// The newest valid record (an error if the flash could not be read).
+    pub fn load(&mut self) -> Result<Option<Record>, crate::store::StoreError> {
         match self {
             BoardStore::Flash(s) => s.load(),
             BoardStore::Ram(s) => s.load(),

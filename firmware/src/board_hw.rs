@@ -33,7 +33,9 @@ impl ReadNorFlash for BoardFlash {
 
 impl NorFlash for BoardFlash {
     const WRITE_SIZE: usize = 1;
-    const ERASE_SIZE: usize = 128 * 1024;
+    /// The store's sectors (1 and 2) are 16 KiB (RM0090 §3.3 Table 5); the
+    /// HAL erases every sector a range touches.
+    const ERASE_SIZE: usize = crate::layout::STORE_SECTOR_BYTES as usize;
     fn erase(&mut self, from: u32, to: u32) -> Result<(), FlashError> {
         let mut unlocked = self.flash.unlocked();
         NorFlash::erase(&mut unlocked, from, to)
@@ -44,9 +46,40 @@ impl NorFlash for BoardFlash {
     }
 }
 
-/// Offsets of the store's sectors from the start of flash (sectors 10 and
-/// 11, reserved in memory.x) and their size.
-pub const STORE_SECTORS: (u32, u32, u32) = (0x000C_0000, 0x000E_0000, 0x0002_0000);
+/// Starts DWT's cycle counter: it keeps counting while the CPU stalls on a
+/// flash erase, when SysTick's interrupt (the monotonic's millisecond) cannot
+/// run. QEMU does not model it (it reads 0).
+pub fn enable_cycle_counter(mut dcb: cortex_m::peripheral::DCB, mut dwt: cortex_m::peripheral::DWT) {
+    dcb.enable_trace();
+    dwt.enable_cycle_counter();
+}
+
+/// A time stamp from two clocks: the monotonic's milliseconds (stop during
+/// a flash stall on silicon) and the cycle counter (0 under QEMU). An
+/// elapsed time is the larger of the two readings.
+#[derive(Debug, Clone, Copy)]
+pub struct Stopwatch {
+    cycles: u32,
+    ms: u32,
+}
+
+impl Stopwatch {
+    /// Now, given the monotonic's milliseconds.
+    pub fn now(ms: u32) -> Self {
+        Self { cycles: cortex_m::peripheral::DWT::cycle_count(), ms }
+    }
+
+    /// Milliseconds from `self` to `later`.
+    pub fn elapsed_ms_to(&self, later: &Stopwatch) -> u32 {
+        let by_cycles = later.cycles.wrapping_sub(self.cycles) / (crate::platform::BOARD_SYSCLK_HZ / 1000);
+        by_cycles.max(later.ms.wrapping_sub(self.ms))
+    }
+
+    /// Milliseconds from `self` to now.
+    pub fn elapsed_ms(&self, now_ms: u32) -> u32 {
+        self.elapsed_ms_to(&Self::now(now_ms))
+    }
+}
 
 /// Busy-wait delay counted in core cycles.
 pub struct CycleDelay {

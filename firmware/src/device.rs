@@ -30,6 +30,34 @@ pub trait CoefficientStore {
     fn save(&mut self, bytes: &[u8]) -> Result<u32, ()>;
 }
 
+/// Largest encoded coefficient set.
+const PENDING_BYTES: usize = 128;
+
+/// A validated, encoded set waiting to be stored.
+#[derive(Debug, Clone)]
+pub struct PendingCommit {
+    staged: Coefficients,
+    calibration: Calibration<f32>,
+    bytes: [u8; PENDING_BYTES],
+    len: usize,
+}
+
+impl PendingCommit {
+    /// The record's payload for the store.
+    pub fn bytes(&self) -> &[u8] {
+        self.bytes.get(..self.len).unwrap_or(&[])
+    }
+}
+
+/// What a request needs next.
+#[derive(Debug, Clone)]
+pub enum Handled {
+    /// The reply, ready.
+    Reply(ResponseBody),
+    /// A commit to store outside any lock, then [`Device::finish_commit`].
+    Save(PendingCommit),
+}
+
 /// Field intensities accepted for coefficients and fits, nT.
 pub const FIELD_RANGE_NT: (f32, f32) = (10_000.0, 100_000.0);
 
@@ -253,6 +281,12 @@ pub struct BoardCounters {
     pub requests: u32,
     /// Sensor-feed frames applied (QEMU board).
     pub feed_updates: u32,
+    /// Longest gap between two acquired pairs, ms.
+    pub max_acq_gap_ms: u32,
+    /// Coefficient saves done.
+    pub store_saves: u32,
+    /// Longest save, ms.
+    pub max_store_ms: u32,
 }
 
 /// Counters the device keeps (the link and acquisition keep their own).
@@ -373,7 +407,24 @@ impl Device {
     /// Serves one request. `board` holds the counters the device does not
     /// own (acquisition, link, UART, feed), for a status report.
     pub fn handle(&mut self, req: &RequestBody, now_ms: u32, store: &mut impl CoefficientStore, board: &BoardCounters) -> ResponseBody {
-        match *req {
+        match self.handle_request(req, now_ms, board) {
+            Handled::Reply(body) => body,
+            Handled::Save(pending) => {
+                let saved = store.save(pending.bytes());
+                self.finish_commit(pending, saved)
+            }
+        }
+    }
+
+    /// [`Device::handle`] without the store: a commit that passed every
+    /// check comes back as [`Handled::Save`], for the caller to store
+    /// outside any lock (an erase stalls the CPU for up to 800 ms) and hand
+    /// back to [`Device::finish_commit`].
+    pub fn handle_request(&mut self, req: &RequestBody, now_ms: u32, board: &BoardCounters) -> Handled {
+        if let RequestBody::ReadCoefficients | RequestBody::Unlock { .. } | RequestBody::WriteCoefficients(_) | RequestBody::Commit { .. } = req {
+            return self.handle_coefficients(req, now_ms);
+        }
+        Handled::Reply(match *req {
             // Answered by the link layer; here for completeness.
             RequestBody::Ping { nonce } => ResponseBody::Pong { nonce },
             RequestBody::Identify => ResponseBody::Error(DeviceError::Unsupported),
@@ -381,7 +432,7 @@ impl Device {
             RequestBody::SetStream(_) | RequestBody::SetOutputRate { .. } | RequestBody::Attitude { .. } | RequestBody::Motion { .. } => self.handle_output(req, now_ms),
             RequestBody::FitStart { .. } | RequestBody::FitStop | RequestBody::FitQuery => self.handle_fit(req, now_ms),
             RequestBody::ReadCoefficients | RequestBody::Unlock { .. } | RequestBody::WriteCoefficients(_) | RequestBody::Commit { .. } => {
-                self.handle_coefficients(req, now_ms, store)
+                ResponseBody::Error(DeviceError::Unsupported)
             }
             RequestBody::SetMissionMode { enabled } => {
                 self.mission = enabled;
@@ -391,6 +442,24 @@ impl Device {
                 }
                 ResponseBody::Ack
             }
+        })
+    }
+
+    /// Ends a commit after the store: the set is used only once stored; a
+    /// failed save keeps the old set in use and says so.
+    pub fn finish_commit(&mut self, pending: PendingCommit, saved: Result<u32, ()>) -> ResponseBody {
+        match saved {
+            Ok(seq) => {
+                self.coefficients = pending.staged;
+                self.calibration = pending.calibration;
+                self.source = CoefficientSource::Stored;
+                self.seq = seq;
+                self.staged = None;
+                self.unlocked_until_ms = None;
+                self.last_error = None;
+                ResponseBody::Committed { seq }
+            }
+            Err(()) => self.refuse(DeviceError::Storage),
         }
     }
 
@@ -416,6 +485,9 @@ impl Device {
             output_rate_hz: self.output_rate_hz,
             stream: self.stream,
             feed_updates: board.feed_updates,
+            max_acq_gap_ms: board.max_acq_gap_ms,
+            store_saves: board.store_saves,
+            max_store_ms: board.max_store_ms,
         }
     }
 
@@ -485,15 +557,18 @@ impl Device {
 
     /// The coefficients: read, unlock, stage, commit (validated, stored,
     /// then used).
-    fn handle_coefficients(&mut self, req: &RequestBody, now_ms: u32, store: &mut impl CoefficientStore) -> ResponseBody {
-        match *req {
+    fn handle_coefficients(&mut self, req: &RequestBody, now_ms: u32) -> Handled {
+        if let RequestBody::Commit { crc } = *req {
+            return self.prepare_commit(crc, now_ms);
+        }
+        Handled::Reply(match *req {
             RequestBody::ReadCoefficients => ResponseBody::Coefficients { coefficients: self.coefficients, source: self.source, seq: self.seq },
             RequestBody::Unlock { key } => {
                 if self.mission {
-                    return self.refuse(DeviceError::MissionMode);
+                    return Handled::Reply(self.refuse(DeviceError::MissionMode));
                 }
                 if key != self.challenge ^ UNLOCK_XOR {
-                    return self.refuse(DeviceError::BadKey);
+                    return Handled::Reply(self.refuse(DeviceError::BadKey));
                 }
                 self.unlocked_until_ms = Some(now_ms.wrapping_add(UNLOCK_TIMEOUT_MS));
                 // One key, one unlock: a replayed Unlock frame is refused.
@@ -502,53 +577,43 @@ impl Device {
             }
             RequestBody::WriteCoefficients(c) => {
                 if self.mission {
-                    return self.refuse(DeviceError::MissionMode);
+                    return Handled::Reply(self.refuse(DeviceError::MissionMode));
                 }
                 if !self.unlocked(now_ms) {
-                    return self.refuse(DeviceError::Locked);
+                    return Handled::Reply(self.refuse(DeviceError::Locked));
                 }
                 if validate(&c).is_err() {
-                    return self.refuse(DeviceError::InvalidCoefficients);
+                    return Handled::Reply(self.refuse(DeviceError::InvalidCoefficients));
                 }
                 self.staged = Some(c);
                 ResponseBody::Ack
             }
-            RequestBody::Commit { crc } => {
-                if self.mission {
-                    return self.refuse(DeviceError::MissionMode);
-                }
-                if !self.unlocked(now_ms) {
-                    return self.refuse(DeviceError::Locked);
-                }
-                let Some(staged) = self.staged else {
-                    return self.refuse(DeviceError::NothingStaged);
-                };
-                if staged.crc() != crc {
-                    return self.refuse(DeviceError::CommitMismatch);
-                }
-                let Ok(cal) = validate(&staged) else {
-                    return self.refuse(DeviceError::InvalidCoefficients);
-                };
-                let mut buf = [0u8; 128];
-                let Some(n) = encode_coefficients(&staged, &mut buf) else {
-                    return self.refuse(DeviceError::Storage);
-                };
-                match store.save(buf.get(..n).unwrap_or(&[])) {
-                    Ok(seq) => {
-                        self.coefficients = staged;
-                        self.calibration = cal;
-                        self.source = CoefficientSource::Stored;
-                        self.seq = seq;
-                        self.staged = None;
-                        self.unlocked_until_ms = None;
-                        self.last_error = None;
-                        ResponseBody::Committed { seq }
-                    }
-                    Err(()) => self.refuse(DeviceError::Storage),
-                }
-            }
             _ => ResponseBody::Error(DeviceError::Unsupported),
+        })
+    }
+
+    /// Checks a commit and encodes the staged set for the store.
+    fn prepare_commit(&mut self, crc: u32, now_ms: u32) -> Handled {
+        if self.mission {
+            return Handled::Reply(self.refuse(DeviceError::MissionMode));
         }
+        if !self.unlocked(now_ms) {
+            return Handled::Reply(self.refuse(DeviceError::Locked));
+        }
+        let Some(staged) = self.staged else {
+            return Handled::Reply(self.refuse(DeviceError::NothingStaged));
+        };
+        if staged.crc() != crc {
+            return Handled::Reply(self.refuse(DeviceError::CommitMismatch));
+        }
+        let Ok(calibration) = validate(&staged) else {
+            return Handled::Reply(self.refuse(DeviceError::InvalidCoefficients));
+        };
+        let mut bytes = [0u8; PENDING_BYTES];
+        let Some(len) = encode_coefficients(&staged, &mut bytes) else {
+            return Handled::Reply(self.refuse(DeviceError::Storage));
+        };
+        Handled::Save(PendingCommit { staged, calibration, bytes, len })
     }
 
     /// Processes one decimated raw sample: feeds the on-board fit, applies

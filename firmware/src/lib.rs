@@ -12,7 +12,9 @@ pub mod acquisition;
 pub mod adc;
 pub mod board;
 pub mod device;
+pub mod layout;
 pub mod link;
+pub mod platform;
 pub mod ads131m04_model;
 pub mod store;
 pub mod uart;
@@ -21,8 +23,6 @@ pub mod uart;
 pub mod board_hw;
 #[cfg(target_os = "none")]
 pub mod logger;
-#[cfg(target_os = "none")]
-pub mod platform;
 
 /// Firmware name reported by `Identify`.
 pub const FIRMWARE_NAME: &str = "magcal-fw";

@@ -64,8 +64,9 @@ mod app {
     use embedded_hal_bus::spi::{ExclusiveDevice, NoDelay};
     use firmware::acquisition::{AcqCounters, Acquisition, Decimator, SetResetStrap};
     use firmware::board::{BoardPin, BoardSpi, BoardStore, QemuFlash};
-    use firmware::board_hw::{boot_challenge, BoardFlash, CycleDelay, STORE_SECTORS};
-    use firmware::device::{decode_coefficients, BoardCounters, Boot, Device};
+    use firmware::board_hw::{boot_challenge, BoardFlash, CycleDelay, Stopwatch};
+    use firmware::device::{decode_coefficients, BoardCounters, Boot, CoefficientStore, Device, Handled};
+    use firmware::layout;
     use firmware::link::{DeviceInfo, LinkEvent, LinkServer};
     use firmware::platform;
     use firmware::ads131m04_model::{Ads131m04Model, BridgeModel, FeedReceiver, StrapPinModel};
@@ -98,12 +99,18 @@ mod app {
     static RX_DROPPED: AtomicU32 = AtomicU32::new(0);
     /// Acquisition deadlines missed.
     static OVERRUNS: AtomicU32 = AtomicU32::new(0);
+    /// Longest gap between two acquired pairs, ms.
+    static MAX_ACQ_GAP_MS: AtomicU32 = AtomicU32::new(0);
+    /// Coefficient saves, and the longest, ms.
+    static STORE_SAVES: AtomicU32 = AtomicU32::new(0);
+    static MAX_STORE_MS: AtomicU32 = AtomicU32::new(0);
 
     #[shared]
     struct Shared {
         tx: TxQueue<Tx<USART1>>,
         device: Device,
         acq: AcqCounters,
+        watchdog: Option<IndependentWatchdog>,
     }
 
     #[local]
@@ -115,15 +122,18 @@ mod app {
         link: LinkServer,
         front: Option<FrontEnd>,
         store: BoardStore<BoardFlash>,
-        watchdog: Option<IndependentWatchdog>,
         delay: CycleDelay,
     }
 
     #[init]
     fn init(cx: init::Context) -> (Shared, Local) {
         // Before anything touches RCC: which hardware is this?
-        let platform = platform::detect();
+        let (detection, rcc_cr, idcode) = platform::detect();
+        let platform = detection.platform;
         firmware::logger::init(platform);
+        if detection.disagreement {
+            defmt::warn!("platform signals disagree: RCC_CR {=u32:#x}, DBGMCU_IDCODE {=u32:#x}; running as the board", rcc_cr, idcode);
+        }
         let challenge = boot_challenge(platform);
 
         let (mut rcc, sysclk_hz) = match platform {
@@ -135,6 +145,7 @@ mod app {
             }
         };
         Mono::start(cx.core.SYST, sysclk_hz);
+        firmware::board_hw::enable_cycle_counter(cx.core.DCB, cx.core.DWT);
 
         let gpioa = cx.device.GPIOA.split(&mut rcc);
         let gpiob = cx.device.GPIOB.split(&mut rcc);
@@ -173,10 +184,10 @@ mod app {
         };
         let _ = &mut delay;
 
-        // Coefficients: flash sectors 10/11 on the board, RAM under QEMU.
-        let (a, b, size) = STORE_SECTORS;
+        // Coefficients: flash sectors 1/2 on the board (see `layout`), RAM under QEMU.
+        let [a, b] = layout::STORE_OFFSETS;
         let mut store = match platform {
-            Platform::Silicon => match Store::new(BoardFlash::new(LockedFlash::new(cx.device.FLASH)), a, b, size) {
+            Platform::Silicon => match Store::new(BoardFlash::new(LockedFlash::new(cx.device.FLASH)), a, b, layout::STORE_SECTOR_BYTES) {
                 Ok(s) => BoardStore::Flash(s),
                 Err(_) => firmware::halt("coefficient store layout"),
             },
@@ -185,7 +196,17 @@ mod app {
                 Err(_) => firmware::halt("coefficient store layout"),
             },
         };
-        let stored = store.load().and_then(|r| decode_coefficients(&r.payload).map(|(c, _)| (c, r.seq)));
+        // A read error is retried; if it persists the board runs on the
+        // nominal gain and says why (and refuses to save, see `store`).
+        let loaded = (0..3).map(|_| store.load()).find(|r| r.is_ok()).unwrap_or(Err(firmware::store::StoreError::Flash));
+        let stored = match loaded {
+            Ok(Some(r)) => decode_coefficients(&r.payload).map(|(c, _)| (c, r.seq)),
+            Ok(None) => None,
+            Err(_) => {
+                defmt::error!("coefficient store unreadable");
+                None
+            }
+        };
         match &stored {
             Some((_, seq)) => defmt::info!("coefficients #{} loaded", seq),
             None => defmt::warn!("no valid coefficients stored: using the nominal chain gain"),
@@ -195,7 +216,8 @@ mod app {
         let watchdog = match platform {
             Platform::Silicon => {
                 let mut w = IndependentWatchdog::new(cx.device.IWDG);
-                w.start(stm32f4xx_hal::prelude::_fugit_ExtU32::millis(500u32));
+                // Long enough for the worst flash erase twice over (see `layout`).
+                w.start(stm32f4xx_hal::prelude::_fugit_ExtU32::millis(layout::WATCHDOG_TIMEOUT_MS));
                 Some(w)
             }
             Platform::Qemu => None,
@@ -208,8 +230,8 @@ mod app {
         }
         defmt::info!("magcal-fw {} up on {}, sysclk {} Hz", firmware::FIRMWARE_VERSION, platform, sysclk_hz);
         (
-            Shared { tx: TxQueue::new(tx), device, acq: AcqCounters::default() },
-            Local { rx, rx_sender, rx2, feed_sender, link: LinkServer::new(), front, store, watchdog, delay },
+            Shared { tx: TxQueue::new(tx), device, acq: AcqCounters::default(), watchdog },
+            Local { rx, rx_sender, rx2, feed_sender, link: LinkServer::new(), front, store, delay },
         )
     }
 
@@ -256,7 +278,7 @@ mod app {
     }
 
     /// Frames → requests → one reply each.
-    #[task(priority = 1, local = [link, store], shared = [tx, device, acq])]
+    #[task(priority = 1, local = [link, store], shared = [tx, device, acq, watchdog])]
     async fn link(mut cx: link::Context, mut bytes: Receiver<'static, u8, RX_QUEUE>) {
         while let Ok(byte) = bytes.recv().await {
             let info = DeviceInfo { platform: platform::detect_cached(), uptime_ms: now_ms() };
@@ -278,8 +300,31 @@ mod app {
                         bad_frames: link_counters.bad_frames,
                         requests: link_counters.requests,
                         feed_updates: BRIDGES.updates(),
+                        max_acq_gap_ms: MAX_ACQ_GAP_MS.load(Ordering::Relaxed),
+                        store_saves: STORE_SAVES.load(Ordering::Relaxed),
+                        max_store_ms: MAX_STORE_MS.load(Ordering::Relaxed),
                     };
-                    let body = cx.shared.device.lock(|d| d.handle(&req.body, now_ms(), store, &board));
+                    let handled = cx.shared.device.lock(|d| d.handle_request(&req.body, now_ms(), &board));
+                    let body = match handled {
+                        Handled::Reply(body) => body,
+                        // The erase stalls the CPU (one flash bank): done
+                        // outside every lock, right after a watchdog feed,
+                        // on a sector small enough to finish well inside
+                        // the watchdog's timeout (see `layout`).
+                        Handled::Save(pending) => {
+                            cx.shared.watchdog.lock(|w| {
+                                if let Some(w) = w.as_mut() {
+                                    w.feed();
+                                }
+                            });
+                            let t0 = Stopwatch::now(now_ms());
+                            let saved = store.save(pending.bytes());
+                            let ms = t0.elapsed_ms(now_ms());
+                            STORE_SAVES.fetch_add(1, Ordering::Relaxed);
+                            MAX_STORE_MS.fetch_max(ms, Ordering::Relaxed);
+                            cx.shared.device.lock(|d| d.finish_commit(pending, saved))
+                        }
+                    };
                     cx.local.link.reply(Some(req.seq), body)
                 }
             };
@@ -301,17 +346,24 @@ mod app {
     }
 
     /// Acquisition at the pair rate; decimation, correction, streaming.
-    #[task(priority = 2, local = [front, delay, watchdog], shared = [tx, device, acq])]
+    #[task(priority = 2, local = [front, delay], shared = [tx, device, acq, watchdog])]
     async fn acquire(mut cx: acquire::Context) {
         let period = rtic_monotonics::fugit::MillisDurationU32::from_ticks(1_000 / PAIR_RATE_HZ);
         let mut next = Mono::now();
         let mut rate = cx.shared.device.lock(|d| d.output_rate_hz());
         let mut decimator = Decimator::new(Decimator::factor_for(PAIR_RATE_HZ, u32::from(rate)));
+        let mut last_pair: Option<Stopwatch> = None;
         loop {
             next += period;
             Mono::delay_until(next).await;
-            if let Some(w) = cx.local.watchdog.as_mut() {
-                w.feed();
+            cx.shared.watchdog.lock(|w| {
+                if let Some(w) = w.as_mut() {
+                    w.feed();
+                }
+            });
+            let now_pair = Stopwatch::now(now_ms());
+            if let Some(last) = last_pair.replace(now_pair) {
+                MAX_ACQ_GAP_MS.fetch_max(last.elapsed_ms_to(&now_pair), Ordering::Relaxed);
             }
             let Some(front) = cx.local.front.as_mut() else { continue };
             let tag = (platform::detect_cached() == Platform::Qemu).then(|| BRIDGES.seq());

@@ -16,6 +16,18 @@
 //! the erase leaves either the older record or garbage that fails its CRC.
 //! Loading picks the valid record with the highest sequence number. The old
 //! or the new set, never a mix.
+//!
+//! A flash read that fails is not "no record": [`Store::load`] reports it,
+//! and [`Store::save`] refuses to write rather than guess which sector is
+//! free (guessing could erase the newest set). Every save is read back and
+//! checked before it counts.
+//!
+//! Why not `sequential-storage`: its map gives the same old-or-new
+//! guarantee over `embedded-storage`, but its API is async (the flash here is
+//! blocking), it needs more flash pages for its own bookkeeping, and one
+//! fixed-size record written rarely does not need wear levelling. The A/B
+//! store is under 200 lines with its power-cut tests (`store/tests.rs`) on
+//! a datasheet model of the F405's flash (`store/f405_flash.rs`).
 
 // Indexing below is into fixed-size header/body buffers at fixed offsets;
 // lengths read from flash are bounded before use.
@@ -42,6 +54,8 @@ pub enum StoreError {
     TooLarge,
     /// The sectors are not usable (misaligned or too small).
     Layout,
+    /// The record written does not read back as written.
+    Verify,
 }
 
 /// A record read back.
@@ -88,40 +102,44 @@ impl<F: NorFlash> Store<F> {
         self.flash
     }
 
-    /// The record in one sector, if it is valid.
-    fn read_sector(&mut self, index: u8) -> Option<Record> {
-        let base = *self.sectors.get(usize::from(index))?;
+    /// The record in one sector: `Ok(None)` if it holds no valid record,
+    /// an error if the flash could not be read.
+    fn read_sector(&mut self, index: u8) -> Result<Option<Record>, StoreError> {
+        let Some(&base) = self.sectors.get(usize::from(index)) else { return Err(StoreError::Layout) };
         let mut head = [0u8; HEADER];
-        self.flash.read(base, &mut head).ok()?;
+        self.flash.read(base, &mut head).map_err(|_| StoreError::Flash)?;
         let magic = u32::from_le_bytes([head[0], head[1], head[2], head[3]]);
         if magic != MAGIC || head[4..8] != [0, 0, 0, 0] {
-            return None;
+            return Ok(None);
         }
         let version = u16::from_le_bytes([head[8], head[9]]);
         let len = usize::from(u16::from_le_bytes([head[10], head[11]]));
         let seq = u32::from_le_bytes([head[12], head[13], head[14], head[15]]);
         if version != VERSION || len > MAX_PAYLOAD {
-            return None;
+            return Ok(None);
         }
         let mut buf = [0u8; MAX_PAYLOAD + 4];
-        let body = buf.get_mut(..len + 4)?;
-        self.flash.read(base + HEADER as u32, body).ok()?;
+        let body = &mut buf[..len + 4];
+        self.flash.read(base + HEADER as u32, body).map_err(|_| StoreError::Flash)?;
         let (payload, crc) = body.split_at(len);
         let mut digest = CRC32.digest();
-        digest.update(head.get(8..16)?);
+        digest.update(&head[8..16]);
         digest.update(payload);
         if digest.finalize() != u32::from_le_bytes([crc[0], crc[1], crc[2], crc[3]]) {
-            return None;
+            return Ok(None);
         }
-        Some(Record { seq, sector: index, payload: heapless::Vec::from_slice(payload).ok()? })
+        Ok(heapless::Vec::from_slice(payload).ok().map(|payload| Record { seq, sector: index, payload }))
     }
 
-    /// The newest valid record, if any.
-    pub fn load(&mut self) -> Option<Record> {
-        match (self.read_sector(0), self.read_sector(1)) {
+    /// The newest valid record (`Ok(None)` when neither sector holds one).
+    /// A failed flash read is an error, never taken for an empty sector.
+    pub fn load(&mut self) -> Result<Option<Record>, StoreError> {
+        let a = self.read_sector(0)?;
+        let b = self.read_sector(1)?;
+        Ok(match (a, b) {
             (Some(a), Some(b)) => Some(if b.seq.wrapping_sub(a.seq) as i32 > 0 { b } else { a }),
             (a, b) => a.or(b),
-        }
+        })
     }
 
     /// Saves a payload as the newest record; returns its sequence number.
@@ -129,7 +147,9 @@ impl<F: NorFlash> Store<F> {
         if payload.len() > MAX_PAYLOAD {
             return Err(StoreError::TooLarge);
         }
-        let current = self.load();
+        // A read error here must not be taken for "empty": saving to sector 0
+        // with sequence 1 could erase the newest set.
+        let current = self.load()?;
         let (target, seq) = match &current {
             Some(r) => (1 - r.sector, r.seq.wrapping_add(1)),
             None => (0, 1),
@@ -153,7 +173,11 @@ impl<F: NorFlash> Store<F> {
         let mut slot = [0u8; 8];
         slot[..4].copy_from_slice(&MAGIC.to_le_bytes());
         self.flash.write(base, &slot).map_err(|_| StoreError::Flash)?;
-        Ok(seq)
+        // Read back: the set counts only if it is there, whole.
+        match self.read_sector(target)? {
+            Some(r) if r.seq == seq && r.payload.as_slice() == payload => Ok(seq),
+            _ => Err(StoreError::Verify),
+        }
     }
 }
 
@@ -225,5 +249,7 @@ impl<const N: usize, const SECTOR: usize> NorFlash for RamFlash<N, SECTOR> {
     }
 }
 
+#[cfg(test)]
+pub(crate) mod f405_flash;
 #[cfg(test)]
 pub(crate) mod tests;

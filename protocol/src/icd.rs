@@ -226,6 +226,13 @@ pub struct Health {
     pub stream: StreamMode,
     /// Sensor-feed updates received (QEMU board).
     pub feed_updates: u32,
+    /// Longest gap between two acquired pairs since boot, ms (a flash erase
+    /// stalls the CPU and shows here).
+    pub max_acq_gap_ms: u32,
+    /// Coefficient saves and the longest of them (its CPU stall), ms.
+    pub store_saves: u32,
+    /// See [`Health::store_saves`].
+    pub max_store_ms: u32,
 }
 
 /// The on-board fit's state.

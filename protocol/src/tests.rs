@@ -191,7 +191,7 @@ fn the_largest_messages_fit_in_a_frame() {
                 uptime_ms: u32::MAX, pairs: u32::MAX, samples: u32::MAX, saturated: u32::MAX, acq_errors: u32::MAX, overruns: u32::MAX,
                 rx_dropped: u32::MAX, tx_dropped: u32::MAX, bad_frames: u32::MAX, requests: u32::MAX, mission_mode: true, unlocked: true,
                 unlock_challenge: u32::MAX, coefficient_source: CoefficientSource::Default, coefficient_seq: u32::MAX,
-                last_error: Some(DeviceError::Frame(FrameError::UnsupportedVersion { got: 255 })), output_rate_hz: 100, stream: StreamMode::Both, feed_updates: u32::MAX,
+                last_error: Some(DeviceError::Frame(FrameError::UnsupportedVersion { got: 255 })), output_rate_hz: 100, stream: StreamMode::Both, feed_updates: u32::MAX, max_acq_gap_ms: u32::MAX, store_saves: u32::MAX, max_store_ms: u32::MAX,
             }),
         },
         Response { seq: None, body: ResponseBody::Sample(Sample { t_ms: u32::MAX, raw: Some([1.0; 3]), field_nt: Some([2.0; 3]), heading_rad: Some(3.0), saturated: true, feed_seq: Some(u32::MAX) }) },

@@ -1,151 +1,203 @@
+//! The store on a datasheet model of the F405's flash ([`F405Flash`]):
+//! power cuts at every byte of erase and program, in any order of erase
+//! completion, half-programmed bytes, during the very first save, repeated
+//! cuts, read errors during load; and the watchdog during a save, with the
+//! firmware's layout and with the layout it had before.
+
+use super::f405_flash::{F405Flash, FlashFault, Timing};
 use super::*;
-use embedded_storage::nor_flash::{ErrorType, NorFlashErrorKind, ReadNorFlash};
+use crate::layout;
 
-const SECTOR: usize = 1024;
-
-/// NOR flash that loses power after a chosen number of byte operations
-/// (bytes programmed or erased). After the cut every operation fails; what
-/// was programmed or erased before it stays.
-#[derive(Clone)]
-struct CutFlash {
-    data: Vec<u8>,
-    budget: Option<usize>,
-    ops: usize,
-    write_size: usize,
+/// The firmware's store sectors (1 and 2) on a model of sectors 0..=3.
+fn store(f: F405Flash) -> Store<F405Flash> {
+    let [a, b] = layout::STORE_OFFSETS;
+    Store::new(f, a, b, layout::STORE_SECTOR_BYTES).unwrap()
 }
 
-#[derive(Debug)]
-struct PowerCut;
-impl embedded_storage::nor_flash::NorFlashError for PowerCut {
-    fn kind(&self) -> NorFlashErrorKind {
-        NorFlashErrorKind::Other
-    }
+fn chip(seed: u64) -> F405Flash {
+    F405Flash::first_sectors(4, seed)
 }
 
-impl CutFlash {
-    fn new() -> Self {
-        Self { data: vec![0xFF; 3 * SECTOR], budget: None, ops: 0, write_size: 1 }
-    }
-    fn spend(&mut self) -> Result<(), PowerCut> {
-        if let Some(b) = self.budget {
-            if self.ops >= b {
-                return Err(PowerCut);
-            }
-        }
-        self.ops += 1;
-        Ok(())
-    }
-    fn powered_again(&self) -> Self {
-        Self { data: self.data.clone(), budget: None, ops: 0, write_size: self.write_size }
-    }
-}
-
-impl ErrorType for CutFlash {
-    type Error = PowerCut;
-}
-impl ReadNorFlash for CutFlash {
-    const READ_SIZE: usize = 1;
-    fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), PowerCut> {
-        if self.budget.is_some_and(|b| self.ops >= b) {
-            return Err(PowerCut);
-        }
-        bytes.copy_from_slice(&self.data[offset as usize..offset as usize + bytes.len()]);
-        Ok(())
-    }
-    fn capacity(&self) -> usize {
-        self.data.len()
-    }
-}
-impl NorFlash for CutFlash {
-    const WRITE_SIZE: usize = 1;
-    const ERASE_SIZE: usize = SECTOR;
-    fn erase(&mut self, from: u32, to: u32) -> Result<(), PowerCut> {
-        // An interrupted erase leaves a prefix erased and the rest as it was.
-        for i in from..to {
-            self.spend()?;
-            self.data[i as usize] = 0xFF;
-        }
-        Ok(())
-    }
-    fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), PowerCut> {
-        assert_eq!(bytes.len() % self.write_size, 0);
-        for (i, b) in bytes.iter().enumerate() {
-            self.spend()?;
-            self.data[offset as usize + i] &= *b;
-        }
-        Ok(())
-    }
-}
-
-fn store(f: CutFlash) -> Store<CutFlash> {
-    Store::new(f, SECTOR as u32, 2 * SECTOR as u32, SECTOR as u32).unwrap()
+/// What a power-up finds.
+fn after_power_up(f: &F405Flash, seed: u64) -> Option<Vec<u8>> {
+    let mut s = store(f.powered_again(seed));
+    s.load().expect("no read errors injected").map(|r| r.payload.to_vec())
 }
 
 #[test]
 fn save_and_load_round_trip_with_growing_sequence() {
-    let mut s = store(CutFlash::new());
-    assert_eq!(s.load(), None);
+    let mut s = store(chip(1));
+    assert_eq!(s.load(), Ok(None));
     assert_eq!(s.save(b"first").unwrap(), 1);
     assert_eq!(s.save(b"second set").unwrap(), 2);
     assert_eq!(s.save(b"third").unwrap(), 3);
-    let r = s.load().unwrap();
+    let r = s.load().unwrap().unwrap();
     assert_eq!((r.seq, r.payload.as_slice()), (3, &b"third"[..]));
     // Alternates sectors: the previous record is still there, intact.
     let f = s.release();
     let mut s = store(f);
-    assert_eq!(s.read_sector(1 - r.sector).unwrap().payload.as_slice(), b"second set");
+    assert_eq!(s.read_sector(1 - r.sector).unwrap().unwrap().payload.as_slice(), b"second set");
+    // Nothing outside the two store sectors was touched (sector 0 holds the
+    // vector table, sector 3 the program).
+    let cells = s.release();
+    assert!(cells.cells()[..0x4000].iter().chain(&cells.cells()[0xC000..]).all(|&b| b == 0xFF));
+}
+
+/// Cuts the power at operation `cut` of a save of `new` onto `before`;
+/// returns what the next power-up loads.
+fn cut_save(before: &F405Flash, new: &[u8], cut: usize, seed: u64) -> (Result<u32, StoreError>, Option<Vec<u8>>) {
+    let mut f = before.powered_again(seed);
+    f.cut_after = Some(cut);
+    let mut s = store(f);
+    let result = s.save(new);
+    let f = s.release();
+    (result, after_power_up(&f, seed ^ 0xABCD))
+}
+
+fn ops_of_a_save(before: &F405Flash, new: &[u8]) -> usize {
+    let mut s = store(before.powered_again(7));
+    s.save(new).unwrap();
+    s.release().ops
 }
 
 #[test]
-fn a_power_cut_at_every_byte_of_a_save_leaves_the_old_or_the_new_set() {
-    // Two saves in, then a third interrupted at every possible operation.
-    let mut base = store(CutFlash::new());
+fn a_power_cut_at_every_byte_of_erase_and_program_leaves_the_old_or_the_new_set() {
+    // Two saves in, then a third cut at every byte operation (16 KiB of
+    // erase in a seeded random order, then the record byte by byte).
+    let mut base = store(chip(3));
     base.save(b"old coefficients v1").unwrap();
     base.save(b"old coefficients v2").unwrap();
     let flash = base.release();
-    // Count the operations of a full save.
-    let mut probe = store(flash.powered_again());
-    probe.save(b"NEW coefficients!").unwrap();
-    let total = probe.release().ops;
-    assert!(total > SECTOR, "a save erases a whole sector and writes a record");
+    let total = ops_of_a_save(&flash, b"NEW coefficients!");
+    assert!(total > 16 * 1024, "a save erases a whole sector and writes a record: {total}");
     let (mut old, mut new) = (0, 0);
     for cut in 0..=total {
-        let mut f = flash.powered_again();
-        f.budget = Some(cut);
-        let mut s = store(f);
-        let result = s.save(b"NEW coefficients!");
+        let (result, loaded) = cut_save(&flash, b"NEW coefficients!", cut, cut as u64);
         assert_eq!(result.is_ok(), cut >= total, "cut at {cut}");
-        let mut after = store(s.release().powered_again());
-        let r = after.load().expect("a valid set survives every cut");
-        match r.payload.as_slice() {
-            b"old coefficients v2" => old += 1,
-            b"NEW coefficients!" => new += 1,
-            other => panic!("cut at {cut}: a mix or an older set: {other:?}"),
+        match loaded.as_deref() {
+            Some(b"old coefficients v2") => old += 1,
+            Some(b"NEW coefficients!") => new += 1,
+            other => panic!("cut at {cut}: a mix, an older set or nothing: {other:?}"),
         }
     }
-    // The new set appears only once the commit slot is written in full.
+    // The new set appears only once the commit slot is programmed whole.
     assert_eq!(new, 1);
     assert_eq!(old, total);
 }
 
 #[test]
+fn a_power_cut_during_the_very_first_save_leaves_nothing_or_the_new_set() {
+    let blank = chip(5);
+    let total = ops_of_a_save(&blank, b"first ever");
+    // Every byte of the program phase, and the erase at a stride (the erase
+    // of a blank sector changes nothing).
+    let cuts = (0..total).filter(|c| *c >= 16 * 1024 || c % 61 == 0).chain([total]);
+    for cut in cuts {
+        let (result, loaded) = cut_save(&blank, b"first ever", cut, 11 + cut as u64);
+        assert_eq!(result.is_ok(), cut >= total);
+        match loaded.as_deref() {
+            None => assert!(cut < total),
+            Some(b"first ever") => assert!(cut >= total - 8, "committed before the slot at {cut}"),
+            other => panic!("cut at {cut}: {other:?}"),
+        }
+    }
+}
+
+#[test]
+fn repeated_cuts_then_a_clean_save() {
+    // Power fails again and again during the retries of one save (different
+    // points, different erase orders); each power-up finds the old set, and
+    // the save that finally completes gives the new one.
+    let mut base = store(chip(9));
+    base.save(b"old").unwrap();
+    base.save(b"older is gone, this is old").unwrap();
+    let mut flash = base.release();
+    for (i, cut) in [5usize, 16_383, 16_384 + 3, 9_000, 16_384 + 20, 1].into_iter().enumerate() {
+        let mut f = flash.powered_again(100 + i as u64);
+        f.cut_after = Some(cut);
+        let mut s = store(f);
+        assert!(s.save(b"the new set").is_err());
+        flash = s.release();
+        assert_eq!(after_power_up(&flash, i as u64).as_deref(), Some(&b"older is gone, this is old"[..]), "after cut {i}");
+    }
+    let mut s = store(flash.powered_again(77));
+    s.save(b"the new set").unwrap();
+    assert_eq!(after_power_up(&s.release(), 1).as_deref(), Some(&b"the new set"[..]));
+}
+
+#[test]
+fn a_read_error_during_load_refuses_the_save_and_erases_nothing() {
+    let mut base = store(chip(13));
+    base.save(b"set A").unwrap();
+    base.save(b"set B, the newest").unwrap();
+    let flash = base.release();
+    for failing in 0..4 {
+        // Reads 0..3 are the two sectors' headers and bodies in load().
+        let mut f = flash.powered_again(1);
+        f.failing_reads = vec![failing];
+        let mut s = store(f);
+        assert_eq!(s.save(b"set C"), Err(StoreError::Flash), "read {failing} failed");
+        let f = s.release();
+        assert_eq!(f.cells(), flash.cells(), "nothing was erased or written");
+        assert_eq!(after_power_up(&f, 2).as_deref(), Some(&b"set B, the newest"[..]));
+    }
+    // load() itself says it could not read, rather than "no record".
+    let mut f = flash.powered_again(1);
+    f.failing_reads = vec![0];
+    assert_eq!(store(f).load(), Err(StoreError::Flash));
+}
+
+#[test]
 fn corrupted_records_are_ignored() {
-    let mut s = store(CutFlash::new());
+    let mut s = store(chip(17));
     s.save(b"good").unwrap();
     s.save(b"newer").unwrap();
     let mut f = s.release();
-    // Flip one payload bit of the newest record (sector 1 = offset 2048).
-    f.data[2 * SECTOR + HEADER] ^= 0x01;
+    // Flip one payload bit of the newest record (the second store sector).
+    let at = (layout::STORE_OFFSETS[1]) as usize + HEADER;
+    f.cells_mut()[at] ^= 0x01;
     let mut s = store(f);
-    assert_eq!(s.load().unwrap().payload.as_slice(), b"good");
+    assert_eq!(s.load().unwrap().unwrap().payload.as_slice(), b"good");
+}
+
+#[test]
+fn a_save_survives_the_watchdog_with_the_firmware_layout_and_not_with_the_old_one() {
+    // The firmware: 16 KiB sectors 1-2, watchdog fed before the save, its
+    // timeout the shortest the LSI can make it; every duration at its
+    // datasheet maximum.
+    let mut f = chip(21);
+    f.timing = Timing::Worst;
+    f.watchdog_us = Some(u64::from(layout::watchdog_min_timeout_ms()) * 1000);
+    let mut s = store(f);
+    for payload in [&b"one"[..], &[0x5Au8; MAX_PAYLOAD][..]] {
+        s.flash.feed();
+        s.save(payload).unwrap();
+    }
+    let f = s.release();
+    assert!(!f.watchdog_fired);
+    // The longest stall is one 16 KiB erase: 800 ms, under half the 1 702 ms.
+    assert_eq!(f.longest_stall_us, 800_000);
+    assert!(2 * f.longest_stall_us < u64::from(layout::watchdog_min_timeout_ms()) * 1000);
+
+    // The layout before: sectors 10 and 11 (128 KiB) and a 500 ms watchdog.
+    // Even a typical 2 s erase outlasts it: the board would reset mid-save.
+    let mut f = F405Flash::new(22);
+    f.watchdog_us = Some(500_000);
+    let mut s = Store::new(f, 0x000C_0000, 0x000E_0000, 0x0002_0000).unwrap();
+    s.flash.feed();
+    assert_eq!(s.save(b"one"), Err(StoreError::Flash));
+    let f = s.release();
+    assert!(f.watchdog_fired);
+    assert_eq!(f.longest_stall_us, 2_000_000);
+    assert_eq!(f.powered_again(1).erase(0x4000, 0x4001), Err(FlashFault::Range), "part of a sector cannot be erased");
 }
 
 #[test]
 fn bad_layouts_and_oversized_payloads_are_refused() {
-    assert_eq!(Store::new(CutFlash::new(), 10, 2048, 1024).err(), Some(StoreError::Layout));
-    assert_eq!(Store::new(CutFlash::new(), 1024, 1024, 1024).err(), Some(StoreError::Layout));
-    assert_eq!(Store::new(CutFlash::new(), 1024, 4096, 1024).err(), Some(StoreError::Layout));
-    let mut s = store(CutFlash::new());
+    assert_eq!(Store::new(chip(1), 10, 0x8000, 0x4000).err(), Some(StoreError::Layout));
+    assert_eq!(Store::new(chip(1), 0x4000, 0x4000, 0x4000).err(), Some(StoreError::Layout));
+    assert_eq!(Store::new(chip(1), 0x4000, 0x10000, 0x4000).err(), Some(StoreError::Layout), "beyond the flash");
+    let mut s = store(chip(1));
     assert_eq!(s.save(&[0u8; MAX_PAYLOAD + 1]), Err(StoreError::TooLarge));
 }
 
@@ -154,7 +206,7 @@ fn ram_flash_behaves_like_nor() {
     let mut s = Store::new(RamFlash::<4096, 1024>::new(), 0, 2048, 1024).unwrap();
     s.save(b"abc").unwrap();
     s.save(b"defg").unwrap();
-    assert_eq!(s.load().unwrap().payload.as_slice(), b"defg");
+    assert_eq!(s.load().unwrap().unwrap().payload.as_slice(), b"defg");
 }
 
 mod arbitrary_flash {
@@ -167,11 +219,11 @@ mod arbitrary_flash {
             let mut flash = RamFlash::<2048, 1024>::new();
             let _ = flash.write(0, &image);
             let mut s = Store::new(flash, 0, 1024, 1024).unwrap();
-            if let Some(r) = s.load() {
+            if let Ok(Some(r)) = s.load() {
                 let _ = crate::device::decode_coefficients(&r.payload);
             }
             prop_assert!(s.save(b"x").is_ok());
-            let back = s.load().unwrap();
+            let back = s.load().unwrap().unwrap();
             prop_assert_eq!(back.payload.as_slice(), &b"x"[..]);
         }
     }
