@@ -66,8 +66,9 @@ pub mod reg {
 pub const FULL_SCALE_COUNTS: i32 = 1 << 23;
 /// Internal reference: the input range is ±1.2 V / gain.
 pub const REFERENCE_V: f32 = 1.2;
-/// Modulator clock with the 8.192 MHz crystal: fCLKIN / 2.
-pub const MODULATOR_HZ: u32 = 4_096_000;
+/// Modulator clock in high-resolution mode: f_CLKIN / 2 (SBAS890 §8.4.1),
+/// with the board's CLKIN.
+pub const MODULATOR_HZ: u32 = crate::acquisition::ADC_CLKIN_HZ / 2;
 
 /// Why a transaction failed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -100,7 +101,7 @@ pub enum Error<E> {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(target_os = "none", derive(defmt::Format))]
 pub enum Osr {
-    /// 128 → 32 kSPS.
+    /// 128 → 31.25 kSPS with the board's 8 MHz CLKIN (32 kSPS at 8.192 MHz).
     X128 = 0,
     /// 256 → 16 kSPS.
     X256 = 1,
@@ -118,6 +119,11 @@ impl Osr {
     /// Output data rate, samples per second.
     pub fn data_rate_hz(self) -> u32 {
         MODULATOR_HZ / (128u32 << (self as u32))
+    }
+
+    /// One conversion period, ns.
+    pub fn conversion_period_ns(self) -> u32 {
+        ((128u64 << (self as u32)) * 1_000_000_000 / u64::from(MODULATOR_HZ)) as u32
     }
 }
 
@@ -357,9 +363,10 @@ mod tests {
 
     #[test]
     fn data_rates_follow_the_osr() {
-        assert_eq!(Osr::X128.data_rate_hz(), 32_000);
-        assert_eq!(Osr::X1024.data_rate_hz(), 4_000);
-        assert_eq!(Osr::X4096.data_rate_hz(), 1_000);
+        // SBAS890 Table 8-2 scaled from 8.192 MHz to the board's 8 MHz CLKIN.
+        assert_eq!(Osr::X128.data_rate_hz(), 31_250);
+        assert_eq!(Osr::X1024.data_rate_hz(), 3_906);
+        assert_eq!(Osr::X128.conversion_period_ns(), 32_000);
         assert_eq!(Gain::X32.factor(), 32);
     }
 }

@@ -5,12 +5,13 @@
 
 use core::convert::Infallible;
 
-use embedded_hal::digital::{ErrorType as PinErrorType, OutputPin};
+use embedded_hal::digital::{ErrorType as PinErrorType, InputPin, OutputPin};
+use embedded_hal_async::digital::Wait;
 use embedded_hal::spi::{Error as SpiErrorTrait, ErrorKind, ErrorType, Operation, SpiDevice};
 use embedded_storage::nor_flash::NorFlash;
 
 use crate::device::CoefficientStore;
-use crate::ads131m04_model::{Ads131m04Model, StrapPinModel};
+use crate::ads131m04_model::{Ads131m04Model, DrdyPinModel, StrapPinModel};
 use crate::store::{RamFlash, Record, Store};
 
 /// The ADC's bus: the real SPI device, or the simulated ADC.
@@ -75,6 +76,58 @@ impl<P: OutputPin> OutputPin for BoardPin<P> {
             BoardPin::Real(p) => p.set_low().map_err(|_| embedded_hal::digital::ErrorKind::Other),
             BoardPin::Model(p) => p.set_low().map_err(|e: Infallible| match e {}),
         }
+    }
+}
+
+/// The ADC's DRDY: the EXTI-backed pin (board) or the model's (QEMU, where
+/// GPIO and EXTI are not modelled).
+pub enum BoardDrdy<P> {
+    /// A GPIO input with its EXTI line (board).
+    Real(P),
+    /// The simulated ADC's DRDY (QEMU).
+    Model(DrdyPinModel),
+}
+
+impl<P: InputPin> PinErrorType for BoardDrdy<P> {
+    type Error = embedded_hal::digital::ErrorKind;
+}
+
+impl<P: InputPin> InputPin for BoardDrdy<P> {
+    fn is_high(&mut self) -> Result<bool, Self::Error> {
+        match self {
+            BoardDrdy::Real(p) => p.is_high().map_err(|_| embedded_hal::digital::ErrorKind::Other),
+            BoardDrdy::Model(p) => p.is_high().map_err(|e: Infallible| match e {}),
+        }
+    }
+    fn is_low(&mut self) -> Result<bool, Self::Error> {
+        match self {
+            BoardDrdy::Real(p) => p.is_low().map_err(|_| embedded_hal::digital::ErrorKind::Other),
+            BoardDrdy::Model(p) => p.is_low().map_err(|e: Infallible| match e {}),
+        }
+    }
+}
+
+impl<P: InputPin + Wait> Wait for BoardDrdy<P> {
+    async fn wait_for_high(&mut self) -> Result<(), Self::Error> {
+        match self {
+            BoardDrdy::Real(p) => p.wait_for_high().await.map_err(|_| embedded_hal::digital::ErrorKind::Other),
+            BoardDrdy::Model(p) => p.wait_for_high().await.map_err(|e: Infallible| match e {}),
+        }
+    }
+    async fn wait_for_low(&mut self) -> Result<(), Self::Error> {
+        match self {
+            BoardDrdy::Real(p) => p.wait_for_low().await.map_err(|_| embedded_hal::digital::ErrorKind::Other),
+            BoardDrdy::Model(p) => p.wait_for_low().await.map_err(|e: Infallible| match e {}),
+        }
+    }
+    async fn wait_for_rising_edge(&mut self) -> Result<(), Self::Error> {
+        self.wait_for_high().await
+    }
+    async fn wait_for_falling_edge(&mut self) -> Result<(), Self::Error> {
+        self.wait_for_low().await
+    }
+    async fn wait_for_any_edge(&mut self) -> Result<(), Self::Error> {
+        self.wait_for_low().await
     }
 }
 

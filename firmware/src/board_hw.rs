@@ -120,3 +120,57 @@ pub fn boot_challenge(platform: magcal_protocol::Platform) -> u32 {
     }
     h
 }
+
+/// The ADS131M04's DRDY on a GPIO whose EXTI line fires on the falling edge
+/// (SBAS890 §8.5.1.9: DRDY falls when a conversion is ready). The EXTI
+/// handler writes `signal`; a wait returns at once if DRDY is already low.
+pub struct ExtiDrdy<P> {
+    pin: P,
+    signal: rtic_sync::signal::SignalReader<'static, ()>,
+}
+
+impl<P: embedded_hal::digital::InputPin> ExtiDrdy<P> {
+    /// The pin (configured for a falling-edge EXTI interrupt) and the
+    /// reader of the signal its handler writes.
+    pub fn new(pin: P, signal: rtic_sync::signal::SignalReader<'static, ()>) -> Self {
+        Self { pin, signal }
+    }
+}
+
+impl<P: embedded_hal::digital::InputPin> embedded_hal::digital::ErrorType for ExtiDrdy<P> {
+    type Error = embedded_hal::digital::ErrorKind;
+}
+
+impl<P: embedded_hal::digital::InputPin> embedded_hal::digital::InputPin for ExtiDrdy<P> {
+    fn is_high(&mut self) -> Result<bool, Self::Error> {
+        self.pin.is_high().map_err(|_| embedded_hal::digital::ErrorKind::Other)
+    }
+    fn is_low(&mut self) -> Result<bool, Self::Error> {
+        self.pin.is_low().map_err(|_| embedded_hal::digital::ErrorKind::Other)
+    }
+}
+
+impl<P: embedded_hal::digital::InputPin> embedded_hal_async::digital::Wait for ExtiDrdy<P> {
+    async fn wait_for_low(&mut self) -> Result<(), Self::Error> {
+        // Forget old edges, then look at the level: an edge after this
+        // point is kept by the signal, so none is missed.
+        let _ = self.signal.try_read();
+        if self.pin.is_low().map_err(|_| embedded_hal::digital::ErrorKind::Other)? {
+            return Ok(());
+        }
+        self.signal.wait().await;
+        Ok(())
+    }
+    async fn wait_for_falling_edge(&mut self) -> Result<(), Self::Error> {
+        self.wait_for_low().await
+    }
+    async fn wait_for_high(&mut self) -> Result<(), Self::Error> {
+        Ok(())
+    }
+    async fn wait_for_rising_edge(&mut self) -> Result<(), Self::Error> {
+        Ok(())
+    }
+    async fn wait_for_any_edge(&mut self) -> Result<(), Self::Error> {
+        self.wait_for_low().await
+    }
+}

@@ -29,9 +29,6 @@ systick_monotonic!(Mono, 1_000);
 #[cfg(target_os = "none")]
 defmt::timestamp!("{=u32:ms}", Mono::now().duration_since_epoch().as_millis());
 
-/// Set/reset pairs per second.
-#[cfg(target_os = "none")]
-const PAIR_RATE_HZ: u32 = 500;
 
 /// Panics are firmware bugs (outside data never panics): log, then on QEMU
 /// exit with a failure status so tests see it; on the board, reset.
@@ -59,17 +56,17 @@ unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
 #[cfg(target_os = "none")]
 #[rtic::app(device = stm32f4xx_hal::pac, dispatchers = [EXTI0, EXTI1, EXTI2])]
 mod app {
-    use super::{Mono, PAIR_RATE_HZ};
+    use super::Mono;
     use core::sync::atomic::{AtomicU32, Ordering};
     use embedded_hal_bus::spi::{ExclusiveDevice, NoDelay};
-    use firmware::acquisition::{AcqCounters, Acquisition, Decimator, SetResetStrap};
-    use firmware::board::{BoardPin, BoardSpi, BoardStore, QemuFlash};
-    use firmware::board_hw::{boot_challenge, BoardFlash, CycleDelay, Stopwatch};
+    use firmware::acquisition::{AcqCounters, Acquisition, Decimator, SetResetStrap, ADC_CLKIN_HZ, PAIR_RATE_HZ, SPI_SCLK_HZ};
+    use firmware::board::{BoardDrdy, BoardPin, BoardSpi, BoardStore, QemuFlash};
+    use firmware::board_hw::{boot_challenge, BoardFlash, CycleDelay, ExtiDrdy, Stopwatch};
     use firmware::device::{decode_coefficients, BoardCounters, Boot, CoefficientStore, Device, Handled};
     use firmware::layout;
     use firmware::link::{DeviceInfo, LinkEvent, LinkServer};
     use firmware::platform;
-    use firmware::ads131m04_model::{Ads131m04Model, BridgeModel, FeedReceiver, StrapPinModel};
+    use firmware::ads131m04_model::{Ads131m04Model, BridgeModel, DrdyPinModel, FeedReceiver, StrapPinModel};
     use firmware::store::Store;
     use firmware::uart::TxQueue;
     use magcal_protocol::{self as proto, Platform, Response, ResponseBody, MAX_FRAME_LEN};
@@ -78,11 +75,12 @@ mod app {
     use rtic_sync::make_channel;
     use stm32f4xx_hal::{
         flash::LockedFlash,
-        gpio::{Output, PA4, PB0, PB1},
+        gpio::{Edge, ExtiPin, Input, Output, PA4, PB0, PB1, PB10},
         pac::{SPI1, USART1, USART2},
         prelude::*,
         rcc::Config,
         serial::{self, Rx, RxISR, RxListen, Tx},
+        syscfg::SysCfgExt,
         spi::{Mode, Phase, Polarity, Spi},
         watchdog::IndependentWatchdog,
     };
@@ -91,7 +89,9 @@ mod app {
     const RX_QUEUE: usize = 255;
 
     type Spi1 = ExclusiveDevice<Spi<SPI1>, PA4<Output>, NoDelay>;
-    type FrontEnd = Acquisition<BoardSpi<Spi1>, BoardPin<PB0<Output>>, BoardPin<PB1<Output>>>;
+    type FrontEnd = Acquisition<BoardSpi<Spi1>, BoardPin<PB0<Output>>, BoardPin<PB1<Output>>, BoardDrdy<ExtiDrdy<PB10<Input>>>>;
+
+
 
     /// The bridges of the QEMU board.
     static BRIDGES: BridgeModel = BridgeModel::new();
@@ -116,6 +116,7 @@ mod app {
     #[local]
     struct Local {
         rx: Rx<USART1>,
+        drdy_edge: rtic_sync::signal::SignalWriter<'static, ()>,
         rx_sender: Sender<'static, u8, RX_QUEUE>,
         rx2: Rx<USART2>,
         feed_sender: Sender<'static, u8, RX_QUEUE>,
@@ -161,21 +162,48 @@ mod app {
         let (_tx2, mut rx2) = serial2.split();
         rx2.listen();
 
-        // The ADC's bus and the strap: real on the board, modelled under QEMU.
-        let (spi, set_pin, reset_pin) = match platform {
+        // The ADC's bus, DRDY and the strap: real on the board, modelled
+        // under QEMU (no GPIO, EXTI or ADC there).
+        let (drdy_edge, drdy_reader) = rtic_sync::make_signal!(());
+        let (spi, set_pin, reset_pin, drdy) = match platform {
             Platform::Silicon => {
+                // CLKIN for the ADC: HSE on MCO1 (PA8), undivided.
+                let _clkin = gpioa.pa8.into_alternate::<0>();
+                // SAFETY: one read-modify-write of RCC_CFGR's MCO1 fields in
+                // init, after the HAL has set the clock tree.
+                unsafe { (*stm32f4xx_hal::pac::RCC::ptr()).cfgr().modify(|_, w| w.mco1().hse().mco1pre().div1()) };
                 let mode = Mode { polarity: Polarity::IdleLow, phase: Phase::CaptureOnSecondTransition };
-                let bus = cx.device.SPI1.spi((Some(gpioa.pa5), Some(gpioa.pa6), Some(gpioa.pa7)), mode, 8.MHz(), &mut rcc);
+                let bus = cx.device.SPI1.spi((Some(gpioa.pa5), Some(gpioa.pa6), Some(gpioa.pa7)), mode, SPI_SCLK_HZ.Hz(), &mut rcc);
                 let cs = gpioa.pa4.into_push_pull_output();
+                // DRDY on PB10, falling edge on EXTI line 10.
+                let mut drdy_pin = gpiob.pb10.into_pull_up_input();
+                let mut syscfg = cx.device.SYSCFG.constrain(&mut rcc);
+                let mut exti = cx.device.EXTI;
+                drdy_pin.make_interrupt_source(&mut syscfg);
+                drdy_pin.trigger_on_edge(&mut exti, Edge::Falling);
+                drdy_pin.enable_interrupt(&mut exti);
                 match ExclusiveDevice::new_no_delay(bus, cs) {
-                    Ok(dev) => (BoardSpi::Real(dev), BoardPin::Real(gpiob.pb0.into_push_pull_output()), BoardPin::Real(gpiob.pb1.into_push_pull_output())),
+                    Ok(dev) => (
+                        BoardSpi::Real(dev),
+                        BoardPin::Real(gpiob.pb0.into_push_pull_output()),
+                        BoardPin::Real(gpiob.pb1.into_push_pull_output()),
+                        BoardDrdy::Real(ExtiDrdy::new(drdy_pin, drdy_reader)),
+                    ),
                     Err(_) => firmware::halt("SPI1 chip select refused"),
                 }
             }
-            Platform::Qemu => (BoardSpi::Model(Ads131m04Model::new(&BRIDGES)), BoardPin::Model(StrapPinModel::set(&BRIDGES)), BoardPin::Model(StrapPinModel::reset(&BRIDGES))),
+            Platform::Qemu => {
+                BRIDGES.set_clocks(ADC_CLKIN_HZ, SPI_SCLK_HZ);
+                (
+                    BoardSpi::Model(Ads131m04Model::new(&BRIDGES)),
+                    BoardPin::Model(StrapPinModel::set(&BRIDGES)),
+                    BoardPin::Model(StrapPinModel::reset(&BRIDGES)),
+                    BoardDrdy::Model(DrdyPinModel::new(&BRIDGES)),
+                )
+            }
         };
         let mut delay = CycleDelay::new(sysclk_hz);
-        let front = match Acquisition::new(spi, SetResetStrap::new(set_pin, reset_pin)) {
+        let front = match Acquisition::new(spi, SetResetStrap::new(set_pin, reset_pin), drdy) {
             Ok(f) => Some(f),
             Err(e) => {
                 defmt::error!("ADC initialisation failed: {}", e);
@@ -231,7 +259,7 @@ mod app {
         defmt::info!("magcal-fw {} up on {}, sysclk {} Hz", firmware::FIRMWARE_VERSION, platform, sysclk_hz);
         (
             Shared { tx: TxQueue::new(tx), device, acq: AcqCounters::default(), watchdog },
-            Local { rx, rx_sender, rx2, feed_sender, link: LinkServer::new(), front, store, delay },
+            Local { rx, drdy_edge, rx_sender, rx2, feed_sender, link: LinkServer::new(), front, store, delay },
         )
     }
 
@@ -260,6 +288,15 @@ mod app {
             }
         }
         cx.shared.tx.lock(|tx| tx.on_interrupt());
+    }
+
+    /// DRDY's falling edge (EXTI line 10, board only): wake the acquisition.
+    #[task(binds = EXTI15_10, priority = 3, local = [drdy_edge])]
+    fn drdy(cx: drdy::Context) {
+        // SAFETY: writing 1 to EXTI_PR bit 10 clears only line 10's pending
+        // flag (RM0090 §12.3.6: rc_w1); nothing else uses line 10.
+        unsafe { (*stm32f4xx_hal::pac::EXTI::ptr()).pr().write(|w| w.bits(1 << 10)) };
+        cx.local.drdy_edge.write(());
     }
 
     /// USART2: the sensor feed (QEMU board).
@@ -367,7 +404,7 @@ mod app {
             }
             let Some(front) = cx.local.front.as_mut() else { continue };
             let tag = (platform::detect_cached() == Platform::Qemu).then(|| BRIDGES.seq());
-            let pair = front.acquire_pair(cx.local.delay);
+            let pair = front.acquire_pair(cx.local.delay).await;
             let counters = front.counters();
             cx.shared.acq.lock(|a| *a = counters);
             let Ok(pair) = pair else { continue };

@@ -23,8 +23,9 @@ mod bench {
     use calib_core::swing::SwingRls;
     use cortex_m::peripheral::{syst::SystClkSource, SYST};
     use cortex_m_semihosting::{debug, hprintln};
-    use firmware::acquisition::{Acquisition, SetResetStrap};
-    use firmware::ads131m04_model::{Ads131m04Model, StrapPinModel, BridgeModel};
+    use firmware::acquisition::{run_ready, Acquisition, SetResetStrap};
+    use firmware::adc::{CRC16, FRAME_BYTES};
+    use firmware::ads131m04_model::{BridgeModel, StrapPinModel};
     use stm32f4xx_hal as _;
 
     /// SysTick ticks per instruction with `-icount shift=0` at 168 MHz.
@@ -51,6 +52,85 @@ mod bench {
     }
 
     static SENSOR: BridgeModel = BridgeModel::new();
+
+    /// An ADS131M04 that answers every frame at once: the acknowledgements
+    /// `configure` expects, then a fixed conversion.
+    struct FixedSpi {
+        frame: [u8; FRAME_BYTES],
+        n: u32,
+    }
+    impl FixedSpi {
+        fn new() -> Self {
+            Self { frame: [0; FRAME_BYTES], n: 0 }
+        }
+        fn answer(&mut self, response: u16) {
+            let mut f = [0u8; FRAME_BYTES];
+            f[..2].copy_from_slice(&response.to_be_bytes());
+            f[3..6].copy_from_slice(&[0x12, 0x34, 0x56]);
+            f[6..9].copy_from_slice(&[0xED, 0xCB, 0xA9]);
+            f[9..12].copy_from_slice(&[0x01, 0x02, 0x03]);
+            let crc = CRC16.checksum(&f[..15]);
+            f[15..17].copy_from_slice(&crc.to_be_bytes());
+            self.frame = f;
+        }
+    }
+    impl embedded_hal::spi::ErrorType for FixedSpi {
+        type Error = core::convert::Infallible;
+    }
+    impl embedded_hal::spi::SpiDevice for FixedSpi {
+        fn transaction(&mut self, ops: &mut [embedded_hal::spi::Operation<'_, u8>]) -> Result<(), Self::Error> {
+            // configure(): RESET, NULL (→ 0xFF24), RREG ID, NULL (→ ID),
+            // WREG CLOCK, NULL (→ ack), WREG GAIN1, NULL (→ ack).
+            let response = match self.n {
+                1 => 0xFF24,
+                3 => 0x2410,
+                5 => 0x4180,
+                7 => 0x4200,
+                _ => 0x050F,
+            };
+            self.answer(response);
+            self.n += 1;
+            for op in ops.iter_mut() {
+                if let embedded_hal::spi::Operation::Transfer(rx, _) = op {
+                    for (d, s) in rx.iter_mut().zip(self.frame.iter()) {
+                        *d = *s;
+                    }
+                }
+            }
+            Ok(())
+        }
+    }
+
+    /// DRDY: nothing buffered when asked, ready at once when awaited.
+    struct ReadyDrdy;
+    impl embedded_hal::digital::ErrorType for ReadyDrdy {
+        type Error = core::convert::Infallible;
+    }
+    impl embedded_hal::digital::InputPin for ReadyDrdy {
+        fn is_high(&mut self) -> Result<bool, Self::Error> {
+            Ok(true)
+        }
+        fn is_low(&mut self) -> Result<bool, Self::Error> {
+            Ok(false)
+        }
+    }
+    impl embedded_hal_async::digital::Wait for ReadyDrdy {
+        async fn wait_for_high(&mut self) -> Result<(), Self::Error> {
+            Ok(())
+        }
+        async fn wait_for_low(&mut self) -> Result<(), Self::Error> {
+            Ok(())
+        }
+        async fn wait_for_rising_edge(&mut self) -> Result<(), Self::Error> {
+            Ok(())
+        }
+        async fn wait_for_falling_edge(&mut self) -> Result<(), Self::Error> {
+            Ok(())
+        }
+        async fn wait_for_any_edge(&mut self) -> Result<(), Self::Error> {
+            Ok(())
+        }
+    }
 
     #[cortex_m_rt::entry]
     fn main() -> ! {
@@ -112,18 +192,20 @@ mod bench {
         }
         let rls_swing = t.instructions(s0, reps);
 
-        // One set/reset pair through the real driver (over the ADC model,
-        // whose own frame building is included: an upper bound).
-        SENSOR.set_truth([1_000_000.0, -500_000.0, 1_500_000.0], [20_000.0; 3]);
+        // One set/reset pair through the real driver and acquisition, over
+        // an SPI that answers a fixed valid frame at once and a DRDY that is
+        // always ready: the CPU's own work per pair, without the bus and
+        // conversion waits (those are added from the datasheets by
+        // `cargo xtask bench`).
         let strap = SetResetStrap::new(StrapPinModel::set(&SENSOR), StrapPinModel::reset(&SENSOR));
-        let Ok(mut acq) = Acquisition::new(Ads131m04Model::new(&SENSOR), strap) else {
+        let Ok(mut acq) = Acquisition::new(FixedSpi::new(), strap, ReadyDrdy) else {
             debug::exit(debug::EXIT_FAILURE);
             loop {}
         };
         let pair_reps = 16;
         let s0 = t.start();
         for _ in 0..pair_reps {
-            if let Ok(p) = acq.acquire_pair(&mut NoDelay) {
+            if let Some(Ok(p)) = run_ready(acq.acquire_pair(&mut NoDelay)) {
                 acc += p.field_counts[0];
             }
         }

@@ -131,9 +131,9 @@ mod tests {
     /// correction and heading — compared with calib-core.
     #[test]
     fn sampling_correction_and_output_on_the_mcu() {
-        use firmware::acquisition::{Acquisition, Decimator, SetResetStrap, COUNTS_PER_NT};
+        use firmware::acquisition::{run_ready, Acquisition, Decimator, SetResetStrap, COUNTS_PER_NT};
         use firmware::device::{BoardCounters, Boot, CoefficientStore, Device};
-        use firmware::ads131m04_model::{Ads131m04Model, StrapPinModel, BridgeModel};
+        use firmware::ads131m04_model::{Ads131m04Model, BridgeModel, DrdyPinModel, StrapPinModel};
         use magcal_protocol::{Coefficients, RequestBody, StreamMode};
 
         struct NoStore;
@@ -159,7 +159,7 @@ mod tests {
         dev.handle(&RequestBody::SetStream(StreamMode::Both), 0, &mut NoStore, &BoardCounters::default());
         dev.handle(&RequestBody::Attitude { roll_rad: 0.1, pitch_rad: 0.05 }, 0, &mut NoStore, &BoardCounters::default());
         let strap = SetResetStrap::new(StrapPinModel::set(&SENSOR), StrapPinModel::reset(&SENSOR));
-        let mut acq = Acquisition::new(Ads131m04Model::new(&SENSOR), strap).unwrap();
+        let mut acq = Acquisition::new(Ads131m04Model::new(&SENSOR), strap, DrdyPinModel::new(&SENSOR)).unwrap();
         let field_nt = [20_000.0f32, -15_000.0, 40_000.0];
         // What the bridges see: the calibration's inverse applied to the field.
         let counts = [
@@ -167,11 +167,12 @@ mod tests {
             field_nt[1] / (g * 1.05) + c.bias[1],
             field_nt[2] / (g * 0.97) + c.bias[2],
         ];
-        SENSOR.set_truth(counts, [25_000.0, 25_000.0, -25_000.0]);
+        // The model takes the field in nT and converts with its own chain.
+        SENSOR.set_truth(counts.map(|c| c / COUNTS_PER_NT), [25_000.0, 25_000.0, -25_000.0]);
         let mut dec = Decimator::new(4);
         let mut out = None;
         for _ in 0..4 {
-            let p = acq.acquire_pair(&mut NoDelay).unwrap();
+            let p = run_ready(acq.acquire_pair(&mut NoDelay)).unwrap().unwrap();
             if let Some(raw) = dec.push(&p) {
                 out = dev.on_raw_sample(&raw, 10);
             }
