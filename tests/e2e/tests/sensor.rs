@@ -51,7 +51,10 @@ fn fed_field_comes_back_calibrated_with_the_heading() {
         [0, 1, 2].map(|k| (d[k] + B_NT[k]) as f32)
     };
     let offsets = [120_000.0, -95_000.0, 33_000.0]; // removed by set/reset
-    let expected_raw = at_bridges.map(|v| (v * COUNTS_PER_NT).round());
+    // What the QEMU board's ADC model converts the bridges to, with its own
+    // transcription of the chain (it differs from the driver's f32
+    // COUNTS_PER_NT by about 1e-6: 1.5 codes at 1.6 M).
+    let expected_raw = at_bridges.map(|v| (f64::from(v) * firmware::ads131m04_model::model_codes_per_nt()).round() as f32);
     let cal: Calibration<f32> = firmware::device::validate(&c).unwrap();
 
     let deadline = Instant::now() + Duration::from_secs(20);

@@ -26,7 +26,12 @@ mod tests {
 
     #[test]
     fn platform_detection_says_qemu() {
-        assert_eq!(firmware::platform::detect(), Platform::Qemu);
+        // Both signals, as QEMU leaves them: RCC_CR and DBGMCU_IDCODE read 0
+        // (and reading the debug block does not fault).
+        let (detection, rcc_cr, idcode) = firmware::platform::detect();
+        assert_eq!((rcc_cr, idcode), (0, 0));
+        assert_eq!(detection.platform, Platform::Qemu);
+        assert!(!detection.disagreement);
     }
 
     #[test]
