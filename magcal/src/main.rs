@@ -42,6 +42,8 @@ enum Cmd {
     Swing(cmd::swing::Args),
     /// Non-orthogonality and gain identification (paper 001).
     Ortho(cmd::ortho::Args),
+    /// A calibration as ArduPilot's or PX4's magnetometer parameters.
+    Export(cmd::export::Args),
 }
 
 fn main() {
@@ -56,6 +58,7 @@ fn main() {
         Cmd::Fit(a) => cmd::fit::run(a),
         Cmd::Swing(a) => cmd::swing::run(a),
         Cmd::Ortho(a) => cmd::ortho::run(a),
+        Cmd::Export(a) => cmd::export::run(a),
     };
     if let Err(e) = result {
         // One line: the chain of causes, each said once.
