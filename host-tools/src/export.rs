@@ -47,6 +47,7 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
+use calib_core::linalg::Mat3;
 use nalgebra::Matrix3;
 use serde::{Deserialize, Serialize};
 
@@ -272,7 +273,7 @@ pub enum ExportError {
 
 /// `A = R·P`: the polar decomposition (by the SVD `A = U Σ Vᵀ`:
 /// `R = U Vᵀ`, `P = V Σ Vᵀ`), row-major arrays.
-pub fn polar(a: &[[f64; 3]; 3]) -> Result<([[f64; 3]; 3], [[f64; 3]; 3]), ExportError> {
+pub fn polar(a: &Mat3<f64>) -> Result<(Mat3<f64>, Mat3<f64>), ExportError> {
     let m = Matrix3::from_fn(|i, j| a[i][j]);
     if !m.iter().all(|v| v.is_finite()) || m.determinant() <= 0.0 {
         return Err(ExportError::Singular);

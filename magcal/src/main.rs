@@ -44,6 +44,9 @@ enum Cmd {
     Ortho(cmd::ortho::Args),
     /// A calibration as ArduPilot's or PX4's magnetometer parameters.
     Export(cmd::export::Args),
+    /// The compass deviation card: heading error by heading and compass
+    /// point, before and after the calibration.
+    Card(cmd::card::Args),
 }
 
 fn main() {
@@ -59,6 +62,7 @@ fn main() {
         Cmd::Swing(a) => cmd::swing::run(a),
         Cmd::Ortho(a) => cmd::ortho::run(a),
         Cmd::Export(a) => cmd::export::run(a),
+        Cmd::Card(a) => cmd::card::run(a),
     };
     if let Err(e) = result {
         // One line: the chain of causes, each said once.

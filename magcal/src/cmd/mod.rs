@@ -1,6 +1,7 @@
 //! One module per subcommand, and the arguments and output they share.
 
 pub mod backstep;
+pub mod card;
 pub mod export;
 pub mod fit;
 pub mod identify;
