@@ -47,6 +47,8 @@ enum Cmd {
     /// The compass deviation card: heading error by heading and compass
     /// point, before and after the calibration.
     Card(cmd::card::Args),
+    /// A recording from a vehicle's own log (ArduPilot/ArduSub DataFlash).
+    Import(cmd::import::Args),
 }
 
 fn main() {
@@ -63,6 +65,7 @@ fn main() {
         Cmd::Ortho(a) => cmd::ortho::run(a),
         Cmd::Export(a) => cmd::export::run(a),
         Cmd::Card(a) => cmd::card::run(a),
+        Cmd::Import(a) => cmd::import::run(a),
     };
     if let Err(e) = result {
         // One line: the chain of causes, each said once.

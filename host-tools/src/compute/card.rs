@@ -23,6 +23,7 @@ use serde::{Deserialize, Serialize};
 use super::truth::true_headings_rad;
 use super::units::check_units;
 use super::ComputeError;
+use crate::data::recording::parse_cell;
 use crate::data::{CalDoc, Recording};
 
 /// The 16 compass points from north, clockwise.
@@ -222,16 +223,12 @@ pub fn read_reference_column(path: &Path, column: &str) -> Result<Option<Vec<f64
     for row in rdr.records() {
         let row = row.map_err(csv_err)?;
         let text = row.get(index).unwrap_or("");
-        let v = if text.is_empty() || text.eq_ignore_ascii_case("nan") {
-            f64::NAN
-        } else {
-            text.parse::<f64>().map_err(|_| CardError::BadNumber {
-                path: path.into(),
-                line: row.position().map_or(0, |p| p.line()),
-                column: column.into(),
-                text: text.into(),
-            })?
-        };
+        let v = parse_cell(text).ok_or_else(|| CardError::BadNumber {
+            path: path.into(),
+            line: row.position().map_or(0, |p| p.line()),
+            column: column.into(),
+            text: text.into(),
+        })?;
         out.push(v);
     }
     Ok(Some(out))

@@ -3,6 +3,7 @@
 
 pub mod blocks;
 pub mod caldoc;
+pub mod dataflash;
 pub mod recording;
 pub mod results;
 

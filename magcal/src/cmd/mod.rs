@@ -6,6 +6,7 @@ pub mod export;
 pub mod fit;
 pub mod identify;
 pub mod igrf;
+pub mod import;
 pub mod ortho;
 pub mod report;
 pub mod session;
