@@ -7,6 +7,7 @@
 //!   typed results inside them;
 //! * [`compute`]: the fits on recordings and the one calibration chain that
 //!   the session, the simulator's scenario harness, the bench and the CLI call;
+//! * [`export`]: a calibration in ArduPilot's or PX4's parameters;
 //! * [`geomag`]: IGRF-14 and WMM2025, and the [`geomag::Site`];
 //! * [`session`]: the calibration session for any vehicle;
 //! * [`report`]: figures and an HTML page.
@@ -20,6 +21,7 @@
 pub mod board;
 pub mod compute;
 pub mod data;
+pub mod export;
 pub mod geomag;
 pub mod report;
 pub mod session;

@@ -42,6 +42,13 @@ enum Cmd {
     Swing(cmd::swing::Args),
     /// Non-orthogonality and gain identification (paper 001).
     Ortho(cmd::ortho::Args),
+    /// A calibration as ArduPilot's or PX4's magnetometer parameters.
+    Export(cmd::export::Args),
+    /// The compass deviation card: heading error by heading and compass
+    /// point, before and after the calibration.
+    Card(cmd::card::Args),
+    /// A recording from a vehicle's own log (ArduPilot/ArduSub DataFlash).
+    Import(cmd::import::Args),
 }
 
 fn main() {
@@ -56,6 +63,9 @@ fn main() {
         Cmd::Fit(a) => cmd::fit::run(a),
         Cmd::Swing(a) => cmd::swing::run(a),
         Cmd::Ortho(a) => cmd::ortho::run(a),
+        Cmd::Export(a) => cmd::export::run(a),
+        Cmd::Card(a) => cmd::card::run(a),
+        Cmd::Import(a) => cmd::import::run(a),
     };
     if let Err(e) = result {
         // One line: the chain of causes, each said once.

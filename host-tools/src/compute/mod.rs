@@ -8,13 +8,15 @@
 //! * [`swing`]: the Fourier heading fit against a reference heading;
 //! * [`ortho`]: paper 001's non-orthogonality and gains;
 //! * [`chain`]: the whole calibration from a swing test and a run;
-//! * [`truth`]: heading and field errors against a known heading (validation).
+//! * [`truth`]: heading and field errors against a known heading (validation);
+//! * [`card`]: the deviation card, heading error by heading before and after.
 
 use calib_core::fit::FitError;
 use calib_core::ortho::OrthoError;
 use calib_core::swing::SwingError;
 
 pub mod backstep;
+pub mod card;
 pub mod chain;
 pub mod fit;
 pub mod gyro;

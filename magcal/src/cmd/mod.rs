@@ -1,9 +1,12 @@
 //! One module per subcommand, and the arguments and output they share.
 
 pub mod backstep;
+pub mod card;
+pub mod export;
 pub mod fit;
 pub mod identify;
 pub mod igrf;
+pub mod import;
 pub mod ortho;
 pub mod report;
 pub mod session;

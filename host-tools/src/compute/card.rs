@@ -1,0 +1,367 @@
+//! The compass deviation card (`magcal card`): the residual heading error
+//! (reference heading minus the magnetometer's heading) by heading, before
+//! (the raw field, no calibration) and after (the calibration document's
+//! heading: field, tilt, swing, declination), per sector of the reference
+//! heading and per compass point.
+//!
+//! The heading with and without the calibration is calib-core's
+//! [`Calibration::apply`] (the after column is [`super::truth::true_headings_rad`]);
+//! the before column applies no field calibration and no swing, only the
+//! document's declination, so both compare with the same true reference.
+//! Rows are binned by the reference heading: a cell centred on ψ holds the
+//! rows whose reference lies within ±step/2 of ψ. Each cell's mean is the
+//! circular mean of its errors, its RMS that of the wrapped errors; a cell
+//! with no rows is empty (`None`), not zero.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use calib_core::cal::{Calibration, FieldCal, Swing};
+use calib_core::heading::wrap_pi;
+use serde::{Deserialize, Serialize};
+
+use super::truth::true_headings_rad;
+use super::units::check_units;
+use super::ComputeError;
+use crate::data::recording::parse_cell;
+use crate::data::{CalDoc, Recording};
+
+/// The 16 compass points from north, clockwise.
+pub const POINTS_16: [&str; 16] = ["N", "NNE", "NE", "ENE", "E", "ESE", "SE", "SSE", "S", "SSW", "SW", "WSW", "W", "WNW", "NW", "NNW"];
+
+/// Why a card could not be made.
+#[derive(Debug, thiserror::Error)]
+pub enum CardError {
+    /// The recording has no reference heading to compare with.
+    #[error("the recording has no `{0}` column: the deviation card compares the magnetometer's heading with a reference (or truth) heading, so the recording needs one (`ref_heading_deg`, or name another column)")]
+    NoReferenceColumn(String),
+    /// A cell of the reference column is not a number.
+    #[error("{path}:{line}: column `{column}`: `{text}` is not a number")]
+    BadNumber {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line.
+        line: u64,
+        /// The column.
+        column: String,
+        /// The cell.
+        text: String,
+    },
+    /// The CSV could not be read.
+    #[error("{path}: {source}")]
+    Csv {
+        /// The file.
+        path: PathBuf,
+        /// The parser's message.
+        #[source]
+        source: csv::Error,
+    },
+    /// The reference column is empty everywhere.
+    #[error("no row has both a reference heading (`ref_heading_deg`) and the magnetometer, roll and pitch: nothing to put on the card")]
+    NoUsableRows,
+    /// The sector width does not divide the circle.
+    #[error("--step-deg {0} must divide 360° into whole sectors (e.g. 5, 10, 15, 22.5, 30, 45)")]
+    BadStep(f64),
+    /// The number of compass points is not 8 or 16.
+    #[error("compass points must be 8 or 16, not {0}")]
+    BadPoints(usize),
+    /// The recording does not fit the calibration or lacks a column.
+    #[error("{0}")]
+    Compute(#[from] ComputeError),
+    /// Writing the CSV failed.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// What the OS said.
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+/// The errors of one cell, degrees.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Cell {
+    /// Rows behind the cell.
+    pub samples: usize,
+    /// Circular mean of reference − heading, degrees (`None` when empty).
+    pub mean_deg: Option<f64>,
+    /// RMS of the wrapped reference − heading, degrees (`None` when empty).
+    pub rms_deg: Option<f64>,
+}
+
+/// One line of the card: a sector of reference heading.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CardRow {
+    /// `15°` or a compass point (`NNE`).
+    pub label: String,
+    /// Centre of the sector, degrees from north.
+    pub centre_deg: f64,
+    /// Width of the sector, degrees (centre ± half of it).
+    pub width_deg: f64,
+    /// Without the calibration.
+    pub before: Cell,
+    /// With the calibration.
+    pub after: Cell,
+}
+
+/// The deviation card: what `magcal card --json` prints.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DeviationCard {
+    /// Rows used (reference, magnetometer, roll and pitch all present).
+    pub samples: usize,
+    /// Rows left out for a missing value.
+    pub skipped_rows: usize,
+    /// The declination added to both headings, degrees (the document's, 0 without).
+    pub declination_deg: f64,
+    /// Everything, before.
+    pub before: Cell,
+    /// Everything, after.
+    pub after: Cell,
+    /// By sector of `step_deg`.
+    pub by_heading: Vec<CardRow>,
+    /// By compass point.
+    pub by_point: Vec<CardRow>,
+}
+
+#[derive(Default, Clone, Copy)]
+struct Acc {
+    n: usize,
+    sin: f64,
+    cos: f64,
+    sq: f64,
+}
+
+impl Acc {
+    fn add(&mut self, e: f64) {
+        self.n += 1;
+        self.sin += e.sin();
+        self.cos += e.cos();
+        self.sq += e * e;
+    }
+    fn cell(&self) -> Cell {
+        if self.n == 0 {
+            return Cell::default();
+        }
+        Cell { samples: self.n, mean_deg: Some(self.sin.atan2(self.cos).to_degrees()), rms_deg: Some((self.sq / self.n as f64).sqrt().to_degrees()) }
+    }
+}
+
+/// The sector of a heading among `count` sectors centred on multiples of `360/count`.
+fn sector(heading_deg: f64, count: usize) -> usize {
+    let width = 360.0 / count as f64;
+    (((heading_deg + width / 2.0).rem_euclid(360.0) / width) as usize).min(count - 1)
+}
+
+fn rows(count: usize, label: impl Fn(usize) -> String, before: &[Acc], after: &[Acc]) -> Vec<CardRow> {
+    let width = 360.0 / count as f64;
+    (0..count).map(|i| CardRow { label: label(i), centre_deg: i as f64 * width, width_deg: width, before: before[i].cell(), after: after[i].cell() }).collect()
+}
+
+/// Makes the card for a recording and a calibration. `step_deg` must divide
+/// 360; `points` is 16 or 8.
+pub fn deviation_card(rec: &Recording, doc: &CalDoc, step_deg: f64, points: usize) -> Result<DeviationCard, CardError> {
+    let sectors = 360.0 / step_deg;
+    if !(step_deg.is_finite() && step_deg > 0.0 && step_deg <= 180.0 && (sectors - sectors.round()).abs() < 1e-9) {
+        return Err(CardError::BadStep(step_deg));
+    }
+    let sectors = sectors.round() as usize;
+    if points != 16 && points != 8 {
+        return Err(CardError::BadPoints(points));
+    }
+    let reference = rec.ref_heading_deg.as_ref().ok_or_else(|| CardError::NoReferenceColumn("ref_heading_deg".into()))?;
+    let roll = rec.roll_deg.as_ref().ok_or(ComputeError::NeedsColumn("roll_deg"))?;
+    let pitch = rec.pitch_deg.as_ref().ok_or(ComputeError::NeedsColumn("pitch_deg"))?;
+    check_units(rec, doc)?;
+    let after = true_headings_rad(doc, rec);
+    let declination_deg = doc.declination_deg.unwrap_or(0.0);
+    let raw = Calibration { field: FieldCal::identity(), swing: Swing::zero(), declination_rad: declination_deg.to_radians() };
+    let (mut hb, mut ha, mut pb, mut pa) = (vec![Acc::default(); sectors], vec![Acc::default(); sectors], vec![Acc::default(); points], vec![Acc::default(); points]);
+    let (mut all_b, mut all_a) = (Acc::default(), Acc::default());
+    let mut skipped = 0;
+    for i in 0..rec.len() {
+        let r = reference[i];
+        let before = raw.apply(rec.mag[i], roll[i].to_radians(), pitch[i].to_radians()).true_heading_rad;
+        let (eb, ea) = (wrap_pi(r.to_radians() - before), wrap_pi(r.to_radians() - after[i]));
+        if !(eb.is_finite() && ea.is_finite()) {
+            skipped += 1;
+            continue;
+        }
+        let (s, p) = (sector(r, sectors), sector(r, points));
+        hb[s].add(eb);
+        ha[s].add(ea);
+        pb[p].add(eb);
+        pa[p].add(ea);
+        all_b.add(eb);
+        all_a.add(ea);
+    }
+    if all_b.n == 0 {
+        return Err(CardError::NoUsableRows);
+    }
+    let stride = 16 / points;
+    Ok(DeviationCard {
+        samples: all_b.n,
+        skipped_rows: skipped,
+        declination_deg,
+        before: all_b.cell(),
+        after: all_a.cell(),
+        by_heading: rows(sectors, |i| format!("{}°", fmt_deg(i as f64 * step_deg)), &hb, &ha),
+        by_point: rows(points, |i| POINTS_16[i * stride].to_string(), &pb, &pa),
+    })
+}
+
+/// One named column of a recording's CSV as the heading reference (a
+/// simulator's `true_heading_deg`, a lab's optical heading): the recording
+/// reader's rules, an empty cell or `nan` is "not available". `Ok(None)`
+/// when the header has no such column.
+pub fn read_reference_column(path: &Path, column: &str) -> Result<Option<Vec<f64>>, CardError> {
+    let csv_err = |source| CardError::Csv { path: path.into(), source };
+    let file = std::fs::File::open(path).map_err(|source| CardError::Io { path: path.into(), source })?;
+    let mut rdr = csv::ReaderBuilder::new().has_headers(true).flexible(true).trim(csv::Trim::All).from_reader(file);
+    let Some(index) = rdr.headers().map_err(csv_err)?.iter().position(|h| h == column) else { return Ok(None) };
+    let mut out = Vec::new();
+    for row in rdr.records() {
+        let row = row.map_err(csv_err)?;
+        let text = row.get(index).unwrap_or("");
+        let v = parse_cell(text).ok_or_else(|| CardError::BadNumber {
+            path: path.into(),
+            line: row.position().map_or(0, |p| p.line()),
+            column: column.into(),
+            text: text.into(),
+        })?;
+        out.push(v);
+    }
+    Ok(Some(out))
+}
+
+fn fmt_deg(v: f64) -> String {
+    if v.fract() == 0.0 {
+        format!("{v:.0}")
+    } else {
+        format!("{v}")
+    }
+}
+
+fn opt(v: Option<f64>, prec: usize) -> String {
+    v.map(|v| format!("{v:.prec$}")).unwrap_or_default()
+}
+
+impl DeviationCard {
+    /// The card as a text table (heading sectors, then compass points);
+    /// empty cells are blank.
+    pub fn to_text(&self) -> String {
+        let mut s = String::new();
+        s.push_str(&format!(
+            "deviation card: reference − magnetometer heading, degrees; {} rows ({} skipped); declination {:.2}°\n",
+            self.samples, self.skipped_rows, self.declination_deg
+        ));
+        for (title, rows) in [("heading", &self.by_heading), ("point", &self.by_point)] {
+            s.push_str(&format!("\n{title:>8} | {:>6} {:>8} {:>8} | {:>6} {:>8} {:>8}\n", "n", "before", "rms", "n", "after", "rms"));
+            for r in rows.iter() {
+                let c = |c: &Cell| format!("{:>6} {:>8} {:>8}", if c.samples == 0 { String::new() } else { c.samples.to_string() }, opt(c.mean_deg, 2), opt(c.rms_deg, 2));
+                s.push_str(&format!("{:>8} | {} | {}\n", r.label, c(&r.before), c(&r.after)));
+            }
+        }
+        s.push_str(&format!(
+            "\n     all | {:>6} {:>8} {:>8} | {:>6} {:>8} {:>8}\n",
+            self.before.samples,
+            opt(self.before.mean_deg, 2),
+            opt(self.before.rms_deg, 2),
+            self.after.samples,
+            opt(self.after.mean_deg, 2),
+            opt(self.after.rms_deg, 2)
+        ));
+        s
+    }
+
+    /// Writes the card as CSV: `table,label,centre_deg,width_deg,before_n,
+    /// before_mean_deg,before_rms_deg,after_n,after_mean_deg,after_rms_deg`
+    /// (`table` is `heading` or `point`; empty cells are empty strings).
+    pub fn write_csv(&self, path: &Path) -> Result<(), CardError> {
+        let io = |source| CardError::Io { path: path.into(), source };
+        let mut out = String::from("table,label,centre_deg,width_deg,before_n,before_mean_deg,before_rms_deg,after_n,after_mean_deg,after_rms_deg\n");
+        for (table, rows) in [("heading", &self.by_heading), ("point", &self.by_point)] {
+            for r in rows.iter() {
+                out.push_str(&format!(
+                    "{table},{},{},{},{},{},{},{},{},{}\n",
+                    r.label,
+                    r.centre_deg,
+                    r.width_deg,
+                    r.before.samples,
+                    opt(r.before.mean_deg, 4),
+                    opt(r.before.rms_deg, 4),
+                    r.after.samples,
+                    opt(r.after.mean_deg, 4),
+                    opt(r.after.rms_deg, 4)
+                ));
+            }
+        }
+        let tmp = path.with_extension("csv.tmp");
+        std::fs::File::create(&tmp).and_then(|mut f| f.write_all(out.as_bytes())).map_err(io)?;
+        std::fs::rename(&tmp, path).map_err(io)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use calib_core::cal::ModelKind;
+
+    fn level_recording(headings_deg: &[f64], bias_nt: [f64; 3]) -> Recording {
+        // Level vehicle, horizontal field 20 000 nT north, 40 000 nT down.
+        let mag = headings_deg.iter().map(|h| {
+            let r = h.to_radians();
+            [20_000.0 * r.cos() + bias_nt[0], -20_000.0 * r.sin() + bias_nt[1], 40_000.0 + bias_nt[2]]
+        });
+        Recording {
+            mag: mag.collect(),
+            roll_deg: Some(vec![0.0; headings_deg.len()]),
+            pitch_deg: Some(vec![0.0; headings_deg.len()]),
+            ref_heading_deg: Some(headings_deg.to_vec()),
+            ..Recording::default()
+        }
+    }
+
+    fn identity_doc() -> CalDoc {
+        CalDoc::new(ModelKind::Sphere, &FieldCal::identity(), 44_721.0, Default::default())
+    }
+
+    #[test]
+    fn cells_are_binned_by_reference_and_empty_ones_stay_empty() {
+        // Headings only in the northern half; 1000 nT of east bias.
+        let h: Vec<f64> = (0..180).map(|i| (i as f64 - 90.0).rem_euclid(360.0)).collect();
+        let card = deviation_card(&level_recording(&h, [0.0, 1000.0, 0.0]), &identity_doc(), 15.0, 16).unwrap();
+        assert_eq!(card.by_heading.len(), 24);
+        assert_eq!(card.by_point.len(), 16);
+        // 0° holds 352.5 … 7.5: headings 353…359, 0…7 = 15 rows.
+        assert_eq!(card.by_heading[0].before.samples, 15);
+        // 180° is never visited: empty, not zero.
+        assert_eq!(card.by_heading[12].before, Cell { samples: 0, mean_deg: None, rms_deg: None });
+        assert!(card.to_text().lines().any(|l| l.trim_start().starts_with("180° |") && !l.contains("0.00")));
+        // By physics: east bias b in a field H turns the compass towards east
+        // at north: heading atan2(H sin ψ − b, H cos ψ) at ψ = 0 is −atan(b/H),
+        // so reference − heading = +atan(1000/20000) = 2.862°; the N cell
+        // averages that physics over its headings −11…11°.
+        let physics = |psi: f64| psi - (20_000.0 * psi.sin() - 1000.0).atan2(20_000.0 * psi.cos());
+        let expected = (-11..=11).map(|d| physics((d as f64).to_radians())).sum::<f64>().to_degrees() / 23.0;
+        assert!((expected - 2.844).abs() < 0.001, "{expected}");
+        let n = card.by_point[0].before.mean_deg.unwrap();
+        assert!((n - expected).abs() < 1e-6, "{n} vs {expected}");
+        assert_eq!(card.by_point[0].label, "N");
+        assert_eq!(deviation_card(&level_recording(&h, [0.0; 3]), &identity_doc(), 15.0, 8).unwrap().by_point[1].label, "NE");
+    }
+
+    #[test]
+    fn refusals() {
+        let h = [0.0, 90.0];
+        let mut rec = level_recording(&h, [0.0; 3]);
+        let doc = identity_doc();
+        assert!(matches!(deviation_card(&rec, &doc, 7.0, 16), Err(CardError::BadStep(_))));
+        assert!(matches!(deviation_card(&rec, &doc, 15.0, 4), Err(CardError::BadPoints(4))));
+        rec.ref_heading_deg = Some(vec![f64::NAN; 2]);
+        assert!(matches!(deviation_card(&rec, &doc, 15.0, 16), Err(CardError::NoUsableRows)));
+        rec.ref_heading_deg = None;
+        let e = deviation_card(&rec, &doc, 15.0, 16).unwrap_err();
+        assert!(matches!(e, CardError::NoReferenceColumn(_)) && e.to_string().contains("ref_heading_deg"), "{e}");
+    }
+}

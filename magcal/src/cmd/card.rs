@@ -1,0 +1,70 @@
+//! `magcal card`: the compass deviation card — the residual heading error by
+//! heading and by compass point, before and after the calibration
+//! (host-tools' [`host_tools::compute::card`]).
+
+use std::path::PathBuf;
+
+use anyhow::{bail, Context, Result};
+use host_tools::compute::card::{deviation_card, read_reference_column, CardError};
+use host_tools::data::blocks::ExtraBlocks;
+use host_tools::data::{CalDoc, Recording};
+
+/// Arguments of `magcal card`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Recording with mx, my, mz, roll_deg, pitch_deg and the reference
+    /// (or truth) heading `ref_heading_deg`.
+    #[arg(long)]
+    input: PathBuf,
+    /// The calibration document.
+    #[arg(long)]
+    cal: PathBuf,
+    /// The column holding the reference (or truth) heading, degrees true.
+    #[arg(long, default_value = "ref_heading_deg")]
+    reference_column: String,
+    /// Width of the heading sectors, degrees (must divide 360).
+    #[arg(long, default_value_t = 15.0)]
+    step_deg: f64,
+    /// Compass points: 16 (N, NNE, …) or 8 (N, NE, …).
+    #[arg(long, default_value_t = 16)]
+    points: usize,
+    /// Also write the card as CSV here.
+    #[arg(long)]
+    csv: Option<PathBuf>,
+    /// Print the card as JSON on stdout.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Runs `magcal card`.
+pub fn run(a: Args) -> Result<()> {
+    let doc = CalDoc::load(&a.cal)?;
+    let blocks = ExtraBlocks::load(&a.cal)?;
+    // The recordings read here carry no motor current or temperature column
+    // yet: a document whose blocks need them cannot be applied faithfully.
+    if blocks.current.is_some() || blocks.temperature.is_some() {
+        bail!(
+            "{}: the document has a current or temperature block, which the deviation card cannot apply yet (the recording reader has no motor_current_a/temp_c columns); a card without it would be wrong",
+            a.cal.display()
+        );
+    }
+    let mut rec = Recording::read(&a.input)?;
+    if a.reference_column != "ref_heading_deg" {
+        let column = read_reference_column(&a.input, &a.reference_column)?.ok_or_else(|| CardError::NoReferenceColumn(a.reference_column.clone()))?;
+        if column.len() != rec.len() {
+            bail!("{}: column `{}` has {} rows, the recording {}", a.input.display(), a.reference_column, column.len(), rec.len());
+        }
+        rec.ref_heading_deg = Some(column);
+    }
+    let card = deviation_card(&rec, &doc, a.step_deg, a.points).with_context(|| format!("{}: deviation card", a.input.display()))?;
+    if let Some(path) = &a.csv {
+        card.write_csv(path)?;
+        eprintln!("wrote {}", path.display());
+    }
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&card)?);
+    } else {
+        print!("{}", card.to_text());
+    }
+    Ok(())
+}
