@@ -42,6 +42,10 @@ enum Cmd {
     Swing(cmd::swing::Args),
     /// Non-orthogonality and gain identification (paper 001).
     Ortho(cmd::ortho::Args),
+    /// One recording from the board's field log and the navigation log on
+    /// another clock: the clock offset and drift estimated from the turns
+    /// both see (or given), navigation interpolated to the board's samples.
+    Merge(cmd::merge::Args),
 }
 
 fn main() {
@@ -56,6 +60,7 @@ fn main() {
         Cmd::Fit(a) => cmd::fit::run(a),
         Cmd::Swing(a) => cmd::swing::run(a),
         Cmd::Ortho(a) => cmd::ortho::run(a),
+        Cmd::Merge(a) => cmd::merge::run(a),
     };
     if let Err(e) = result {
         // One line: the chain of causes, each said once.

@@ -4,6 +4,7 @@ pub mod backstep;
 pub mod fit;
 pub mod identify;
 pub mod igrf;
+pub mod merge;
 pub mod ortho;
 pub mod report;
 pub mod session;
