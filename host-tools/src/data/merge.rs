@@ -327,7 +327,7 @@ struct Signal {
 impl Signal {
     fn value_at(&self, t: f64) -> [f64; 3] {
         let x = (t - self.t0_s) / self.dt_s;
-        if !(x >= 0.0) {
+        if x.is_nan() || x < 0.0 {
             return [f64::NAN; 3];
         }
         let i = x.floor() as usize;
@@ -399,7 +399,7 @@ fn rough_normalisation(mag: &[[f64; 3]]) -> [(f64, f64); 3] {
         (0.5 * (lo + hi), 0.5 * (hi - lo))
     });
     let widest = ranges.iter().map(|r| r.1).fold(0.0, f64::max);
-    if !(widest > 0.0) {
+    if widest.is_nan() || widest <= 0.0 {
         return [(0.0, 1.0); 3];
     }
     ranges.map(|(c, h)| if h >= widest / 3.0 { (c, h) } else { (0.0, widest) })
@@ -579,8 +579,8 @@ fn direction_misfit(board: &BoardLog, nav: &NavLog, heading: &[f64], lag: f64, f
         let mut x = [1.0; 10];
         x[..9].copy_from_slice(&rot);
         for a in 0..10 {
-            for c in a..10 {
-                xtx[a][c] += x[a] * x[c];
+            for (c, xc) in x.iter().enumerate() {
+                xtx[a][c] += x[a] * xc;
             }
             for k in 0..3 {
                 xty[k][a] += x[a] * y[k];
@@ -591,11 +591,6 @@ fn direction_misfit(board: &BoardLog, nav: &NavLog, heading: &[f64], lag: f64, f
     }
     if n < 50 {
         return None;
-    }
-    for a in 0..10 {
-        for c in 0..a {
-            xtx[a][c] = xtx[c][a];
-        }
     }
     // A little ridge: vec(R) has only three degrees of freedom.
     let trace: f64 = (0..10).map(|a| xtx[a][a]).sum();
@@ -613,6 +608,7 @@ fn direction_misfit(board: &BoardLog, nav: &NavLog, heading: &[f64], lag: f64, f
 /// The lag in `lag0 ± half_s` (step `step_s`) whose attitude explains the
 /// board's field best over `[from, to]`, refined by a parabola; `None` when
 /// the best is at the edge or the window cannot tell.
+#[allow(clippy::too_many_arguments)]
 fn best_direction_lag(board: &BoardLog, nav: &NavLog, heading: &[f64], lag0: f64, half_s: f64, step_s: f64, from: f64, to: f64, nav_gap_s: f64) -> Option<f64> {
     let steps = (half_s / step_s).ceil() as i64;
     let misfit: Vec<(f64, f64)> = (-steps..=steps)
@@ -1005,3 +1001,137 @@ pub fn merge_files(board: &Path, nav: &Path, clock: Clock) -> Result<Merged, Mer
 }
 
 
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A vehicle turning in a constant field (NED nT): navigation at 10 Hz
+    /// on its clock from `nav_start_s` for `len_s`, the board at 50 Hz on
+    /// a clock `offset_s` behind (`t_nav = t_board + offset_s`), a linear
+    /// sensor with hard iron.
+    fn logs(offset_s: f64, nav_start_s: f64, len_s: f64, turning: bool) -> (BoardLog, NavLog) {
+        let att = |t: f64| {
+            if turning {
+                (20.0 * (0.3 * t).sin(), 8.0 * (0.17 * t).sin(), (90.0 * (0.05 * t).sin() + 30.0 * (0.23 * t + 1.0).sin()).rem_euclid(360.0))
+            } else {
+                (1.0, -2.0, 100.0)
+            }
+        };
+        let f = [20_000.0, 1_000.0, 40_000.0];
+        let field = |t: f64| {
+            let (r, p, h) = att(t);
+            let m = rotation(r, p, h);
+            // Rᵀ·f, then gains and hard iron.
+            let body = [0, 1, 2].map(|c| m[c] * f[0] + m[3 + c] * f[1] + m[6 + c] * f[2]);
+            [0.2 * body[0] + 1500.0, 0.09 * body[1] - 700.0, 0.16 * body[2] + 300.0]
+        };
+        let nav_t: Vec<f64> = (0..(len_s * 10.0) as usize).map(|k| nav_start_s + k as f64 * 0.1).collect();
+        let nav = NavLog {
+            roll_deg: nav_t.iter().map(|&t| att(t).0).collect(),
+            pitch_deg: nav_t.iter().map(|&t| att(t).1).collect(),
+            heading_deg: Some(nav_t.iter().map(|&t| att(t).2).collect()),
+            // GPS at the surface only: the first 30 s.
+            ref_heading_deg: Some(nav_t.iter().map(|&t| if t < nav_start_s + 30.0 { att(t).2 } else { f64::NAN }).collect()),
+            t_s: nav_t,
+            ..NavLog::default()
+        };
+        let board_t: Vec<f64> = (0..((len_s + 40.0) * 50.0) as usize).map(|k| nav_start_s - offset_s - 20.0 + k as f64 * 0.02).collect();
+        let board = BoardLog { mag: board_t.iter().map(|&t| field(t + offset_s)).collect(), t_s: board_t, temp_c: None, health: None };
+        (board, nav)
+    }
+
+    #[test]
+    fn the_offset_is_found_and_nothing_is_extrapolated() {
+        let (board, nav) = logs(-47.3, 500.0, 300.0, true);
+        let m = merge(&board, &nav, Clock::default()).unwrap();
+        let r = &m.report;
+        // Noise-free logs: measured within 0.1 ms.
+        assert!((r.offset_s + 47.3).abs() < 0.002 && r.drift_ppm.abs() < 10.0, "{r:?}");
+        // 20 s of board samples before and after the navigation log are left out.
+        assert!((r.board_samples_outside_nav as f64 - 40.0 * 50.0).abs() < 10.0, "{r:?}");
+        let rec = &m.recording;
+        let t = rec.t_s.as_ref().unwrap();
+        assert!(t[0] >= nav.t_s[0] && *t.last().unwrap() <= *nav.t_s.last().unwrap());
+        // GPS course only while both neighbours have it: the first 30 s.
+        let gps = rec.ref_heading_deg.as_ref().unwrap();
+        assert!(t.iter().zip(gps).all(|(t, g)| g.is_finite() == (*t <= nav.t_s[0] + 29.9 + 1e-6)), "GPS where it was");
+        // Headings interpolated the short way round stay within 0…360.
+        assert!(m.extra.heading_deg.as_ref().unwrap().iter().all(|h| (0.0..360.0).contains(h)));
+    }
+
+    #[test]
+    fn a_given_offset_is_used_as_given() {
+        let (board, nav) = logs(12.0, 0.0, 100.0, false);
+        let m = merge(&board, &nav, Clock::Given { offset_s: 12.0, drift_ppm: 0.0 }).unwrap();
+        assert!(!m.report.estimated && m.report.offset_s == 12.0);
+        assert_eq!(m.recording.roll_deg.as_ref().unwrap()[0], 1.0);
+    }
+
+    #[test]
+    fn logs_that_do_not_overlap_are_refused() {
+        let (board, mut nav) = logs(0.0, 0.0, 100.0, true);
+        for t in nav.t_s.iter_mut() {
+            *t += 5000.0;
+        }
+        let e = merge(&board, &nav, Clock::default()).unwrap_err();
+        assert!(matches!(e, MergeError::NoOverlap { .. }), "{e}");
+        assert!(e.to_string().contains("do not overlap"), "{e}");
+        let e = merge(&board, &nav, Clock::Given { offset_s: 0.0, drift_ppm: 0.0 }).unwrap_err();
+        assert!(matches!(e, MergeError::NoOverlap { .. }), "{e}");
+    }
+
+    #[test]
+    fn logs_without_rotation_are_refused() {
+        let (board, nav) = logs(3.0, 0.0, 200.0, false);
+        let e = merge(&board, &nav, Clock::default()).unwrap_err();
+        assert!(matches!(e, MergeError::NoRotation(_)), "{e}");
+        assert!(e.to_string().contains("--offset-s"), "{e}");
+    }
+
+    fn read_board(text: &str) -> Result<BoardLog, RecordingError> {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("board.csv");
+        std::fs::write(&p, text).unwrap();
+        BoardLog::read(&p)
+    }
+
+    fn read_nav(text: &str) -> Result<NavLog, RecordingError> {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("nav.csv");
+        std::fs::write(&p, text).unwrap();
+        NavLog::read(&p)
+    }
+
+    #[test]
+    fn missing_columns_and_time_running_backwards_are_refused() {
+        let e = read_board("t,mx,my\n0,1,2\n").unwrap_err();
+        assert!(matches!(e, RecordingError::MissingColumn { column: "mz", .. }), "{e}");
+        let e = read_board("mx,my,mz\n0,1,2\n").unwrap_err();
+        assert!(matches!(e, RecordingError::MissingColumn { column: "t", .. }), "{e}");
+        let e = read_nav("t,roll_deg,heading_deg\n0,1,2\n").unwrap_err();
+        assert!(matches!(e, RecordingError::MissingColumn { column: "pitch_deg", .. }), "{e}");
+        let e = read_board("t,mx,my,mz\n0.0,1,2,3\n0.02,1,2,3\n0.01,1,2,3\n").unwrap_err();
+        assert!(matches!(e, RecordingError::TimeBackwards { line: 4, .. }), "{e}");
+        let e = read_nav("t,roll_deg,pitch_deg\n5,0,0\n4,0,0\n").unwrap_err();
+        assert!(matches!(e, RecordingError::TimeBackwards { line: 3, .. }), "{e}");
+        let e = read_board("t,mx,my,mz\n,1,2,3\n").unwrap_err();
+        assert!(matches!(e, RecordingError::BadNumber { .. }), "a row without a time: {e}");
+        // Optional columns are read; empty cells are absent.
+        let b = read_board("t,mx,my,mz,temp_c,health\n0,1,2,3,20.5,0\n0.01,,2,3,,1\n").unwrap();
+        let temp = b.temp_c.as_ref().unwrap();
+        assert!(temp[0] == 20.5 && temp[1].is_nan());
+        assert!(b.mag[1][0].is_nan() && b.health.as_ref().unwrap()[1] == 1.0);
+    }
+
+    #[test]
+    fn saturated_samples_are_written_without_a_field() {
+        let (mut board, nav) = logs(0.0, 0.0, 60.0, false);
+        let mut health = vec![0.0; board.t_s.len()];
+        health[2000] = HEALTH_SATURATED as f64;
+        board.health = Some(health);
+        let m = merge(&board, &nav, Clock::Given { offset_s: 0.0, drift_ppm: 0.0 }).unwrap();
+        assert_eq!(m.report.saturated_rows, 1);
+        assert_eq!(m.recording.mag.iter().filter(|v| v[0].is_nan()).count(), 1);
+    }
+}
