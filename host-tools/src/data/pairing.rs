@@ -216,8 +216,8 @@ mod tests {
         assert!((b.lerp_angle_deg(&[350.0, 10.0], true) - 355.0).abs() < 1e-12);
         let b = Bracket { lo: 0, hi: 1, weight: 0.75 };
         assert!((b.lerp_angle_deg(&[350.0, 10.0], true) - 5.0).abs() < 1e-12);
-        // Roll through ±180°.
-        assert!((b.lerp_angle_deg(&[170.0, -170.0], false) - 175.0).abs() < 1e-12);
+        // Roll through ±180°: three quarters of the 20° from 170° is 185° = −175°.
+        assert!((b.lerp_angle_deg(&[170.0, -170.0], false) + 175.0).abs() < 1e-12);
         let b = Bracket { lo: 0, hi: 1, weight: 0.5 };
         assert!((b.lerp_angle_deg(&[175.0, -165.0], false) + 175.0).abs() < 1e-12);
     }
