@@ -49,6 +49,10 @@ enum Cmd {
     Card(cmd::card::Args),
     /// A recording from a vehicle's own log (ArduPilot/ArduSub DataFlash).
     Import(cmd::import::Args),
+    /// One recording from the board's field log and the navigation log on
+    /// another clock: the clock offset and drift estimated from the turns
+    /// both see (or given), navigation interpolated to the board's samples.
+    Merge(cmd::merge::Args),
 }
 
 fn main() {
@@ -66,6 +70,7 @@ fn main() {
         Cmd::Export(a) => cmd::export::run(a),
         Cmd::Card(a) => cmd::card::run(a),
         Cmd::Import(a) => cmd::import::run(a),
+        Cmd::Merge(a) => cmd::merge::run(a),
     };
     if let Err(e) = result {
         // One line: the chain of causes, each said once.

@@ -1,9 +1,12 @@
-//! Data on disk: recordings (CSV), the calibration document (JSON) and the
-//! typed results inside documents and session summaries.
+//! Data on disk: recordings (CSV), the calibration document (JSON), the
+//! typed results inside documents and session summaries, and the merging of
+//! a board log with a navigation log kept on another clock.
 
 pub mod blocks;
 pub mod caldoc;
 pub mod dataflash;
+pub mod merge;
+pub mod pairing;
 pub mod recording;
 pub mod results;
 

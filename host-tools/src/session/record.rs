@@ -11,6 +11,7 @@ use magcal_protocol::{Sample, StreamMode};
 use super::vehicle::{Step, Vehicle};
 use super::SessionError;
 use crate::board::{BoardClient, ClientError};
+use crate::data::pairing::{ClockMap, TimePairer};
 use crate::data::Recording;
 
 /// A recorded manoeuvre.
@@ -58,8 +59,9 @@ pub fn record<P: Read + Write>(
     let mut i = 0;
     let started = Instant::now();
     let mut lost = 0usize;
+    let mut pairing = Pairing::default();
     while let Some(step) = vehicle.next_step()? {
-        let taken = take_sample(link, vehicle, &step, send_attitude, SAMPLE_TIMEOUT);
+        let taken = take_sample(link, vehicle, &step, send_attitude, SAMPLE_TIMEOUT, &mut pairing);
         let sample = match (taken, resume.as_mut()) {
             (Ok(s), _) => s,
             (Err(SessionError::Link(e)), Some(r)) if !matches!(e, ClientError::Remote(_)) => {
@@ -112,10 +114,30 @@ pub fn record<P: Read + Write>(
     Ok(Recorded { recording: rec, samples, true_heading_deg: truth, lost_steps: lost })
 }
 
+/// Pairing a real vehicle's navigation rows with the board's stream by time
+/// ([`crate::data::pairing`], shared with `magcal merge`): the clock map
+/// is set at the first row (the newest sample then is "now" on both
+/// clocks) and each later row takes the sample nearest its time on the
+/// board's clock, so the lag stays within half a sample interval (plus the
+/// clocks' drift) however much faster the board streams.
+#[derive(Default)]
+struct Pairing {
+    clock: Option<ClockMap>,
+    pairer: TimePairer<Sample>,
+}
+
 /// Sends the attitude (when wanted) and waits for the board's sample of this
 /// step: with a simulated vehicle the one carrying the step's feed sequence
-/// number (re-sending the stimulus if it seems lost), otherwise the next one.
-fn take_sample<P: Read + Write>(link: &mut BoardClient<P>, vehicle: &mut dyn Vehicle, step: &Step, send_attitude: bool, timeout: Duration) -> Result<Sample, SessionError> {
+/// number (re-sending the stimulus if it seems lost), otherwise the one
+/// nearest the step's time (see [`Pairing`]).
+fn take_sample<P: Read + Write>(
+    link: &mut BoardClient<P>,
+    vehicle: &mut dyn Vehicle,
+    step: &Step,
+    send_attitude: bool,
+    timeout: Duration,
+    pairing: &mut Pairing,
+) -> Result<Sample, SessionError> {
     if send_attitude {
         let (roll, pitch) = (step.roll_deg.to_radians() as f32, step.pitch_deg.to_radians() as f32);
         if step.rate_rad_s.iter().all(|w| w.is_finite()) {
@@ -125,6 +147,9 @@ fn take_sample<P: Read + Write>(link: &mut BoardClient<P>, vehicle: &mut dyn Veh
         }
     }
     let deadline = Instant::now() + timeout;
+    if step.feed_seq.is_none() {
+        return take_by_time(link, step, deadline, pairing);
+    }
     let mut repeat_at = Instant::now() + Duration::from_millis(300);
     loop {
         let left = deadline.saturating_duration_since(Instant::now());
@@ -138,6 +163,42 @@ fn take_sample<P: Read + Write>(link: &mut BoardClient<P>, vehicle: &mut dyn Veh
         if Instant::now() >= repeat_at {
             vehicle.repeat()?;
             repeat_at = Instant::now() + Duration::from_millis(300);
+        }
+    }
+}
+
+/// The sample nearest the step's time on the board's clock (the real
+/// vehicle's pairing).
+fn take_by_time<P: Read + Write>(link: &mut BoardClient<P>, step: &Step, deadline: Instant, pairing: &mut Pairing) -> Result<Sample, SessionError> {
+    let no_sample = || SessionError::NoSample { step: 0, timeout_ms: SAMPLE_TIMEOUT.as_millis() as u64 };
+    loop {
+        match pairing.clock {
+            None => {
+                // The first row: the newest sample that has arrived is "now"
+                // (bounded, for a stream that never pauses).
+                for _ in 0..10_000 {
+                    match link.next_sample(Duration::ZERO)? {
+                        Some(s) => pairing.pairer.push(f64::from(s.t_ms) / 1000.0, s),
+                        None => break,
+                    }
+                }
+                if let Some(now_board_s) = pairing.pairer.newest_s() {
+                    pairing.clock = Some(ClockMap { offset_s: step.t_s - now_board_s, drift_ppm: 0.0, board_ref_s: now_board_s });
+                    return pairing.pairer.take_nearest(now_board_s).map(|(_, s)| s).ok_or_else(no_sample);
+                }
+            }
+            Some(clock) => {
+                if let Some((_, s)) = pairing.pairer.take_nearest(clock.to_board(step.t_s)) {
+                    return Ok(s);
+                }
+            }
+        }
+        let left = deadline.saturating_duration_since(Instant::now());
+        if left.is_zero() {
+            return Err(no_sample());
+        }
+        if let Some(s) = link.next_sample(left.min(Duration::from_millis(100)))? {
+            pairing.pairer.push(f64::from(s.t_ms) / 1000.0, s);
         }
     }
 }

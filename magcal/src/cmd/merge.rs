@@ -1,0 +1,74 @@
+//! `magcal merge`: one recording from the board's field log and the
+//! navigation log, kept on different clocks (`host_tools::data::merge`).
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use host_tools::data::merge::{merge_files, Clock};
+
+/// Arguments of `magcal merge`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// The board's log (t on the board's clock, mx, my, mz; temp_c, health optional).
+    #[arg(long)]
+    board: PathBuf,
+    /// The navigation log (t on the navigation clock, roll_deg, pitch_deg; heading_deg, GPS, gyro, ... optional).
+    #[arg(long)]
+    nav: PathBuf,
+    /// The merged recording (CSV), `t` on the navigation clock.
+    #[arg(long)]
+    out: PathBuf,
+    /// The clock offset, navigation − board, s, at the board log's first
+    /// sample (instead of estimating it).
+    #[arg(long, allow_hyphen_values = true)]
+    offset_s: Option<f64>,
+    /// With --offset-s: how much faster the navigation clock runs, ppm.
+    #[arg(long, allow_hyphen_values = true, requires = "offset_s", default_value_t = 0.0)]
+    drift_ppm: f64,
+    /// Centre of the offset search, s (navigation − board).
+    #[arg(long, allow_hyphen_values = true, default_value_t = 0.0, conflicts_with = "offset_s")]
+    approx_offset_s: f64,
+    /// Half-width of the offset search, s.
+    #[arg(long, default_value_t = 120.0, conflicts_with = "offset_s")]
+    max_offset_s: f64,
+    /// Print the clocks found (and counts) as one JSON document on stdout.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Runs `magcal merge`.
+pub fn run(a: Args) -> Result<()> {
+    let clock = match a.offset_s {
+        Some(offset_s) => Clock::Given { offset_s, drift_ppm: a.drift_ppm },
+        None => Clock::Estimate { center_s: a.approx_offset_s, max_offset_s: a.max_offset_s },
+    };
+    let merged = merge_files(&a.board, &a.nav, clock)?;
+    merged.write(&a.out).with_context(|| format!("writing {}", a.out.display()))?;
+    let r = &merged.report;
+    eprintln!(
+        "wrote {} ({} rows; {} board samples outside the navigation log left out, {} in its gaps without navigation, {} saturated without a field)",
+        a.out.display(),
+        r.rows,
+        r.board_samples_outside_nav,
+        r.rows_in_nav_gaps,
+        r.saturated_rows
+    );
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(r)?);
+    } else if r.estimated {
+        println!(
+            "clock offset (navigation − board) {:.4} ± {:.4} s at board t = {:.3} s, drift {:.1} ± {:.1} ppm{} ({} windows, correlation {:.2})",
+            r.offset_s,
+            r.offset_sigma_s,
+            r.board_ref_s,
+            r.drift_ppm,
+            r.drift_sigma_ppm,
+            if r.drift_fitted { "" } else { " (not fitted: too short)" },
+            r.windows_used,
+            r.peak_correlation
+        );
+    } else {
+        println!("clock offset (navigation − board) {:.4} s at board t = {:.3} s, drift {:.1} ppm (given)", r.offset_s, r.board_ref_s, r.drift_ppm);
+    }
+    Ok(())
+}

@@ -1,0 +1,181 @@
+//! `magcal merge` on logs made from simulated field tests: the simulator's
+//! recording (one clock) split into a board log on a board clock with a
+//! known offset and drift and a slower navigation log, then merged. The
+//! expected offset and drift are the ones put in; the expected calibration
+//! is the one the single-clock recording gives.
+
+use std::path::Path;
+
+use calib_core::conformance::SplitMix64;
+use host_tools::compute::{self, ChainOptions};
+use host_tools::data::merge::{merge, BoardLog, Clock, MergeReport, NavLog};
+use host_tools::data::pairing::ClockMap;
+use host_tools::data::Recording;
+use magcal_sim::field_test::{self, paper_site, RunParams, SensorModel, Simulation};
+use magcal_sim::scenario::heading_rms_deg;
+
+/// Navigation-clock time of the simulation's first row, s.
+const NAV_T0_S: f64 = 1000.0;
+
+/// Splits a simulation (one row per board sample) into a board log whose
+/// clock runs `t_nav = t_board + offset_s + drift_ppm·10⁻⁶·(t_board − first)`
+/// (board times in whole milliseconds, as the board stamps them) and a
+/// navigation log of every `nav_every`-th row within `trim_s` of each end
+/// (the AHRS heading with 0.15° of noise, the GPS as simulated).
+fn split(sim: &Simulation, offset_s: f64, drift_ppm: f64, nav_every: usize, trim_s: (f64, f64), seed: u64) -> (BoardLog, NavLog) {
+    let rec = &sim.recording;
+    let t = rec.t_s.as_ref().unwrap();
+    let first_board = NAV_T0_S + t[0] - offset_s;
+    let map = ClockMap { offset_s, drift_ppm, board_ref_s: first_board };
+    let board = BoardLog {
+        t_s: t.iter().map(|&ts| (map.to_board(NAV_T0_S + ts) * 1000.0).round() / 1000.0).collect(),
+        mag: rec.mag.clone(),
+        temp_c: None,
+        health: None,
+    };
+    let end = *t.last().unwrap();
+    let rows: Vec<usize> = (0..t.len()).step_by(nav_every).filter(|&i| t[i] >= t[0] + trim_s.0 && t[i] <= end - trim_s.1).collect();
+    let pick = |c: &Option<Vec<f64>>| c.as_ref().map(|c| rows.iter().map(|&i| c[i]).collect::<Vec<f64>>());
+    let mut rng = SplitMix64::new(seed);
+    let nav = NavLog {
+        t_s: rows.iter().map(|&i| NAV_T0_S + t[i]).collect(),
+        roll_deg: pick(&rec.roll_deg).unwrap(),
+        pitch_deg: pick(&rec.pitch_deg).unwrap(),
+        heading_deg: Some(rows.iter().map(|&i| (sim.true_heading_deg[i] + 0.15 * rng.gauss()).rem_euclid(360.0)).collect()),
+        ref_heading_deg: pick(&rec.ref_heading_deg),
+        lat_deg: pick(&rec.lat_deg),
+        lon_deg: pick(&rec.lon_deg),
+        gyro_rad_s: None,
+        speed_mps: None,
+        motor_current_a: None,
+    };
+    (board, nav)
+}
+
+fn estimate() -> Clock {
+    Clock::Estimate { center_s: 0.0, max_offset_s: 120.0 }
+}
+
+/// Issue 14's number: clocks up to ±60 s and 100 ppm apart, a 50 Hz board
+/// and a 10 Hz navigation log of the swing test: the offset is recovered
+/// within 20 ms on several seeds. With the AHRS heading the fine stage
+/// fits the raw field to the attitude (any lag but the true one leaves a
+/// misfit).
+#[test]
+fn the_clock_offset_and_drift_are_recovered_from_the_turns() {
+    let sensor = SensorModel::paper_like();
+    let cases = [(1u64, 37.25, 100.0), (2, -58.7, -100.0), (3, 4.013, 60.0), (4, 59.9, -35.0), (5, -12.5, 0.0)];
+    let mut worst_offset: f64 = 0.0;
+    let mut worst_drift: f64 = 0.0;
+    for (seed, offset_s, drift_ppm) in cases {
+        let sim = field_test::swing(&sensor, &paper_site(), seed, 50.0).unwrap();
+        let (board, nav) = split(&sim, offset_s, drift_ppm, 5, (20.0, 15.0), seed);
+        let merged = merge(&board, &nav, estimate()).unwrap();
+        let r = &merged.report;
+        let (e_off, e_drift) = (r.offset_s - offset_s, r.drift_ppm - drift_ppm);
+        eprintln!(
+            "seed {seed}: offset {offset_s} s → {:.4} ± {:.4} s (error {:+.1} ms), drift {drift_ppm} ppm → {:.1} ± {:.1} ppm, {} windows, r {:.2}",
+            r.offset_s,
+            r.offset_sigma_s,
+            e_off * 1e3,
+            r.drift_ppm,
+            r.drift_sigma_ppm,
+            r.windows_used,
+            r.peak_correlation
+        );
+        worst_offset = worst_offset.max(e_off.abs());
+        worst_drift = worst_drift.max(e_drift.abs());
+        assert!(r.drift_fitted && r.windows_used >= 5, "{r:?}");
+        // Board samples before and after the navigation log are left out.
+        assert!(r.board_samples_outside_nav > 30 * 50 && r.rows + r.board_samples_outside_nav == r.board_samples, "{r:?}");
+        assert_eq!(r.rows_in_nav_gaps, 0);
+    }
+    eprintln!("worst offset error {:.1} ms, worst drift error {:.1} ppm", worst_offset * 1e3, worst_drift);
+    // Measured: worst 0.9 ms and 0.8 ppm over these five seeds (issue 14
+    // asks for 20 ms).
+    assert!(worst_offset < 0.004, "offset error {worst_offset} s");
+    assert!(worst_drift < 4.0, "drift error {worst_drift} ppm");
+}
+
+fn write_logs(dir: &Path, board: &BoardLog, nav: &NavLog) {
+    board.write(&dir.join("board.csv")).unwrap();
+    nav.write(&dir.join("nav.csv")).unwrap();
+}
+
+
+
+/// Issue 14's number: the calibration computed from merged logs gives the
+/// validation heading RMS of the single-clock recordings within 0.02°.
+/// Swing test: 50 Hz board, 10 Hz navigation; run: 25 Hz board, 5 Hz
+/// navigation (to keep the test short); clocks 41.3 s / 80 ppm and −23.9 s /
+/// −60 ppm apart.
+#[test]
+fn a_calibration_from_merged_logs_matches_the_single_clock_one() {
+    let (sensor, site) = (SensorModel::paper_like(), paper_site());
+    let swing = field_test::swing(&sensor, &site, 21, 50.0).unwrap();
+    let run = field_test::run(&sensor, &site, &RunParams::paper_like(), 121, 25.0, "run").unwrap();
+    let validation = field_test::run(&sensor, &site, &RunParams::validation(), 221, 2.0, "validation").unwrap();
+    let opts = ChainOptions::default();
+    let single = compute::calibrate(&swing.recording, &run.recording, &site, &opts).unwrap();
+
+    let (sb, sn) = split(&swing, 41.3, 80.0, 5, (10.0, 10.0), 21);
+    let (rb, rn) = split(&run, -23.9, -60.0, 5, (10.0, 10.0), 121);
+    let ms = merge(&sb, &sn, estimate()).unwrap();
+    let mr = merge(&rb, &rn, estimate()).unwrap();
+    eprintln!("swing: {:?}\nrun: {:?}", ms.report, mr.report);
+    // The run turns little, and its sharpest features are the simulator's
+    // instantaneous pitch and roll steps at each surfacing, which a 5 Hz
+    // navigation log turns into 0.2 s ramps: measured 64 ms off (the swing
+    // test: 1.3 ms).
+    assert!((ms.report.offset_s - 41.3).abs() < 0.004, "{:?}", ms.report);
+    assert!((mr.report.offset_s + 23.9).abs() < 0.2, "{:?}", mr.report);
+    // The merged recordings go through the file format.
+    let dir = tempfile::tempdir().unwrap();
+    ms.write(&dir.path().join("swing.csv")).unwrap();
+    mr.write(&dir.path().join("run.csv")).unwrap();
+    let (swing_m, run_m) = (Recording::read(&dir.path().join("swing.csv")).unwrap(), Recording::read(&dir.path().join("run.csv")).unwrap());
+    // GPS only where the simulator had it (within the navigation log):
+    // as many rows, give or take a navigation interval at each surfacing's edges.
+    let gps = |r: &Recording| r.ref_heading_deg.as_ref().unwrap().iter().filter(|v| v.is_finite()).count();
+    let (t, reference) = (run.recording.t_s.as_ref().unwrap(), run.recording.ref_heading_deg.as_ref().unwrap());
+    let within = |ts: f64| ts + NAV_T0_S >= rn.t_s[0] && ts + NAV_T0_S <= *rn.t_s.last().unwrap();
+    let gps_single = t.iter().zip(reference).filter(|(ts, r)| r.is_finite() && within(**ts)).count() as f64;
+    assert!((gps(&run_m) as f64 - gps_single).abs() < 0.01 * gps_single + 60.0, "{} vs {gps_single}", gps(&run_m));
+    let merged = compute::calibrate(&swing_m, &run_m, &site, &opts).unwrap();
+
+    let (h_single, h_merged) = (heading_rms_deg(&single.final_doc, &validation), heading_rms_deg(&merged.final_doc, &validation));
+    eprintln!("validation heading RMS: single clock {h_single:.4}°, merged {h_merged:.4}° (difference {:.4}°)", h_merged - h_single);
+    assert!((h_merged - h_single).abs() < 0.02, "{h_single} vs {h_merged}");
+}
+
+/// The command line: `--json` prints the typed report, the recording loads,
+/// a refusal is one line.
+#[test]
+fn the_merge_command_prints_its_report_and_refuses_in_one_line() {
+    let sim = field_test::swing(&SensorModel::paper_like(), &paper_site(), 7, 50.0).unwrap();
+    let (board, nav) = split(&sim, -33.3, 50.0, 5, (5.0, 5.0), 7);
+    let dir = tempfile::tempdir().unwrap();
+    write_logs(dir.path(), &board, &nav);
+    let p = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let magcal = |args: &[&str]| std::process::Command::new(env!("CARGO_BIN_EXE_magcal")).args(args).output().unwrap();
+    let out = magcal(&["merge", "--board", &p("board.csv"), "--nav", &p("nav.csv"), "--out", &p("rec.csv"), "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let report: MergeReport = serde_json::from_slice(&out.stdout).expect("stdout is the report");
+    assert!((report.offset_s + 33.3).abs() < 0.004 && report.estimated, "{report:?}");
+    let rec = Recording::read(Path::new(&p("rec.csv"))).unwrap();
+    assert_eq!(rec.len(), report.rows);
+    assert!(rec.roll_deg.is_some() && rec.pitch_deg.is_some());
+
+    // A given offset that leaves no overlap.
+    let out = magcal(&["merge", "--board", &p("board.csv"), "--nav", &p("nav.csv"), "--out", &p("rec2.csv"), "--offset-s", "-100000"]);
+    assert!(!out.status.success() && out.stdout.is_empty());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(err.contains("do not overlap"), "{err}");
+    // A navigation log without attitude.
+    std::fs::write(p("bad.csv"), "t,lat_deg\n1,2\n").unwrap();
+    let out = magcal(&["merge", "--board", &p("board.csv"), "--nav", &p("bad.csv"), "--out", &p("rec3.csv")]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("missing column `roll_deg`"), "{err}");
+    assert!(!dir.path().join("rec3.csv").exists());
+}
