@@ -18,7 +18,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use super::pairing::{bracket, wrap180, Bracket, ClockMap};
-use super::recording::{parse_cell, RecordingError};
+use super::recording::{read_table, RecordingError};
 use super::Recording;
 
 /// Why two logs could not be merged.
@@ -94,74 +94,6 @@ pub struct NavLog {
     pub motor_current_a: Option<Vec<f64>>,
 }
 
-/// Columns of a CSV log, by name.
-struct Table {
-    names: Vec<&'static str>,
-    columns: Vec<Option<Vec<f64>>>,
-}
-
-impl Table {
-    fn take(&mut self, name: &str) -> Option<Vec<f64>> {
-        let k = self.names.iter().position(|n| *n == name)?;
-        self.columns[k].take()
-    }
-}
-
-/// Reads the named columns of a CSV log (the recording format's rules:
-/// header row, columns by name, empty or `nan` = absent), `t` required,
-/// finite and non-decreasing.
-fn read_table(path: &Path, required: &[&'static str], optional: &[&'static str]) -> Result<Table, RecordingError> {
-    let file = std::fs::File::open(path).map_err(|source| RecordingError::Io { path: path.into(), source })?;
-    let mut rdr = csv::ReaderBuilder::new().has_headers(true).flexible(true).trim(csv::Trim::All).from_reader(file);
-    let csv_err = |source| RecordingError::Csv { path: path.into(), source };
-    let header = rdr.headers().map_err(csv_err)?.clone();
-    if header.is_empty() || header.iter().all(str::is_empty) {
-        return Err(RecordingError::Empty(path.into()));
-    }
-    let header_list = header.iter().collect::<Vec<_>>().join(", ");
-    let col = |name: &str| header.iter().position(|h| h.eq_ignore_ascii_case(name));
-    let mut names = Vec::new();
-    let mut index = Vec::new();
-    for &name in required {
-        let i = col(name).ok_or_else(|| RecordingError::MissingColumn { path: path.into(), column: name, header: header_list.clone() })?;
-        names.push(name);
-        index.push(Some(i));
-    }
-    for &name in optional {
-        names.push(name);
-        index.push(col(name));
-    }
-    let mut columns: Vec<Vec<f64>> = vec![Vec::new(); names.len()];
-    let mut previous_t = f64::NEG_INFINITY;
-    for (row, result) in rdr.records().enumerate() {
-        let record = result.map_err(csv_err)?;
-        let line = record.position().map(|p| p.line()).unwrap_or(row as u64 + 2);
-        if record.len() != header.len() {
-            return Err(RecordingError::Ragged { path: path.into(), line, found: record.len(), expected: header.len() });
-        }
-        for (k, i) in index.iter().enumerate() {
-            let Some(i) = *i else { continue };
-            let text = record.get(i).unwrap_or("");
-            let bad = || RecordingError::BadNumber { path: path.into(), line, column: names[k].to_string(), text: text.to_string() };
-            let v = parse_cell(text).ok_or_else(bad)?;
-            if names[k] == "t" {
-                if !v.is_finite() {
-                    return Err(bad());
-                }
-                if v < previous_t {
-                    return Err(RecordingError::TimeBackwards { path: path.into(), line, t_s: v, previous_s: previous_t });
-                }
-                previous_t = v;
-            }
-            columns[k].push(v);
-        }
-    }
-    if columns[0].is_empty() {
-        return Err(RecordingError::NoRows(path.into()));
-    }
-    let columns = columns.into_iter().zip(&index).map(|(c, i)| i.map(|_| c)).collect();
-    Ok(Table { names, columns })
-}
 
 impl BoardLog {
     /// Reads a board log: `t, mx, my, mz` required, `temp_c`, `health` optional.

@@ -135,69 +135,20 @@ impl Recording {
 
     /// Reads CSV from any reader (`path` names it in errors).
     pub fn from_reader<R: std::io::Read>(reader: R, path: &Path) -> Result<Self, RecordingError> {
-        let mut rdr = csv::ReaderBuilder::new().has_headers(true).flexible(true).trim(csv::Trim::All).from_reader(reader);
-        let csv_err = |source| RecordingError::Csv { path: path.into(), source };
-        let header = rdr.headers().map_err(csv_err)?.clone();
-        if header.is_empty() || header.iter().all(str::is_empty) {
-            return Err(RecordingError::Empty(path.into()));
-        }
-        let col = |name: &str| header.iter().position(|h| h.eq_ignore_ascii_case(name));
-        let header_list = header.iter().collect::<Vec<_>>().join(", ");
-        let required = |name: &'static str| {
-            col(name).ok_or_else(|| RecordingError::MissingColumn { path: path.into(), column: name, header: header_list.clone() })
-        };
-        let (ix, iy, iz) = (required("mx")?, required("my")?, required("mz")?);
-        let opt = ["t", "roll_deg", "pitch_deg", "ref_heading_deg", "lat_deg", "lon_deg", "gx", "gy", "gz"].map(|n| col(n).map(|i| (n, i)));
-        let mut rec = Recording::default();
-        let mut optional: [Vec<f64>; 9] = Default::default();
-        let mut previous_t = f64::NEG_INFINITY;
-        for (row, result) in rdr.records().enumerate() {
-            let record = result.map_err(csv_err)?;
-            let line = record.position().map(|p| p.line()).unwrap_or(row as u64 + 2);
-            if record.len() != header.len() {
-                return Err(RecordingError::Ragged { path: path.into(), line, found: record.len(), expected: header.len() });
-            }
-            let cell = |i: usize, name: &str| -> Result<f64, RecordingError> {
-                let text = record.get(i).unwrap_or("");
-                parse_cell(text).ok_or_else(|| RecordingError::BadNumber {
-                    path: path.into(),
-                    line,
-                    column: name.to_string(),
-                    text: text.to_string(),
-                })
-            };
-            rec.mag.push([cell(ix, "mx")?, cell(iy, "my")?, cell(iz, "mz")?]);
-            for (k, o) in opt.iter().enumerate() {
-                if let Some((name, i)) = o {
-                    let v = cell(*i, name)?;
-                    if *name == "t" {
-                        if !v.is_finite() {
-                            return Err(RecordingError::BadNumber { path: path.into(), line, column: "t".into(), text: record.get(*i).unwrap_or("").into() });
-                        }
-                        if v < previous_t {
-                            return Err(RecordingError::TimeBackwards { path: path.into(), line, t_s: v, previous_s: previous_t });
-                        }
-                        previous_t = v;
-                    }
-                    optional[k].push(v);
-                }
-            }
-        }
-        if rec.mag.is_empty() {
-            return Err(RecordingError::NoRows(path.into()));
-        }
-        let [t, roll, pitch, reference, lat, lon, gx, gy, gz] = optional;
-        let keep = |k: usize, v: Vec<f64>| opt[k].map(|_| v);
-        rec.t_s = keep(0, t);
-        rec.roll_deg = keep(1, roll);
-        rec.pitch_deg = keep(2, pitch);
-        rec.ref_heading_deg = keep(3, reference);
-        rec.lat_deg = keep(4, lat);
-        rec.lon_deg = keep(5, lon);
-        rec.gx_rad_s = keep(6, gx);
-        rec.gy_rad_s = keep(7, gy);
-        rec.gz_rad_s = keep(8, gz);
-        Ok(rec)
+        let mut t = read_table_from(reader, path, &["mx", "my", "mz"], &["t", "roll_deg", "pitch_deg", "ref_heading_deg", "lat_deg", "lon_deg", "gx", "gy", "gz"])?;
+        let (mx, my, mz) = (t.take("mx").unwrap_or_default(), t.take("my").unwrap_or_default(), t.take("mz").unwrap_or_default());
+        Ok(Recording {
+            mag: mx.into_iter().zip(my).zip(mz).map(|((x, y), z)| [x, y, z]).collect(),
+            t_s: t.take("t"),
+            roll_deg: t.take("roll_deg"),
+            pitch_deg: t.take("pitch_deg"),
+            ref_heading_deg: t.take("ref_heading_deg"),
+            lat_deg: t.take("lat_deg"),
+            lon_deg: t.take("lon_deg"),
+            gx_rad_s: t.take("gx"),
+            gy_rad_s: t.take("gy"),
+            gz_rad_s: t.take("gz"),
+        })
     }
 
     /// Writes the recording as CSV with the columns it has.
@@ -257,6 +208,82 @@ pub(crate) fn parse_cell(text: &str) -> Option<f64> {
         Ok(v) if v.is_finite() => Some(v),
         _ => None,
     }
+}
+
+/// Columns of a CSV log, by name.
+pub(crate) struct Table {
+    names: Vec<&'static str>,
+    columns: Vec<Option<Vec<f64>>>,
+}
+
+impl Table {
+    /// Takes a column out (`None` if absent or not asked for).
+    pub(crate) fn take(&mut self, name: &str) -> Option<Vec<f64>> {
+        let k = self.names.iter().position(|n| *n == name)?;
+        self.columns[k].take()
+    }
+}
+
+/// Reads the named columns of a CSV log file; see [`read_table_from`].
+pub(crate) fn read_table(path: &Path, required: &[&'static str], optional: &[&'static str]) -> Result<Table, RecordingError> {
+    let file = std::fs::File::open(path).map_err(|source| RecordingError::Io { path: path.into(), source })?;
+    read_table_from(file, path, required, optional)
+}
+
+/// Reads the named columns of CSV (the recording format's rules: header
+/// row, columns by name, empty or `nan` = absent; a `t` column finite and
+/// non-decreasing). `path` names the source in errors; the first required
+/// column decides whether there are rows.
+pub(crate) fn read_table_from<R: std::io::Read>(reader: R, path: &Path, required: &[&'static str], optional: &[&'static str]) -> Result<Table, RecordingError> {
+    let mut rdr = csv::ReaderBuilder::new().has_headers(true).flexible(true).trim(csv::Trim::All).from_reader(reader);
+    let csv_err = |source| RecordingError::Csv { path: path.into(), source };
+    let header = rdr.headers().map_err(csv_err)?.clone();
+    if header.is_empty() || header.iter().all(str::is_empty) {
+        return Err(RecordingError::Empty(path.into()));
+    }
+    let header_list = header.iter().collect::<Vec<_>>().join(", ");
+    let col = |name: &str| header.iter().position(|h| h.eq_ignore_ascii_case(name));
+    let mut names = Vec::new();
+    let mut index = Vec::new();
+    for &name in required {
+        let i = col(name).ok_or_else(|| RecordingError::MissingColumn { path: path.into(), column: name, header: header_list.clone() })?;
+        names.push(name);
+        index.push(Some(i));
+    }
+    for &name in optional {
+        names.push(name);
+        index.push(col(name));
+    }
+    let mut columns: Vec<Vec<f64>> = vec![Vec::new(); names.len()];
+    let mut previous_t = f64::NEG_INFINITY;
+    for (row, result) in rdr.records().enumerate() {
+        let record = result.map_err(csv_err)?;
+        let line = record.position().map(|p| p.line()).unwrap_or(row as u64 + 2);
+        if record.len() != header.len() {
+            return Err(RecordingError::Ragged { path: path.into(), line, found: record.len(), expected: header.len() });
+        }
+        for (k, i) in index.iter().enumerate() {
+            let Some(i) = *i else { continue };
+            let text = record.get(i).unwrap_or("");
+            let bad = || RecordingError::BadNumber { path: path.into(), line, column: names[k].to_string(), text: text.to_string() };
+            let v = parse_cell(text).ok_or_else(bad)?;
+            if names[k] == "t" {
+                if !v.is_finite() {
+                    return Err(bad());
+                }
+                if v < previous_t {
+                    return Err(RecordingError::TimeBackwards { path: path.into(), line, t_s: v, previous_s: previous_t });
+                }
+                previous_t = v;
+            }
+            columns[k].push(v);
+        }
+    }
+    if columns[0].is_empty() {
+        return Err(RecordingError::NoRows(path.into()));
+    }
+    let columns = columns.into_iter().zip(&index).map(|(c, i)| i.map(|_| c)).collect();
+    Ok(Table { names, columns })
 }
 
 #[cfg(test)]
