@@ -421,9 +421,6 @@ impl Device {
     /// outside any lock (an erase stalls the CPU for up to 800 ms) and hand
     /// back to [`Device::finish_commit`].
     pub fn handle_request(&mut self, req: &RequestBody, now_ms: u32, board: &BoardCounters) -> Handled {
-        if let RequestBody::ReadCoefficients | RequestBody::Unlock { .. } | RequestBody::WriteCoefficients(_) | RequestBody::Commit { .. } = req {
-            return self.handle_coefficients(req, now_ms);
-        }
         Handled::Reply(match *req {
             // Answered by the link layer; here for completeness.
             RequestBody::Ping { nonce } => ResponseBody::Pong { nonce },
@@ -432,7 +429,7 @@ impl Device {
             RequestBody::SetStream(_) | RequestBody::SetOutputRate { .. } | RequestBody::Attitude { .. } | RequestBody::Motion { .. } => self.handle_output(req, now_ms),
             RequestBody::FitStart { .. } | RequestBody::FitStop | RequestBody::FitQuery => self.handle_fit(req, now_ms),
             RequestBody::ReadCoefficients | RequestBody::Unlock { .. } | RequestBody::WriteCoefficients(_) | RequestBody::Commit { .. } => {
-                ResponseBody::Error(DeviceError::Unsupported)
+                return self.handle_coefficients(req, now_ms);
             }
             RequestBody::SetMissionMode { enabled } => {
                 self.mission = enabled;
