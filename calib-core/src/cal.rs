@@ -163,6 +163,77 @@ impl<T: Real> Swing<T> {
     }
 }
 
+/// The thruster-current and temperature terms (the calibration document's
+/// `current` and `temperature` blocks, `docs/INTERFACES.md`): the raw sample
+/// corrected for them is `raw ⊘ (1 + gain_per_c ⊙ (temp_c − ref_c)) −
+/// bias_per_a · current_a` (per axis), before the field calibration's
+/// `matrix · (· − bias)`. The sensor's gain changes with temperature for
+/// everything it sees, the hull's hard iron included; the thrusters add a
+/// field proportional to their current.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct EnvTerms<T> {
+    /// Field the thrusters add per ampere of motor current, raw units per A.
+    pub bias_per_a: Vec3<T>,
+    /// Temperature at which the field calibration holds, °C.
+    pub ref_c: T,
+    /// Relative gain change per °C, per axis.
+    pub gain_per_c: Vec3<T>,
+}
+
+/// The conditions of one sample that the [`EnvTerms`] correct for.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Environment<T> {
+    /// Thruster (motor) current, A.
+    pub current_a: T,
+    /// Temperature at the magnetometer, °C.
+    pub temp_c: T,
+}
+
+/// Largest relative gain change per °C accepted (the HMC100x drifts about
+/// 0.003 per °C; ten times that is no sensor).
+pub const MAX_GAIN_PER_C: f64 = 0.03;
+
+impl<T: Real> EnvTerms<T> {
+    /// No current or temperature terms (reference 20 °C).
+    pub fn none() -> Self {
+        Self { bias_per_a: [T::ZERO; 3], ref_c: T::from_f64(20.0), gain_per_c: [T::ZERO; 3] }
+    }
+
+    /// True when the terms change nothing.
+    pub fn is_none(&self) -> bool {
+        self.bias_per_a.iter().chain(self.gain_per_c.iter()).all(|v| *v == T::ZERO)
+    }
+
+    /// The raw sample with the temperature gain and the thruster field
+    /// removed: `raw ⊘ (1 + k ⊙ (temp_c − ref_c)) − bias_per_a · current_a`.
+    pub fn correct_raw(&self, raw: Vec3<T>, env: &Environment<T>) -> Vec3<T> {
+        let dt = env.temp_c - self.ref_c;
+        let mut out = [T::ZERO; 3];
+        for i in 0..3 {
+            out[i] = raw[i] / (T::ONE + self.gain_per_c[i] * dt) - self.bias_per_a[i] * env.current_a;
+        }
+        out
+    }
+
+    /// Checks the terms before use or storage: finite, each gain below
+    /// [`MAX_GAIN_PER_C`] per °C, the current term below `max_bias_per_a`
+    /// raw units per A.
+    pub fn validate(&self, max_bias_per_a: T) -> Result<(), CalError> {
+        if !self.bias_per_a.iter().chain(self.gain_per_c.iter()).chain(core::iter::once(&self.ref_c)).all(|v| v.is_finite()) {
+            return Err(CalError::NonFinite);
+        }
+        if self.gain_per_c.iter().any(|k| !(k.abs() < T::from_f64(MAX_GAIN_PER_C))) || !(self.ref_c.abs() < T::from_f64(100.0)) {
+            return Err(CalError::Implausible);
+        }
+        if self.bias_per_a.iter().any(|b| !(b.abs() <= max_bias_per_a)) {
+            return Err(CalError::BiasOutOfRange);
+        }
+        Ok(())
+    }
+}
+
 /// Everything the board applies to a sample.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -173,6 +244,8 @@ pub struct Calibration<T> {
     pub swing: Swing<T>,
     /// Magnetic declination, east positive.
     pub declination_rad: T,
+    /// Thruster-current and temperature terms ([`EnvTerms::none`] when absent).
+    pub env: EnvTerms<T>,
 }
 
 /// One calibrated output sample.
@@ -188,7 +261,7 @@ pub struct Output<T> {
 impl<T: Real> Calibration<T> {
     /// No correction at all.
     pub fn identity() -> Self {
-        Self { field: FieldCal::identity(), swing: Swing::zero(), declination_rad: T::ZERO }
+        Self { field: FieldCal::identity(), swing: Swing::zero(), declination_rad: T::ZERO, env: EnvTerms::none() }
     }
 
     /// Calibrated field only.
@@ -211,7 +284,16 @@ impl<T: Real> Calibration<T> {
     /// takes sin ψ and cos ψ from the levelled field itself, so a sample
     /// costs one square root, one division and one `atan2`.
     pub fn apply_tilt(&self, raw: Vec3<T>, tilt: &Tilt<T>) -> Output<T> {
-        let field_nt = self.field.apply(raw);
+        self.heading_of_field(self.field.apply(raw), tilt)
+    }
+
+    /// [`Calibration::apply_tilt`] with the current and temperature terms
+    /// applied first ([`EnvTerms::correct_raw`]).
+    pub fn apply_tilt_env(&self, raw: Vec3<T>, tilt: &Tilt<T>, env: &Environment<T>) -> Output<T> {
+        self.heading_of_field(self.field.apply(self.env.correct_raw(raw, env)), tilt)
+    }
+
+    fn heading_of_field(&self, field_nt: Vec3<T>, tilt: &Tilt<T>) -> Output<T> {
         let l = tilt.level(field_nt);
         let psi = heading_of_levelled(l);
         let hh = (l[0] * l[0] + l[1] * l[1]).sqrt();
@@ -232,7 +314,7 @@ mod tests {
         let d = [[1.2, 0.05, 0.0], [0.05, 0.9, 0.02], [0.0, 0.02, 1.1]];
         let m = crate::linalg::inverse3(&d).unwrap();
         let b = [300.0, -150.0, 80.0];
-        let cal = Calibration { field: FieldCal { bias: b, matrix: m }, swing: Swing::zero(), declination_rad: 0.1 };
+        let cal = Calibration { field: FieldCal { bias: b, matrix: m }, swing: Swing::zero(), declination_rad: 0.1, env: EnvTerms::none() };
         let h = ned_to_body(ned_field(48730.0, 0.97, 0.1), 0.3, -0.1, 1.0);
         let raw = mul_mat_vec(&d, h);
         let raw = [raw[0] + b[0], raw[1] + b[1], raw[2] + b[2]];
@@ -242,6 +324,43 @@ mod tests {
         }
         // Field built with declination 0.1 rad: true heading is the yaw.
         assert!(wrap_pi(out.true_heading_rad - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn current_and_temperature_terms_follow_the_document_formula() {
+        // A sensor whose gain is 1 + k·(T − T0) (the HMC100x's −0.3 %/°C
+        // order) sees the hull's hard iron and the thrusters' field through
+        // that gain: raw = g ⊙ (D·h + b + c·I). Written here from that
+        // physics, not from correct_raw.
+        let (k, t0, t) = ([-0.003, -0.0028, -0.0031], 15.0, 27.0);
+        let (b, c, current) = ([2000.0, -800.0, 400.0], [12.0, -3.0, 25.0], 14.0);
+        let d = [[1.2, 0.05, 0.0], [0.05, 0.9, 0.02], [0.0, 0.02, 1.1]];
+        let h = [21_000.0, -3_000.0, 42_000.0];
+        let dh = mul_mat_vec(&d, h);
+        let raw: [f64; 3] = core::array::from_fn(|i| (1.0 + k[i] * (t - t0)) * (dh[i] + b[i] + c[i] * current));
+        let cal = Calibration {
+            field: FieldCal { bias: b, matrix: crate::linalg::inverse3(&d).unwrap() },
+            swing: Swing::zero(),
+            declination_rad: 0.0,
+            env: EnvTerms { bias_per_a: c, ref_c: t0, gain_per_c: k },
+        };
+        let out = cal.apply_tilt_env(raw, &Tilt::new(0.0, 0.0), &Environment { current_a: current, temp_c: t });
+        for i in 0..3 {
+            assert!((out.field_nt[i] - h[i]).abs() < 1e-8, "{i}: {} vs {}", out.field_nt[i], h[i]);
+        }
+        // Without the terms the same sample is hundreds of nT off (the
+        // gain change alone moves the 2 000-unit bias by 72 units).
+        let plain = cal.apply_tilt(raw, &Tilt::new(0.0, 0.0));
+        assert!((plain.field_nt[2] - h[2]).abs() > 500.0);
+        assert_eq!(cal.env.validate(100.0), Ok(()));
+        let mut bad = cal.env;
+        bad.gain_per_c[1] = 0.05;
+        assert_eq!(bad.validate(100.0), Err(CalError::Implausible));
+        bad = cal.env;
+        bad.bias_per_a[0] = f64::NAN;
+        assert_eq!(bad.validate(100.0), Err(CalError::NonFinite));
+        assert_eq!(cal.env.validate(10.0), Err(CalError::BiasOutOfRange));
+        assert!(EnvTerms::<f64>::none().is_none() && !cal.env.is_none());
     }
 
     #[test]

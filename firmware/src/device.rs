@@ -79,7 +79,7 @@ pub fn validate(c: &Coefficients) -> Result<Calibration<f32>, DeviceError> {
     if !(swing_ok && decl_ok && field_ok && gain > 0.2 && gain < 5.0) {
         return Err(DeviceError::InvalidCoefficients);
     }
-    Ok(Calibration { field, swing: Swing::from_array(c.swing), declination_rad: c.declination_rad })
+    Ok(Calibration { field, swing: Swing::from_array(c.swing), declination_rad: c.declination_rad, env: calib_core::cal::EnvTerms::none() })
 }
 
 /// The next unlock challenge (FNV-1a of the old one and the time): not a

@@ -51,7 +51,6 @@ use calib_core::linalg::Mat3;
 use nalgebra::Matrix3;
 use serde::{Deserialize, Serialize};
 
-use crate::data::blocks::ExtraBlocks;
 use crate::data::CalDoc;
 
 /// The stack a calibration is exported to.
@@ -302,8 +301,8 @@ fn mat_vec(m: &[[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
     [0, 1, 2].map(|i| m[i][0] * v[0] + m[i][1] * v[1] + m[i][2] * v[2])
 }
 
-/// Builds the stack's parameters for a document and its optional blocks.
-pub fn export(doc: &CalDoc, blocks: &ExtraBlocks, opts: &ExportOptions) -> Result<Export, ExportError> {
+/// Builds the stack's parameters for a document (its optional blocks included).
+pub fn export(doc: &CalDoc, opts: &ExportOptions) -> Result<Export, ExportError> {
     let stack = opts.stack;
     let (k, inferred) = match opts.raw_nt_per_unit {
         Some(k) if k.is_finite() && k > 0.0 => (k, false),
@@ -318,7 +317,7 @@ pub fn export(doc: &CalDoc, blocks: &ExtraBlocks, opts: &ExportOptions) -> Resul
         return Err(ExportError::Rotation { angle_deg, max_deg: opts.max_rotation_deg, stack: stack.name() });
     }
     let b_s = doc.bias.map(|b| b * k / u);
-    let c_s = blocks.current.map(|c| c.bias_per_a.map(|c| c * k / u));
+    let c_s = doc.current.map(|c| c.bias_per_a.map(|c| c * k / u));
 
     let mut warnings = Vec::new();
     // Asymmetry below rounding is no rotation worth a line.
@@ -334,7 +333,7 @@ pub fn export(doc: &CalDoc, blocks: &ExtraBlocks, opts: &ExportOptions) -> Resul
         let max = (0..360).map(|d| s.correction_rad((d as f64).to_radians()).abs()).fold(0.0, f64::max);
         warnings.push(Unexpressed::Swing { coefficients_rad: s.to_array(), max_correction_deg: max.to_degrees() });
     }
-    if let Some(t) = blocks.temperature {
+    if let Some(t) = doc.temperature {
         warnings.push(Unexpressed::Temperature { ref_c: t.ref_c, gain_per_c: t.gain_per_c });
     }
     if let Some(d) = doc.declination_deg {
@@ -488,11 +487,11 @@ mod tests {
         assert!(e.to_string().contains("--raw-unit"), "{e}");
         let doc = CalDoc::new(ModelKind::Sphere, &FieldCal { bias: [0.0; 3], matrix: [[150.0, 0.0, 0.0], [0.0, 150.0, 0.0], [0.0, 0.0, 150.0]] }, 50_000.0, Default::default());
         let opts = ExportOptions { stack: Stack::ArduPilot, raw_nt_per_unit: Some(-1.0), max_rotation_deg: 2.0 };
-        assert!(matches!(export(&doc, &ExtraBlocks::default(), &opts), Err(ExportError::BadUnit(_))));
+        assert!(matches!(export(&doc, &opts), Err(ExportError::BadUnit(_))));
         // Given as 100 nT (mGauss) the gain of 1.5 is at ArduPilot's edge; 2 is beyond.
         let doc2 = CalDoc { matrix: [[200.0, 0.0, 0.0], [0.0, 200.0, 0.0], [0.0, 0.0, 200.0]], ..doc };
         let opts = ExportOptions { raw_nt_per_unit: Some(100.0), ..opts };
-        assert!(matches!(export(&doc2, &ExtraBlocks::default(), &opts), Err(ExportError::Gain { .. })));
-        assert!(export(&doc2, &ExtraBlocks::default(), &ExportOptions { stack: Stack::Px4, ..opts }).is_ok());
+        assert!(matches!(export(&doc2, &opts), Err(ExportError::Gain { .. })));
+        assert!(export(&doc2, &ExportOptions { stack: Stack::Px4, ..opts }).is_ok());
     }
 }

@@ -157,9 +157,20 @@ fn empty_cells_are_empty_and_bad_inputs_are_refused() {
     // A step that does not divide the circle.
     let out = magcal(&["card", "--input", p(&rec), "--cal", p(&cal), "--step-deg", "7"]);
     assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("must divide 360"));
-    // A document with a block the card cannot apply.
+    // A document with a current block and a recording without the current.
+    std::fs::write(&rec, "mx,my,mz,roll_deg,pitch_deg,ref_heading_deg\n20000,0,40000,0,0,0\n").unwrap();
     std::fs::write(&cal, r#"{"model": "sphere", "bias": [0, 0, 0], "matrix": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "field_nt": 44721, "current": {"bias_per_a": [1, 2, 3]}}"#).unwrap();
     let out = magcal(&["card", "--input", p(&rec), "--cal", p(&cal)]);
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success() && err.contains("current or temperature block"), "{err}");
+    assert!(!out.status.success() && err.contains("no `motor_current_a` column"), "{err}");
+    // With the column the block is applied: a 20 000 nT north field, 1 A,
+    // (1, 2, 3) per A → the after heading is atan2(-(0 − 2), 20 000 − 1).
+    std::fs::write(&rec, "mx,my,mz,roll_deg,pitch_deg,ref_heading_deg,motor_current_a\n20001,2,40003,0,0,0,1\n").unwrap();
+    let out = magcal(&["card", "--input", p(&rec), "--cal", p(&cal), "--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let after = v["after"]["mean_deg"].as_f64().unwrap();
+    assert!(after.abs() < 1e-9, "current applied: after error {after}°");
+    let before = v["before"]["mean_deg"].as_f64().unwrap();
+    assert!((before - (2.0f64).atan2(20_001.0).to_degrees()).abs() < 1e-6, "before is the raw heading: {before}°");
 }

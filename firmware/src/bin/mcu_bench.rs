@@ -155,6 +155,7 @@ mod bench {
             field: FieldCal { bias: [1200.0, -800.0, 350.0], matrix: [[0.95, 0.01, 0.0], [0.01, 1.04, 0.02], [0.0, 0.02, 0.93]] },
             swing: Swing { a: 0.1, b: 0.01, c: -0.01, d: 0.005, e: 0.05 },
             declination_rad: 0.09,
+            env: calib_core::cal::EnvTerms::none(),
         };
 
         // apply + heading: the firmware's per-sample path (attitude

@@ -16,7 +16,7 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use calib_core::cal::{Calibration, FieldCal, Swing};
+use calib_core::cal::Calibration;
 use calib_core::heading::wrap_pi;
 use serde::{Deserialize, Serialize};
 
@@ -173,9 +173,15 @@ pub fn deviation_card(rec: &Recording, doc: &CalDoc, step_deg: f64, points: usiz
     let roll = rec.roll_deg.as_ref().ok_or(ComputeError::NeedsColumn("roll_deg"))?;
     let pitch = rec.pitch_deg.as_ref().ok_or(ComputeError::NeedsColumn("pitch_deg"))?;
     check_units(rec, doc)?;
+    if let Some(column) = doc.needed_columns().into_iter().find(|c| match *c {
+        "motor_current_a" => rec.motor_current_a.is_none(),
+        _ => rec.temp_c.is_none(),
+    }) {
+        return Err(CardError::Compute(ComputeError::NeedsColumn(column)));
+    }
     let after = true_headings_rad(doc, rec);
     let declination_deg = doc.declination_deg.unwrap_or(0.0);
-    let raw = Calibration { field: FieldCal::identity(), swing: Swing::zero(), declination_rad: declination_deg.to_radians() };
+    let raw = Calibration { declination_rad: declination_deg.to_radians(), ..Calibration::identity() };
     let (mut hb, mut ha, mut pb, mut pa) = (vec![Acc::default(); sectors], vec![Acc::default(); sectors], vec![Acc::default(); points], vec![Acc::default(); points]);
     let (mut all_b, mut all_a) = (Acc::default(), Acc::default());
     let mut skipped = 0;
@@ -305,7 +311,7 @@ impl DeviationCard {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use calib_core::cal::ModelKind;
+    use calib_core::cal::{FieldCal, ModelKind};
 
     fn level_recording(headings_deg: &[f64], bias_nt: [f64; 3]) -> Recording {
         // Level vehicle, horizontal field 20 000 nT north, 40 000 nT down.

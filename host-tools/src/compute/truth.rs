@@ -3,7 +3,8 @@
 //! own headings against the simulator's truth) and the scenario harness
 //! (a calibration applied to a simulated run).
 
-use calib_core::heading::wrap_pi;
+use calib_core::cal::Environment;
+use calib_core::heading::{wrap_pi, Tilt};
 
 use crate::data::{CalDoc, Recording};
 use crate::geomag::Site;
@@ -52,14 +53,41 @@ pub fn heading_rms_after_offset_deg(pairs: impl IntoIterator<Item = (f64, f64)>)
 }
 
 /// The true heading (rad) that a calibration gives at every row of a
-/// recording (field, tilt from the recording's roll and pitch, swing,
-/// declination); NaN where a column is missing.
+/// recording (current and temperature terms from the rows' `motor_current_a`
+/// and `temp_c` when the document has them, field, tilt from the rows' roll
+/// and pitch, swing, declination); NaN where a column it needs is missing
+/// (callers that must not skip rows check [`CalDoc::needed_columns`]).
 pub fn true_headings_rad(doc: &CalDoc, rec: &Recording) -> Vec<f64> {
     let cal = doc.calibration();
     let (Some(roll), Some(pitch)) = (rec.roll_deg.as_ref(), rec.pitch_deg.as_ref()) else {
         return vec![f64::NAN; rec.len()];
     };
-    rec.mag.iter().zip(roll.iter().zip(pitch)).map(|(m, (r, p))| cal.apply(*m, r.to_radians(), p.to_radians()).true_heading_rad).collect()
+    let envs = environments(doc, rec);
+    rec.mag
+        .iter()
+        .zip(roll.iter().zip(pitch))
+        .zip(envs)
+        .map(|((m, (r, p)), env)| cal.apply_tilt_env(*m, &Tilt::new(r.to_radians(), p.to_radians()), &env).true_heading_rad)
+        .collect()
+}
+
+/// Each row's current and temperature as the document's blocks need them:
+/// the rows' columns where the document has the block (NaN where the
+/// column is missing or empty), the neutral value (0 A, the reference
+/// temperature) where it has not.
+pub fn environments(doc: &CalDoc, rec: &Recording) -> Vec<Environment<f64>> {
+    let terms = doc.env_terms();
+    let col = |has: bool, c: &Option<Vec<f64>>, neutral: f64, i: usize| match (has, c) {
+        (false, _) => neutral,
+        (true, Some(c)) => c.get(i).copied().unwrap_or(f64::NAN),
+        (true, None) => f64::NAN,
+    };
+    (0..rec.len())
+        .map(|i| Environment {
+            current_a: col(doc.current.is_some(), &rec.motor_current_a, 0.0, i),
+            temp_c: col(doc.temperature.is_some(), &rec.temp_c, terms.ref_c, i),
+        })
+        .collect()
 }
 
 /// RMS of |h| − IGRF (nT) over `(h_nt, row)` pairs, IGRF taken at the row's

@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use calib_core::cal::{CalError, Calibration, FieldCal, ModelKind, Swing};
+use calib_core::cal::{CalError, Calibration, EnvTerms, FieldCal, ModelKind, Swing};
 use serde::{Deserialize, Serialize};
 
 use super::results::{Quality, TraceEntry};
@@ -44,8 +44,34 @@ pub enum CalDocError {
     },
 }
 
-/// The calibration document.
+/// Largest thruster term accepted, raw units per ampere (a 100 A thruster
+/// bus at this would add 10⁶ units: far beyond any installation).
+pub const MAX_BIAS_PER_A: f64 = 1e4;
+
+/// The thruster-current block: `h = matrix · (raw − bias − bias_per_a · motor_current_a)`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CurrentBlock {
+    /// Field the thrusters add per ampere of `motor_current_a`, raw input units per A.
+    pub bias_per_a: [f64; 3],
+}
+
+/// The temperature block: the sensor's gain changes by `gain_per_c` (relative,
+/// per °C) away from `ref_c`: `raw ⊘ (1 + gain_per_c ⊙ (temp_c − ref_c))`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TemperatureBlock {
+    /// Reference temperature, °C.
+    pub ref_c: f64,
+    /// Relative gain change per °C, per axis.
+    pub gain_per_c: [f64; 3],
+}
+
+/// The calibration document. A key it does not know is refused with the
+/// key's name (the contract: a reader that does not know a block must
+/// refuse the document rather than ignore it).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct CalDoc {
     /// `sphere`, `axis`, `full` or `triangular`.
     #[serde(with = "model_name")]
@@ -62,6 +88,12 @@ pub struct CalDoc {
     /// Swing (heading) correction.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub swing: Option<Swing<f64>>,
+    /// Thruster-current compensation.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub current: Option<CurrentBlock>,
+    /// Temperature compensation.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub temperature: Option<TemperatureBlock>,
     /// Residuals, coverage, warnings of each step.
     #[serde(default)]
     pub quality: Quality,
@@ -115,6 +147,8 @@ impl CalDoc {
             field_nt,
             declination_deg: None,
             swing: None,
+            current: None,
+            temperature: None,
             quality,
             trace: None,
         }
@@ -131,7 +165,31 @@ impl CalDoc {
             field: self.field_cal(),
             swing: self.swing.unwrap_or_else(Swing::zero),
             declination_rad: self.declination_deg.unwrap_or(0.0).to_radians(),
+            env: self.env_terms(),
         }
+    }
+
+    /// The current and temperature terms ([`EnvTerms::none`] for absent blocks).
+    pub fn env_terms(&self) -> EnvTerms<f64> {
+        let none = EnvTerms::none();
+        EnvTerms {
+            bias_per_a: self.current.map_or(none.bias_per_a, |c| c.bias_per_a),
+            ref_c: self.temperature.map_or(none.ref_c, |t| t.ref_c),
+            gain_per_c: self.temperature.map_or(none.gain_per_c, |t| t.gain_per_c),
+        }
+    }
+
+    /// The recording columns the document needs beyond the field and attitude:
+    /// `motor_current_a` with a current block, `temp_c` with a temperature block.
+    pub fn needed_columns(&self) -> Vec<&'static str> {
+        let mut cols = vec![];
+        if self.current.is_some() {
+            cols.push("motor_current_a");
+        }
+        if self.temperature.is_some() {
+            cols.push("temp_c");
+        }
+        cols
     }
 
     /// Checks the coefficients.
@@ -150,6 +208,12 @@ impl CalDoc {
             if !(d.is_finite() && d.abs() <= 180.0) {
                 return Err(invalid("declination_deg must be within ±180"));
             }
+        }
+        match self.env_terms().validate(MAX_BIAS_PER_A) {
+            Ok(()) => {}
+            Err(CalError::NonFinite) => return Err(invalid("current.bias_per_a and temperature.ref_c/gain_per_c must be finite numbers")),
+            Err(CalError::Implausible) => return Err(invalid("temperature: each gain_per_c must be below 0.03 per °C in size and ref_c within ±100 °C")),
+            Err(_) => return Err(invalid("current.bias_per_a is beyond 10 000 raw units per ampere")),
         }
         Ok(())
     }
@@ -233,5 +297,35 @@ mod tests {
         let e = d.save(&out).unwrap_err();
         assert!(e.to_string().contains("determinant"), "{e}");
         assert!(!out.exists(), "nothing written for a refused document");
+    }
+
+    #[test]
+    fn current_and_temperature_blocks_are_read_and_unknown_blocks_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("cal.json");
+        let base = r#""model": "full", "bias": [1, 2, 3], "matrix": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "field_nt": 50000"#;
+        let load = |text: String| {
+            std::fs::write(&p, text).unwrap();
+            CalDoc::load(&p)
+        };
+        let none = load(format!("{{{base}}}")).unwrap();
+        assert!(none.current.is_none() && none.temperature.is_none() && none.needed_columns().is_empty());
+        let both = load(format!(
+            r#"{{{base}, "current": {{"bias_per_a": [0.5, -1.5, 2]}}, "temperature": {{"ref_c": 20, "gain_per_c": [0.001, 0, -0.002]}}}}"#
+        ))
+        .unwrap();
+        assert_eq!(both.current.unwrap().bias_per_a, [0.5, -1.5, 2.0]);
+        assert_eq!(both.calibration().env.gain_per_c[2], -0.002);
+        assert_eq!(both.needed_columns(), ["motor_current_a", "temp_c"]);
+        let e = load(format!(r#"{{{base}, "hysteresis": {{"k": 1}}}}"#)).unwrap_err();
+        assert!(matches!(e, CalDocError::Parse { .. }) && e.to_string().contains("unknown field `hysteresis`"), "{e}");
+        let e = load(format!(r#"{{{base}, "current": {{"bias_per_amp": [1, 2, 3]}}}}"#)).unwrap_err();
+        assert!(e.to_string().contains("bias_per_amp"), "{e}");
+        let e = load(format!(r#"{{{base}, "temperature": {{"ref_c": 20, "gain_per_c": [0.5, 0, 0]}}}}"#)).unwrap_err();
+        assert!(matches!(e, CalDocError::Invalid { .. }) && e.to_string().contains("0.03 per °C"), "{e}");
+        // Written and read back, the blocks survive.
+        let out = dir.path().join("out.json");
+        both.save(&out).unwrap();
+        assert_eq!(CalDoc::load(&out).unwrap(), both);
     }
 }

@@ -330,14 +330,13 @@ impl Default for ImportOptions {
 #[derive(Debug, Clone)]
 pub struct Imported {
     /// `t, mx, my, mz` (raw, mGauss), `roll_deg, pitch_deg`, `ref_heading_deg`
-    /// (GPS course at speed), `lat_deg, lon_deg`.
+    /// (GPS course at speed), `lat_deg, lon_deg`, `motor_current_a` (BAT
+    /// `Curr` of the first battery monitor, A).
     pub recording: Recording,
     /// ATT `Yaw`, degrees (the autopilot's own heading, from this compass).
     pub ahrs_yaw_deg: Vec<f64>,
     /// GPS `Spd`, m/s over ground.
     pub gps_speed_mps: Vec<f64>,
-    /// BAT `Curr`, A (the first battery monitor).
-    pub motor_current_a: Vec<f64>,
     /// The report.
     pub report: ImportReport,
 }
@@ -533,7 +532,8 @@ pub fn import(bytes: &[u8], opts: &ImportOptions) -> Result<Imported, DataFlashE
         }
     }
     report.rows = n;
-    Ok(Imported { recording: rec, ahrs_yaw_deg: yaw, gps_speed_mps: speed, motor_current_a: current, report })
+    rec.motor_current_a = Some(current);
+    Ok(Imported { recording: rec, ahrs_yaw_deg: yaw, gps_speed_mps: speed, report })
 }
 
 /// Reads a log file and imports it.

@@ -781,9 +781,9 @@ fn line_fit(points: &[(f64, f64)], t_ref: f64) -> LineFit {
 
 /// Merges a board log and a navigation log into one recording on the
 /// navigation clock (`t` = the board sample's time mapped to the navigation
-/// clock). Extra columns (ignored by the recording reader but kept for
-/// users): `t_board`, `heading_deg`, `speed_mps`, `motor_current_a`,
-/// `temp_c` — see [`Merged::extra_columns`].
+/// clock), with `speed_mps`, `motor_current_a` and `temp_c` when the logs
+/// have them. Extra columns (ignored by the recording reader but kept for
+/// users): `t_board`, `heading_deg` — see [`Merged::extra_columns`].
 pub fn merge(board: &BoardLog, nav: &NavLog, clock: Clock) -> Result<Merged, MergeError> {
     let b0 = board.t_s[0];
     let alignment = match clock {
@@ -807,7 +807,10 @@ pub fn merge(board: &BoardLog, nav: &NavLog, clock: Clock) -> Result<Merged, Mer
     if nav.gyro_rad_s.is_some() {
         (rec.gx_rad_s, rec.gy_rad_s, rec.gz_rad_s) = (Some(vec![]), Some(vec![]), Some(vec![]));
     }
-    let mut extra = MergedExtra { t_board_s: vec![], heading_deg: opt(&nav.heading_deg), speed_mps: opt(&nav.speed_mps), motor_current_a: opt(&nav.motor_current_a), temp_c: opt(&board.temp_c) };
+    rec.speed_mps = opt(&nav.speed_mps);
+    rec.motor_current_a = opt(&nav.motor_current_a);
+    rec.temp_c = opt(&board.temp_c);
+    let mut extra = MergedExtra { t_board_s: vec![], heading_deg: opt(&nav.heading_deg) };
     let (mut outside, mut in_gaps, mut saturated) = (0usize, 0usize, 0usize);
     for (i, (&tb, &m)) in board.t_s.iter().zip(&board.mag).enumerate() {
         let tn = map.to_nav(tb);
@@ -847,9 +850,9 @@ pub fn merge(board: &BoardLog, nav: &NavLog, clock: Clock) -> Result<Merged, Mer
         }
         extra.t_board_s.push(tb);
         nav.heading_deg.as_ref().inspect(|c| push(&mut extra.heading_deg, angle(c, true)));
-        nav.speed_mps.as_ref().inspect(|c| push(&mut extra.speed_mps, lerp(c)));
-        nav.motor_current_a.as_ref().inspect(|c| push(&mut extra.motor_current_a, lerp(c)));
-        board.temp_c.as_ref().inspect(|c| push(&mut extra.temp_c, c[i]));
+        nav.speed_mps.as_ref().inspect(|c| push(&mut rec.speed_mps, lerp(c)));
+        nav.motor_current_a.as_ref().inspect(|c| push(&mut rec.motor_current_a, lerp(c)));
+        board.temp_c.as_ref().inspect(|c| push(&mut rec.temp_c, c[i]));
     }
     if rec.mag.is_empty() {
         return Err(no_overlap(board, nav, format!("with the clock offset {:.3} s (navigation − board) no board sample falls within the navigation log", map.offset_s)));
@@ -888,12 +891,6 @@ pub struct MergedExtra {
     pub t_board_s: Vec<f64>,
     /// The AHRS's heading, degrees.
     pub heading_deg: Option<Vec<f64>>,
-    /// Speed through water, m/s.
-    pub speed_mps: Option<Vec<f64>>,
-    /// Thruster current, A.
-    pub motor_current_a: Option<Vec<f64>>,
-    /// Temperature at the magnetometer, °C.
-    pub temp_c: Option<Vec<f64>>,
 }
 
 /// A merged recording and its report.
@@ -912,10 +909,8 @@ impl Merged {
     pub fn extra_columns(&self) -> Vec<(&'static str, &Vec<f64>)> {
         let e = &self.extra;
         let mut cols = vec![("t_board", &e.t_board_s)];
-        for (name, c) in [("heading_deg", &e.heading_deg), ("speed_mps", &e.speed_mps), ("motor_current_a", &e.motor_current_a), ("temp_c", &e.temp_c)] {
-            if let Some(c) = c {
-                cols.push((name, c));
-            }
+        if let Some(c) = &e.heading_deg {
+            cols.push(("heading_deg", c));
         }
         cols
     }

@@ -2,7 +2,6 @@
 //! typed results inside documents and session summaries, and the merging of
 //! a board log with a navigation log kept on another clock.
 
-pub mod blocks;
 pub mod caldoc;
 pub mod dataflash;
 pub mod merge;

@@ -102,6 +102,13 @@ pub struct Recording {
     pub gy_rad_s: Option<Vec<f64>>,
     /// `gz`, rad/s.
     pub gz_rad_s: Option<Vec<f64>>,
+    /// `speed_mps`: speed through water (DVL water track or propeller model), m/s.
+    pub speed_mps: Option<Vec<f64>>,
+    /// `motor_current_a`: thruster current that disturbs the magnetometer, A
+    /// (0 with the thrusters off).
+    pub motor_current_a: Option<Vec<f64>>,
+    /// `temp_c`: temperature at the magnetometer, °C.
+    pub temp_c: Option<Vec<f64>>,
 }
 
 impl Recording {
@@ -135,7 +142,7 @@ impl Recording {
 
     /// Reads CSV from any reader (`path` names it in errors).
     pub fn from_reader<R: std::io::Read>(reader: R, path: &Path) -> Result<Self, RecordingError> {
-        let mut t = read_table_from(reader, path, &["mx", "my", "mz"], &["t", "roll_deg", "pitch_deg", "ref_heading_deg", "lat_deg", "lon_deg", "gx", "gy", "gz"])?;
+        let mut t = read_table_from(reader, path, &["mx", "my", "mz"], &["t", "roll_deg", "pitch_deg", "ref_heading_deg", "lat_deg", "lon_deg", "gx", "gy", "gz", "speed_mps", "motor_current_a", "temp_c"])?;
         let (mx, my, mz) = (t.take("mx").unwrap_or_default(), t.take("my").unwrap_or_default(), t.take("mz").unwrap_or_default());
         Ok(Recording {
             mag: mx.into_iter().zip(my).zip(mz).map(|((x, y), z)| [x, y, z]).collect(),
@@ -148,6 +155,9 @@ impl Recording {
             gx_rad_s: t.take("gx"),
             gy_rad_s: t.take("gy"),
             gz_rad_s: t.take("gz"),
+            speed_mps: t.take("speed_mps"),
+            motor_current_a: t.take("motor_current_a"),
+            temp_c: t.take("temp_c"),
         })
     }
 
@@ -171,6 +181,9 @@ impl Recording {
             ("gx", &self.gx_rad_s),
             ("gy", &self.gy_rad_s),
             ("gz", &self.gz_rad_s),
+            ("speed_mps", &self.speed_mps),
+            ("motor_current_a", &self.motor_current_a),
+            ("temp_c", &self.temp_c),
         ]
         .into_iter()
         .filter_map(|(n, c)| c.as_ref().map(|c| (n, c)))

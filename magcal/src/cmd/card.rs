@@ -6,7 +6,6 @@ use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
 use host_tools::compute::card::{deviation_card, read_reference_column, CardError};
-use host_tools::data::blocks::ExtraBlocks;
 use host_tools::data::{CalDoc, Recording};
 
 /// Arguments of `magcal card`.
@@ -39,15 +38,6 @@ pub struct Args {
 /// Runs `magcal card`.
 pub fn run(a: Args) -> Result<()> {
     let doc = CalDoc::load(&a.cal)?;
-    let blocks = ExtraBlocks::load(&a.cal)?;
-    // The recordings read here carry no motor current or temperature column
-    // yet: a document whose blocks need them cannot be applied faithfully.
-    if blocks.current.is_some() || blocks.temperature.is_some() {
-        bail!(
-            "{}: the document has a current or temperature block, which the deviation card cannot apply yet (the recording reader has no motor_current_a/temp_c columns); a card without it would be wrong",
-            a.cal.display()
-        );
-    }
     let mut rec = Recording::read(&a.input)?;
     if a.reference_column != "ref_heading_deg" {
         let column = read_reference_column(&a.input, &a.reference_column)?.ok_or_else(|| CardError::NoReferenceColumn(a.reference_column.clone()))?;

@@ -4,7 +4,6 @@
 use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
-use host_tools::data::blocks::ExtraBlocks;
 use host_tools::data::CalDoc;
 use host_tools::export::{export, ExportOptions, Stack};
 
@@ -64,7 +63,6 @@ pub fn run(a: Args) -> Result<()> {
         bail!("--max-rotation-deg must be a non-negative number of degrees, not {}", a.max_rotation_deg);
     }
     let doc = CalDoc::load(&a.cal)?;
-    let blocks = ExtraBlocks::load(&a.cal)?;
     let stack = match a.format {
         Format::Ardupilot => Stack::ArduPilot,
         Format::Px4 => Stack::Px4,
@@ -79,7 +77,7 @@ pub fn run(a: Args) -> Result<()> {
         None => a.raw_nt_per_unit,
     };
     let opts = ExportOptions { stack, raw_nt_per_unit, max_rotation_deg: a.max_rotation_deg };
-    let ex = export(&doc, &blocks, &opts).with_context(|| format!("{}: export to {}", a.cal.display(), stack.name()))?;
+    let ex = export(&doc, &opts).with_context(|| format!("{}: export to {}", a.cal.display(), stack.name()))?;
     if ex.raw_unit_inferred {
         eprintln!("note: raw units taken as {} nT per unit from the matrix's gain (give --raw-unit to set them)", ex.raw_nt_per_unit);
     }
