@@ -186,9 +186,34 @@ pub struct SwingQuality {
     pub before_rms_deg: f64,
     /// And after, ° RMS.
     pub after_rms_deg: f64,
+    /// The water current removed from the GPS course before the fit (absent
+    /// when course was used as heading).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub current: Option<SwingCurrent>,
     /// What the operator should know.
     #[serde(default)]
     pub warnings: Vec<String>,
+}
+
+/// The water current the swing fit estimated from the surface GPS fixes and
+/// the speed through water, and removed from the course (the crab angle).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SwingCurrent {
+    /// The current towards north and east, m/s.
+    pub current_ne_mps: [f64; 2],
+    /// Its 1σ from the scatter of the fixes, m/s.
+    pub sigma_ne_mps: [f64; 2],
+    /// GPS fixes used.
+    pub fixes: u32,
+    /// Runs of consecutive fixes.
+    pub segments: u32,
+    /// `|Σ s·u(ψ)| / Σ s` of the water velocity at the fixes (0 for whole
+    /// circles, 1 for a straight leg).
+    pub heading_resultant: f64,
+    /// Rounds of the current/swing alternation.
+    pub rounds: u32,
+    /// The swing fit's residual against raw course (crab angle left in), ° RMS.
+    pub course_after_rms_deg: f64,
 }
 
 /// `SwingTerms` as the number of coefficients (1, 3 or 5) in JSON.

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
-use host_tools::compute::{self, Delay};
+use host_tools::compute::{self, swing::CurrentMode, Delay};
 use host_tools::data::{CalDoc, Recording};
 
 use super::{emit, warn_all};
@@ -27,6 +27,12 @@ pub struct Args {
     /// Upper bound of the delay search, seconds.
     #[arg(long, default_value_t = 5.0)]
     max_delay_s: f64,
+    /// Use GPS course over ground as heading, as it is (by default the water
+    /// current is estimated from the surface fixes, `lat_deg`/`lon_deg`, and
+    /// `speed_mps`, and the crab angle removed when the data allow; when they
+    /// do not, a warning says why and course is used as it is).
+    #[arg(long)]
+    no_current: bool,
     /// Write the calibration document here.
     #[arg(long)]
     out: Option<PathBuf>,
@@ -45,11 +51,20 @@ pub fn run(a: Args) -> Result<()> {
     };
     let doc = CalDoc::load(&a.cal)?;
     let rec = Recording::read(&a.input)?;
-    let (doc, fit, delay_s) = compute::swing_recording(&rec, &doc, delay).with_context(|| format!("{}: swing fit", a.input.display()))?;
+    let mode = if a.no_current { CurrentMode::Off } else { CurrentMode::Auto };
+    let (doc, fit, delay_s) =
+        compute::swing::swing_recording_with(&rec, &doc, delay, mode).with_context(|| format!("{}: swing fit", a.input.display()))?;
     warn_all(&doc);
     let s = fit.swing;
+    let current = match doc.quality.swing.as_ref().and_then(|q| q.current) {
+        Some(c) => format!(
+            " against course less the crab angle in a current of {:.3}±{:.3} m/s north, {:.3}±{:.3} m/s east;",
+            c.current_ne_mps[0], c.sigma_ne_mps[0], c.current_ne_mps[1], c.sigma_ne_mps[1]
+        ),
+        None => String::new(),
+    };
     let summary = format!(
-        "swing fit of {} pairs at delay {:.2} s: A={:.5} B={:.5} C={:.5} D={:.5} E={:.5} rad; heading error {:.2}° → {:.2}° RMS",
+        "swing fit of {} pairs at delay {:.2} s:{current} A={:.5} B={:.5} C={:.5} D={:.5} E={:.5} rad; heading error {:.2}° → {:.2}° RMS",
         fit.samples,
         delay_s,
         s.a,
