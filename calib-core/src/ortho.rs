@@ -19,6 +19,19 @@
 //!
 //! Both need only `G = Σ WᵀW` (6×6), accumulated in one pass.
 //!
+//! Ours, beyond the paper:
+//!
+//! * [`identify_all_samples`] — the same objective over *every* pair of
+//!   samples, not N disjoint ones (`G` becomes the scatter of the squared-norm
+//!   regressors, still one 6×6 matrix);
+//! * [`refine_ml`] / [`identify_ml`] — maximum likelihood for noise on the
+//!   measured field: the squared distances of the samples to the fitted
+//!   surface, minimised over q and the radius.
+//!
+//! At paper 001's σ = 0.01, 1 440 samples, the mean J over 24 seeds is 0.020
+//! for the paper's pairing and 0.012 for both of ours (the test
+//! `every_sample_and_ml_beat_the_papers_pairing_at_strong_noise`).
+//!
 //! The full-ellipsoid fit ([`crate::fit::Full`]) and this model are two
 //! parameterisations of one thing: any calibration matrix `M` defines the same
 //! magnitudes as the triangular `U` with `UᵀU = MᵀM` ([`from_field_cal`]);
@@ -167,11 +180,7 @@ pub fn j_index<T: Real>(truth: &OrthoAngles<T>, estimate: &OrthoAngles<T>) -> T 
 
 /// `W` of one pair (eq 9): differences of `X², Y², Z², 2XY, 2YZ, 2XZ`.
 pub fn pair_row<T: Real>(b1: Vec3<T>, b2: Vec3<T>) -> [T; 6] {
-    let terms = |b: Vec3<T>| {
-        let two = T::from_f64(2.0);
-        [b[0] * b[0], b[1] * b[1], b[2] * b[2], two * b[0] * b[1], two * b[1] * b[2], two * b[0] * b[2]]
-    };
-    let (t1, t2) = (terms(b1), terms(b2));
+    let (t1, t2) = (norm_row(b1), norm_row(b2));
     let mut w = [T::ZERO; 6];
     for k in 0..6 {
         w[k] = t1[k] - t2[k];
@@ -179,9 +188,9 @@ pub fn pair_row<T: Real>(b1: Vec3<T>, b2: Vec3<T>) -> [T; 6] {
     w
 }
 
-/// `G = Σ WᵀW` over the pairs (first half, second half) of bias-free,
-/// RMS-normalised samples.
-pub fn pair_information<T: Real>(samples: &[Vec3<T>], bias: Vec3<T>) -> Result<[[T; 6]; 6], OrthoError> {
+/// Checks the samples and returns the RMS norm of the bias-free samples
+/// (every solver works on samples divided by it).
+fn normalising_scale<T: Real>(samples: &[Vec3<T>], bias: Vec3<T>) -> Result<T, OrthoError> {
     let need = 12;
     if samples.len() < need {
         return Err(OrthoError::TooFewSamples { have: u32::try_from(samples.len()).unwrap_or(u32::MAX), need: need as u32 });
@@ -200,6 +209,20 @@ pub fn pair_information<T: Real>(samples: &[Vec3<T>], bias: Vec3<T>) -> Result<[
     if !(scale > T::ZERO) {
         return Err(OrthoError::NotPositiveDefinite);
     }
+    Ok(scale)
+}
+
+/// The squared-norm regressors `X², Y², Z², 2XY, 2YZ, 2XZ` of one sample:
+/// `‖Γ⁻¹B′‖² = w(B′)·s(q)`.
+pub fn norm_row<T: Real>(b: Vec3<T>) -> [T; 6] {
+    let two = T::from_f64(2.0);
+    [b[0] * b[0], b[1] * b[1], b[2] * b[2], two * b[0] * b[1], two * b[1] * b[2], two * b[0] * b[2]]
+}
+
+/// `G = Σ WᵀW` over the pairs (first half, second half) of bias-free,
+/// RMS-normalised samples.
+pub fn pair_information<T: Real>(samples: &[Vec3<T>], bias: Vec3<T>) -> Result<[[T; 6]; 6], OrthoError> {
+    let scale = normalising_scale(samples, bias)?;
     let norm = |s: &Vec3<T>| [(s[0] - bias[0]) / scale, (s[1] - bias[1]) / scale, (s[2] - bias[2]) / scale];
     let half = samples.len() / 2;
     let mut g = [[T::ZERO; 6]; 6];
@@ -208,6 +231,32 @@ pub fn pair_information<T: Real>(samples: &[Vec3<T>], bias: Vec3<T>) -> Result<[
         for i in 0..6 {
             for j in 0..6 {
                 g[i][j] += w[i] * w[j];
+            }
+        }
+    }
+    Ok(g)
+}
+
+/// The paper's objective over *every* pair of samples instead of N disjoint
+/// ones: `Σ_{i<j} ((wᵢ − wⱼ)·s)² = N·Σᵢ ((wᵢ − w̄)·s)²`, so
+/// `G = Σ (wᵢ − w̄)(wᵢ − w̄)ᵀ` (the scatter of [`norm_row`]), in two passes.
+pub fn all_sample_information<T: Real>(samples: &[Vec3<T>], bias: Vec3<T>) -> Result<[[T; 6]; 6], OrthoError> {
+    let scale = normalising_scale(samples, bias)?;
+    let norm = |s: &Vec3<T>| [(s[0] - bias[0]) / scale, (s[1] - bias[1]) / scale, (s[2] - bias[2]) / scale];
+    let n = T::from_f64(samples.len() as f64);
+    let mut mean = [T::ZERO; 6];
+    for s in samples {
+        for (m, w) in mean.iter_mut().zip(norm_row(norm(s))) {
+            *m += w / n;
+        }
+    }
+    let mut g = [[T::ZERO; 6]; 6];
+    for s in samples {
+        let w = norm_row(norm(s));
+        let d: [T; 6] = core::array::from_fn(|k| w[k] - mean[k]);
+        for i in 0..6 {
+            for j in 0..6 {
+                g[i][j] += d[i] * d[j];
             }
         }
     }
@@ -227,8 +276,18 @@ fn objective<T: Real>(g: &[[T; 6]; 6], s: &[T; 6]) -> T {
 
 /// Linear solver: smallest eigenvector of `G`, then Cholesky.
 pub fn identify_linear<T: Real>(samples: &[Vec3<T>], bias: Vec3<T>) -> Result<Triangular<T>, OrthoError> {
-    let g = pair_information(samples, bias)?;
-    let (_, vecs) = symmetric_eigen(&g).ok_or(OrthoError::NotPositiveDefinite)?;
+    metric_eigen(&pair_information(samples, bias)?)
+}
+
+/// Every sample, linear: the smallest eigenvector of
+/// [`all_sample_information`], then Cholesky.
+pub fn identify_all_samples<T: Real>(samples: &[Vec3<T>], bias: Vec3<T>) -> Result<Triangular<T>, OrthoError> {
+    metric_eigen(&all_sample_information(samples, bias)?)
+}
+
+/// The metric minimising `sᵀGs` with `‖s‖ = 1`, factored.
+fn metric_eigen<T: Real>(g: &[[T; 6]; 6]) -> Result<Triangular<T>, OrthoError> {
+    let (_, vecs) = symmetric_eigen(g).ok_or(OrthoError::NotPositiveDefinite)?;
     let mut s = [T::ZERO; 6];
     for (k, v) in s.iter_mut().enumerate() {
         *v = vecs[k][0];
@@ -353,6 +412,130 @@ pub fn identify_pairwise<T: Real>(samples: &[Vec3<T>], bias: Vec3<T>) -> Result<
         }
     }
     Err(OrthoError::NoConvergence)
+}
+
+/// A maximum-likelihood refinement's result.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct MlFit<T> {
+    /// The corrector.
+    pub tri: Triangular<T>,
+    /// RMS distance of the samples to the fitted surface, in the samples'
+    /// units (an estimate of the noise σ per axis).
+    pub residual_rms: T,
+    /// Gauss–Newton steps taken.
+    pub iterations: u32,
+}
+
+/// Distance residual of one (normalised) sample and its derivatives with
+/// respect to `q1…q5, r`, the weight held: `e = (‖Ub‖ − r)·‖Ub‖/‖UᵀUb‖`,
+/// the first-order distance from `b` to the surface `‖Ub‖ = r`.
+fn ml_residual<T: Real>(tri: &Triangular<T>, r: T, b: Vec3<T>) -> Option<(T, [T; 6])> {
+    let u = tri.matrix();
+    let ub = mul_mat_vec(&u, b);
+    let n = (ub[0] * ub[0] + ub[1] * ub[1] + ub[2] * ub[2]).sqrt();
+    let g = mul_mat_vec(&transpose(&u), ub);
+    let gn = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
+    if !(n > T::ZERO && gn > T::ZERO) {
+        return None;
+    }
+    let w = n / gn;
+    let (x, y, z) = (b[0], b[1], b[2]);
+    let d = [ub[0] * x / n, ub[0] * y / n, ub[0] * z / n, ub[1] * y / n, ub[1] * z / n, -T::ONE];
+    Some(((n - r) * w, d.map(|v| v * w)))
+}
+
+/// Sum of squared distance residuals.
+fn ml_cost<T: Real>(tri: &Triangular<T>, r: T, samples: &[Vec3<T>], bias: Vec3<T>, scale: T) -> Option<T> {
+    let mut acc = T::ZERO;
+    for s in samples {
+        let b = [(s[0] - bias[0]) / scale, (s[1] - bias[1]) / scale, (s[2] - bias[2]) / scale];
+        let (e, _) = ml_residual(tri, r, b)?;
+        acc += e * e;
+    }
+    Some(acc)
+}
+
+/// Maximum-likelihood refinement for noise on the *measured* field
+/// (errors in variables): minimises the sum of squared distances of the
+/// samples to the fitted surface `‖Γ⁻¹(B′ − bias)‖ = r` over `q1…q5` and
+/// `r` (first-order distance, `(‖UB′‖ − r)/‖∇‖UB′‖‖`), by Levenberg–Marquardt
+/// from `start`. With independent Gaussian noise of equal σ on each axis
+/// this is the ML estimate; the algebraic objectives (the paper's Φ, its
+/// all-sample form) weight samples by their position on the ellipsoid
+/// instead.
+pub fn refine_ml<T: Real>(samples: &[Vec3<T>], bias: Vec3<T>, start: &Triangular<T>) -> Result<MlFit<T>, OrthoError> {
+    let scale = normalising_scale(samples, bias)?;
+    let mut tri = *start;
+    // Start r at the RMS corrected norm.
+    let mut r2 = T::ZERO;
+    for s in samples {
+        let b = [(s[0] - bias[0]) / scale, (s[1] - bias[1]) / scale, (s[2] - bias[2]) / scale];
+        let ub = tri.apply(b);
+        r2 += ub[0] * ub[0] + ub[1] * ub[1] + ub[2] * ub[2];
+    }
+    let mut r = (r2 / T::from_f64(samples.len() as f64)).sqrt();
+    let mut cost = ml_cost(&tri, r, samples, bias, scale).ok_or(OrthoError::NotPositiveDefinite)?;
+    let mut mu = T::from_f64(1e-4);
+    let mut iterations = 0u32;
+    for _ in 0..100 {
+        iterations += 1;
+        let mut h = [[T::ZERO; 6]; 6];
+        let mut grad = [T::ZERO; 6];
+        for s in samples {
+            let b = [(s[0] - bias[0]) / scale, (s[1] - bias[1]) / scale, (s[2] - bias[2]) / scale];
+            let (e, d) = ml_residual(&tri, r, b).ok_or(OrthoError::NotPositiveDefinite)?;
+            for i in 0..6 {
+                grad[i] += d[i] * e;
+                for j in 0..6 {
+                    h[i][j] += d[i] * d[j];
+                }
+            }
+        }
+        let mut accepted = None;
+        for _ in 0..30 {
+            let mut hm = h;
+            for (k, row) in hm.iter_mut().enumerate() {
+                row[k] += mu * (h[k][k] + T::EPSILON);
+            }
+            let Ok(step) = cholesky_solve(&hm, &grad.map(|v| -v)) else {
+                mu *= T::from_f64(10.0);
+                continue;
+            };
+            let mut cand = tri;
+            for k in 0..5 {
+                cand.q[k] += step[k];
+            }
+            let cand_r = r + step[5];
+            match ml_cost(&cand, cand_r, samples, bias, scale) {
+                Some(c) if c <= cost => {
+                    accepted = Some((cand, cand_r, c, step));
+                    break;
+                }
+                _ => mu *= T::from_f64(10.0),
+            }
+        }
+        let Some((cand, cand_r, c, step)) = accepted else { break };
+        let small = step.iter().fold(T::ZERO, |m, v| m.max(v.abs())) < T::EPSILON.sqrt() * T::from_f64(1e-2);
+        let settled = cost - c <= T::EPSILON * T::from_f64(16.0) * cost;
+        tri = cand;
+        r = cand_r;
+        cost = c;
+        mu = (mu / T::from_f64(10.0)).max(T::from_f64(1e-12));
+        if small || settled {
+            break;
+        }
+    }
+    let tri = finish(tri)?;
+    let rms = (cost / T::from_f64(samples.len() as f64)).sqrt() * scale;
+    Ok(MlFit { tri, residual_rms: rms, iterations })
+}
+
+/// Every sample, then the maximum-likelihood refinement: [`identify_all_samples`]
+/// followed by [`refine_ml`].
+pub fn identify_ml<T: Real>(samples: &[Vec3<T>], bias: Vec3<T>) -> Result<MlFit<T>, OrthoError> {
+    let start = identify_all_samples(samples, bias)?;
+    refine_ml(samples, bias, &start)
 }
 
 fn finish<T: Real>(tri: Triangular<T>) -> Result<Triangular<T>, OrthoError> {
