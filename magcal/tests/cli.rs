@@ -122,7 +122,7 @@ fn ortho_identifies_paper_001s_simulated_sensor() {
     let dir = tempfile::tempdir().unwrap();
     let input = dir.path().join("turntable.csv");
     Recording { mag, ..Recording::default() }.write(&input).unwrap();
-    for solver in ["pairwise", "linear"] {
+    for solver in ["pairwise", "linear", "all", "ml"] {
         let doc = ok_json(&magcal(&["ortho", "--input", path_str(&input), "--zero-bias", "--solver", solver, "--json"]));
         let j = [
             ("theta_rad", truth.theta_rad),

@@ -13,6 +13,13 @@ pub enum OrthoSolver {
     Pairwise,
     /// Linear fit of the metric, then upper-triangular factorisation.
     Linear,
+    /// The paper's objective over every pair of samples (linear, then
+    /// Cholesky), not N disjoint pairs.
+    AllSamples,
+    /// Every sample, then the maximum-likelihood refinement (distances of
+    /// the measured samples to the fitted surface): best where noise is
+    /// strong.
+    Ml,
 }
 
 /// Identifies the non-orthogonality and gains. `bias`: the hard iron to
@@ -30,6 +37,8 @@ pub fn ortho_recording(rec: &Recording, solver: OrthoSolver, bias: Option<[f64; 
     let tri = match solver {
         OrthoSolver::Pairwise => ortho::identify_pairwise(&samples, bias)?,
         OrthoSolver::Linear => ortho::identify_linear(&samples, bias)?,
+        OrthoSolver::AllSamples => ortho::identify_all_samples(&samples, bias)?,
+        OrthoSolver::Ml => ortho::identify_ml(&samples, bias)?.tri,
     };
     Ok((tri, bias))
 }
