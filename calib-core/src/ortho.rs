@@ -450,6 +450,10 @@ fn ml_cost<T: Real>(tri: &Triangular<T>, r: T, samples: &[Vec3<T>], bias: Vec3<T
     let mut acc = T::ZERO;
     for s in samples {
         let b = [(s[0] - bias[0]) / scale, (s[1] - bias[1]) / scale, (s[2] - bias[2]) / scale];
+        // A sample at the bias has no direction: it carries no information.
+        if b == [T::ZERO; 3] {
+            continue;
+        }
         let (e, _) = ml_residual(tri, r, b)?;
         acc += e * e;
     }
@@ -484,6 +488,9 @@ pub fn refine_ml<T: Real>(samples: &[Vec3<T>], bias: Vec3<T>, start: &Triangular
         let mut grad = [T::ZERO; 6];
         for s in samples {
             let b = [(s[0] - bias[0]) / scale, (s[1] - bias[1]) / scale, (s[2] - bias[2]) / scale];
+            if b == [T::ZERO; 3] {
+                continue;
+            }
             let (e, d) = ml_residual(&tri, r, b).ok_or(OrthoError::NotPositiveDefinite)?;
             for i in 0..6 {
                 grad[i] += d[i] * e;

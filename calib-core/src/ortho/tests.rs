@@ -176,9 +176,13 @@ fn every_sample_and_ml_beat_the_papers_pairing_at_strong_noise() {
 
 #[test]
 fn ml_is_exact_without_noise() {
-    let data = own_model::samples(200, 0.0, 9);
+    let mut data = own_model::samples(200, 0.0, 9);
+    // A sample exactly at the (zero) bias is skipped, not an error.
+    data.push([0.0; 3]);
     let fit = identify_ml(&data, [0.0; 3]).unwrap();
     assert!(own_model::j(&fit.tri.angles().unwrap()) < 1e-8, "{fit:?}");
     assert!(fit.residual_rms < 1e-9);
+    let bad = [[f64::NAN, 0.0, 1.0]; 20];
+    assert_eq!(identify_ml(&bad, [0.0; 3]), Err(OrthoError::NonFinite { index: 0 }));
 }
 
