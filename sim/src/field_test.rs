@@ -584,12 +584,12 @@ impl<'a> Builder<'a> {
         let mut profile = vec![];
         let mut next_t = f64::NEG_INFINITY;
         let mut lo_hi = [f64::INFINITY, f64::NEG_INFINITY];
-        for i in 0..t.len() {
-            if t[i] >= next_t {
+        for (i, &ti) in t.iter().enumerate() {
+            if ti >= next_t {
                 let f = sample(i);
                 lo_hi = [lo_hi[0].min(f.total_nt - f.igrf_total_nt), lo_hi[1].max(f.total_nt - f.igrf_total_nt)];
                 profile.push(f);
-                next_t = t[i] + 60.0;
+                next_t = ti + 60.0;
             }
         }
         Some(AnomalyTruth { at_start: sample(0), profile, intensity_anomaly_nt_range: lo_hi })

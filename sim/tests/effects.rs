@@ -302,3 +302,27 @@ fn no_effect_leaves_the_recording_as_it_was() {
     assert_eq!(a.recording.mag, c.recording.mag);
     assert_ne!(a.recording.roll_deg, c.recording.roll_deg);
 }
+
+/// The recording with every effect on is read back with its new columns,
+/// and the truth JSON parses into the typed truth with each effect's values.
+#[test]
+fn a_recording_with_all_effects_round_trips_with_its_truth() {
+    let dir = std::env::temp_dir().join(format!("magcal-sim-effects-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("run.csv");
+    let p = RunParams { leg_m: 800.0, ..RunParams::paper_like() };
+    let sim = field_test::run_with(&SensorModel::paper_like(), &paper_site(), &p, 2, 1.0, "run", &Effects::all()).unwrap();
+    sim.write(&path).unwrap();
+    let rec = host_tools::data::recording::Recording::read(&path).unwrap();
+    assert_eq!(rec.len(), sim.recording.len());
+    for col in [&rec.motor_current_a, &rec.temp_c, &rec.speed_mps] {
+        assert!(col.as_ref().is_some_and(|c| c.iter().all(|v| v.is_finite())));
+    }
+    let text = std::fs::read_to_string(field_test::truth_path(&path)).unwrap();
+    let truth: field_test::Truth = serde_json::from_str(&text).unwrap();
+    let e = truth.effects.unwrap();
+    assert_eq!(e.on, Effect::ALL.to_vec());
+    assert!(e.thrusters.is_some() && e.temperature.is_some() && e.anomaly.is_some() && e.current.is_some());
+    assert_eq!(e.ahrs_misalignment_deg, Some([0.4, -0.3]));
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -52,3 +52,24 @@ fn a_limited_swing_with_a_gyro_calibrates_as_well_as_the_full_one() {
     assert!(l <= 0.35, "{l}");
     assert!(no_gyro.refused.as_deref().is_some_and(|r| r.contains("of field directions were visited")), "{no_gyro:?}");
 }
+
+/// Issue 12: today's chain on the effects runs. With no effect it keeps
+/// its 0.22°; the water current alone (crab of up to 15° that the swing fit
+/// takes for heading error) and all five effects together defeat it — the
+/// baseline the new estimators must beat.
+#[test]
+fn real_vehicle_effects_defeat_todays_chain() {
+    use magcal_sim::scenario::evaluate_effects;
+    use magcal_sim::{Effect, Effects};
+    let sensor = SensorModel::paper_like();
+    // Measured 2026-11-23 (seed 1): none 0.22°, current 2.95°, temperature
+    // 1.02° (field error 483 nT), all five 3.76° (field error 530 nT).
+    let none = evaluate_effects("none", sensor, 1, &Effects::none()).unwrap();
+    assert!(none.heading_rms_ours_deg <= 0.35, "{}", none.heading_rms_ours_deg);
+    let current = evaluate_effects("current", sensor, 1, &Effects::of(&[Effect::Current])).unwrap();
+    assert!(current.heading_rms_ours_deg > 2.0, "{}", current.heading_rms_ours_deg);
+    let temperature = evaluate_effects("temperature", sensor, 1, &Effects::of(&[Effect::Temperature])).unwrap();
+    assert!(temperature.heading_rms_ours_deg > 0.6 && temperature.field_error_ours_nt > 300.0, "{temperature:?}");
+    let all = evaluate_effects("all", sensor, 1, &Effects::all()).unwrap();
+    assert!(all.heading_rms_ours_deg > 3.0 && all.field_error_ours_nt > 300.0, "{all:?}");
+}

@@ -74,7 +74,7 @@ pub struct Args {
     /// `current` (water current, speed log, kinematically consistent GPS).
     /// Their true values go into the truth JSON.
     #[arg(long, default_value = "none", value_parser = parse_effects)]
-    effects: Effects,
+    effects: Box<Effects>,
     /// Swing test with the thrusters effect: hold the heading after the
     /// yaw segment and step the thrusters (0, 2, 5, 10, 5, 0 A).
     #[arg(long)]
@@ -102,7 +102,12 @@ pub fn run(a: Args) -> Result<()> {
         p.speed_back_mps = a.speed_back_mps.or(p.speed_back_mps);
         p
     };
-    let mut effects = a.effects.clone();
+    let mut effects = *a.effects.clone();
+    // With the current effect, --current-mps/--current-to-deg set its current.
+    if let Some(water) = effects.current.as_mut() {
+        water.current_mps = a.current_mps.unwrap_or(water.current_mps);
+        water.current_to_deg = a.current_to_deg.unwrap_or(water.current_to_deg);
+    }
     if a.thrust_test {
         let thrusters = effects.thrusters.take().ok_or_else(|| anyhow::anyhow!("--thrust-test needs the thrusters effect (--effects thrusters,…)"))?;
         effects.thrusters = Some(thrusters.with_thrust_test());
@@ -122,6 +127,6 @@ pub fn run(a: Args) -> Result<()> {
     Ok(())
 }
 
-fn parse_effects(text: &str) -> Result<Effects, String> {
-    Effects::parse(text).map_err(|e| e.to_string())
+fn parse_effects(text: &str) -> Result<Box<Effects>, String> {
+    Effects::parse(text).map(Box::new).map_err(|e| e.to_string())
 }
