@@ -16,6 +16,13 @@
 //! and paper 001's non-orthogonality. The field is IGRF-14 along the track.
 //! Attitude from the AHRS is the truth plus noise and a small bias.
 //!
+//! The real-vehicle effects of [`crate::effects`] ([`swing_with`],
+//! [`run_with`]; each switchable, none by default) go beyond that model:
+//! thruster dipoles scaling with current, the bridge gain's temperature
+//! drift with a thermal lag, a crustal anomaly on top of IGRF, an AHRS
+//! misaligned to the magnetometer, a water current with kinematically
+//! consistent GPS. Their true values go into [`Truth::effects`].
+//!
 //! The gyro ([`GyroModel`], [`Simulation::with_gyro`]): the body rates of the
 //! true attitude history (Z-Y-X Euler-angle kinematics), seen through a
 //! slightly misaligned triad, plus a constant bias and white noise.
@@ -286,6 +293,10 @@ pub struct TemperatureTruth {
     pub sensor_c_range: [f64; 2],
     /// Thermistor offset: `temp_c` reads this much above the sensor, °C.
     pub thermistor_offset_c: f64,
+    /// The reference in the terms of the `temp_c` column (`ref_c` plus the
+    /// thermistor's offset): what a fit of `gain_per_c` against `temp_c`
+    /// should report as its `ref_c`, °C.
+    pub ref_c_thermistor: f64,
 }
 
 /// The true field at one point of the track.
@@ -539,6 +550,7 @@ impl<'a> Builder<'a> {
             tau_s: m.tau_s,
             sensor_c_range: range(self.sim.effect_column("sensor_temp_c")),
             thermistor_offset_c: m.thermistor_offset_c,
+            ref_c_thermistor: m.ref_c + m.thermistor_offset_c,
         });
         let anomaly = if e.anomaly.is_some() { self.field_samples() } else { None };
         let current = e.current.as_ref().map(|w| {
@@ -701,7 +713,7 @@ pub fn run(sensor: &SensorModel, site: &Site, params: &RunParams, seed: u64, rat
 /// Without the current effect the kinematics are the original ones: the
 /// autopilot crabs into `params`' current and the GPS course is the
 /// heading plus the crab angle. With it, `params`' current is replaced by
-/// the [`WaterModel`]'s: the vehicle moves through the water at its speed
+/// the [`WaterModel`](crate::effects::WaterModel)'s: the vehicle moves through the water at its speed
 /// (horizontal part `v cos θ`) along its heading, the water moves it, the
 /// true position is the integral of the sum, the GPS course over ground is
 /// the direction of the (delayed, noisy) ground velocity, the logged
