@@ -24,8 +24,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         if let Some(a) = &e.anomaly {
             println!("anomaly: |F| − IGRF {:.0}…{:.0} nT", a.intensity_anomaly_nt_range[0], a.intensity_anomaly_nt_range[1]);
         }
-        if let Some(c) = &e.current {
-            println!("current: crab {:.1}…{:.1}°", c.crab_deg_range[0], c.crab_deg_range[1]);
+        if let Some([lo, hi]) = e.current.as_ref().and_then(|c| c.crab_deg_range) {
+            println!("current: crab {lo:.1}…{hi:.1}°");
         }
     }
     println!("| effects | seed | heading RMS axis fit ° | paper ° | ours ° | field error ours nT |");

@@ -341,8 +341,8 @@ pub struct CurrentTruth {
     /// Current towards east, m/s.
     pub east_mps: f64,
     /// Range of the crab angle (course over ground − heading) over the
-    /// rows, degrees.
-    pub crab_deg_range: [f64; 2],
+    /// rows, degrees (runs only: the swing test does not move).
+    pub crab_deg_range: Option<[f64; 2]>,
 }
 
 /// A simulated recording with its truth. The true heading and attitude of
@@ -558,7 +558,8 @@ impl<'a> Builder<'a> {
             let crab = self.sim.effect_column("true_course_deg").map(|c| {
                 c.iter().zip(&self.sim.true_heading_deg).map(|(c, h)| calib_core::heading::wrap_pi((c - h).to_radians()).to_degrees()).collect::<Vec<_>>()
             });
-            CurrentTruth { north_mps, east_mps, crab_deg_range: range(crab.as_deref()) }
+            let crab_deg_range = crab.filter(|c| c.iter().all(|v| v.is_finite())).map(|c| range(Some(&c)));
+            CurrentTruth { north_mps, east_mps, crab_deg_range }
         });
         self.sim.truth.effects = Some(EffectsTruth {
             on: e.list(),
@@ -668,7 +669,8 @@ pub fn swing_with(sensor: &SensorModel, site: &Site, seed: u64, rate_hz: f64, ro
     let n_test = (steps.len() as f64 * THRUST_TEST_STEP_S / dt) as usize;
     for k in 0..n + n_test {
         let t = k as f64 * dt;
-        let mut env = RowEnv { currents_a: vec![0.0; n_thrusters], depth_m, ..RowEnv::default() };
+        // Held in place: no speed through water, no course over ground.
+        let mut env = RowEnv { currents_a: vec![0.0; n_thrusters], depth_m, course_deg: f64::NAN, ..RowEnv::default() };
         if k >= n {
             // Thrust test: heading held, the vehicle rocking a little.
             let step = (((t - end) / THRUST_TEST_STEP_S) as usize).min(steps.len().saturating_sub(1));

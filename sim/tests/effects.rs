@@ -324,5 +324,15 @@ fn a_recording_with_all_effects_round_trips_with_its_truth() {
     assert_eq!(e.on, Effect::ALL.to_vec());
     assert!(e.thrusters.is_some() && e.temperature.is_some() && e.anomaly.is_some() && e.current.is_some());
     assert_eq!(e.ahrs_misalignment_deg, Some([0.4, -0.3]));
+    assert!(e.current.unwrap().crab_deg_range.is_some_and(|[lo, hi]| lo < hi));
+    // The swing test too (it does not move: no crab; thrusters at 0 A).
+    let swing_path = dir.join("swing.csv");
+    let swing = field_test::swing_with(&SensorModel::paper_like(), &paper_site(), 2, 1.0, 55.0, 10.0, &Effects::all()).unwrap();
+    swing.write(&swing_path).unwrap();
+    let text = std::fs::read_to_string(field_test::truth_path(&swing_path)).unwrap();
+    let truth: field_test::Truth = serde_json::from_str(&text).unwrap();
+    let e = truth.effects.unwrap();
+    assert!(e.current.unwrap().crab_deg_range.is_none());
+    assert_eq!(e.thrusters.unwrap().bus_current_a_range, [0.0, 0.0]);
     std::fs::remove_dir_all(&dir).ok();
 }
