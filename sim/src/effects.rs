@@ -88,7 +88,9 @@ impl ThrusterModel {
     /// magnetometer, ±0.18 m off the centre line; ~0.1 A·m²/A each (their
     /// leads' loops are not symmetric, so neither are the moments). Drag
     /// 20 N at 1 m/s; the law gives ~3 A per thruster at 10 N (a T200-class
-    /// thruster at 16 V). About 20–30 nT at the sensor per ampere of bus.
+    /// thruster at 16 V). About 14–16 nT at the sensor per ampere of each
+    /// thruster, mostly along x: at 1.2 m/s (11 A of bus) ~170 nT, at
+    /// 0.9 m/s (5 A) ~80 nT.
     pub fn survey_auv() -> Self {
         Self {
             thrusters: vec![
@@ -256,7 +258,7 @@ impl AnomalyModel {
     /// south of the site (2.5·10¹¹ A·m²: a 5 km block magnetised at
     /// 2 A/m, basalt-like), and a small shallower one (1.2 km down, 3·10⁹
     /// A·m²) 2 km north-east. Along the runs |F| departs from IGRF by −270
-    /// to +210 nT, with gradients of up to ~100 nT/km.
+    /// to +235 nT, with gradients of up to ~100 nT/km.
     pub fn two_bodies() -> Self {
         let dir = |m: f64| {
             let (inc, dec) = (56.0_f64.to_radians(), 5.0_f64.to_radians());
