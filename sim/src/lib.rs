@@ -2,6 +2,9 @@
 //! the physics of the vehicle and the sensor, not from the estimators'
 //! equations, with ground truth beside every recording.
 //!
+//! * [`effects`]: five real-vehicle effects the fit's model lacks
+//!   (thrusters, temperature, crustal anomaly, AHRS misalignment, water
+//!   current), each switchable;
 //! * [`field_test`]: paper 000's swing test and out-and-back runs
 //!   (`magcal simulate`);
 //! * [`scenario`]: the whole chain on simulated field tests against the
@@ -13,10 +16,12 @@
 //! the session's `Vehicle` trait); `host-tools` does not depend on it.
 #![deny(missing_docs)]
 
+pub mod effects;
 pub mod field_test;
 pub mod scenario;
 pub mod vehicle;
 
+pub use effects::{Effect, Effects};
 pub use field_test::{paper_site, RunParams, SensorModel, SimError, Simulation, Truth};
 pub use scenario::{evaluate, Outcome, ScenarioError};
 pub use vehicle::{SimPlan, SimVehicle};

@@ -4,6 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::ValueEnum;
+use magcal_sim::effects::Effects;
 use magcal_sim::field_test::{self, paper_site, truth_path, GyroModel, RunParams, SensorModel};
 use serde_json::json;
 
@@ -66,6 +67,21 @@ pub struct Args {
     /// Record a MEMS gyro too (`gx, gy, gz`: bias, noise, a small misalignment).
     #[arg(long)]
     gyro: bool,
+    /// Real-vehicle effects: `all`, `none`, or a comma-separated list of
+    /// `thrusters` (dipoles scaling with motor current), `temperature`
+    /// (thermal lag, bridge gain −0.3 %/°C), `anomaly` (crustal field, IGRF
+    /// wrong by 100–300 nT), `ahrs` (AHRS misaligned by tenths of a degree),
+    /// `current` (water current, speed log, kinematically consistent GPS).
+    /// Their true values go into the truth JSON.
+    #[arg(long, default_value = "none", value_parser = parse_effects)]
+    effects: Box<Effects>,
+    /// Swing test with the thrusters effect: hold the heading after the
+    /// yaw segment and step the thrusters (0, 2, 5, 10, 5, 0 A).
+    #[arg(long)]
+    thrust_test: bool,
+    /// Runs: speed through water on the return leg, m/s (default: the outbound speed).
+    #[arg(long)]
+    speed_back_mps: Option<f64>,
     /// Print a JSON summary on stdout.
     #[arg(long)]
     json: bool,
@@ -83,19 +99,34 @@ pub fn run(a: Args) -> Result<()> {
         p.current_to_deg = a.current_to_deg.unwrap_or(p.current_to_deg);
         p.gps_delay_s = a.gps_delay_s.unwrap_or(p.gps_delay_s);
         p.leg_m = a.leg_m.unwrap_or(p.leg_m);
+        p.speed_back_mps = a.speed_back_mps.or(p.speed_back_mps);
         p
     };
+    let mut effects = *a.effects.clone();
+    // With the current effect, --current-mps/--current-to-deg set its current.
+    if let Some(water) = effects.current.as_mut() {
+        water.current_mps = a.current_mps.unwrap_or(water.current_mps);
+        water.current_to_deg = a.current_to_deg.unwrap_or(water.current_to_deg);
+    }
+    if a.thrust_test {
+        let thrusters = effects.thrusters.take().ok_or_else(|| anyhow::anyhow!("--thrust-test needs the thrusters effect (--effects thrusters,…)"))?;
+        effects.thrusters = Some(thrusters.with_thrust_test());
+    }
     let simulation = match a.scenario {
-        Scenario::Swing => field_test::swing_limited(&sensor, &site, a.seed, a.rate_hz, a.roll_amp_deg, a.pitch_amp_deg)?,
-        Scenario::Run => field_test::run(&sensor, &site, &tune(RunParams::paper_like()), a.seed, a.rate_hz, "run")?,
-        Scenario::Validation => field_test::run(&sensor, &site, &tune(RunParams::validation()), a.seed, a.rate_hz, "validation")?,
+        Scenario::Swing => field_test::swing_with(&sensor, &site, a.seed, a.rate_hz, a.roll_amp_deg, a.pitch_amp_deg, &effects)?,
+        Scenario::Run => field_test::run_with(&sensor, &site, &tune(RunParams::paper_like()), a.seed, a.rate_hz, "run", &effects)?,
+        Scenario::Validation => field_test::run_with(&sensor, &site, &tune(RunParams::validation()), a.seed, a.rate_hz, "validation", &effects)?,
     };
     let simulation = if a.gyro { simulation.with_gyro(&GyroModel::mems(), a.seed) } else { simulation };
     simulation.write(&a.out)?;
     let truth = truth_path(&a.out);
     eprintln!("wrote {} ({} rows) and {}", a.out.display(), simulation.recording.len(), truth.display());
     if a.json {
-        println!("{}", json!({"csv": a.out, "truth": truth, "rows": simulation.recording.len(), "site": simulation.truth.site}));
+        println!("{}", json!({"csv": a.out, "truth": truth, "rows": simulation.recording.len(), "site": simulation.truth.site, "effects": effects.list()}));
     }
     Ok(())
+}
+
+fn parse_effects(text: &str) -> Result<Box<Effects>, String> {
+    Effects::parse(text).map(Box::new).map_err(|e| e.to_string())
 }
