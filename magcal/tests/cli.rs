@@ -238,12 +238,29 @@ fn the_documented_chain_runs_on_simulated_field_tests() {
     // The final document loads and validates.
     CalDoc::load(Path::new(&p("cal3.json"))).unwrap();
 
-    // The report draws the papers' figures for these calibrations.
+    // The report: one self-contained page with the papers' figures for
+    // these calibrations, and the deviation card of the run against its GPS
+    // reference (no validation run given).
     let rep = ok_json(&magcal(&["report", "--run", &p("run.csv"), "--swing-input", &p("swing.csv"), "--cal", &p("cal1.json"), "--cal", &p("cal3.json"), "--out", &p("report"), "--json"]));
-    assert_eq!(rep["figures"].as_array().unwrap().len(), 3);
-    let field = std::fs::read_to_string(dir.path().join("report/fig_field.svg")).unwrap();
-    assert!(field.starts_with("<svg") && field.contains("cal1") && field.contains("cal3"));
-    assert!(std::fs::read_to_string(dir.path().join("report/index.html")).unwrap().contains("fig_heading.svg"));
+    // Card, 2 coverage maps, field, heading at the surface, the back-stepping
+    // trace (cal3 carries cal2's), 2 histograms.
+    assert_eq!(rep["figures"], 8, "{rep}");
+    assert_eq!(rep["card"]["against"], "GPS course (run, at the surface)");
+    let html = std::fs::read_to_string(dir.path().join("report/index.html")).unwrap();
+    assert_eq!(html.matches("<svg").count(), 8);
+    assert!(html.contains("cal1") && html.contains("cal3") && html.contains("|H|, nT"));
+    assert!(!html.contains("src=") && !html.contains("<script"), "self-contained");
+    // What was not given is said: no validation run, no site.
+    let missing: Vec<&str> = rep["missing"].as_array().unwrap().iter().filter_map(|m| m.as_str()).collect();
+    assert!(missing.iter().any(|m| m.starts_with("heading against truth")), "{missing:?}");
+    assert!(html.contains("Not available: no validation run with a truth heading"));
+    let card: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.path().join("report/deviation_card.json")).unwrap()).unwrap();
+    assert!(card["samples"].as_u64().unwrap() > 0);
+    // The swing-fitted cal3 leaves the GPS course within a few degrees (the
+    // swing fit's own after RMS above is the same data).
+    assert!(card["after"]["rms_deg"].as_f64().unwrap() < 5.0, "{card}");
+    // Neither a session nor an output directory: a clear refusal.
+    assert!(one_line_error(&magcal(&["report", "--cal", &p("cal1.json")])).contains("--out"));
 }
 
 /// The bad-data catalogue (README): each case its own message, no panic, no

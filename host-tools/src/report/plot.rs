@@ -354,7 +354,7 @@ pub fn try_coverage_map(title: &str, y_label: &str, grid: &CoverageGrid) -> Resu
     let (x0, x1) = (grid.x_edges_deg[0], grid.x_edges_deg[grid.x_edges_deg.len() - 1]);
     let (y0, y1) = (grid.y_edges_deg[0], grid.y_edges_deg[grid.y_edges_deg.len() - 1]);
     let max = grid.counts.iter().flatten().copied().max().unwrap_or(0).max(1) as f64;
-    let heading_ticks: Vec<f64> = (0..=8).map(|k| k as f64 * 45.0).collect();
+    let heading_ticks: Vec<f64> = (0..=12).map(|k| k as f64 * 30.0).collect();
     let (ax, ay) = (axis(x0, x1, 8, Some(&heading_ticks)), axis(y0, y1, 8, None));
     svg(title, |root| {
         let mut chart = ChartBuilder::on(root)

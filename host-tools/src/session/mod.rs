@@ -198,7 +198,11 @@ pub fn run<P: Read + Write>(
         session_dir: cfg.out_dir.clone(),
     };
     save_json(&cfg.out_dir, "summary.json", &summary)?;
-    write_report(&chain, &swing, &run, validation.as_ref().map(|(v, _)| v), &before, &summary, cfg)?;
+    // The report comes after the summary: a report that cannot be drawn is
+    // said, and does not undo a verified session.
+    if let Err(e) = write_report(&chain, &swing, &run, validation.as_ref().map(|(v, _)| v), &before, &summary, cfg) {
+        eprintln!("session: the report was not written: {e}");
+    }
     Ok(summary)
 }
 
@@ -283,7 +287,9 @@ pub fn validation_metrics(val: &Recorded, before: &CalDoc, site: &Site) -> Valid
 /// `true_heading_deg` column `magcal report --session` reads) and the
 /// board's coefficients before the session (`cal_before.json`).
 fn write_report(chain: &Chain, swing: &Recorded, run: &Recorded, validation: Option<&Recorded>, before: &CalDoc, summary: &SessionSummary, cfg: &SessionConfig) -> Result<crate::report::WrittenReport, SessionError> {
-    before.save(&cfg.out_dir.join("cal_before.json")).map_err(io_error)?;
+    // As the board had them, unchecked (a factory set may not pass as a
+    // calibration; `magcal report --session` then leaves it out).
+    save_json(&cfg.out_dir, "cal_before.json", before)?;
     if let Some(v) = validation {
         v.recording.write_with_extra(&cfg.out_dir.join("validation_truth.csv"), &[("true_heading_deg", &v.true_heading_deg)]).map_err(io_error)?;
     }

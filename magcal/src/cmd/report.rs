@@ -85,7 +85,7 @@ pub fn run(a: Args) -> Result<()> {
     } else {
         a.cal.clone()
     };
-    let before_path = a.before.clone().or_else(|| in_session(dir, "cal_before.json"));
+
 
     let run = run_path.as_deref().map(Recording::read).transpose()?;
     let swing = swing_path.as_deref().map(Recording::read).transpose()?;
@@ -102,7 +102,13 @@ pub fn run(a: Args) -> Result<()> {
     };
     let docs = cal_paths.iter().map(|p| CalDoc::load(p)).collect::<Result<Vec<_>, _>>()?;
     let labels = cal_paths.iter().map(|p| p.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default());
-    let before = before_path.as_deref().map(CalDoc::load).transpose()?;
+    let before = match (&a.before, in_session(dir, "cal_before.json")) {
+        (Some(p), _) => Some(CalDoc::load(p)?),
+        // The session saves the board's previous set unchecked: one that
+        // does not pass as a calibration is left out, saying so.
+        (None, Some(p)) => CalDoc::load(&p).map_err(|e| eprintln!("leaving out the coefficients before the session: {e}")).ok(),
+        (None, None) => None,
+    };
     let summary: Option<SessionSummary> = in_session(dir, "summary.json").map(|p| read_json(&p)).transpose()?;
     let site = match a.site.site()? {
         Some(s) => Some(s),
