@@ -125,9 +125,15 @@ fn io(path: &Path) -> impl FnOnce(std::io::Error) -> ReportError + '_ {
     move |source| ReportError::Io { path: path.into(), source }
 }
 
-/// At most `n` indices spread over `0..len`.
+/// Points a line keeps (every k-th row): enough for the eye at the page's
+/// 900 px, few enough that the page renders quickly.
+const LINE_POINTS: usize = 2000;
+/// Dots a scatter series keeps (each is an SVG element).
+const SCATTER_POINTS: usize = 700;
+
+/// At most about `n` indices spread over `0..len`.
 fn thin(len: usize, n: usize) -> impl Iterator<Item = usize> {
-    (0..len).step_by((len / n.max(1)).max(1))
+    (0..len).step_by(len.div_ceil(n.max(1)).max(1))
 }
 
 fn fmt_opt(v: Option<f64>, prec: usize, unit: &str) -> String {
@@ -338,7 +344,7 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs<'_>) -> Result<WrittenRepo
                     let h = cal.apply(*m);
                     (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt()
                 }).collect();
-                series.push(Series { name: label.clone(), points: thin(run.len(), 3000).map(|i| (t[i], f[i])).collect(), dots: false });
+                series.push(Series { name: label.clone(), points: thin(run.len(), LINE_POINTS).map(|i| (t[i], f[i])).collect(), dots: false });
                 if let Some(r) = field_nt {
                     field_errors.push((label.clone(), f.iter().map(|v| v - r).collect()));
                 }
@@ -362,7 +368,7 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs<'_>) -> Result<WrittenRepo
             for (label, doc) in &inputs.cals {
                 let e: Vec<f64> = true_headings_rad(doc, run).iter().zip(reference).map(|(h, r)| wrap_pi(h - r.to_radians()).to_degrees()).collect();
                 let rows: Vec<usize> = (0..run.len()).filter(|&i| e[i].is_finite()).collect();
-                let step = (rows.len() / 2500).max(1);
+                let step = rows.len().div_ceil(SCATTER_POINTS).max(1);
                 series.push(Series { name: label.clone(), points: rows.iter().step_by(step).map(|&i| (t[i], e[i])).collect(), dots: true });
                 heading_errors.push((format!("{label} − GPS course (run)"), e));
             }
@@ -375,7 +381,7 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs<'_>) -> Result<WrittenRepo
             let t: Vec<f64> = v.recording.t_s.clone().unwrap_or_else(|| (0..v.recording.len()).map(|i| i as f64).collect());
             let pts = |e: &[f64]| -> Vec<(f64, f64)> {
                 let rows: Vec<usize> = (0..e.len()).filter(|&i| e[i].is_finite()).collect();
-                let step = (rows.len() / 2500).max(1);
+                let step = rows.len().div_ceil(SCATTER_POINTS).max(1);
                 rows.iter().step_by(step).map(|&i| (t[i], e[i])).collect()
             };
             let mut series = Vec::new();
@@ -411,10 +417,11 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs<'_>) -> Result<WrittenRepo
                 );
             }
             page.body.push_str("</table>\n");
-            let idx = |f: fn(&crate::data::results::TraceEntry) -> f64| trace.iter().enumerate().map(|(i, e)| (i as f64, f(e))).collect::<Vec<_>>();
+            let idx = |f: fn(&crate::data::results::TraceEntry) -> f64| trace.iter().map(|e| (f64::from(e.iteration), f(e))).collect::<Vec<_>>();
             let series = [Series { name: "|step at turnaround|".into(), points: idx(|e| e.stats.step_nt.abs()), dots: false }, Series { name: "|F| − IGRF RMS".into(), points: idx(|e| e.stats.f_error_rms_nt), dots: false }];
-            let ticks: Vec<f64> = (0..trace.len()).map(|i| i as f64).collect();
-            page.figure(plot::try_line_plot_ticks("Back-stepping: what each correction leaves", "trace entry (0 = the input)", "nT", &series, Some((-0.2, trace.len() as f64 - 0.8)), None, Some(&ticks)), "The step in |H| at the turnaround and the RMS of |F| − IGRF after each entry of the trace.")?;
+            let last = trace.iter().map(|e| e.iteration).max().unwrap_or(0);
+            let ticks: Vec<f64> = (0..=last).map(f64::from).collect();
+            page.figure(plot::try_line_plot_ticks("Back-stepping: what each correction leaves", "iteration (0 = the input coefficients)", "nT", &series, Some((-0.2, f64::from(last) + 0.2)), None, Some(&ticks)), "The step in |H| at the turnaround and the RMS of |F| − IGRF after each entry of the trace.")?;
         }
         _ => page.missing("backstep", "no calibration document carries a back-stepping trace"),
     }

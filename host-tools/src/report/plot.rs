@@ -156,7 +156,12 @@ pub fn try_line_plot(title: &str, x_label: &str, y_label: &str, series: &[Series
 pub fn try_line_plot_ticks(title: &str, x_label: &str, y_label: &str, series: &[Series], x_range: Option<(f64, f64)>, y_range: Option<(f64, f64)>, x_ticks: Option<&[f64]>) -> Result<String, PlotError> {
     let all = || series.iter().flat_map(|s| s.points.iter()).filter(|p| p.0.is_finite() && p.1.is_finite());
     let (x0, x1) = x_range.unwrap_or_else(|| padded_range(all().map(|p| p.0)));
-    let (y0, y1) = y_range.unwrap_or_else(|| padded_range(all().map(|p| p.1)));
+    // Headroom above the data for the legend box (a line a series), so the
+    // legend hides no data.
+    let (y0, y1) = y_range.unwrap_or_else(|| {
+        let (lo, hi) = padded_range(all().map(|p| p.1));
+        (lo, hi + (hi - lo) * 0.075 * series.len() as f64)
+    });
     let (ax, ay) = (axis(x0, x1, 10, x_ticks), axis(y0, y1, 8, None));
     svg(title, |root| {
         let mut chart = ChartBuilder::on(root)
@@ -188,7 +193,9 @@ pub fn try_line_plot_ticks(title: &str, x_label: &str, y_label: &str, series: &[
                 let mut stretches: Vec<Vec<(f64, f64)>> = vec![Vec::new()];
                 for p in &s.points {
                     if p.0.is_finite() && p.1.is_finite() {
-                        stretches.last_mut().map(|v| v.push(*p));
+                        if let Some(v) = stretches.last_mut() {
+                            v.push(*p);
+                        }
                     } else if stretches.last().is_some_and(|v| !v.is_empty()) {
                         stretches.push(Vec::new());
                     }
@@ -253,7 +260,7 @@ pub fn try_histogram(title: &str, x_label: &str, samples: &[(String, Vec<f64>)],
         let label = if outside > 0 { format!("{name} (n = {}, {outside} outside the axis)", finite.len()) } else { format!("{name} (n = {})", finite.len()) };
         hists.push((label, pct));
     }
-    let (ax, ay) = (axis(range.0, range.1, 10, None), axis(0.0, y_max * 1.1, 6, None));
+    let (ax, ay) = (axis(range.0, range.1, 10, None), axis(0.0, y_max * (1.1 + 0.08 * samples.len() as f64), 6, None));
     svg(title, |root| {
         let mut chart = ChartBuilder::on(root)
             .caption(title, ("sans-serif", 17))
