@@ -130,7 +130,8 @@ pub fn check_report(html: &Path) -> Result<Rendered> {
 
 /// The check must fail on a bad page: a blank page and a page that logs a
 /// console error, each rendered for real. `Ok` when both are caught.
-pub fn self_test(dir: &Path) -> Result<()> {
+#[cfg(test)]
+fn self_test(dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir)?;
     let cases = [
         ("blank", "<!doctype html><html><head><meta charset=\"utf-8\"><link rel=\"icon\" href=\"data:,\"></head><body></body></html>", "blank"),
@@ -195,8 +196,8 @@ mod tests {
     }
 
     /// The real browser on deliberately broken pages (skipped, saying so,
-    /// where no Chromium is installed; `cargo xtask test` installs it and
-    /// runs [`self_test`] itself).
+    /// where no Chromium is installed; `cargo xtask test` installs it before
+    /// the unit tests run).
     #[test]
     fn the_real_browser_catches_broken_pages() {
         if find().is_none() {
