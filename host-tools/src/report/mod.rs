@@ -282,21 +282,10 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs<'_>) -> Result<WrittenRepo
     };
     match (card_input, final_doc) {
         (Some((rec, against)), Some(doc)) => {
-            let card = deviation_card(&rec, doc, 15.0, 16)?;
-            let files = write_card(dir, &card, against)?;
-            page.p(&format!(
-                "Reference − heading against the {}, {} samples; before = the raw field (no calibration, declination only), after = the final calibration. Mean is circular; RMS of the wrapped error. Files: <code>deviation_card.txt</code>, <code>.csv</code>, <code>.json</code>.",
-                escape(against),
-                card.samples
-            ));
-            card_table(&mut page.body, &card);
-            let mean = |after: bool| -> Vec<(f64, f64)> {
-                card.by_heading.iter().map(|r| (r.centre_deg, if after { r.after.mean_deg } else { r.before.mean_deg }.unwrap_or(f64::NAN))).collect()
-            };
-            let series = [Series { name: "before (raw field)".into(), points: mean(false), dots: false }, Series { name: "after (final calibration)".into(), points: mean(true), dots: false }];
-            let ticks: Vec<f64> = (0..=8).map(|k| f64::from(k) * 45.0).collect();
-            page.figure(plot::try_line_plot_ticks("Deviation by heading (15° sectors)", "reference heading, ° true", "reference − heading, °", &series, Some((0.0, 360.0)), None, Some(&ticks)), "The card's mean deviation per 15° sector; a gap is a sector without samples.")?;
-            card_files = Some(files);
+            match deviation_card(&rec, doc, 15.0, 16) {
+                Ok(card) => card_section(&mut page, dir, &card, against, &mut card_files)?,
+                Err(e) => page.missing("card", &format!("the card could not be made against the {against}: {e}")),
+            }
         }
         (_, None) => page.missing("card", "no calibration document"),
         (None, _) => page.missing("card", "no validation run with a truth column and no run with a reference heading"),
@@ -306,10 +295,9 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs<'_>) -> Result<WrittenRepo
     // 3. Swing coverage.
     page.h2("coverage", "Swing test coverage (paper 000 Fig 6)");
     match (inputs.swing, final_doc) {
+        (Some(swing), _) if swing.roll_deg.is_none() || swing.pitch_deg.is_none() => page.missing("coverage", "the swing test has no roll_deg/pitch_deg columns"),
         (Some(swing), Some(doc)) => {
-            let (Some(roll), Some(pitch)) = (swing.roll_deg.as_ref(), swing.pitch_deg.as_ref()) else {
-                return Err(ReportError::Data("the swing test needs roll_deg and pitch_deg".into()));
-            };
+            let (roll, pitch) = (swing.roll_deg.as_deref().unwrap_or(&[]), swing.pitch_deg.as_deref().unwrap_or(&[]));
             let cal = doc.field_cal();
             let heading: Vec<f64> = (0..swing.len()).map(|i| magnetic_heading_rad(cal.apply(swing.mag[i]), roll[i].to_radians(), pitch[i].to_radians()).to_degrees()).collect();
             let by_roll = CoverageGrid::new(heading.iter().copied().zip(roll.iter().copied()), 30.0, 60.0, 10.0, ROLL_GATE_DEG);
@@ -330,10 +318,7 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs<'_>) -> Result<WrittenRepo
 
     // 4. Field magnitude along the run; 5. headings.
     page.h2("field", "Field magnitude along the run (paper 000 Figs 7–12)");
-    let run_t = match inputs.run {
-        Some(run) => Some(run.t_s.as_ref().ok_or_else(|| ReportError::Data("the run has no `t` column".into()))?),
-        None => None,
-    };
+    let run_t = inputs.run.and_then(|r| r.t_s.as_ref());
     let mut field_errors: Vec<(String, Vec<f64>)> = Vec::new();
     match (inputs.run, run_t) {
         (Some(run), Some(t)) if !inputs.cals.is_empty() => {
@@ -354,7 +339,8 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs<'_>) -> Result<WrittenRepo
             }
             page.figure(try_line_plot("|H| along the out-and-back run", "time, s", "|H|, nT", &series, None, None), "The field magnitude with each calibration; the step at the turnaround is what back-stepping removes.")?;
         }
-        (None, _) | (_, None) => page.missing("field", "no run recording"),
+        (None, _) => page.missing("field", "no run recording"),
+        (_, None) => page.missing("field", "the run has no `t` column"),
         _ => page.missing("field", "no calibration document"),
     }
     page.end();
@@ -485,6 +471,26 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs<'_>) -> Result<WrittenRepo
     let index = dir.join("index.html");
     std::fs::write(&index, html).map_err(io(&index))?;
     Ok(WrittenReport { index, card: card_files, figures: page.figures, missing: page.missing })
+}
+
+/// The card's section: table, figure, and its files written beside the page.
+fn card_section(page: &mut Page, dir: &Path, card: &DeviationCard, against: &str, files: &mut Option<CardFiles>) -> Result<(), ReportError> {
+    *files = Some(write_card(dir, card, against)?);
+    page.p(&format!(
+        "Reference − heading against the {}, {} samples; before = the raw field (no calibration, declination only), after = the final calibration. Mean is circular; RMS of the wrapped error. Files: <code>deviation_card.txt</code>, <code>.csv</code>, <code>.json</code>.",
+        escape(against),
+        card.samples
+    ));
+    card_table(&mut page.body, card);
+    let mean = |after: bool| -> Vec<(f64, f64)> {
+        card.by_heading.iter().map(|r| (r.centre_deg, if after { r.after.mean_deg } else { r.before.mean_deg }.unwrap_or(f64::NAN))).collect()
+    };
+    let series = [Series { name: "before (raw field)".into(), points: mean(false), dots: false }, Series { name: "after (final calibration)".into(), points: mean(true), dots: false }];
+    let ticks: Vec<f64> = (0..=8).map(|k| f64::from(k) * 45.0).collect();
+    page.figure(
+        plot::try_line_plot_ticks("Deviation by heading (15° sectors)", "reference heading, ° true", "reference − heading, °", &series, Some((0.0, 360.0)), None, Some(&ticks)),
+        "The card's mean deviation per 15° sector; a gap is a sector without samples.",
+    )
 }
 
 /// The `q`-quantile of |e| over the finite values (0 when none).

@@ -150,3 +150,37 @@ fn a_swing_with_small_roll_shows_its_gaps() {
     assert_eq!(roll_map.matches("stroke=\"#D62728\"").count(), 2 * 60);
 }
 
+
+#[test]
+fn inputs_that_lack_a_column_leave_their_section_saying_why() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, fixed) = docs();
+    let h: Vec<f64> = (0..100).map(|i| f64::from(i) * 3.6).collect();
+    let mut run = recording(&h, &[0.0; 100], &[0.0; 100]);
+    run.t_s = None;
+    let mut swing = run.clone();
+    swing.roll_deg = None;
+    // A truth column that is empty everywhere: no card.
+    let val = recording(&h, &[0.0; 100], &[0.0; 100]);
+    let truth = vec![f64::NAN; 100];
+    let inputs = ReportInputs {
+        run: Some(&run),
+        swing: Some(&swing),
+        validation: Some(Validation { recording: &val, truth_deg: &truth }),
+        cals: vec![("final".into(), &fixed)],
+        before: None,
+        field_nt: None,
+        site: None,
+        summary: None,
+    };
+    let out = write_report(dir.path(), &inputs).unwrap();
+    let said = |prefix: &str, text: &str| out.missing.iter().any(|m| m.starts_with(prefix) && m.contains(text));
+    assert!(said("field", "no `t` column"), "{:?}", out.missing);
+    assert!(said("coverage", "no roll_deg/pitch_deg"), "{:?}", out.missing);
+    assert!(said("card", "nothing to put on the card"), "{:?}", out.missing);
+    assert!(out.card.is_none());
+    // A truth column of the wrong length is bad input, refused.
+    let short = vec![0.0; 99];
+    let inputs = ReportInputs { validation: Some(Validation { recording: &val, truth_deg: &short }), ..inputs };
+    assert!(matches!(write_report(dir.path(), &inputs), Err(ReportError::Data(m)) if m.contains("99 rows")));
+}
