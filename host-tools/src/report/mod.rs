@@ -404,7 +404,8 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs<'_>) -> Result<WrittenRepo
             }
             page.body.push_str("</table>\n");
             let idx = |f: fn(&crate::data::results::TraceEntry) -> f64| trace.iter().map(|e| (f64::from(e.iteration), f(e))).collect::<Vec<_>>();
-            let series = [Series { name: "|step at turnaround|".into(), points: idx(|e| e.stats.step_nt.abs()), dots: false }, Series { name: "|F| − IGRF RMS".into(), points: idx(|e| e.stats.f_error_rms_nt), dots: false }];
+            // Markers, not lines: the joint solver's trace has only its start and end.
+            let series = [Series { name: "|step at turnaround|".into(), points: idx(|e| e.stats.step_nt.abs()), dots: true }, Series { name: "|F| − IGRF RMS".into(), points: idx(|e| e.stats.f_error_rms_nt), dots: true }];
             let last = trace.iter().map(|e| e.iteration).max().unwrap_or(0);
             let ticks: Vec<f64> = (0..=last).map(f64::from).collect();
             page.figure(plot::try_line_plot_ticks("Back-stepping: what each correction leaves", "iteration (0 = the input coefficients)", "nT", &series, Some((-0.2, f64::from(last) + 0.2)), None, Some(&ticks)), "The step in |H| at the turnaround and the RMS of |F| − IGRF after each entry of the trace.")?;

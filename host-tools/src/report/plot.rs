@@ -187,7 +187,9 @@ pub fn try_line_plot_ticks(title: &str, x_label: &str, y_label: &str, series: &[
             let c = color(i);
             let inside = |p: &&(f64, f64)| p.0.is_finite() && p.1.is_finite() && p.1 >= y0 && p.1 <= y1 && p.0 >= x0 && p.0 <= x1;
             let anno = if s.dots {
-                chart.draw_series(s.points.iter().filter(inside).map(|&p| Circle::new(p, 2, c.mix(0.7).filled()))).map_err(|e| err(title, e))?
+                // A few points (a trace) get markers one can see; a cloud, small dots.
+                let r = if s.points.len() < 50 { 5 } else { 2 };
+                chart.draw_series(s.points.iter().filter(inside).map(move |&p| Circle::new(p, r, c.mix(0.8).filled()))).map_err(|e| err(title, e))?
             } else {
                 // A non-finite point lifts the pen: one path per stretch.
                 let mut stretches: Vec<Vec<(f64, f64)>> = vec![Vec::new()];
