@@ -51,7 +51,9 @@ pub fn render(html: &Path, png: &Path, window: (u32, u32)) -> Result<Rendered> {
     let _ = std::fs::remove_file(png);
     let start = Instant::now();
     let out = Command::new(browser)
-        .args(["--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars", "--no-first-run", "--disable-extensions", "--enable-logging=stderr", "--v=0"])
+        // --no-sandbox: CI runs as root; --disable-dev-shm-usage: containers
+        // have a small /dev/shm.
+        .args(["--headless", "--no-sandbox", "--disable-dev-shm-usage", "--disable-gpu", "--hide-scrollbars", "--no-first-run", "--disable-extensions", "--enable-logging=stderr", "--v=0"])
         .arg(format!("--window-size={},{}", window.0, window.1))
         .arg(format!("--screenshot={}", png.display()))
         .arg(format!("file://{}", html.display()))
