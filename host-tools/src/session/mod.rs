@@ -293,7 +293,7 @@ fn write_report(chain: &Chain, swing: &Recorded, run: &Recorded, validation: Opt
     if let Some(v) = validation {
         v.recording.write_with_extra(&cfg.out_dir.join("validation_truth.csv"), &[("true_heading_deg", &v.true_heading_deg)]).map_err(io_error)?;
     }
-    let cals: Vec<(String, &CalDoc)> = vec![("step 1 (axis fit)".into(), &chain.step1), ("back-stepped".into(), &chain.backstepped), ("final".into(), &chain.final_doc)];
+    let cals: Vec<(String, &CalDoc)> = vec![("step 1 (swing-test fit)".into(), &chain.step1), ("back-stepped".into(), &chain.backstepped), ("final".into(), &chain.final_doc)];
     let inputs = crate::report::ReportInputs {
         run: Some(&run.recording),
         swing: Some(&swing.recording),
