@@ -30,7 +30,7 @@ use crate::compute::card::{deviation_card, CardError, DeviationCard};
 use crate::compute::truth::{heading_rms_deg, true_headings_rad};
 use crate::data::caldoc::CalDoc;
 use crate::data::recording::Recording;
-use crate::data::results::SessionSummary;
+use crate::data::results::{SessionSettings, SessionSummary};
 use crate::geomag::Site;
 use crate::session::{PITCH_GATE_DEG, ROLL_GATE_DEG};
 
@@ -89,6 +89,8 @@ pub struct ReportInputs<'a> {
     pub site: Option<Site>,
     /// The session's summary (verified upload, the board's own validation numbers).
     pub summary: Option<&'a SessionSummary>,
+    /// The session's settings (vehicle, firmware).
+    pub settings: Option<&'a SessionSettings>,
 }
 
 /// The files of the deviation card.
@@ -255,6 +257,9 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs<'_>) -> Result<WrittenRepo
             row("Site", format!("{:.4}° {}, {:.4}° {}", s.lat_deg.abs(), if s.lat_deg >= 0.0 { "N" } else { "S" }, s.lon_deg.abs(), if s.lon_deg >= 0.0 { "E" } else { "W" }));
         }
         None => row("Date, site", "not available (no site given)".into()),
+    }
+    if let Some(st) = inputs.settings {
+        row("Vehicle, firmware", format!("{}, firmware {}", escape(&st.vehicle), escape(&st.firmware)));
     }
     match &igrf {
         Some(f) => row("IGRF-14 at the site", format!("F {:.0} nT, H {:.0} nT, Z {:.0} nT, I {:.2}°, D {:.2}°", f.total_nt(), f.horizontal_nt(), f.down_nt, f.inclination_deg(), f.declination_deg())),

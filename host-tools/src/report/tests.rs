@@ -74,6 +74,7 @@ fn a_full_report_has_every_section_the_card_and_the_physics_numbers() {
         field_nt: Some(44_721.4),
         site: Some(site),
         summary: None,
+        settings: None,
     };
     let out = write_report(dir.path(), &inputs).unwrap();
     assert!(out.missing.iter().all(|m| m.starts_with("backstep")), "only the trace is missing: {:?}", out.missing);
@@ -119,7 +120,7 @@ fn a_full_report_has_every_section_the_card_and_the_physics_numbers() {
 fn missing_inputs_are_said_not_dropped() {
     let dir = tempfile::tempdir().unwrap();
     let (_, fixed) = docs();
-    let inputs = ReportInputs { run: None, swing: None, validation: None, cals: vec![("final".into(), &fixed)], before: None, field_nt: None, site: None, summary: None };
+    let inputs = ReportInputs { run: None, swing: None, validation: None, cals: vec![("final".into(), &fixed)], before: None, field_nt: None, site: None, summary: None, settings: None };
     let out = write_report(dir.path(), &inputs).unwrap();
     let html = std::fs::read_to_string(&out.index).unwrap();
     for section in ["headline", "card", "coverage", "field", "heading at the surface", "heading against truth", "backstep", "field residuals", "heading residuals"] {
@@ -141,7 +142,7 @@ fn a_swing_with_small_roll_shows_its_gaps() {
     let r: Vec<f64> = (0..n).map(|i| 12.5 + 12.5 * (i as f64 * 0.7).sin()).collect();
     let p: Vec<f64> = (0..n).map(|i| 9.0 * (i as f64 * 0.3).sin()).collect();
     let swing = recording(&h, &r, &p);
-    let inputs = ReportInputs { run: None, swing: Some(&swing), validation: None, cals: vec![("final".into(), &fixed)], before: None, field_nt: None, site: None, summary: None };
+    let inputs = ReportInputs { run: None, swing: Some(&swing), validation: None, cals: vec![("final".into(), &fixed)], before: None, field_nt: None, site: None, summary: None, settings: None };
     let out = write_report(dir.path(), &inputs).unwrap();
     let html = std::fs::read_to_string(&out.index).unwrap();
     assert!(html.contains("60 gaps in roll, 0 in pitch"));
@@ -172,6 +173,7 @@ fn inputs_that_lack_a_column_leave_their_section_saying_why() {
         field_nt: None,
         site: None,
         summary: None,
+        settings: None,
     };
     let out = write_report(dir.path(), &inputs).unwrap();
     let said = |prefix: &str, text: &str| out.missing.iter().any(|m| m.starts_with(prefix) && m.contains(text));

@@ -200,7 +200,7 @@ pub fn run<P: Read + Write>(
     save_json(&cfg.out_dir, "summary.json", &summary)?;
     // The report comes after the summary: a report that cannot be drawn is
     // said, and does not undo a verified session.
-    if let Err(e) = write_report(&chain, &swing, &run, validation.as_ref().map(|(v, _)| v), &before, &summary, cfg) {
+    if let Err(e) = write_report(&chain, &swing, &run, validation.as_ref().map(|(v, _)| v), &before, &summary, &settings, cfg) {
         eprintln!("session: the report was not written: {e}");
     }
     Ok(summary)
@@ -286,7 +286,8 @@ pub fn validation_metrics(val: &Recorded, before: &CalDoc, site: &Site) -> Valid
 /// saves the validation run's truth beside it (`validation_truth.csv`, the
 /// `true_heading_deg` column `magcal report --session` reads) and the
 /// board's coefficients before the session (`cal_before.json`).
-fn write_report(chain: &Chain, swing: &Recorded, run: &Recorded, validation: Option<&Recorded>, before: &CalDoc, summary: &SessionSummary, cfg: &SessionConfig) -> Result<crate::report::WrittenReport, SessionError> {
+#[allow(clippy::too_many_arguments)]
+fn write_report(chain: &Chain, swing: &Recorded, run: &Recorded, validation: Option<&Recorded>, before: &CalDoc, summary: &SessionSummary, settings: &SessionSettings, cfg: &SessionConfig) -> Result<crate::report::WrittenReport, SessionError> {
     // As the board had them, unchecked (a factory set may not pass as a
     // calibration; `magcal report --session` then leaves it out).
     save_json(&cfg.out_dir, "cal_before.json", before)?;
@@ -303,6 +304,7 @@ fn write_report(chain: &Chain, swing: &Recorded, run: &Recorded, validation: Opt
         field_nt: None,
         site: Some(cfg.site),
         summary: Some(summary),
+        settings: Some(settings),
     };
     crate::report::write_report(&cfg.out_dir.join("report"), &inputs).map_err(io_error)
 }

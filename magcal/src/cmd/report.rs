@@ -110,16 +110,11 @@ pub fn run(a: Args) -> Result<()> {
         (None, None) => None,
     };
     let summary: Option<SessionSummary> = in_session(dir, "summary.json").map(|p| read_json(&p)).transpose()?;
+    let settings: Option<SessionSettings> = in_session(dir, "settings.json").map(|p| read_json(&p)).transpose()?;
     let site = match a.site.site()? {
         Some(s) => Some(s),
         None if a.site.any() => bail!("give all of --lat, --lon and --date (or none)"),
-        None => match in_session(dir, "settings.json") {
-            Some(p) => {
-                let s: SessionSettings = read_json(&p)?;
-                Some(Site { lat_deg: s.lat_deg, lon_deg: s.lon_deg, decimal_year: s.decimal_year })
-            }
-            None => None,
-        },
+        None => settings.as_ref().map(|s| Site { lat_deg: s.lat_deg, lon_deg: s.lon_deg, decimal_year: s.decimal_year }),
     };
     let inputs = ReportInputs {
         run: run.as_ref(),
@@ -130,6 +125,7 @@ pub fn run(a: Args) -> Result<()> {
         field_nt: a.field_nt,
         site,
         summary: summary.as_ref(),
+        settings: settings.as_ref(),
     };
     let written = write_report(&out, &inputs)?;
     eprintln!("wrote {} ({} figures)", written.index.display(), written.figures);
