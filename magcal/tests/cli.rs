@@ -238,12 +238,53 @@ fn the_documented_chain_runs_on_simulated_field_tests() {
     // The final document loads and validates.
     CalDoc::load(Path::new(&p("cal3.json"))).unwrap();
 
-    // The report draws the papers' figures for these calibrations.
+    // The report: one self-contained page with the papers' figures for
+    // these calibrations, and the deviation card of the run against its GPS
+    // reference (no validation run given).
     let rep = ok_json(&magcal(&["report", "--run", &p("run.csv"), "--swing-input", &p("swing.csv"), "--cal", &p("cal1.json"), "--cal", &p("cal3.json"), "--out", &p("report"), "--json"]));
-    assert_eq!(rep["figures"].as_array().unwrap().len(), 3);
-    let field = std::fs::read_to_string(dir.path().join("report/fig_field.svg")).unwrap();
-    assert!(field.starts_with("<svg") && field.contains("cal1") && field.contains("cal3"));
-    assert!(std::fs::read_to_string(dir.path().join("report/index.html")).unwrap().contains("fig_heading.svg"));
+    // Card, 2 coverage maps, field, heading at the surface, the back-stepping
+    // trace (cal3 carries cal2's), 2 histograms.
+    assert_eq!(rep["figures"], 8, "{rep}");
+    assert_eq!(rep["card"]["against"], "GPS course (run, at the surface)");
+    let html = std::fs::read_to_string(dir.path().join("report/index.html")).unwrap();
+    assert_eq!(html.matches("<svg").count(), 8);
+    assert!(html.contains("cal1") && html.contains("cal3") && html.contains("|H|, nT"));
+    assert!(!html.contains("src=") && !html.contains("<script"), "self-contained");
+    // What was not given is said: no validation run, no site.
+    let missing: Vec<&str> = rep["missing"].as_array().unwrap().iter().filter_map(|m| m.as_str()).collect();
+    assert!(missing.iter().any(|m| m.starts_with("heading against truth")), "{missing:?}");
+    assert!(html.contains("Not available: no validation run with a truth heading"));
+    let card: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.path().join("report/deviation_card.json")).unwrap()).unwrap();
+    assert!(card["samples"].as_u64().unwrap() > 0);
+    // The swing-fitted cal3 leaves the GPS course within a few degrees (the
+    // swing fit's own after RMS above is the same data).
+    assert!(card["after"]["rms_deg"].as_f64().unwrap() < 5.0, "{card}");
+    // The same from a session directory, with a validation run and its
+    // truth (`magcal simulate validation` writes `true_heading_deg`) and the
+    // session's settings: the headline and card come from the validation run.
+    let sess = dir.path().join("session");
+    std::fs::create_dir(&sess).unwrap();
+    for (from, to) in [("swing.csv", "swing.csv"), ("run.csv", "run.csv"), ("cal1.json", "cal_step1.json"), ("cal2.json", "cal_backstep.json"), ("cal3.json", "cal_final.json")] {
+        std::fs::copy(dir.path().join(from), sess.join(to)).unwrap();
+    }
+    let o = magcal(&["simulate", "validation", "--seed", "13", "--rate-hz", "1", "--out", sess.join("validation_truth.csv").to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let settings = host_tools::data::results::SessionSettings { lat_deg: 36.9, lon_deg: 50.6, decimal_year: 2021.0, vehicle: "simulated".into(), firmware: "0.1.0".into(), reproduce: vec![] };
+    std::fs::write(sess.join("settings.json"), serde_json::to_string(&settings).unwrap()).unwrap();
+    let rep = ok_json(&magcal(&["report", "--session", sess.to_str().unwrap(), "--json"]));
+    assert_eq!(rep["card"]["against"], "truth (validation run)", "{rep}");
+    assert!(rep["index"].as_str().unwrap().ends_with("session/report/index.html"));
+    let html = std::fs::read_to_string(sess.join("report/index.html")).unwrap();
+    assert!(html.contains("2021-01-01") && html.contains("simulated, firmware 0.1.0"));
+    assert!(html.contains("Heading RMS from the final calibration applied to the validation recording"));
+    let card: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(sess.join("report/deviation_card.json")).unwrap()).unwrap();
+    // cal3 against the simulated truth: measured 0.22° RMS; the bound is a
+    // few times that.
+    let after = card["after"]["rms_deg"].as_f64().unwrap();
+    assert!(after < 1.0, "{card}");
+
+    // Neither a session nor an output directory: a clear refusal.
+    assert!(one_line_error(&magcal(&["report", "--cal", &p("cal1.json")])).contains("--out"));
 }
 
 /// The bad-data catalogue (README): each case its own message, no panic, no

@@ -489,8 +489,28 @@ pub fn run(out_dir: &Path) -> Result<()> {
     eprintln!("== limited tilt: simulated swing tests with and without a gyro, broad-05 against the peers");
     let (limited, limited_md) = limited_tilt(&root);
     eprintln!("{limited_md}");
+    // The report of a full session (`cargo xtask demo`) in headless Chromium:
+    // browser start to screenshot, s (target ≤ 2 s).
+    let report_page = root.join("target/demo/session/report/index.html");
+    let report_render_s = match crate::browser::check_report(&report_page) {
+        Ok(r) => {
+            // The browser's own start, for scale: an empty page the same way.
+            let empty = out_dir.join("empty.html");
+            let start_s = std::fs::write(&empty, "<!doctype html><title>empty</title><link rel=\"icon\" href=\"data:,\">")
+                .map_err(anyhow::Error::from)
+                .and_then(|()| crate::browser::render(&empty, &out_dir.join("empty.png"), crate::browser::WINDOW))
+                .map_or(f64::NAN, |e| e.render_s);
+            eprintln!("== report render (headless Chromium, {}): {:.2} s (an empty page: {start_s:.2} s)", report_page.display(), r.render_s);
+            json!(r.render_s)
+        }
+        Err(e) => {
+            eprintln!("== report render: not measured ({e:#}; run `cargo xtask demo` first)");
+            json!(null)
+        }
+    };
     let mut results = json!({
         "command": "cargo xtask bench",
+        "report_render_s": report_render_s,
         "host_throughput": host,
         "real_recordings": real,
         "figures": figs,

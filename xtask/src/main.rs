@@ -9,8 +9,8 @@
 //! * `size` — the board build's flash and RAM use.
 //!
 //! Each installs what is missing on a fresh machine (the rustup target,
-//! `qemu-system-arm` through apt-get when root, the cargo-installed runner and
-//! log decoder) and says what it is doing.
+//! `qemu-system-arm` and `chromium` through apt-get when root, the
+//! cargo-installed runner and log decoder) and says what it is doing.
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -21,6 +21,7 @@ use host_tools::data::results::SessionSummary;
 use host_tools::data::CalDoc;
 
 mod bench;
+mod browser;
 mod size;
 
 const TARGET: &str = "thumbv7em-none-eabihf";
@@ -32,12 +33,14 @@ fn main() -> ExitCode {
         Some("demo") => cmd_demo(),
         Some("size") => cmd_size().map(|_| ()),
         Some("bench") => bench::run(&root().join("target").join("bench")),
+        Some("check-report") => cmd_check_report(args.get(1).map(PathBuf::from)),
         _ => {
             eprintln!("usage: cargo xtask <test|demo|size|bench>");
             eprintln!("  test   run every suite (host, on-target in QEMU, end-to-end)");
             eprintln!("  demo   boot the firmware in QEMU and run a session against it");
             eprintln!("  size   flash/RAM of the board release build");
             eprintln!("  bench  accuracy benchmarks (target/bench/results.{{json,md}})");
+            eprintln!("  check-report [PAGE]  render a report in headless Chromium and check it (default: target/demo/session/report/index.html)");
             return ExitCode::from(2);
         }
     };
@@ -51,7 +54,8 @@ fn main() -> ExitCode {
 }
 
 fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
+    root.canonicalize().unwrap_or(root)
 }
 
 fn cargo() -> Command {
@@ -97,14 +101,21 @@ fn ensure_tools() -> Result<()> {
         say("installing clippy (rustup component add clippy)");
         run(Command::new("rustup").args(["component", "add", "clippy"]))?;
     }
-    if !have("qemu-system-arm") {
+    let mut apt_updated = false;
+    for (present, package, why) in [(have("qemu-system-arm"), "qemu-system-arm", "the emulated board"), (browser::find().is_some(), browser::PACKAGE, "the report's browser check")] {
+        if present {
+            continue;
+        }
         let is_root = Command::new("id").arg("-u").output().map(|o| o.stdout.starts_with(b"0")).unwrap_or(false);
         if !is_root {
-            bail!("qemu-system-arm is missing: install it (Debian/Ubuntu: sudo apt-get install -y qemu-system-arm)");
+            bail!("{package} is missing ({why}): install it (Debian/Ubuntu: sudo apt-get install -y {package})");
         }
-        say("installing qemu-system-arm (apt-get)");
-        run(Command::new("apt-get").arg("update").arg("-q"))?;
-        run(Command::new("apt-get").args(["install", "-y", "-q", "qemu-system-arm"]).env("DEBIAN_FRONTEND", "noninteractive"))?;
+        say(&format!("installing {package} (apt-get) for {why}"));
+        if !apt_updated {
+            run(Command::new("apt-get").arg("update").arg("-q"))?;
+            apt_updated = true;
+        }
+        run(Command::new("apt-get").args(["install", "-y", "-q", package]).env("DEBIAN_FRONTEND", "noninteractive"))?;
     }
     for (tool, krate) in [("embedded-test-qemu-runner", "embedded-test-qemu-runner"), ("defmt-print", "defmt-print"), ("cargo-fuzz", "cargo-fuzz")] {
         if !have(tool) {
@@ -310,6 +321,26 @@ fn cmd_test() -> Result<()> {
     };
     suites.push(Suite { name: "demo session: heading ≤ 0.35° and field ≤ 30 nT after, verified upload", passed: u64::from(demo_ok), failed: u64::from(!demo_ok), ok: demo_ok, failures: vec![], flaky: vec![] });
 
+    // The demo session's report in a real browser. (That the check fails a
+    // blank page and a console error is proven by browser.rs's unit tests,
+    // which run above with the browser installed.)
+    say("the report in headless Chromium: a non-blank screenshot and an empty console");
+    let page = match &demo {
+        Ok(s) => s.report.clone(),
+        Err(_) => root().join("target").join("demo-test").join("session").join("report").join("index.html"),
+    };
+    let browser_ok = match browser::check_report(&page) {
+        Ok(r) => {
+            eprintln!("   {}: rendered in {:.2} s, {:.1} % ink, console empty; screenshot {}", page.display(), r.render_s, r.ink * 100.0, r.png.display());
+            true
+        }
+        Err(e) => {
+            eprintln!("the report fails in the browser: {e:#}");
+            false
+        }
+    };
+    suites.push(Suite { name: "report in headless Chromium: non-blank, empty console, self-contained", passed: u64::from(browser_ok), failed: u64::from(!browser_ok), ok: browser_ok, failures: vec![], flaky: vec![] });
+
     eprintln!();
     for s in &suites {
         for f in &s.failures {
@@ -330,6 +361,18 @@ fn cmd_test() -> Result<()> {
     if failed > 0 || suites.iter().any(|s| !s.ok) {
         bail!("some suites failed");
     }
+    Ok(())
+}
+
+/// Renders a report page in headless Chromium (installing it when missing)
+/// and checks it: non-blank, empty console, self-contained.
+fn cmd_check_report(page: Option<PathBuf>) -> Result<()> {
+    if browser::find().is_none() {
+        ensure_tools()?;
+    }
+    let page = page.unwrap_or_else(|| root().join("target").join("demo").join("session").join("report").join("index.html"));
+    let r = browser::check_report(&page)?;
+    eprintln!("{}: rendered in {:.2} s, {:.1} % ink, console empty; screenshot {}", page.display(), r.render_s, r.ink * 100.0, r.png.display());
     Ok(())
 }
 
@@ -359,13 +402,37 @@ fn fuzz_corpus(target: &str) -> Vec<PathBuf> {
     }
 }
 
-/// `target/demo/summary.json`: the session's summary with where its logs are.
+/// `target/demo/summary.json`: the session's summary with where its logs,
+/// report and deviation card are.
 #[derive(serde::Serialize)]
 struct DemoSummary {
     #[serde(flatten)]
     session: SessionSummary,
     firmware_log: PathBuf,
+    /// The report page (self-contained HTML).
     report: PathBuf,
+    /// The deviation card of the validation run against the truth.
+    deviation_card: Option<DemoCard>,
+    /// The report in headless Chromium (when a browser is installed).
+    report_check: Option<ReportCheck>,
+}
+
+/// The deviation card's files.
+#[derive(serde::Serialize)]
+struct DemoCard {
+    text: PathBuf,
+    csv: PathBuf,
+    json: PathBuf,
+}
+
+/// The report's browser check.
+#[derive(serde::Serialize)]
+struct ReportCheck {
+    screenshot: PathBuf,
+    /// Browser start to screenshot, s.
+    render_s: f64,
+    /// `ok`, or what is wrong.
+    verdict: String,
 }
 
 /// Runs the saved session's `reproduce` commands (fit → backstep → swing)
@@ -422,7 +489,28 @@ fn demo_session(elf: &Path, magcal: &Path, out_dir: &Path, plan: &str) -> Result
         bail!("magcal session failed (firmware log: {})", log.display());
     }
     let session: SessionSummary = serde_json::from_slice(&out.stdout).context("magcal session --json output")?;
-    let summary = DemoSummary { session, firmware_log: log, report: session_dir.join("report").join("index.html") };
+    let report_dir = session_dir.join("report");
+    let report = report_dir.join("index.html");
+    if !report.is_file() {
+        bail!("the session wrote no report ({})", report.display());
+    }
+    let card = DemoCard { text: report_dir.join("deviation_card.txt"), csv: report_dir.join("deviation_card.csv"), json: report_dir.join("deviation_card.json") };
+    let deviation_card = [&card.text, &card.csv, &card.json].iter().all(|p| p.is_file()).then_some(card);
+    if deviation_card.is_none() {
+        eprintln!("   no deviation card: the session had no validation run with a truth heading");
+    }
+    let report_check = browser::find().map(|_| {
+        let text = std::fs::read_to_string(&report).unwrap_or_default();
+        match browser::render(&report, &report.with_extension("png"), browser::WINDOW) {
+            Ok(r) => {
+                let verdict = browser::judge(&r, &text).map_or_else(|e| format!("{e:#}"), |()| "ok".into());
+                eprintln!("   report in headless Chromium: {:.2} s, {verdict}", r.render_s);
+                ReportCheck { screenshot: r.png, render_s: r.render_s, verdict }
+            }
+            Err(e) => ReportCheck { screenshot: PathBuf::new(), render_s: f64::NAN, verdict: format!("{e:#}") },
+        }
+    });
+    let summary = DemoSummary { session, firmware_log: log, report, deviation_card, report_check };
     std::fs::write(out_dir.join("summary.json"), serde_json::to_string_pretty(&summary)?)?;
     let v = summary.session.validation;
     eprintln!(
@@ -432,6 +520,10 @@ fn demo_session(elf: &Path, magcal: &Path, out_dir: &Path, plan: &str) -> Result
         v.map_or(f64::NAN, |v| v.field_error_nt_after),
         summary.session.coefficients_verified
     );
+    eprintln!("   report: {}", summary.report.display());
+    if let Some(c) = &summary.deviation_card {
+        eprintln!("   deviation card: {} (also .csv, .json)", c.text.display());
+    }
     eprintln!("   summary: {}", out_dir.join("summary.json").display());
     Ok(summary)
 }

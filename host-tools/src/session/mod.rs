@@ -168,13 +168,13 @@ pub fn run<P: Read + Write>(
         prepare_board(&mut link, StreamMode::Both, None)?;
         let val = record_phase(&mut link, vehicle, Phase::Validation, true, connect, cfg, |_, _, _, _| Ok("recording".into()))?;
         link.set_stream(StreamMode::Off)?;
-        Some(validation_metrics(&val, &before, &cfg.site))
+        let metrics = validation_metrics(&val, &before, &cfg.site);
+        Some((val, metrics))
     } else {
         eprintln!("5/5 no validation run: the vehicle does not know its true heading");
         None
     };
 
-    write_report(&chain, &swing, &run, field.total_nt(), cfg)?;
     let settings = SessionSettings {
         lat_deg: cfg.site.lat_deg,
         lon_deg: cfg.site.lon_deg,
@@ -189,7 +189,7 @@ pub fn run<P: Read + Write>(
     };
     save_json(&cfg.out_dir, "settings.json", &settings)?;
     let summary = SessionSummary {
-        validation: validation.filter(|v| v.validation_samples > 0),
+        validation: validation.as_ref().map(|(_, m)| *m).filter(|v| v.validation_samples > 0),
         coefficients_verified: true,
         coefficient_seq: seq,
         onboard_fit: OnboardFitSummary { samples: fit.samples, coverage_pct: fit.coverage_pct, residual_rms_nt: fit.residual_rms_nt },
@@ -198,6 +198,11 @@ pub fn run<P: Read + Write>(
         session_dir: cfg.out_dir.clone(),
     };
     save_json(&cfg.out_dir, "summary.json", &summary)?;
+    // The report comes after the summary: a report that cannot be drawn is
+    // said, and does not undo a verified session.
+    if let Err(e) = write_report(&chain, &swing, &run, validation.as_ref().map(|(v, _)| v), &before, &summary, &settings, cfg) {
+        eprintln!("session: the report was not written: {e}");
+    }
     Ok(summary)
 }
 
@@ -276,12 +281,32 @@ pub fn validation_metrics(val: &Recorded, before: &CalDoc, site: &Site) -> Valid
     }
 }
 
-/// The session's report: the calibrations of each step on the recordings.
-fn write_report(chain: &Chain, swing: &Recorded, run: &Recorded, field_nt: f64, cfg: &SessionConfig) -> Result<(), SessionError> {
-    let cals: Vec<(String, &CalDoc)> = vec![("step1 (axis fit)".into(), &chain.step1), ("back-stepped".into(), &chain.backstepped), ("final".into(), &chain.final_doc)];
-    let inputs = crate::report::ReportInputs { run: Some(&run.recording), swing: Some(&swing.recording), cals, field_nt: Some(field_nt) };
-    crate::report::write_report(&cfg.out_dir.join("report"), &inputs).map_err(io_error)?;
-    Ok(())
+/// The session's report (`report/index.html`) and the deviation card of
+/// the validation run against the truth (`report/deviation_card.{txt,csv,json}`);
+/// saves the validation run's truth beside it (`validation_truth.csv`, the
+/// `true_heading_deg` column `magcal report --session` reads) and the
+/// board's coefficients before the session (`cal_before.json`).
+#[allow(clippy::too_many_arguments)]
+fn write_report(chain: &Chain, swing: &Recorded, run: &Recorded, validation: Option<&Recorded>, before: &CalDoc, summary: &SessionSummary, settings: &SessionSettings, cfg: &SessionConfig) -> Result<crate::report::WrittenReport, SessionError> {
+    // As the board had them, unchecked (a factory set may not pass as a
+    // calibration; `magcal report --session` then leaves it out).
+    save_json(&cfg.out_dir, "cal_before.json", before)?;
+    if let Some(v) = validation {
+        v.recording.write_with_extra(&cfg.out_dir.join("validation_truth.csv"), &[("true_heading_deg", &v.true_heading_deg)]).map_err(io_error)?;
+    }
+    let cals: Vec<(String, &CalDoc)> = vec![("step 1 (swing-test fit)".into(), &chain.step1), ("back-stepped".into(), &chain.backstepped), ("final".into(), &chain.final_doc)];
+    let inputs = crate::report::ReportInputs {
+        run: Some(&run.recording),
+        swing: Some(&swing.recording),
+        validation: validation.map(|v| crate::report::Validation { recording: &v.recording, truth_deg: &v.true_heading_deg }),
+        cals,
+        before: Some(before),
+        field_nt: None,
+        site: Some(cfg.site),
+        summary: Some(summary),
+        settings: Some(settings),
+    };
+    crate::report::write_report(&cfg.out_dir.join("report"), &inputs).map_err(io_error)
 }
 
 /// Writes a JSON file in the session directory.

@@ -1,52 +1,142 @@
-//! `magcal report`: figures (SVG) and an HTML page comparing calibrations on
-//! recordings.
+//! `magcal report`: the calibration report — one self-contained HTML page
+//! (headline, deviation card, swing coverage, field along the run, headings
+//! against reference and truth, back-stepping trace, residuals) and the
+//! deviation card as text, CSV and JSON — from a session directory or from
+//! explicit recordings and calibration documents.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
-use anyhow::Result;
+use anyhow::{bail, Context, Result};
+use host_tools::compute::card::read_reference_column;
+use host_tools::data::results::{SessionSettings, SessionSummary};
 use host_tools::data::{CalDoc, Recording};
-use host_tools::report::{write_report, ReportInputs};
-use serde_json::json;
+use host_tools::geomag::Site;
+use host_tools::report::{write_report, ReportInputs, Validation};
+
+use super::SiteArgs;
 
 /// Arguments of `magcal report`.
 #[derive(clap::Args)]
 pub struct Args {
+    /// A session directory (`magcal session --out`): its recordings,
+    /// calibrations, settings and summary; the flags below override its files.
+    #[arg(long)]
+    session: Option<PathBuf>,
     /// The out-and-back run.
     #[arg(long)]
     run: Option<PathBuf>,
     /// The swing test.
     #[arg(long)]
     swing_input: Option<PathBuf>,
-    /// Calibration documents to compare (repeat the flag); labelled by file name.
+    /// A validation run with a truth heading column (see --truth-column).
+    #[arg(long)]
+    validation: Option<PathBuf>,
+    /// The validation run's truth heading column, degrees true.
+    #[arg(long, default_value = "true_heading_deg")]
+    truth_column: String,
+    /// Calibration documents to compare (repeat the flag), in the order they
+    /// were made: the last is reported on. Labelled by file name.
     #[arg(long)]
     cal: Vec<PathBuf>,
-    /// Reference intensity to draw, nT.
+    /// The coefficients before the calibration (the validation's "before").
+    #[arg(long)]
+    before: Option<PathBuf>,
+    /// Reference intensity for the field figure, nT (default: IGRF at the site).
     #[arg(long)]
     field_nt: Option<f64>,
-    /// Output directory.
+    #[command(flatten)]
+    site: SiteArgs,
+    /// Output directory (default: `<session>/report`).
     #[arg(long)]
-    out: PathBuf,
-    /// Print a JSON list of the files written.
+    out: Option<PathBuf>,
+    /// Print what was written as JSON.
     #[arg(long)]
     json: bool,
 }
 
+fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    serde_json::from_str(&text).with_context(|| format!("{}", path.display()))
+}
+
+/// `dir/name` when `dir` is given and the file exists.
+fn in_session(dir: Option<&Path>, name: &str) -> Option<PathBuf> {
+    dir.map(|d| d.join(name)).filter(|p| p.is_file())
+}
+
 /// Runs `magcal report`.
 pub fn run(a: Args) -> Result<()> {
-    let run = a.run.as_deref().map(Recording::read).transpose()?;
-    let swing = a.swing_input.as_deref().map(Recording::read).transpose()?;
-    let docs = a.cal.iter().map(|p| CalDoc::load(p)).collect::<Result<Vec<_>, _>>()?;
-    let labels = a.cal.iter().map(|p| p.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default());
+    let dir = a.session.as_deref();
+    if let Some(d) = dir {
+        if !d.is_dir() {
+            bail!("--session {}: not a directory", d.display());
+        }
+    }
+    let out = match (&a.out, dir) {
+        (Some(o), _) => o.clone(),
+        (None, Some(d)) => d.join("report"),
+        (None, None) => bail!("give --out DIR (or --session DIR to write DIR/report)"),
+    };
+    let run_path = a.run.clone().or_else(|| in_session(dir, "run.csv"));
+    let swing_path = a.swing_input.clone().or_else(|| in_session(dir, "swing.csv"));
+    let validation_path = a.validation.clone().or_else(|| in_session(dir, "validation_truth.csv"));
+    let cal_paths: Vec<PathBuf> = if a.cal.is_empty() {
+        ["cal_step1.json", "cal_backstep.json", "cal_final.json"].iter().filter_map(|n| in_session(dir, n)).collect()
+    } else {
+        a.cal.clone()
+    };
+
+
+    let run = run_path.as_deref().map(Recording::read).transpose()?;
+    let swing = swing_path.as_deref().map(Recording::read).transpose()?;
+    let validation = match &validation_path {
+        Some(p) => {
+            let rec = Recording::read(p)?;
+            let truth = read_reference_column(p, &a.truth_column)?.with_context(|| format!("{}: no `{}` column (the validation run's truth heading; name another with --truth-column)", p.display(), a.truth_column))?;
+            if truth.len() != rec.len() {
+                bail!("{}: column `{}` has {} rows, the recording {}", p.display(), a.truth_column, truth.len(), rec.len());
+            }
+            Some((rec, truth))
+        }
+        None => None,
+    };
+    let docs = cal_paths.iter().map(|p| CalDoc::load(p)).collect::<Result<Vec<_>, _>>()?;
+    let labels = cal_paths.iter().map(|p| p.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default());
+    let before = match (&a.before, in_session(dir, "cal_before.json")) {
+        (Some(p), _) => Some(CalDoc::load(p)?),
+        // The session saves the board's previous set unchecked: one that
+        // does not pass as a calibration is left out, saying so.
+        (None, Some(p)) => CalDoc::load(&p).map_err(|e| eprintln!("leaving out the coefficients before the session: {e}")).ok(),
+        (None, None) => None,
+    };
+    let summary: Option<SessionSummary> = in_session(dir, "summary.json").map(|p| read_json(&p)).transpose()?;
+    let settings: Option<SessionSettings> = in_session(dir, "settings.json").map(|p| read_json(&p)).transpose()?;
+    let site = match a.site.site()? {
+        Some(s) => Some(s),
+        None if a.site.any() => bail!("give all of --lat, --lon and --date (or none)"),
+        None => settings.as_ref().map(|s| Site { lat_deg: s.lat_deg, lon_deg: s.lon_deg, decimal_year: s.decimal_year }),
+    };
     let inputs = ReportInputs {
         run: run.as_ref(),
         swing: swing.as_ref(),
+        validation: validation.as_ref().map(|(recording, truth_deg)| Validation { recording, truth_deg }),
         cals: labels.zip(docs.iter()).collect(),
-        field_nt: a.field_nt.or_else(|| docs.first().map(|d| d.field_nt)),
+        before: before.as_ref(),
+        field_nt: a.field_nt,
+        site,
+        summary: summary.as_ref(),
+        settings: settings.as_ref(),
     };
-    let files = write_report(&a.out, &inputs)?;
-    eprintln!("wrote {} with {} figures", a.out.join("index.html").display(), files.len());
+    let written = write_report(&out, &inputs)?;
+    eprintln!("wrote {} ({} figures)", written.index.display(), written.figures);
+    if let Some(c) = &written.card {
+        eprintln!("wrote the deviation card against the {}: {}, {}, {}", c.against, c.text.display(), c.csv.display(), c.json.display());
+    }
+    for m in &written.missing {
+        eprintln!("  not in the report: {m}");
+    }
     if a.json {
-        println!("{}", json!({"index": a.out.join("index.html"), "figures": files}));
+        println!("{}", serde_json::to_string_pretty(&written)?);
     }
     Ok(())
 }
