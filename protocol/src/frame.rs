@@ -7,8 +7,12 @@ use serde::{Deserialize, Serialize};
 use crate::error::FrameError;
 
 /// Version of this wire format. A frame carrying another version is refused
-/// with [`FrameError::UnsupportedVersion`].
-pub const PROTOCOL_VERSION: u8 = 2;
+/// with [`FrameError::UnsupportedVersion`]. Version 3 appended the current
+/// and temperature terms to `Coefficients`, `temp_c` to `Sample` and
+/// `SensorFeed`, the environment counters to `Health`, and the
+/// `AttitudeEnv` request (postcard has no field tags, so a version-2 peer
+/// would misread these).
+pub const PROTOCOL_VERSION: u8 = 3;
 
 /// Longest decoded frame (version byte, postcard payload and CRC).
 pub const MAX_DECODED_LEN: usize = 250;
