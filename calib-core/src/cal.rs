@@ -80,6 +80,7 @@ impl<T: Real> FieldCal<T> {
     }
 
     /// The calibrated field, `matrix · (raw − bias)`.
+    #[inline(always)]
     pub fn apply(&self, raw: Vec3<T>) -> Vec3<T> {
         let d = [raw[0] - self.bias[0], raw[1] - self.bias[1], raw[2] - self.bias[2]];
         mul_mat_vec(&self.matrix, d)
@@ -217,27 +218,6 @@ impl<T: Real> EnvTerms<T> {
         out
     }
 
-    /// The field calibration with these terms folded in for one
-    /// environment: `M·(raw ⊘ g − b − c·I) = (M·diag(1/g))·(raw − g ⊙ (b +
-    /// c·I))` with `g = 1 + k ⊙ (T − T₀)`, so the folded set's
-    /// [`FieldCal::apply`] is [`FieldCal::apply`] of [`EnvTerms::correct_raw`]
-    /// up to rounding. Three divisions and a dozen multiplications, done when
-    /// the environment changes; each sample then costs what a plain field
-    /// calibration costs.
-    pub fn fold(&self, field: &FieldCal<T>, env: &Environment<T>) -> FieldCal<T> {
-        let dt = env.temp_c - self.ref_c;
-        let g: Vec3<T> = core::array::from_fn(|i| T::ONE + self.gain_per_c[i] * dt);
-        let inv: Vec3<T> = core::array::from_fn(|i| T::ONE / g[i]);
-        let mut matrix = field.matrix;
-        for row in matrix.iter_mut() {
-            for (m, s) in row.iter_mut().zip(inv) {
-                *m = *m * s;
-            }
-        }
-        let bias = core::array::from_fn(|i| g[i] * (field.bias[i] + self.bias_per_a[i] * env.current_a));
-        FieldCal { bias, matrix }
-    }
-
     /// Checks the terms before use or storage: finite, each gain below
     /// [`MAX_GAIN_PER_C`] per °C, the current term below `max_bias_per_a`
     /// raw units per A.
@@ -295,15 +275,6 @@ impl<T: Real> Calibration<T> {
         wrap_two_pi(self.apply(raw, roll_rad, pitch_rad).true_heading_rad - self.declination_rad)
     }
 
-    /// This calibration for one environment: the current and temperature
-    /// terms folded into the field calibration ([`EnvTerms::fold`]), no
-    /// terms left. Its [`Calibration::apply_tilt`] is
-    /// [`Calibration::apply_tilt_env`] in that environment up to rounding,
-    /// at the per-sample cost of a calibration without terms.
-    pub fn at_environment(&self, env: &Environment<T>) -> Self {
-        Self { field: self.env.fold(&self.field, env), env: EnvTerms::none(), ..*self }
-    }
-
     /// Field and true heading for one sample with the AHRS attitude.
     pub fn apply(&self, raw: Vec3<T>, roll_rad: T, pitch_rad: T) -> Output<T> {
         self.apply_tilt(raw, &Tilt::new(roll_rad, pitch_rad))
@@ -323,6 +294,10 @@ impl<T: Real> Calibration<T> {
         self.heading_of_field(self.field.apply(self.env.correct_raw(raw, env)), tilt)
     }
 
+    // Inlined, as `FieldCal::apply` and `mul_mat_vec`: outlined, the three
+    // cost the Cortex-M4F's per-sample path 36 instructions of argument and
+    // result copies (263 → 299 with the terms, `cargo xtask bench`).
+    #[inline(always)]
     fn heading_of_field(&self, field_nt: Vec3<T>, tilt: &Tilt<T>) -> Output<T> {
         let l = tilt.level(field_nt);
         let psi = heading_of_levelled(l);
@@ -391,51 +366,6 @@ mod tests {
         assert_eq!(bad.validate(100.0), Err(CalError::NonFinite));
         assert_eq!(cal.env.validate(10.0), Err(CalError::BiasOutOfRange));
         assert!(EnvTerms::<f64>::none().is_none() && !cal.env.is_none());
-    }
-
-    #[test]
-    fn the_folded_terms_are_correct_raw_then_the_field_calibration() {
-        let cal = Calibration {
-            field: FieldCal { bias: [2000.0, -800.0, 400.0], matrix: [[0.028, 0.0004, 0.0], [0.0004, 0.0291, 0.0002], [0.0, 0.0002, 0.0276]] },
-            swing: Swing { a: 0.01, b: 0.0, c: 0.002, d: 0.0, e: -0.003 },
-            declination_rad: 0.07,
-            env: EnvTerms { bias_per_a: [12.0, -3.0, 25.0], ref_c: 15.0, gain_per_c: [-0.003, -0.0028, -0.0031] },
-        };
-        let tilt = Tilt::new(0.2, -0.1);
-        let mut worst32 = 0.0f64;
-        for (k, &(current_a, temp_c)) in [(0.0, 15.0), (14.0, 27.0), (-3.0, 2.5), (40.0, 35.0)].iter().enumerate() {
-            let env = Environment { current_a, temp_c };
-            let raw = [700_000.0 + 1e4 * k as f64, -1_100_000.0, 1_300_000.0 - 3e4 * k as f64];
-            let direct = cal.apply_tilt_env(raw, &tilt, &env);
-            let folded = cal.at_environment(&env).apply_tilt(raw, &tilt);
-            // The reference: correct_raw, then the field calibration.
-            let reference = cal.field.apply(cal.env.correct_raw(raw, &env));
-            for i in 0..3 {
-                assert!((folded.field_nt[i] - reference[i]).abs() < 1e-8, "{i}: {} vs {}", folded.field_nt[i], reference[i]);
-                assert_eq!(direct.field_nt[i], reference[i]);
-            }
-            assert!((folded.true_heading_rad - direct.true_heading_rad).abs() < 1e-12);
-            // f32, as on the board: folded vs direct within rounding.
-            let c32 = Calibration {
-                field: FieldCal { bias: cal.field.bias.map(|v| v as f32), matrix: cal.field.matrix.map(|r| r.map(|v| v as f32)) },
-                swing: Swing::from_array(cal.swing.to_array().map(|v| v as f32)),
-                declination_rad: cal.declination_rad as f32,
-                env: EnvTerms { bias_per_a: cal.env.bias_per_a.map(|v| v as f32), ref_c: 15.0, gain_per_c: cal.env.gain_per_c.map(|v| v as f32) },
-            };
-            let env32 = Environment { current_a: current_a as f32, temp_c: temp_c as f32 };
-            let raw32 = raw.map(|v| v as f32);
-            let a = c32.at_environment(&env32).field.apply(raw32);
-            let b = c32.field.apply(c32.env.correct_raw(raw32, &env32));
-            for i in 0..3 {
-                worst32 = worst32.max(f64::from((a[i] - b[i]).abs()) / f64::from(b[i].abs()));
-            }
-        }
-        // Measured: 1.2e-7 relative (one or two f32 ulps).
-        assert!(worst32 < 1e-6, "{worst32}");
-        // No terms: folding changes nothing.
-        let plain = Calibration { env: EnvTerms::none(), ..cal };
-        let env = Environment { current_a: 30.0, temp_c: 40.0 };
-        assert_eq!(plain.at_environment(&env).field, plain.field);
     }
 
     #[test]
