@@ -38,6 +38,12 @@
 //!   H after a set / reset pulse, S = 3.2 mV/V/gauss, V_b = 5 V; the board's
 //!   instrumentation amplifier (gain 32) feeds the ADC (±1.2 V full scale,
 //!   gain 1).
+//! * **The thermistor on channel 3** (Murata NCP18XH103F03RB datasheet, R–T
+//!   table): a 10 kΩ resistor from a 1.25 V reference over the NTC to
+//!   ground; the NTC's resistance at the sensor's temperature (set by the
+//!   feed) is the datasheet table's, interpolated as `ln R` linear in `1/T`
+//!   (the B-law between neighbouring rows). An open thermistor (NaN
+//!   temperature) puts the whole reference on the input: the code clips.
 
 // Indexing below is into the fixed 18-byte frame at const offsets; the
 // bytes from the bus are only ever values.
@@ -71,6 +77,63 @@ const ADS_FRAME_BYTES: usize = 18;
 const ADS_FIFO_DEPTH: usize = 2;
 /// Polarity flips remembered (a pair has two; a window spans 3 periods).
 const FLIPS_KEPT: usize = 8;
+/// The thermistor divider: reference (V) and top resistor (Ω).
+const NTC_DIVIDER_REF_V: f32 = 1.25;
+const NTC_DIVIDER_TOP_OHM: f32 = 10_000.0;
+/// NCP18XH103 R–T table (Murata catalog R44E, XH column): °C, kΩ.
+const NTC_TABLE: [(f32, f32); 19] = [
+    (-40.0, 195.652),
+    (-30.0, 113.347),
+    (-20.0, 68.237),
+    (-10.0, 42.506),
+    (0.0, 27.219),
+    (10.0, 17.926),
+    (20.0, 12.081),
+    (25.0, 10.0),
+    (30.0, 8.315),
+    (40.0, 5.834),
+    (50.0, 4.161),
+    (60.0, 3.014),
+    (70.0, 2.228),
+    (80.0, 1.669),
+    (85.0, 1.452),
+    (90.0, 1.268),
+    (100.0, 0.974),
+    (110.0, 0.7576),
+    (125.0, 0.531),
+];
+
+/// The NTC's resistance at `temp_c`, Ω (clamped to the table's ends).
+pub fn model_ntc_ohm(temp_c: f32) -> f32 {
+    let inv_t = |c: f32| 1.0 / (c + 273.15);
+    let t = temp_c.clamp(-40.0, 125.0);
+    let mut lo = NTC_TABLE[0];
+    let mut hi = NTC_TABLE[1];
+    for w in NTC_TABLE.windows(2) {
+        if let [a, b] = w {
+            lo = *a;
+            hi = *b;
+            if t <= b.0 {
+                break;
+            }
+        }
+    }
+    let x = (inv_t(t) - inv_t(lo.0)) / (inv_t(hi.0) - inv_t(lo.0));
+    let ln_r = libm::logf(lo.1 * 1000.0) + x * (libm::logf(hi.1 * 1000.0) - libm::logf(lo.1 * 1000.0));
+    libm::expf(ln_r)
+}
+
+/// Channel 3's code for the sensor at `temp_c` (NaN: open thermistor).
+fn ntc_code(temp_c: f32) -> i32 {
+    let v = if temp_c.is_nan() {
+        NTC_DIVIDER_REF_V
+    } else {
+        let r = model_ntc_ohm(temp_c);
+        NTC_DIVIDER_REF_V * r / (r + NTC_DIVIDER_TOP_OHM)
+    };
+    let code = libm::roundf(v * (ADS_CODES_PER_V as f32));
+    code.clamp(ADS_CODE_MIN as f32, ADS_CODE_MAX as f32) as i32
+}
 
 /// Field to ADC code through the modelled chain, codes per nT.
 pub fn model_codes_per_nt() -> f64 {
@@ -112,6 +175,8 @@ struct World {
     // The magnetic truth and the bridges.
     field_nt: [f32; 3],
     offset_codes: [f32; 3],
+    /// Channel 3's code (the thermistor divider at the sensor's temperature).
+    ntc_code: i32,
     seq: u32,
     updates: u32,
     /// (time, +1 after SET / −1 after RESET), oldest first.
@@ -144,6 +209,8 @@ impl World {
         Self {
             field_nt: [0.0; 3],
             offset_codes: [0.0; 3],
+            // 10 kΩ at 25 °C: half the 1.25 V reference.
+            ntc_code: 4_369_067,
             seq: 0,
             updates: 0,
             flips: [(0, 1); FLIPS_KEPT],
@@ -236,6 +303,9 @@ impl World {
             let v = f64::from(self.offset_codes[ch]) + w * f64::from(self.field_nt[ch]) * k;
             let v = libm::round(v);
             out[ch] = if v.is_nan() { 0 } else { v.clamp(f64::from(ADS_CODE_MIN), f64::from(ADS_CODE_MAX)) as i32 };
+        }
+        if enabled & (1 << 3) != 0 {
+            out[3] = self.ntc_code;
         }
         out
     }
@@ -382,6 +452,16 @@ impl BridgeModel {
             w.offset_codes = offset_codes;
             w.updates = w.updates.wrapping_add(1);
             w.seq = seq;
+        });
+    }
+
+    /// Sets the temperature of the thermistor next to the sensor, °C (NaN:
+    /// an open thermistor).
+    pub fn set_temp_c(&self, temp_c: f32) {
+        let code = ntc_code(temp_c);
+        self.with(|w| {
+            w.catch_up();
+            w.ntc_code = code;
         });
     }
 
@@ -606,6 +686,9 @@ impl FeedReceiver {
         let f = magcal_protocol::decode_body::<magcal_protocol::SensorFeed>(body).ok()?;
         if let Some(o) = f.offset_counts {
             self.offsets = o;
+        }
+        if let Some(t) = f.temp_c {
+            bridges.set_temp_c(t);
         }
         bridges.set_truth_seq(f.field_nt, self.offsets, f.seq);
         Some(f.seq)

@@ -228,7 +228,7 @@ mod app {
         // nominal gain and says why (and refuses to save, see `store`).
         let loaded = (0..3).map(|_| store.load()).find(|r| r.is_ok()).unwrap_or(Err(firmware::store::StoreError::Flash));
         let stored = match loaded {
-            Ok(Some(r)) => decode_coefficients(&r.payload).map(|(c, _)| (c, r.seq)),
+            Ok(Some(r)) => decode_coefficients(&r.payload, r.version).map(|(c, _)| (c, r.seq)),
             Ok(None) => None,
             Err(_) => {
                 defmt::error!("coefficient store unreadable");
