@@ -75,6 +75,11 @@ const ADS_WORD_BYTES: usize = 3;
 const ADS_FRAME_BYTES: usize = 18;
 /// Conversions buffered per channel (SBAS890 §8.5.1.9.1).
 const ADS_FIFO_DEPTH: usize = 2;
+/// The board's clocks, unless [`BridgeModel::set_clocks`] says otherwise
+/// (0 in the state stands for these: an all-zero initial state puts the
+/// QEMU board's model in `.bss`, not in flash).
+const DEFAULT_CLKIN_HZ: u32 = 8_000_000;
+const DEFAULT_SCLK_HZ: u32 = 21_000_000;
 /// Polarity flips remembered (a pair has two; a window spans 3 periods).
 const FLIPS_KEPT: usize = 8;
 /// The thermistor divider: reference (V) and top resistor (Ω).
@@ -153,18 +158,41 @@ fn ccitt(bytes: &[u8]) -> u16 {
     crc
 }
 
+/// `a / b` rounded down, without a 64-bit division: the board binary
+/// carries this model for QEMU, and a `u64` division (or an `f64` one)
+/// would link ~1 KiB of software division each. `u32` chunks, then the
+/// hardware's 32-bit divide.
+fn div_u64_u32(mut a: u64, b: u32) -> u64 {
+    let b = b.max(1);
+    let chunk_q = u64::from(u32::MAX / b);
+    let chunk = chunk_q * u64::from(b);
+    let mut q = 0u64;
+    while a > u64::from(u32::MAX) {
+        a -= chunk;
+        q += chunk_q;
+    }
+    q + u64::from(a as u32 / b)
+}
+
+/// `a / b` rounded up (as [`div_u64_u32`]).
+fn div_ceil_u64_u32(a: u64, b: u32) -> u64 {
+    let q = div_u64_u32(a, b);
+    if q * u64::from(b.max(1)) < a { q + 1 } else { q }
+}
+
 /// Cumulative sinc³ step response at `x` conversion periods into its
 /// 3-period window: the Irwin–Hall CDF of order 3.
 fn sinc3_cdf(x: f64) -> f64 {
+    const SIXTH: f64 = 1.0 / 6.0;
     if x <= 0.0 {
         0.0
     } else if x < 1.0 {
-        x * x * x / 6.0
+        x * x * x * SIXTH
     } else if x < 2.0 {
-        (-2.0 * x * x * x + 9.0 * x * x - 9.0 * x + 3.0) / 6.0
+        (-2.0 * x * x * x + 9.0 * x * x - 9.0 * x + 3.0) * SIXTH
     } else if x < 3.0 {
         let y = 3.0 - x;
-        1.0 - y * y * y / 6.0
+        1.0 - y * y * y * SIXTH
     } else {
         1.0
     }
@@ -175,8 +203,9 @@ struct World {
     // The magnetic truth and the bridges.
     field_nt: [f32; 3],
     offset_codes: [f32; 3],
-    /// Channel 3's code (the thermistor divider at the sensor's temperature).
-    ntc_code: i32,
+    /// Channel 3's code (the thermistor divider at the sensor's
+    /// temperature); `None` before any: 25 °C.
+    ntc_code: Option<i32>,
     seq: u32,
     updates: u32,
     /// (time, +1 after SET / −1 after RESET), oldest first.
@@ -209,19 +238,18 @@ impl World {
         Self {
             field_nt: [0.0; 3],
             offset_codes: [0.0; 3],
-            // 10 kΩ at 25 °C: half the 1.25 V reference.
-            ntc_code: 4_369_067,
+            ntc_code: None,
             seq: 0,
             updates: 0,
-            flips: [(0, 1); FLIPS_KEPT],
+            flips: [(0, 0); FLIPS_KEPT],
             n_flips: 0,
             now_ns: 0,
-            clkin_hz: 8_000_000,
-            sclk_hz: 21_000_000,
+            clkin_hz: 0,
+            sclk_hz: 0,
             regs: [0; 64],
             pending: 0,
             grid_origin_ns: 0,
-            next_k: 1,
+            next_k: 0,
             fifo: [[0; 4]; ADS_FIFO_DEPTH],
             fifo_len: 0,
             last_out: [0; 4],
@@ -253,7 +281,7 @@ impl World {
 
     /// One conversion period, ns: OSR / f_MOD with f_MOD = f_CLKIN / 2.
     fn period_ns(&self) -> u64 {
-        (self.osr() * 2 * 1_000_000_000).div_ceil(u64::from(self.clkin_hz.max(1)))
+        div_ceil_u64_u32(self.osr() * 2 * 1_000_000_000, if self.clkin_hz == 0 { DEFAULT_CLKIN_HZ } else { self.clkin_hz })
     }
 
     fn completion_ns(&self, k: u64) -> u64 {
@@ -273,21 +301,24 @@ impl World {
 
     /// ∫ sign(t) w(t) dt over the window of the conversion ending at `end`.
     fn weighted_sign(&self, end: u64) -> f64 {
-        let t_period = self.period_ns() as f64;
         let start = end.saturating_sub(3 * self.period_ns());
+        // Offsets within the window (under 3 periods) in periods; f32 (the
+        // FPU's divide) resolves a 32 µs period to 0.004 ns.
+        let t_period = u32::try_from(self.period_ns()).unwrap_or(u32::MAX) as f32;
+        let periods = |d: u64| f64::from(u32::try_from(d).unwrap_or(u32::MAX) as f32 / t_period);
         let mut acc = 0.0;
         let mut seg_start = start;
         let mut sign = self.sign_at(start);
         for &(at, s) in self.flips.iter().take(self.n_flips) {
             if at > start && at < end {
-                let a = (seg_start - start) as f64 / t_period;
-                let b = (at - start) as f64 / t_period;
+                let a = periods(seg_start - start);
+                let b = periods(at - start);
                 acc += sign * (sinc3_cdf(b) - sinc3_cdf(a));
                 seg_start = at;
                 sign = f64::from(s);
             }
         }
-        let a = (seg_start - start) as f64 / t_period;
+        let a = periods(seg_start - start);
         acc + sign * (1.0 - sinc3_cdf(a))
     }
 
@@ -305,7 +336,8 @@ impl World {
             out[ch] = if v.is_nan() { 0 } else { v.clamp(f64::from(ADS_CODE_MIN), f64::from(ADS_CODE_MAX)) as i32 };
         }
         if enabled & (1 << 3) != 0 {
-            out[3] = self.ntc_code;
+            // 10 kΩ at 25 °C before any temperature: half the 1.25 V reference.
+            out[3] = self.ntc_code.unwrap_or(4_369_067);
         }
         out
     }
@@ -313,11 +345,11 @@ impl World {
     /// Completes every conversion due by now (only the last two can still
     /// be in the buffer, so older ones are skipped).
     fn catch_up(&mut self) {
-        let t = self.period_ns().max(1);
+        let t = u32::try_from(self.period_ns().max(1)).unwrap_or(u32::MAX);
         if self.now_ns < self.completion_ns(self.next_k) {
             return;
         }
-        let last_k = (self.now_ns - self.grid_origin_ns) / t;
+        let last_k = div_u64_u32(self.now_ns - self.grid_origin_ns, t);
         let first = self.next_k.max(last_k.saturating_sub(ADS_FIFO_DEPTH as u64 - 1));
         self.conversions += last_k + 1 - self.next_k;
         for k in first..=last_k {
@@ -393,7 +425,7 @@ impl World {
         };
         // The frame takes its time on the bus.
         let bits = (ADS_FRAME_BYTES * 8) as u64;
-        self.advance((bits * 1_000_000_000).div_ceil(u64::from(self.sclk_hz.max(1))));
+        self.advance(div_ceil_u64_u32(bits * 1_000_000_000, if self.sclk_hz == 0 { DEFAULT_SCLK_HZ } else { self.sclk_hz }));
     }
 
     fn flip(&mut self, sign: i8) {
@@ -461,7 +493,7 @@ impl BridgeModel {
         let code = ntc_code(temp_c);
         self.with(|w| {
             w.catch_up();
-            w.ntc_code = code;
+            w.ntc_code = Some(code);
         });
     }
 

@@ -222,7 +222,7 @@ impl OnboardFit {
     fn push(&mut self, raw: [f32; 3], motion: Option<Motion>, now_ms: u32) -> bool {
         let c = self.centre();
         let d = [raw[0] - c[0], raw[1] - c[1], raw[2] - c[2]];
-        let r = libm::sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        let r = calib_core::real::sqrt_f32(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
         let expected = self.field_nt * COUNTS_PER_NT;
         if !(r > 0.5 * expected && r < 2.0 * expected) {
             self.rejected = self.rejected.saturating_add(1);
@@ -266,11 +266,11 @@ impl OnboardFit {
         let (mut ss, mut n) = (0.0f32, 0u32);
         for raw in self.recent.iter() {
             let h = est.apply(*raw);
-            let r = libm::sqrtf(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]) - self.field_nt;
+            let r = calib_core::real::sqrt_f32(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]) - self.field_nt;
             ss += r * r;
             n += 1;
         }
-        if n == 0 { 0.0 } else { libm::sqrtf(ss / n as f32) }
+        if n == 0 { 0.0 } else { calib_core::real::sqrt_f32(ss / n as f32) }
     }
 
     fn centre(&self) -> [f32; 3] {

@@ -135,3 +135,17 @@ fn feed_frames_set_the_bridges_and_damage_is_ignored() {
     assert_eq!(c[..n].iter().filter_map(|&x| rx.on_byte(x, &BRIDGES)).last(), Some(7));
     assert_eq!(rx.offsets, [10.0, 20.0, 30.0]);
 }
+
+#[test]
+fn the_model_divides_times_as_u64_division_does() {
+    // Against the language's u64 division (independent of the chunking).
+    let mut rng = calib_core::conformance::SplitMix64::new(9);
+    for _ in 0..20_000 {
+        let a = (rng.uniform() * 1e13) as u64;
+        let b = (rng.uniform() * 3e7) as u32 + 1;
+        assert_eq!(super::div_u64_u32(a, b), a / u64::from(b), "{a} / {b}");
+        assert_eq!(super::div_ceil_u64_u32(a, b), a.div_ceil(u64::from(b)), "{a} / {b}");
+    }
+    assert_eq!(super::div_u64_u32(u64::MAX, u32::MAX), u64::MAX / u64::from(u32::MAX));
+    assert_eq!(super::div_ceil_u64_u32(7, 0), 7, "a zero divisor counts as 1");
+}
