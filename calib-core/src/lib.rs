@@ -31,5 +31,6 @@ pub mod ortho;
 pub mod quality;
 pub mod swing;
 pub mod real;
+pub mod trigf;
 
 pub use real::Real;

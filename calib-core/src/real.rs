@@ -60,7 +60,7 @@ pub trait Real:
 }
 
 macro_rules! impl_real {
-    ($t:ty, $sqrt:path, $sin:ident, $cos:ident, $atan2:ident, $fabs:ident, $floor:ident) => {
+    ($t:ty, $sqrt:path, $sin:path, $cos:path, $atan2:ident, $fabs:ident, $floor:ident) => {
         impl Real for $t {
             const ZERO: Self = 0.0;
             const ONE: Self = 1.0;
@@ -82,11 +82,11 @@ macro_rules! impl_real {
             }
             #[inline]
             fn sin(self) -> Self {
-                libm::$sin(self)
+                $sin(self)
             }
             #[inline]
             fn cos(self) -> Self {
-                libm::$cos(self)
+                $cos(self)
             }
             #[inline]
             fn atan2(self, x: Self) -> Self {
@@ -108,8 +108,9 @@ macro_rules! impl_real {
     };
 }
 
-impl_real!(f32, sqrt_f32, sinf, cosf, atan2f, fabsf, floorf);
-impl_real!(f64, libm::sqrt, sin, cos, atan2, fabs, floor);
+// f32 sine and cosine: libm's, without its huge-argument reduction (`trigf`).
+impl_real!(f32, sqrt_f32, crate::trigf::sinf, crate::trigf::cosf, atan2f, fabsf, floorf);
+impl_real!(f64, libm::sqrt, libm::sin, libm::cos, atan2, fabs, floor);
 
 /// The `f32` square root, correctly rounded (IEEE 754) everywhere: on a
 /// hard-float Arm target (the Cortex-M4F's FPv4-SP) the FPU's `VSQRT.F32`,
