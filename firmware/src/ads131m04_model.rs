@@ -182,8 +182,8 @@ fn div_ceil_u64_u32(a: u64, b: u32) -> u64 {
 
 /// Cumulative sinc³ step response at `x` conversion periods into its
 /// 3-period window: the Irwin–Hall CDF of order 3.
-fn sinc3_cdf(x: f64) -> f64 {
-    const SIXTH: f64 = 1.0 / 6.0;
+fn sinc3_cdf(x: f32) -> f32 {
+    const SIXTH: f32 = 1.0 / 6.0;
     if x <= 0.0 {
         0.0
     } else if x < 1.0 {
@@ -302,10 +302,13 @@ impl World {
     /// ∫ sign(t) w(t) dt over the window of the conversion ending at `end`.
     fn weighted_sign(&self, end: u64) -> f64 {
         let start = end.saturating_sub(3 * self.period_ns());
-        // Offsets within the window (under 3 periods) in periods; f32 (the
-        // FPU's divide) resolves a 32 µs period to 0.004 ns.
+        // Offsets within the window (under 3 periods) in periods, and the
+        // sinc³ weights, in f32 (the FPU's): a 32 µs period resolved to
+        // 0.004 ns, weights to 1e-7 — only conversions with a flip inside
+        // their window (the ones the acquisition discards) are not exactly
+        // ±1.
         let t_period = u32::try_from(self.period_ns()).unwrap_or(u32::MAX) as f32;
-        let periods = |d: u64| f64::from(u32::try_from(d).unwrap_or(u32::MAX) as f32 / t_period);
+        let periods = |d: u64| u32::try_from(d).unwrap_or(u32::MAX) as f32 / t_period;
         let mut acc = 0.0;
         let mut seg_start = start;
         let mut sign = self.sign_at(start);
@@ -313,13 +316,13 @@ impl World {
             if at > start && at < end {
                 let a = periods(seg_start - start);
                 let b = periods(at - start);
-                acc += sign * (sinc3_cdf(b) - sinc3_cdf(a));
+                acc += sign * f64::from(sinc3_cdf(b) - sinc3_cdf(a));
                 seg_start = at;
                 sign = f64::from(s);
             }
         }
         let a = periods(seg_start - start);
-        acc + sign * (1.0 - sinc3_cdf(a))
+        acc + sign * f64::from(1.0 - sinc3_cdf(a))
     }
 
     fn convert(&self, end: u64) -> [i32; 4] {
@@ -332,8 +335,8 @@ impl World {
                 continue;
             }
             let v = f64::from(self.offset_codes[ch]) + w * f64::from(self.field_nt[ch]) * k;
-            let v = libm::round(v);
-            out[ch] = if v.is_nan() { 0 } else { v.clamp(f64::from(ADS_CODE_MIN), f64::from(ADS_CODE_MAX)) as i32 };
+            // `as` saturates (NaN → 0); the integer clamp is the 24-bit range.
+            out[ch] = (libm::round(v) as i32).clamp(ADS_CODE_MIN, ADS_CODE_MAX);
         }
         if enabled & (1 << 3) != 0 {
             // 10 kΩ at 25 °C before any temperature: half the 1.25 V reference.

@@ -47,7 +47,8 @@ pub const OLDEST_VERSION: u16 = 1;
 /// Largest payload stored.
 pub const MAX_PAYLOAD: usize = 224;
 const HEADER: usize = 16;
-const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+// Bit by bit, as the protocol's (no 1 KiB table in flash for a rare save).
+const CRC32: crc::Crc<u32, crc::NoTable> = crc::Crc::<u32, crc::NoTable>::new(&crc::CRC_32_ISO_HDLC);
 
 /// Why the store failed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
