@@ -16,7 +16,10 @@
 //! provided that this notice is preserved. (Conversion to float by Ian
 //! Lance Taylor, Cygnus Support; optimized by Bruce D. Evans.)
 
-use core::f64::consts::FRAC_PI_2;
+// The polynomial and π/2 constants as libm writes them (its exact bits).
+#![allow(clippy::excessive_precision)]
+
+use core::f64::consts::{FRAC_2_PI, FRAC_PI_2};
 
 const PIO2_1X: f64 = FRAC_PI_2;
 const PIO2_2X: f64 = 2. * FRAC_PI_2;
@@ -51,7 +54,8 @@ fn k_cosf(x: f64) -> f32 {
 /// x = n·π/2 + y, |y| ≤ π/4 (libm's medium-size path, 25 + 53 bits of π).
 fn rem_pio2f(x: f32) -> (i32, f64) {
     const TOINT: f64 = 1.5 / f64::EPSILON;
-    const INV_PIO2: f64 = 6.36619772367581382433e-01;
+    // libm's 6.36619772367581382433e-01 (0x3FE45F30_6DC9C883): 2/π.
+    const INV_PIO2: f64 = FRAC_2_PI;
     const PIO2_1: f64 = 1.57079631090164184570e+00;
     const PIO2_1T: f64 = 1.58932547735281966916e-08;
     let x64 = x as f64;

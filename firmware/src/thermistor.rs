@@ -33,8 +33,8 @@ pub const DIVIDER_TOP_OHM: f32 = 10_000.0;
 const VOLTS_PER_CODE: f32 = crate::adc::REFERENCE_V / crate::adc::FULL_SCALE_COUNTS as f32;
 /// Steinhart–Hart coefficients of the NCP18XH103 through the datasheet's
 /// 0, 25 and 85 °C points (1/K, 1/K, 1/K).
-const SH_A: f32 = 8.893_719_4e-4;
-const SH_B: f32 = 2.509_260_1e-4;
+const SH_A: f32 = 8.893_719e-4;
+const SH_B: f32 = 2.509_26e-4;
 const SH_C: f32 = 1.965_023e-7;
 /// Codes from here up are an open thermistor (the divider's 1.25 V clips
 /// at the ADC's 1.2 V full scale; −40 °C is 8 313 000).
@@ -62,6 +62,7 @@ pub fn temp_c_of_code(code: f32) -> Option<f32> {
 
 #[cfg(test)]
 mod tests {
+    #![allow(clippy::unwrap_used)]
     use super::*;
 
     /// Murata NCP18XH103 R–T table (catalog R44E, "Temperature
