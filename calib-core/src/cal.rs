@@ -80,6 +80,7 @@ impl<T: Real> FieldCal<T> {
     }
 
     /// The calibrated field, `matrix · (raw − bias)`.
+    #[inline(always)]
     pub fn apply(&self, raw: Vec3<T>) -> Vec3<T> {
         let d = [raw[0] - self.bias[0], raw[1] - self.bias[1], raw[2] - self.bias[2]];
         mul_mat_vec(&self.matrix, d)
@@ -293,6 +294,10 @@ impl<T: Real> Calibration<T> {
         self.heading_of_field(self.field.apply(self.env.correct_raw(raw, env)), tilt)
     }
 
+    // Inlined, as `FieldCal::apply` and `mul_mat_vec`: outlined, the three
+    // cost the Cortex-M4F's per-sample path 36 instructions of argument and
+    // result copies (263 → 299 with the terms, `cargo xtask bench`).
+    #[inline(always)]
     fn heading_of_field(&self, field_nt: Vec3<T>, tilt: &Tilt<T>) -> Output<T> {
         let l = tilt.level(field_nt);
         let psi = heading_of_levelled(l);

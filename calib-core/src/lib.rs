@@ -3,12 +3,16 @@
 //! `no_std`, no allocation, no panics on data: every function here runs
 //! unchanged on the Cortex-M4F firmware (in `f32`) and in the host tools (in
 //! `f64`). Transcendental functions come from the pure-Rust `libm`, so an
-//! `f32` computation gives the same bits on the MCU and on the host.
+//! `f32` computation gives the same bits on the MCU and on the host. The one
+//! exception is the `f32` square root on a hard-float Arm target: the FPU's
+//! `VSQRT` (IEEE 754 correctly rounded, as libm's is, so the same bits) in
+//! place of libm's software one (`real::sqrt_f32`).
 //!
 //! The equations are those of `docs/ALGORITHMS.md` (the English reading of
 //! the two source papers); each module names the equations it implements.
 #![cfg_attr(not(test), no_std)]
-#![forbid(unsafe_code)]
+// Unsafe only for the FPU's square root (`real::sqrt_f32`).
+#![deny(unsafe_code)]
 #![deny(missing_docs)]
 // No unwrap/expect/panic outside tests. Indexing is allowed: every index in
 // this crate is a loop counter bounded by a const array size, and data
@@ -27,5 +31,6 @@ pub mod ortho;
 pub mod quality;
 pub mod swing;
 pub mod real;
+pub mod trigf;
 
 pub use real::Real;

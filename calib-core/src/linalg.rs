@@ -12,7 +12,9 @@ pub fn identity3<T: Real>() -> Mat3<T> {
     [[o, z, z], [z, o, z], [z, z, o]]
 }
 
-/// `m · v`.
+/// `m · v`. Always inlined: an outlined call costs the Cortex-M4F's
+/// per-sample path its argument and result copies.
+#[inline(always)]
 pub fn mul_mat_vec<T: Real>(m: &Mat3<T>, v: [T; 3]) -> [T; 3] {
     let row = |r: &[T; 3]| r[0] * v[0] + r[1] * v[1] + r[2] * v[2];
     [row(&m[0]), row(&m[1]), row(&m[2])]

@@ -60,7 +60,7 @@ pub trait Real:
 }
 
 macro_rules! impl_real {
-    ($t:ty, $sqrt:ident, $sin:ident, $cos:ident, $atan2:ident, $fabs:ident, $floor:ident) => {
+    ($t:ty, $sqrt:path, $sin:path, $cos:path, $atan2:ident, $fabs:ident, $floor:ident) => {
         impl Real for $t {
             const ZERO: Self = 0.0;
             const ONE: Self = 1.0;
@@ -78,15 +78,15 @@ macro_rules! impl_real {
             }
             #[inline]
             fn sqrt(self) -> Self {
-                libm::$sqrt(self)
+                $sqrt(self)
             }
             #[inline]
             fn sin(self) -> Self {
-                libm::$sin(self)
+                $sin(self)
             }
             #[inline]
             fn cos(self) -> Self {
-                libm::$cos(self)
+                $cos(self)
             }
             #[inline]
             fn atan2(self, x: Self) -> Self {
@@ -108,5 +108,55 @@ macro_rules! impl_real {
     };
 }
 
-impl_real!(f32, sqrtf, sinf, cosf, atan2f, fabsf, floorf);
-impl_real!(f64, sqrt, sin, cos, atan2, fabs, floor);
+// f32 sine and cosine: libm's, without its huge-argument reduction (`trigf`).
+impl_real!(f32, sqrt_f32, crate::trigf::sinf, crate::trigf::cosf, atan2f, fabsf, floorf);
+impl_real!(f64, libm::sqrt, libm::sin, libm::cos, atan2, fabs, floor);
+
+/// The `f32` square root, correctly rounded (IEEE 754) everywhere: on a
+/// hard-float Arm target (the Cortex-M4F's FPv4-SP) the FPU's `VSQRT.F32`,
+/// where libm's software square root costs ~40 instructions of the
+/// per-sample path; elsewhere libm's. Both round correctly, so the bits are
+/// the same (the on-target digest test compares them).
+#[inline(always)]
+pub fn sqrt_f32(x: f32) -> f32 {
+    #[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
+    {
+        // SAFETY: `magcal_vsqrtf` (below) follows the AAPCS-VFP calling
+        // convention of `extern "C" fn(f32) -> f32` on eabihf: argument and
+        // result in s0; it touches nothing else.
+        #[allow(unsafe_code)]
+        unsafe {
+            magcal_vsqrtf(x)
+        }
+    }
+    #[cfg(not(all(target_arch = "arm", target_abi = "eabihf")))]
+    {
+        libm::sqrtf(x)
+    }
+}
+
+/// `VSQRT.F32 s0, s0` as an AAPCS-VFP leaf function.
+#[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
+#[allow(unsafe_code)]
+mod vsqrt {
+    // One leaf function in its own section: s0 in, s0 out, nothing else
+    // touched.
+    core::arch::global_asm!(
+        ".section .text.magcal_vsqrtf,\"ax\",%progbits",
+        ".global magcal_vsqrtf",
+        ".type magcal_vsqrtf,%function",
+        ".thumb_func",
+        "magcal_vsqrtf:",
+        ".fpu fpv4-sp-d16",
+        "vsqrt.f32 s0, s0",
+        "bx lr",
+        ".size magcal_vsqrtf, . - magcal_vsqrtf",
+    );
+
+    unsafe extern "C" {
+        /// The function above.
+        pub(super) fn magcal_vsqrtf(x: f32) -> f32;
+    }
+}
+#[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
+use vsqrt::magcal_vsqrtf;

@@ -270,8 +270,9 @@ impl<SPI: SpiDevice> Ads131m04<SPI> {
     pub fn configure(&mut self, osr: Osr, gain: Gain) -> Result<(), Error<SPI::Error>> {
         self.reset()?;
         self.verify_id()?;
-        // CLOCK: CH2..CH0_EN (bits 10:8), OSR (bits 4:2), PWR = high resolution (0b10).
-        self.write_register(reg::CLOCK, 0x0700 | ((osr as u16) << 2) | 0b10)?;
+        // CLOCK: CH3..CH0_EN (bits 11:8; CH3 reads the thermistor), OSR
+        // (bits 4:2), PWR = high resolution (0b10).
+        self.write_register(reg::CLOCK, 0x0F00 | ((osr as u16) << 2) | 0b10)?;
         let g = gain as u16;
         self.write_register(reg::GAIN1, g | (g << 4) | (g << 8) | (g << 12))?;
         Ok(())
@@ -319,8 +320,8 @@ mod tests {
         expect.extend(xfer(command_frame(cmd::NULL, &[]), out_frame(cmd::RESET_OK, [0; 4])));
         expect.extend(xfer(command_frame(0xA000, &[]), idle.clone()));
         expect.extend(xfer(command_frame(cmd::NULL, &[]), out_frame(0x2410, [0; 4])));
-        // CLOCK = 0x0702 | OSR 128 (0) → 0x0702; ack 0x4000 | 0x03 << 7 = 0x4180.
-        expect.extend(xfer(command_frame(0x6000 | (0x03 << 7), &[0x0702]), idle.clone()));
+        // CLOCK = 0x0F02: CH3..CH0 on (SBAS890 §8.6 CLOCK bits 11:8), OSR 128 (0), HR; ack 0x4000 | 0x03 << 7 = 0x4180.
+        expect.extend(xfer(command_frame(0x6000 | (0x03 << 7), &[0x0F02]), idle.clone()));
         expect.extend(xfer(command_frame(cmd::NULL, &[]), out_frame(0x4180, [0; 4])));
         // GAIN1 = 0 (×1 everywhere); ack 0x4200.
         expect.extend(xfer(command_frame(0x6000 | (0x04 << 7), &[0x0000]), idle.clone()));

@@ -38,6 +38,12 @@
 //!   H after a set / reset pulse, S = 3.2 mV/V/gauss, V_b = 5 V; the board's
 //!   instrumentation amplifier (gain 32) feeds the ADC (±1.2 V full scale,
 //!   gain 1).
+//! * **The thermistor on channel 3** (Murata NCP18XH103F03RB datasheet, R–T
+//!   table): a 10 kΩ resistor from a 1.25 V reference over the NTC to
+//!   ground; the NTC's resistance at the sensor's temperature (set by the
+//!   feed) is the datasheet table's, interpolated as `ln R` linear in `1/T`
+//!   (the B-law between neighbouring rows). An open thermistor (NaN
+//!   temperature) puts the whole reference on the input: the code clips.
 
 // Indexing below is into the fixed 18-byte frame at const offsets; the
 // bytes from the bus are only ever values.
@@ -69,8 +75,70 @@ const ADS_WORD_BYTES: usize = 3;
 const ADS_FRAME_BYTES: usize = 18;
 /// Conversions buffered per channel (SBAS890 §8.5.1.9.1).
 const ADS_FIFO_DEPTH: usize = 2;
+/// The board's clocks, unless [`BridgeModel::set_clocks`] says otherwise
+/// (0 in the state stands for these: an all-zero initial state puts the
+/// QEMU board's model in `.bss`, not in flash).
+const DEFAULT_CLKIN_HZ: u32 = 8_000_000;
+const DEFAULT_SCLK_HZ: u32 = 21_000_000;
 /// Polarity flips remembered (a pair has two; a window spans 3 periods).
 const FLIPS_KEPT: usize = 8;
+/// The thermistor divider: reference (V) and top resistor (Ω).
+const NTC_DIVIDER_REF_V: f32 = 1.25;
+const NTC_DIVIDER_TOP_OHM: f32 = 10_000.0;
+/// NCP18XH103 R–T table (Murata catalog R44E, XH column): °C, kΩ.
+const NTC_TABLE: [(f32, f32); 19] = [
+    (-40.0, 195.652),
+    (-30.0, 113.347),
+    (-20.0, 68.237),
+    (-10.0, 42.506),
+    (0.0, 27.219),
+    (10.0, 17.926),
+    (20.0, 12.081),
+    (25.0, 10.0),
+    (30.0, 8.315),
+    (40.0, 5.834),
+    (50.0, 4.161),
+    (60.0, 3.014),
+    (70.0, 2.228),
+    (80.0, 1.669),
+    (85.0, 1.452),
+    (90.0, 1.268),
+    (100.0, 0.974),
+    (110.0, 0.7576),
+    (125.0, 0.531),
+];
+
+/// The NTC's resistance at `temp_c`, Ω (clamped to the table's ends).
+pub fn model_ntc_ohm(temp_c: f32) -> f32 {
+    let inv_t = |c: f32| 1.0 / (c + 273.15);
+    let t = temp_c.clamp(-40.0, 125.0);
+    let mut lo = NTC_TABLE[0];
+    let mut hi = NTC_TABLE[1];
+    for w in NTC_TABLE.windows(2) {
+        if let [a, b] = w {
+            lo = *a;
+            hi = *b;
+            if t <= b.0 {
+                break;
+            }
+        }
+    }
+    let x = (inv_t(t) - inv_t(lo.0)) / (inv_t(hi.0) - inv_t(lo.0));
+    let ln_r = libm::logf(lo.1 * 1000.0) + x * (libm::logf(hi.1 * 1000.0) - libm::logf(lo.1 * 1000.0));
+    libm::expf(ln_r)
+}
+
+/// Channel 3's code for the sensor at `temp_c` (NaN: open thermistor).
+fn ntc_code(temp_c: f32) -> i32 {
+    let v = if temp_c.is_nan() {
+        NTC_DIVIDER_REF_V
+    } else {
+        let r = model_ntc_ohm(temp_c);
+        NTC_DIVIDER_REF_V * r / (r + NTC_DIVIDER_TOP_OHM)
+    };
+    let code = libm::roundf(v * (ADS_CODES_PER_V as f32));
+    code.clamp(ADS_CODE_MIN as f32, ADS_CODE_MAX as f32) as i32
+}
 
 /// Field to ADC code through the modelled chain, codes per nT.
 pub fn model_codes_per_nt() -> f64 {
@@ -90,18 +158,41 @@ fn ccitt(bytes: &[u8]) -> u16 {
     crc
 }
 
+/// `a / b` rounded down, without a 64-bit division: the board binary
+/// carries this model for QEMU, and a `u64` division (or an `f64` one)
+/// would link ~1 KiB of software division each. `u32` chunks, then the
+/// hardware's 32-bit divide.
+fn div_u64_u32(mut a: u64, b: u32) -> u64 {
+    let b = b.max(1);
+    let chunk_q = u64::from(u32::MAX / b);
+    let chunk = chunk_q * u64::from(b);
+    let mut q = 0u64;
+    while a > u64::from(u32::MAX) {
+        a -= chunk;
+        q += chunk_q;
+    }
+    q + u64::from(a as u32 / b)
+}
+
+/// `a / b` rounded up (as [`div_u64_u32`]).
+fn div_ceil_u64_u32(a: u64, b: u32) -> u64 {
+    let q = div_u64_u32(a, b);
+    if q * u64::from(b.max(1)) < a { q + 1 } else { q }
+}
+
 /// Cumulative sinc³ step response at `x` conversion periods into its
 /// 3-period window: the Irwin–Hall CDF of order 3.
-fn sinc3_cdf(x: f64) -> f64 {
+fn sinc3_cdf(x: f32) -> f32 {
+    const SIXTH: f32 = 1.0 / 6.0;
     if x <= 0.0 {
         0.0
     } else if x < 1.0 {
-        x * x * x / 6.0
+        x * x * x * SIXTH
     } else if x < 2.0 {
-        (-2.0 * x * x * x + 9.0 * x * x - 9.0 * x + 3.0) / 6.0
+        (-2.0 * x * x * x + 9.0 * x * x - 9.0 * x + 3.0) * SIXTH
     } else if x < 3.0 {
         let y = 3.0 - x;
-        1.0 - y * y * y / 6.0
+        1.0 - y * y * y * SIXTH
     } else {
         1.0
     }
@@ -112,6 +203,9 @@ struct World {
     // The magnetic truth and the bridges.
     field_nt: [f32; 3],
     offset_codes: [f32; 3],
+    /// Channel 3's code (the thermistor divider at the sensor's
+    /// temperature); `None` before any: 25 °C.
+    ntc_code: Option<i32>,
     seq: u32,
     updates: u32,
     /// (time, +1 after SET / −1 after RESET), oldest first.
@@ -144,17 +238,18 @@ impl World {
         Self {
             field_nt: [0.0; 3],
             offset_codes: [0.0; 3],
+            ntc_code: None,
             seq: 0,
             updates: 0,
-            flips: [(0, 1); FLIPS_KEPT],
+            flips: [(0, 0); FLIPS_KEPT],
             n_flips: 0,
             now_ns: 0,
-            clkin_hz: 8_000_000,
-            sclk_hz: 21_000_000,
+            clkin_hz: 0,
+            sclk_hz: 0,
             regs: [0; 64],
             pending: 0,
             grid_origin_ns: 0,
-            next_k: 1,
+            next_k: 0,
             fifo: [[0; 4]; ADS_FIFO_DEPTH],
             fifo_len: 0,
             last_out: [0; 4],
@@ -186,7 +281,7 @@ impl World {
 
     /// One conversion period, ns: OSR / f_MOD with f_MOD = f_CLKIN / 2.
     fn period_ns(&self) -> u64 {
-        (self.osr() * 2 * 1_000_000_000).div_ceil(u64::from(self.clkin_hz.max(1)))
+        div_ceil_u64_u32(self.osr() * 2 * 1_000_000_000, if self.clkin_hz == 0 { DEFAULT_CLKIN_HZ } else { self.clkin_hz })
     }
 
     fn completion_ns(&self, k: u64) -> u64 {
@@ -206,22 +301,28 @@ impl World {
 
     /// ∫ sign(t) w(t) dt over the window of the conversion ending at `end`.
     fn weighted_sign(&self, end: u64) -> f64 {
-        let t_period = self.period_ns() as f64;
         let start = end.saturating_sub(3 * self.period_ns());
+        // Offsets within the window (under 3 periods) in periods, and the
+        // sinc³ weights, in f32 (the FPU's): a 32 µs period resolved to
+        // 0.004 ns, weights to 1e-7 — only conversions with a flip inside
+        // their window (the ones the acquisition discards) are not exactly
+        // ±1.
+        let t_period = u32::try_from(self.period_ns()).unwrap_or(u32::MAX) as f32;
+        let periods = |d: u64| u32::try_from(d).unwrap_or(u32::MAX) as f32 / t_period;
         let mut acc = 0.0;
         let mut seg_start = start;
         let mut sign = self.sign_at(start);
         for &(at, s) in self.flips.iter().take(self.n_flips) {
             if at > start && at < end {
-                let a = (seg_start - start) as f64 / t_period;
-                let b = (at - start) as f64 / t_period;
-                acc += sign * (sinc3_cdf(b) - sinc3_cdf(a));
+                let a = periods(seg_start - start);
+                let b = periods(at - start);
+                acc += sign * f64::from(sinc3_cdf(b) - sinc3_cdf(a));
                 seg_start = at;
                 sign = f64::from(s);
             }
         }
-        let a = (seg_start - start) as f64 / t_period;
-        acc + sign * (1.0 - sinc3_cdf(a))
+        let a = periods(seg_start - start);
+        acc + sign * f64::from(1.0 - sinc3_cdf(a))
     }
 
     fn convert(&self, end: u64) -> [i32; 4] {
@@ -234,8 +335,12 @@ impl World {
                 continue;
             }
             let v = f64::from(self.offset_codes[ch]) + w * f64::from(self.field_nt[ch]) * k;
-            let v = libm::round(v);
-            out[ch] = if v.is_nan() { 0 } else { v.clamp(f64::from(ADS_CODE_MIN), f64::from(ADS_CODE_MAX)) as i32 };
+            // `as` saturates (NaN → 0); the integer clamp is the 24-bit range.
+            out[ch] = (libm::round(v) as i32).clamp(ADS_CODE_MIN, ADS_CODE_MAX);
+        }
+        if enabled & (1 << 3) != 0 {
+            // 10 kΩ at 25 °C before any temperature: half the 1.25 V reference.
+            out[3] = self.ntc_code.unwrap_or(4_369_067);
         }
         out
     }
@@ -243,11 +348,11 @@ impl World {
     /// Completes every conversion due by now (only the last two can still
     /// be in the buffer, so older ones are skipped).
     fn catch_up(&mut self) {
-        let t = self.period_ns().max(1);
+        let t = u32::try_from(self.period_ns().max(1)).unwrap_or(u32::MAX);
         if self.now_ns < self.completion_ns(self.next_k) {
             return;
         }
-        let last_k = (self.now_ns - self.grid_origin_ns) / t;
+        let last_k = div_u64_u32(self.now_ns - self.grid_origin_ns, t);
         let first = self.next_k.max(last_k.saturating_sub(ADS_FIFO_DEPTH as u64 - 1));
         self.conversions += last_k + 1 - self.next_k;
         for k in first..=last_k {
@@ -323,7 +428,7 @@ impl World {
         };
         // The frame takes its time on the bus.
         let bits = (ADS_FRAME_BYTES * 8) as u64;
-        self.advance((bits * 1_000_000_000).div_ceil(u64::from(self.sclk_hz.max(1))));
+        self.advance(div_ceil_u64_u32(bits * 1_000_000_000, if self.sclk_hz == 0 { DEFAULT_SCLK_HZ } else { self.sclk_hz }));
     }
 
     fn flip(&mut self, sign: i8) {
@@ -382,6 +487,16 @@ impl BridgeModel {
             w.offset_codes = offset_codes;
             w.updates = w.updates.wrapping_add(1);
             w.seq = seq;
+        });
+    }
+
+    /// Sets the temperature of the thermistor next to the sensor, °C (NaN:
+    /// an open thermistor).
+    pub fn set_temp_c(&self, temp_c: f32) {
+        let code = ntc_code(temp_c);
+        self.with(|w| {
+            w.catch_up();
+            w.ntc_code = Some(code);
         });
     }
 
@@ -606,6 +721,9 @@ impl FeedReceiver {
         let f = magcal_protocol::decode_body::<magcal_protocol::SensorFeed>(body).ok()?;
         if let Some(o) = f.offset_counts {
             self.offsets = o;
+        }
+        if let Some(t) = f.temp_c {
+            bridges.set_temp_c(t);
         }
         bridges.set_truth_seq(f.field_nt, self.offsets, f.seq);
         Some(f.seq)

@@ -10,15 +10,31 @@
 //!   expires, and are refused in mission mode;
 //! * a commit must quote the CRC of what was staged, is stored first and used
 //!   only once stored (a failed write keeps the old set in use).
+//!
+//! Current and temperature terms (the calibration document's `current` and
+//! `temperature` blocks) are applied to every sample,
+//! `h = M·(raw ⊘ (1 + k ⊙ (T − T₀)) − b − c·I)`
+//! ([`calib_core::cal::Calibration::apply_tilt_env`]), with:
+//! * the temperature `T` measured on the board (the thermistor on ADC
+//!   channel 3, [`crate::thermistor`]); when it is missing (open or shorted
+//!   thermistor) the sample is corrected at the reference `T₀` (no gain
+//!   correction), `Sample::temp_c` is `None`, `Health::temp_missing` counts
+//!   it and `Health::env_degraded` is set;
+//! * the motor current `I` from [`RequestBody::AttitudeEnv`], stale after
+//!   [`ATTITUDE_TIMEOUT_MS`] like the attitude. A stale or never-sent
+//!   current counts as 0 A for the field; if the stored current term is
+//!   non-zero the sample's heading is withheld (`None`, as for a stale
+//!   attitude), `Health::current_stale` counts it and `env_degraded` is
+//!   set. With a zero current term the current is not needed.
 
-use calib_core::cal::{Calibration, FieldCal, Swing};
+use calib_core::cal::{Calibration, EnvTerms, Environment, FieldCal, Swing};
 use calib_core::heading::Tilt;
 use calib_core::fit::{AxisRls, FitError, FullRls, Normalization, SphereRls};
 use calib_core::gyro::{GyroConfig, GyroFit, GyroSample, MAX_WINDOW_STEPS};
 use calib_core::quality::CoverageMask;
 use magcal_protocol::{
     CoefficientSource, Coefficients, ModelKind, FitReport, Health, DeviceError, RequestBody, ResponseBody, Sample, StreamMode,
-    ATTITUDE_TIMEOUT_MS, UNLOCK_TIMEOUT_MS, UNLOCK_XOR,
+    ATTITUDE_TIMEOUT_MS, MAX_MOTOR_CURRENT_A, UNLOCK_TIMEOUT_MS, UNLOCK_XOR,
 };
 
 use crate::acquisition::{RawSample, COUNTS_PER_NT};
@@ -61,10 +77,25 @@ pub enum Handled {
 /// Field intensities accepted for coefficients and fits, nT.
 pub const FIELD_RANGE_NT: (f32, f32) = (10_000.0, 100_000.0);
 
-/// The nominal coefficients: the chain's gain, no bias, no swing.
+/// Largest current term accepted, counts per A: 100 A would move a channel
+/// through its whole range.
+pub const MAX_CURRENT_BIAS_PER_A: f32 = FULL_SCALE_COUNTS as f32 / 100.0;
+
+/// The nominal coefficients: the chain's gain, no bias, no swing, no
+/// current or temperature terms.
 pub fn default_coefficients() -> Coefficients {
     let g = 1.0 / COUNTS_PER_NT;
-    Coefficients { bias: [0.0; 3], matrix: [[g, 0.0, 0.0], [0.0, g, 0.0], [0.0, 0.0, g]], swing: [0.0; 5], declination_rad: 0.0, field_nt: 50_000.0 }
+    let none = EnvTerms::<f32>::none();
+    Coefficients {
+        bias: [0.0; 3],
+        matrix: [[g, 0.0, 0.0], [0.0, g, 0.0], [0.0, 0.0, g]],
+        swing: [0.0; 5],
+        declination_rad: 0.0,
+        field_nt: 50_000.0,
+        current_bias_per_a: none.bias_per_a,
+        temp_ref_c: none.ref_c,
+        temp_gain_per_c: none.gain_per_c,
+    }
 }
 
 /// Checks a set against physical bounds and converts it.
@@ -79,7 +110,9 @@ pub fn validate(c: &Coefficients) -> Result<Calibration<f32>, DeviceError> {
     if !(swing_ok && decl_ok && field_ok && gain > 0.2 && gain < 5.0) {
         return Err(DeviceError::InvalidCoefficients);
     }
-    Ok(Calibration { field, swing: Swing::from_array(c.swing), declination_rad: c.declination_rad, env: calib_core::cal::EnvTerms::none() })
+    let env = c.env_terms();
+    env.validate(MAX_CURRENT_BIAS_PER_A).map_err(|_| DeviceError::InvalidCoefficients)?;
+    Ok(Calibration { field, swing: Swing::from_array(c.swing), declination_rad: c.declination_rad, env })
 }
 
 /// The next unlock challenge (FNV-1a of the old one and the time): not a
@@ -97,9 +130,24 @@ pub fn encode_coefficients(c: &Coefficients, buf: &mut [u8]) -> Option<usize> {
     postcard::to_slice(c, buf).ok().map(|b| b.len())
 }
 
-/// Decodes and validates a stored set.
-pub fn decode_coefficients(bytes: &[u8]) -> Option<(Coefficients, Calibration<f32>)> {
-    let c: Coefficients = postcard::from_bytes(bytes).ok()?;
+/// A set as store record version 1 held it (protocol 2, before the current
+/// and temperature terms): bias, matrix, swing, declination, field — the
+/// postcard encoding of a struct is that of the tuple of its fields.
+type CoefficientsV1 = ([f32; 3], [[f32; 3]; 3], [f32; 5], f32, f32);
+
+/// Decodes and validates a stored set of store record `version`
+/// ([`crate::store::VERSION`]; a version-1 record loads with no current or
+/// temperature terms).
+pub fn decode_coefficients(bytes: &[u8], version: u16) -> Option<(Coefficients, Calibration<f32>)> {
+    let c: Coefficients = match version {
+        1 => {
+            let (bias, matrix, swing, declination_rad, field_nt): CoefficientsV1 = postcard::from_bytes(bytes).ok()?;
+            let none = EnvTerms::<f32>::none();
+            Coefficients { bias, matrix, swing, declination_rad, field_nt, current_bias_per_a: none.bias_per_a, temp_ref_c: none.ref_c, temp_gain_per_c: none.gain_per_c }
+        }
+        crate::store::VERSION => postcard::from_bytes(bytes).ok()?,
+        _ => return None,
+    };
     let cal = validate(&c).ok()?;
     Some((c, cal))
 }
@@ -174,7 +222,7 @@ impl OnboardFit {
     fn push(&mut self, raw: [f32; 3], motion: Option<Motion>, now_ms: u32) -> bool {
         let c = self.centre();
         let d = [raw[0] - c[0], raw[1] - c[1], raw[2] - c[2]];
-        let r = libm::sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        let r = calib_core::real::sqrt_f32(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
         let expected = self.field_nt * COUNTS_PER_NT;
         if !(r > 0.5 * expected && r < 2.0 * expected) {
             self.rejected = self.rejected.saturating_add(1);
@@ -218,11 +266,11 @@ impl OnboardFit {
         let (mut ss, mut n) = (0.0f32, 0u32);
         for raw in self.recent.iter() {
             let h = est.apply(*raw);
-            let r = libm::sqrtf(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]) - self.field_nt;
+            let r = calib_core::real::sqrt_f32(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]) - self.field_nt;
             ss += r * r;
             n += 1;
         }
-        if n == 0 { 0.0 } else { libm::sqrtf(ss / n as f32) }
+        if n == 0 { 0.0 } else { calib_core::real::sqrt_f32(ss / n as f32) }
     }
 
     fn centre(&self) -> [f32; 3] {
@@ -294,6 +342,10 @@ pub struct BoardCounters {
 pub struct DeviceCounters {
     /// Output samples produced.
     pub samples: u32,
+    /// Samples whose heading was withheld for a stale or missing current.
+    pub current_stale: u32,
+    /// Samples without a valid temperature.
+    pub temp_missing: u32,
 }
 
 /// The board's state.
@@ -310,6 +362,13 @@ pub struct Device {
     output_rate_hz: u8,
     attitude: Option<(Tilt<f32>, u32)>,
     motion: Option<Motion>,
+    /// The motor current from [`RequestBody::AttitudeEnv`], A, with the board
+    /// time it arrived.
+    current: Option<(f32, u32)>,
+    /// The last valid temperature, °C.
+    last_temp_c: Option<f32>,
+    /// The last sample used a stale current or a missing temperature.
+    env_degraded: bool,
     fit: Option<OnboardFit>,
     last_error: Option<DeviceError>,
     counters: DeviceCounters,
@@ -348,6 +407,9 @@ impl Device {
             output_rate_hz: 10,
             attitude: None,
             motion: None,
+            current: None,
+            last_temp_c: None,
+            env_degraded: false,
             fit: None,
             last_error,
             counters: DeviceCounters::default(),
@@ -390,6 +452,9 @@ impl Device {
                     swing: self.coefficients.swing,
                     declination_rad: self.coefficients.declination_rad,
                     field_nt: f.field_nt,
+                    current_bias_per_a: self.coefficients.current_bias_per_a,
+                    temp_ref_c: self.coefficients.temp_ref_c,
+                    temp_gain_per_c: self.coefficients.temp_gain_per_c,
                 });
                 let estimate = estimate.filter(|c| validate(c).is_ok());
                 FitReport {
@@ -426,7 +491,9 @@ impl Device {
             RequestBody::Ping { nonce } => ResponseBody::Pong { nonce },
             RequestBody::Identify => ResponseBody::Error(DeviceError::Unsupported),
             RequestBody::Status => ResponseBody::Status(self.health(now_ms, board)),
-            RequestBody::SetStream(_) | RequestBody::SetOutputRate { .. } | RequestBody::Attitude { .. } | RequestBody::Motion { .. } => self.handle_output(req, now_ms),
+            RequestBody::SetStream(_) | RequestBody::SetOutputRate { .. } | RequestBody::Attitude { .. } | RequestBody::Motion { .. } | RequestBody::AttitudeEnv { .. } => {
+                self.handle_output(req, now_ms)
+            }
             RequestBody::FitStart { .. } | RequestBody::FitStop | RequestBody::FitQuery => self.handle_fit(req, now_ms),
             RequestBody::ReadCoefficients | RequestBody::Unlock { .. } | RequestBody::WriteCoefficients(_) | RequestBody::Commit { .. } => {
                 return self.handle_coefficients(req, now_ms);
@@ -485,6 +552,10 @@ impl Device {
             max_acq_gap_ms: board.max_acq_gap_ms,
             store_saves: board.store_saves,
             max_store_ms: board.max_store_ms,
+            current_stale: self.counters.current_stale,
+            temp_missing: self.counters.temp_missing,
+            temp_c: self.last_temp_c,
+            env_degraded: self.env_degraded,
         }
     }
 
@@ -522,6 +593,20 @@ impl Device {
                 }
                 self.attitude = Some((Tilt::new(roll_rad, pitch_rad), now_ms));
                 self.motion = Some(Motion { roll_rad, pitch_rad, rate_rad_s, at_ms: now_ms });
+                ResponseBody::Ack
+            }
+            RequestBody::AttitudeEnv { roll_rad, pitch_rad, motor_current_a } => {
+                let ok = roll_rad.is_finite()
+                    && pitch_rad.is_finite()
+                    && roll_rad.abs() <= core::f32::consts::PI
+                    && pitch_rad.abs() <= core::f32::consts::FRAC_PI_2
+                    && motor_current_a.is_finite()
+                    && motor_current_a.abs() <= MAX_MOTOR_CURRENT_A;
+                if !ok {
+                    return self.refuse(DeviceError::BadArgument);
+                }
+                self.attitude = Some((Tilt::new(roll_rad, pitch_rad), now_ms));
+                self.current = Some((motor_current_a, now_ms));
                 ResponseBody::Ack
             }
             _ => ResponseBody::Error(DeviceError::Unsupported),
@@ -613,21 +698,49 @@ impl Device {
         Handled::Save(PendingCommit { staged, calibration, bytes, len })
     }
 
-    /// Processes one decimated raw sample: feeds the on-board fit, applies
-    /// the coefficients and the heading (with a fresh attitude), and returns
-    /// the sample to stream, if streaming.
+    /// Processes one decimated raw sample: applies the current and
+    /// temperature terms (see the module doc for stale or missing inputs),
+    /// feeds the corrected sample to the on-board fit, applies the
+    /// coefficients and the heading (with a fresh attitude, and a fresh
+    /// current when the current term needs one), and returns the sample to
+    /// stream, if streaming.
     pub fn on_raw_sample(&mut self, raw: &RawSample, now_ms: u32) -> Option<Sample> {
         self.counters.samples = self.counters.samples.wrapping_add(1);
+        let terms = &self.calibration.env;
+        let fresh = |t: u32| now_ms.wrapping_sub(t) <= ATTITUDE_TIMEOUT_MS;
+        let current_a = self.current.filter(|&(_, t)| fresh(t)).map(|(i, _)| i);
+        let current_ok = current_a.is_some() || terms.bias_per_a.iter().all(|b| *b == 0.0);
+        let temp_c = raw.temp_c;
+        let env = Environment { current_a: current_a.unwrap_or(0.0), temp_c: temp_c.unwrap_or(terms.ref_c) };
+        match temp_c {
+            Some(t) => self.last_temp_c = Some(t),
+            None => self.counters.temp_missing = self.counters.temp_missing.wrapping_add(1),
+        }
+        if !current_ok {
+            self.counters.current_stale = self.counters.current_stale.wrapping_add(1);
+        }
+        self.env_degraded = temp_c.is_none() || !current_ok;
+        let tilt = self.attitude.filter(|&(_, t)| fresh(t)).map(|(tilt, _)| tilt);
+        // The document's formula, as calib-core applies it (~260
+        // instructions a sample with the heading: `cargo xtask bench`).
+        let (corrected, field, heading_rad) = match tilt {
+            Some(tilt) => {
+                let out = self.calibration.apply_tilt_env(raw.field_counts, &tilt, &env);
+                (None, out.field_nt, current_ok.then_some(out.true_heading_rad))
+            }
+            None => {
+                let c = terms.correct_raw(raw.field_counts, &env);
+                (Some(c), self.calibration.field.apply(c), None)
+            }
+        };
         if let Some(f) = &mut self.fit {
             if f.running && !raw.saturated {
-                f.push(raw.field_counts, self.motion, now_ms);
+                // The fit estimates the field calibration of the corrected
+                // sample (the terms stay as stored).
+                let c = corrected.unwrap_or_else(|| self.calibration.env.correct_raw(raw.field_counts, &env));
+                f.push(c, self.motion, now_ms);
             }
         }
-        let field = self.calibration.field.apply(raw.field_counts);
-        let heading_rad = match self.attitude {
-            Some((tilt, t)) if now_ms.wrapping_sub(t) <= ATTITUDE_TIMEOUT_MS => Some(self.calibration.apply_tilt(raw.field_counts, &tilt).true_heading_rad),
-            _ => None,
-        };
         let (raw_out, cal_out) = match self.stream {
             StreamMode::Off => return None,
             StreamMode::Raw => (Some(raw.field_counts), None),
@@ -641,6 +754,7 @@ impl Device {
             heading_rad: heading_rad.filter(|_| cal_out.is_some()),
             saturated: raw.saturated,
             feed_seq: raw.tag,
+            temp_c,
         })
     }
 }

@@ -17,6 +17,7 @@ pub mod link;
 pub mod platform;
 pub mod ads131m04_model;
 pub mod store;
+pub mod thermistor;
 pub mod uart;
 
 #[cfg(target_os = "none")]

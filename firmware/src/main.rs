@@ -31,11 +31,15 @@ defmt::timestamp!("{=u32:ms}", Mono::now().duration_since_epoch().as_millis());
 
 
 /// Panics are firmware bugs (outside data never panics): log, then on QEMU
-/// exit with a failure status so tests see it; on the board, reset.
+/// exit with a failure status so tests see it; on the board, reset. The log
+/// has the location and a literal message, without `core::fmt` (formatting
+/// the `PanicInfo` linked ~3 KiB of formatting machinery for this one line).
 #[cfg(target_os = "none")]
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
-    defmt::error!("panic: {}", defmt::Display2Format(info));
+    let (file, line) = info.location().map_or(("?", 0), |l| (l.file(), l.line()));
+    let message = info.message().as_str().unwrap_or("(formatted message)");
+    defmt::error!("panic at {=str}:{=u32}: {=str}", file, line, message);
     if firmware::platform::detect_cached() == magcal_protocol::Platform::Qemu {
         cortex_m_semihosting::debug::exit(cortex_m_semihosting::debug::EXIT_FAILURE);
     }
@@ -228,7 +232,7 @@ mod app {
         // nominal gain and says why (and refuses to save, see `store`).
         let loaded = (0..3).map(|_| store.load()).find(|r| r.is_ok()).unwrap_or(Err(firmware::store::StoreError::Flash));
         let stored = match loaded {
-            Ok(Some(r)) => decode_coefficients(&r.payload).map(|(c, _)| (c, r.seq)),
+            Ok(Some(r)) => decode_coefficients(&r.payload, r.version).map(|(c, _)| (c, r.seq)),
             Ok(None) => None,
             Err(_) => {
                 defmt::error!("coefficient store unreadable");

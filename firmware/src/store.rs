@@ -37,12 +37,18 @@ use embedded_storage::nor_flash::NorFlash;
 
 /// Commit marker.
 pub const MAGIC: u32 = 0x4C41_434D; // "MCAL" little-endian
-/// Record format version.
-pub const VERSION: u16 = 1;
+/// Record format version: 2 since the payload (the protocol's
+/// `Coefficients`) carries the current and temperature terms. Records of
+/// version 1 still load (`device::decode_coefficients` reads them with no
+/// such terms); a save always writes this version.
+pub const VERSION: u16 = 2;
+/// The oldest record version still read.
+pub const OLDEST_VERSION: u16 = 1;
 /// Largest payload stored.
 pub const MAX_PAYLOAD: usize = 224;
 const HEADER: usize = 16;
-const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+// Bit by bit, as the protocol's (no 1 KiB table in flash for a rare save).
+const CRC32: crc::Crc<u32, crc::NoTable> = crc::Crc::<u32, crc::NoTable>::new(&crc::CRC_32_ISO_HDLC);
 
 /// Why the store failed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -65,6 +71,8 @@ pub struct Record {
     pub seq: u32,
     /// Which sector (0 = A, 1 = B).
     pub sector: u8,
+    /// The record's format version ([`OLDEST_VERSION`] ..= [`VERSION`]).
+    pub version: u16,
     /// The payload.
     pub payload: heapless::Vec<u8, MAX_PAYLOAD>,
 }
@@ -115,7 +123,7 @@ impl<F: NorFlash> Store<F> {
         let version = u16::from_le_bytes([head[8], head[9]]);
         let len = usize::from(u16::from_le_bytes([head[10], head[11]]));
         let seq = u32::from_le_bytes([head[12], head[13], head[14], head[15]]);
-        if version != VERSION || len > MAX_PAYLOAD {
+        if !(OLDEST_VERSION..=VERSION).contains(&version) || len > MAX_PAYLOAD {
             return Ok(None);
         }
         let mut buf = [0u8; MAX_PAYLOAD + 4];
@@ -128,7 +136,7 @@ impl<F: NorFlash> Store<F> {
         if digest.finalize() != u32::from_le_bytes([crc[0], crc[1], crc[2], crc[3]]) {
             return Ok(None);
         }
-        Ok(heapless::Vec::from_slice(payload).ok().map(|payload| Record { seq, sector: index, payload }))
+        Ok(heapless::Vec::from_slice(payload).ok().map(|payload| Record { seq, sector: index, version, payload }))
     }
 
     /// The newest valid record (`Ok(None)` when neither sector holds one).
@@ -144,6 +152,12 @@ impl<F: NorFlash> Store<F> {
 
     /// Saves a payload as the newest record; returns its sequence number.
     pub fn save(&mut self, payload: &[u8]) -> Result<u32, StoreError> {
+        self.save_version(payload, VERSION)
+    }
+
+    /// [`Store::save`] with the record version given (tests write records
+    /// of an older firmware).
+    fn save_version(&mut self, payload: &[u8], version: u16) -> Result<u32, StoreError> {
         if payload.len() > MAX_PAYLOAD {
             return Err(StoreError::TooLarge);
         }
@@ -158,7 +172,7 @@ impl<F: NorFlash> Store<F> {
         self.flash.erase(base, base + self.sector_size).map_err(|_| StoreError::Flash)?;
         // Body: version, length, sequence, payload, CRC — padded to the write size.
         let mut body = [0xFFu8; 8 + MAX_PAYLOAD + 4 + 16];
-        body[0..2].copy_from_slice(&VERSION.to_le_bytes());
+        body[0..2].copy_from_slice(&version.to_le_bytes());
         body[2..4].copy_from_slice(&(payload.len() as u16).to_le_bytes());
         body[4..8].copy_from_slice(&seq.to_le_bytes());
         body[8..8 + payload.len()].copy_from_slice(payload);
@@ -175,7 +189,7 @@ impl<F: NorFlash> Store<F> {
         self.flash.write(base, &slot).map_err(|_| StoreError::Flash)?;
         // Read back: the set counts only if it is there, whole.
         match self.read_sector(target)? {
-            Some(r) if r.seq == seq && r.payload.as_slice() == payload => Ok(seq),
+            Some(r) if r.seq == seq && r.version == version && r.payload.as_slice() == payload => Ok(seq),
             _ => Err(StoreError::Verify),
         }
     }

@@ -12,7 +12,7 @@ fuzz_target!(|data: &[u8]| {
     let _ = flash.write(0, &data[..n]);
     let Ok(mut store) = Store::new(flash, 0, 1024, 1024) else { return };
     if let Ok(Some(record)) = store.load() {
-        if let Some((c, cal)) = decode_coefficients(&record.payload) {
+        if let Some((c, cal)) = decode_coefficients(&record.payload, record.version) {
             assert!(firmware::device::validate(&c).is_ok());
             assert!(cal.field.bias.iter().all(|v| v.is_finite()));
         }

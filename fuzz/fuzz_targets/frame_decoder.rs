@@ -57,7 +57,7 @@ fuzz_target!(|data: &[u8]| {
                         let Some(set) = staged.take() else { panic!("a commit was accepted with nothing staged") };
                         assert_eq!(set.crc(), *crc, "the commit quoted another set's CRC");
                         let Some(last) = store.saved.last() else { panic!("committed without storing") };
-                        assert_eq!(decode_coefficients(last).map(|(c, _)| c), Some(set), "the store holds another set");
+                        assert_eq!(decode_coefficients(last, firmware::store::VERSION).map(|(c, _)| c), Some(set), "the store holds another set");
                         let back = device.handle(&RequestBody::ReadCoefficients, 0, &mut store, &board);
                         assert_eq!(back, ResponseBody::Coefficients { coefficients: set, source: CoefficientSource::Stored, seq: *committed });
                         unlocked = false;

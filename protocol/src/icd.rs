@@ -99,7 +99,24 @@ pub enum RequestBody {
         /// Body rates (x forward, y right, z down), rad/s.
         rate_rad_s: [f32; 3],
     },
+    /// [`RequestBody::Attitude`] plus the thrusters' (motor) current, for
+    /// the current term of the [`Coefficients`]. The current is stale after
+    /// [`ATTITUDE_TIMEOUT_MS`], like the attitude; while it is stale and the
+    /// stored current term is non-zero the board withholds the heading
+    /// ([`Health::current_stale`] counts those samples). (After
+    /// [`RequestBody::Motion`]: earlier variants keep their wire tags.)
+    AttitudeEnv {
+        /// Roll, radians.
+        roll_rad: f32,
+        /// Pitch, radians.
+        pitch_rad: f32,
+        /// Thruster (motor) current, A (the recording's `motor_current_a`).
+        motor_current_a: f32,
+    },
 }
+
+/// The largest motor current a [`RequestBody::AttitudeEnv`] may carry, A.
+pub const MAX_MOTOR_CURRENT_A: f32 = 1000.0;
 
 /// An attitude older than this is not used for the heading, ms.
 pub const ATTITUDE_TIMEOUT_MS: u32 = 500;
@@ -127,8 +144,11 @@ pub enum StreamMode {
 /// ellipsoid factored differently — fit `full` and factor on the host).
 pub use calib_core::cal::ModelKind;
 
-/// The coefficients the board applies: `h = matrix·(raw − bias)`, heading
-/// swing correction `[A, B, C, D, E]` (radians), declination.
+/// The coefficients the board applies: `h = matrix·(raw ⊘ (1 + gain_per_c ⊙
+/// (temp_c − ref_c)) − bias − bias_per_a · motor_current_a)` (the
+/// calibration document's formula, `docs/INTERFACES.md`), heading swing
+/// correction `[A, B, C, D, E]` (radians), declination. Zero current and
+/// temperature terms change nothing.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Coefficients {
@@ -142,9 +162,21 @@ pub struct Coefficients {
     pub declination_rad: f32,
     /// Reference intensity of the calibration, nT.
     pub field_nt: f32,
+    /// Field the thrusters add per ampere of motor current, ADC counts per A
+    /// (the document's `current.bias_per_a`).
+    pub current_bias_per_a: [f32; 3],
+    /// Temperature at which the field terms hold, °C (`temperature.ref_c`).
+    pub temp_ref_c: f32,
+    /// Relative gain change per °C, per axis (`temperature.gain_per_c`).
+    pub temp_gain_per_c: [f32; 3],
 }
 
 impl Coefficients {
+    /// The current and temperature terms as calib-core applies them.
+    pub fn env_terms(&self) -> calib_core::cal::EnvTerms<f32> {
+        calib_core::cal::EnvTerms { bias_per_a: self.current_bias_per_a, ref_c: self.temp_ref_c, gain_per_c: self.temp_gain_per_c }
+    }
+
     /// CRC-32 of the postcard encoding: what `Commit` must quote.
     pub fn crc(&self) -> u32 {
         let mut buf = [0u8; 128];
@@ -182,6 +214,10 @@ pub struct Sample {
     /// QEMU board: the sensor-feed frame every pair of this sample saw
     /// (`None` on the board, or when the feed changed within the sample).
     pub feed_seq: Option<u32>,
+    /// Temperature at the magnetometer measured on the board, °C (`None`
+    /// when the thermistor reads out of range: open or shorted; the sample
+    /// was then corrected at the reference temperature).
+    pub temp_c: Option<f32>,
 }
 
 /// Counters and state.
@@ -233,6 +269,18 @@ pub struct Health {
     pub store_saves: u32,
     /// See [`Health::store_saves`].
     pub max_store_ms: u32,
+    /// Samples whose heading was withheld because the motor current was
+    /// stale or never sent (older than [`ATTITUDE_TIMEOUT_MS`]) while the
+    /// stored current term is non-zero.
+    pub current_stale: u32,
+    /// Samples with no valid temperature (thermistor open or shorted):
+    /// corrected at the reference temperature.
+    pub temp_missing: u32,
+    /// The last valid temperature measured, °C.
+    pub temp_c: Option<f32>,
+    /// The last sample was corrected with a stale/missing current or a
+    /// missing temperature.
+    pub env_degraded: bool,
 }
 
 /// The on-board fit's state.
@@ -339,5 +387,9 @@ pub struct SensorFeed {
     pub field_nt: [f32; 3],
     /// Bridge offsets, counts (`None`: unchanged — keeps the frame short).
     pub offset_counts: Option<[f32; 3]>,
+    /// Temperature of the thermistor next to the sensor, °C: the model makes
+    /// the thermistor divider's voltage on ADC channel 3 from it (`None`:
+    /// unchanged; before any, 25 °C). NaN models an open thermistor.
+    pub temp_c: Option<f32>,
 }
 

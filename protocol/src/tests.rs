@@ -178,7 +178,16 @@ proptest! {
 
 #[test]
 fn the_largest_messages_fit_in_a_frame() {
-    let c = Coefficients { bias: [f32::MAX; 3], matrix: [[f32::MIN; 3]; 3], swing: [1.0; 5], declination_rad: 0.1, field_nt: 48_000.0 };
+    let c = Coefficients {
+        bias: [f32::MAX; 3],
+        matrix: [[f32::MIN; 3]; 3],
+        swing: [1.0; 5],
+        declination_rad: 0.1,
+        field_nt: 48_000.0,
+        current_bias_per_a: [f32::MAX; 3],
+        temp_ref_c: f32::MIN,
+        temp_gain_per_c: [f32::MAX; 3],
+    };
     let big = [
         Response { seq: Some(u16::MAX), body: ResponseBody::Coefficients { coefficients: c, source: CoefficientSource::Stored, seq: u32::MAX } },
         Response {
@@ -192,29 +201,40 @@ fn the_largest_messages_fit_in_a_frame() {
                 rx_dropped: u32::MAX, tx_dropped: u32::MAX, bad_frames: u32::MAX, requests: u32::MAX, mission_mode: true, unlocked: true,
                 unlock_challenge: u32::MAX, coefficient_source: CoefficientSource::Default, coefficient_seq: u32::MAX,
                 last_error: Some(DeviceError::Frame(FrameError::UnsupportedVersion { got: 255 })), output_rate_hz: 100, stream: StreamMode::Both, feed_updates: u32::MAX, max_acq_gap_ms: u32::MAX, store_saves: u32::MAX, max_store_ms: u32::MAX,
+                current_stale: u32::MAX, temp_missing: u32::MAX, temp_c: Some(f32::MIN), env_degraded: true,
             }),
         },
-        Response { seq: None, body: ResponseBody::Sample(Sample { t_ms: u32::MAX, raw: Some([1.0; 3]), field_nt: Some([2.0; 3]), heading_rad: Some(3.0), saturated: true, feed_seq: Some(u32::MAX) }) },
+        Response { seq: None, body: ResponseBody::Sample(Sample { t_ms: u32::MAX, raw: Some([1.0; 3]), field_nt: Some([2.0; 3]), heading_rad: Some(3.0), saturated: true, feed_seq: Some(u32::MAX), temp_c: Some(f32::MIN) }) },
     ];
     for r in big {
         let (f, n) = frame_of(&r);
         assert!(n <= MAX_FRAME_LEN);
         assert_eq!(decode::<Response>(&f[..n]).unwrap(), r);
     }
-    let q = Request { seq: 1, body: RequestBody::WriteCoefficients(c) };
-    let (f, n) = frame_of(&q);
-    assert_eq!(decode::<Request>(&f[..n]).unwrap(), q);
+    for body in [RequestBody::WriteCoefficients(c), RequestBody::AttitudeEnv { roll_rad: f32::MIN, pitch_rad: f32::MAX, motor_current_a: f32::MIN }] {
+        let q = Request { seq: u16::MAX, body };
+        let (f, n) = frame_of(&q);
+        assert!(n <= MAX_FRAME_LEN);
+        assert_eq!(decode::<Request>(&f[..n]).unwrap(), q);
+    }
+    let feed = SensorFeed { seq: u32::MAX, field_nt: [f32::MAX; 3], offset_counts: Some([f32::MIN; 3]), temp_c: Some(f32::MIN) };
+    let (f, n) = frame_of(&feed);
+    assert_eq!(decode::<SensorFeed>(&f[..n]).unwrap(), feed);
     // The commit CRC is the CRC-32 of the postcard bytes, so both sides agree.
     let mut buf = [0u8; 128];
     assert_eq!(c.crc(), CRC32.checksum(postcard::to_slice(&c, &mut buf).unwrap()));
 }
 
-/// The wire format is pinned: these frames were encoded by the protocol as
-/// it was before the ICD/framing split and the move to calib-core's
-/// `ModelKind` (commit f08d520), so firmware and host of either side of that
-/// change still understand each other.
+/// The wire format is pinned: these frames were encoded by protocol
+/// version 2 (the ICD/framing split and the move to calib-core's
+/// `ModelKind`, commit f08d520). Version 3 only appended fields and
+/// variants, so a version-2 message's postcard payload is unchanged
+/// (`FitStart`) or a prefix of its version-3 payload (`WriteCoefficients`:
+/// the current and temperature terms follow), and the version byte moved
+/// from 2 to 3 so that peers of different versions refuse each other's
+/// frames instead of misreading them.
 #[test]
-fn frames_are_byte_identical_to_the_previous_release() {
+fn version_3_appends_to_the_version_2_layout() {
     let mut buf = [0u8; MAX_FRAME_LEN];
     let c = Coefficients {
         bias: [1.0, -2.0, 3.5],
@@ -222,21 +242,36 @@ fn frames_are_byte_identical_to_the_previous_release() {
         swing: [0.01, 0.0, -0.002, 0.0, 0.0],
         declination_rad: 0.05,
         field_nt: 48730.0,
+        current_bias_per_a: [0.5, -0.25, 2.0],
+        temp_ref_c: 20.0,
+        temp_gain_per_c: [-0.003, -0.003, -0.0031],
     };
-    let golden: [&[u8]; 3] = [
+    let golden_v2: [&[u8]; 2] = [
         &[5, 2, 7, 6, 2, 8, 90, 62, 71, 207, 50, 111, 134, 0],
         &[
             4, 2, 7, 11, 1, 3, 128, 63, 1, 1, 2, 192, 1, 7, 96, 64, 143, 194, 245, 60, 1, 1, 1, 5, 111, 18, 131, 58, 1, 1, 1, 5, 66, 96, 229, 60, 1, 1, 1, 5, 111, 18,
             131, 58, 1, 1, 1, 9, 104, 145, 237, 60, 10, 215, 35, 60, 1, 1, 1, 5, 111, 18, 3, 187, 1, 1, 1, 1, 1, 1, 1, 5, 205, 204, 76, 61, 8, 90, 62, 71, 115, 127,
             216, 72, 0,
         ],
-        &[13, 2, 7, 12, 177, 238, 232, 135, 1, 76, 142, 81, 42, 0],
     ];
-    let bodies = [RequestBody::FitStart { model: ModelKind::Full, field_nt: 48730.0 }, RequestBody::WriteCoefficients(c), RequestBody::Commit { crc: c.crc() }];
-    for (body, want) in bodies.into_iter().zip(golden) {
+    let bodies = [RequestBody::FitStart { model: ModelKind::Full, field_nt: 48730.0 }, RequestBody::WriteCoefficients(c)];
+    for (body, old) in bodies.into_iter().zip(golden_v2) {
+        let mut old_decoded = [0u8; MAX_FRAME_LEN];
+        let m = cobs::decode(&old[..old.len() - 1], &mut old_decoded).unwrap().frame_size();
+        let (old_version, old_payload) = (old_decoded[0], &old_decoded[1..m - 4]);
+        assert_eq!(old_version, 2);
+        // A version-2 frame is refused, not misread.
+        assert!(matches!(decode::<Request>(old), Err(FrameError::UnsupportedVersion { got: 2 })));
         let n = encode(&Request { seq: 7, body }, &mut buf).unwrap();
-        assert_eq!(&buf[..n], want);
+        let mut new_decoded = [0u8; MAX_FRAME_LEN];
+        let k = cobs::decode(&buf[..n - 1], &mut new_decoded).unwrap().frame_size();
+        assert_eq!(new_decoded[0], PROTOCOL_VERSION);
+        assert!(new_decoded[1..k - 4].starts_with(old_payload), "the v2 payload is not a prefix of the v3 one");
     }
-    let n = encode(&Response { seq: Some(9), body: ResponseBody::Error(DeviceError::CommitMismatch) }, &mut buf).unwrap();
-    assert_eq!(&buf[..n], &[10, 2, 1, 9, 2, 8, 39, 18, 98, 55, 0]);
+    // The appended terms are the last 28 bytes of the coefficients (7 f32 LE).
+    let mut cb = [0u8; 128];
+    let bytes = postcard::to_slice(&c, &mut cb).unwrap();
+    assert_eq!(bytes.len(), 26 * 4);
+    assert_eq!(&bytes[76..80], &0.5f32.to_le_bytes());
+    assert_eq!(&bytes[88..92], &20.0f32.to_le_bytes());
 }

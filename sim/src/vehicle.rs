@@ -110,9 +110,14 @@ impl<W: Write> Vehicle for SimVehicle<W> {
             true_heading_deg: sim.true_heading_deg.get(i).copied().unwrap_or(f64::NAN),
             feed_seq: None,
             rate_rad_s: [col(&r.gx_rad_s), col(&r.gy_rad_s), col(&r.gz_rad_s)],
+            // Sent to the board with the attitude (when the session sends it).
+            motor_current_a: col(&r.motor_current_a),
         };
-        // The simulator's `mag` column is the field at the bridges in nT.
-        let seq = self.feed.send(r.mag[i].map(|v| v as f32), BRIDGE_OFFSETS_COUNTS)?;
+        // The simulator's `mag` column is the field at the bridges in nT;
+        // its `temp_c` the sensor's temperature, which the board's ADC model
+        // turns into the thermistor's voltage (the board measures it).
+        let temp_c = Some(col(&r.temp_c)).filter(|t| t.is_finite()).map(|t| t as f32);
+        let seq = self.feed.send_env(r.mag[i].map(|v| v as f32), BRIDGE_OFFSETS_COUNTS, temp_c)?;
         Ok(Some(Step { feed_seq: Some(seq), ..step }))
     }
 

@@ -309,7 +309,9 @@ fn cpu_budget(mcu: &serde_json::Value) -> serde_json::Value {
         ("drdy_interrupts", frames * CYCLES_PER_DRDY / SYSCLK_HZ * 1e6),
     ];
     let per_sample_us = [
-        ("apply_and_heading", get("apply_heading_instructions") / SYSCLK_HZ * 1e6),
+        // The device's per-sample path: current and temperature terms,
+        // field, heading (`apply_heading_instructions` is without the terms).
+        ("apply_and_heading", get("apply_env_heading_instructions") / SYSCLK_HZ * 1e6),
         ("onboard_full_fit_update", get("rls_full_update_instructions") / SYSCLK_HZ * 1e6),
         ("usart_tx_interrupts", SAMPLE_FRAME_BYTES * CYCLES_PER_TX_BYTE / SYSCLK_HZ * 1e6),
     ];
@@ -328,7 +330,7 @@ fn cpu_budget(mcu: &serde_json::Value) -> serde_json::Value {
         "worst_store_stall_ms": layout::worst_store_stall_ms(),
         "watchdog_timeout_ms": layout::watchdog_min_timeout_ms(),
         "watchdog_timeout_nominal_ms": layout::WATCHDOG_TIMEOUT_MS,
-        "targets": {"cpu_busy_pct_at_pair_rate_max": 10.0, "watchdog_over_worst_stall_min": 2.0},
+        "targets": {"cpu_busy_pct_at_pair_rate_max": 10.0, "watchdog_over_worst_stall_min": 2.0, "apply_env_heading_instructions_max": 300, "flash_bytes_max": 65536},
     })
 }
 

@@ -121,17 +121,31 @@ fn frame(f: &SensorFeed) -> ([u8; MAX_FRAME_LEN], usize) {
 fn feed_frames_set_the_bridges_and_damage_is_ignored() {
     static BRIDGES: BridgeModel = BridgeModel::new();
     let mut rx = FeedReceiver::new();
-    let (a, n) = frame(&SensorFeed { seq: 5, field_nt: [1000.0, -2000.0, 500.0], offset_counts: Some([10.0, 20.0, 30.0]) });
+    let (a, n) = frame(&SensorFeed { seq: 5, field_nt: [1000.0, -2000.0, 500.0], offset_counts: Some([10.0, 20.0, 30.0]), temp_c: None });
     let got: Vec<Option<u32>> = a[..n].iter().map(|&b| rx.on_byte(b, &BRIDGES)).collect();
     assert_eq!(got.iter().flatten().copied().collect::<Vec<_>>(), vec![5]);
     assert_eq!((BRIDGES.seq(), BRIDGES.updates()), (5, 1));
     // A damaged frame changes nothing; the next good one, without
     // offsets, keeps the previous offsets.
-    let (mut b, n) = frame(&SensorFeed { seq: 6, field_nt: [0.0; 3], offset_counts: None });
+    let (mut b, n) = frame(&SensorFeed { seq: 6, field_nt: [0.0; 3], offset_counts: None, temp_c: None });
     b[3] ^= 0x40;
     assert!(b[..n].iter().all(|&x| rx.on_byte(x, &BRIDGES).is_none()));
     assert_eq!((BRIDGES.seq(), BRIDGES.updates()), (5, 1));
-    let (c, n) = frame(&SensorFeed { seq: 7, field_nt: [0.0; 3], offset_counts: None });
+    let (c, n) = frame(&SensorFeed { seq: 7, field_nt: [0.0; 3], offset_counts: None, temp_c: None });
     assert_eq!(c[..n].iter().filter_map(|&x| rx.on_byte(x, &BRIDGES)).last(), Some(7));
     assert_eq!(rx.offsets, [10.0, 20.0, 30.0]);
+}
+
+#[test]
+fn the_model_divides_times_as_u64_division_does() {
+    // Against the language's u64 division (independent of the chunking).
+    let mut rng = calib_core::conformance::SplitMix64::new(9);
+    for _ in 0..20_000 {
+        let a = (rng.uniform() * 1e13) as u64;
+        let b = (rng.uniform() * 3e7) as u32 + 1;
+        assert_eq!(super::div_u64_u32(a, b), a / u64::from(b), "{a} / {b}");
+        assert_eq!(super::div_ceil_u64_u32(a, b), a.div_ceil(u64::from(b)), "{a} / {b}");
+    }
+    assert_eq!(super::div_u64_u32(u64::MAX, u32::MAX), u64::MAX / u64::from(u32::MAX));
+    assert_eq!(super::div_ceil_u64_u32(7, 0), 7, "a zero divisor counts as 1");
 }

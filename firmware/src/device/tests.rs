@@ -28,6 +28,9 @@ fn good() -> Coefficients {
         swing: [0.01, 0.0, 0.0, 0.0, 0.002],
         declination_rad: 0.09,
         field_nt: 48_730.0,
+        current_bias_per_a: [0.0; 3],
+        temp_ref_c: 20.0,
+        temp_gain_per_c: [0.0; 3],
     }
 }
 
@@ -85,7 +88,7 @@ fn the_write_path_needs_unlock_validation_and_a_matching_commit() {
     assert_eq!(req(&mut d, RequestBody::Commit { crc: c.crc() }, 13, &mut s), ResponseBody::Committed { seq: 1 });
     assert_eq!(req(&mut d, RequestBody::ReadCoefficients, 14, &mut s), ResponseBody::Coefficients { coefficients: c, source: CoefficientSource::Stored, seq: 1 });
     // What was stored decodes to the same set.
-    assert_eq!(decode_coefficients(&s.saved[0]).unwrap().0, c);
+    assert_eq!(decode_coefficients(&s.saved[0], crate::store::VERSION).unwrap().0, c);
     // The unlock is spent by the commit.
     assert_eq!(req(&mut d, RequestBody::WriteCoefficients(c), 15, &mut s), ResponseBody::Error(DeviceError::Locked));
     // And a replayed Unlock frame does not open it again: the challenge moved on.
@@ -126,7 +129,7 @@ fn samples_are_calibrated_as_calib_core_does_and_headed_with_a_fresh_attitude() 
     let mut d = Device::new(Boot { stored: Some((good(), 3)), challenge: 0 });
     let mut s = store();
     req(&mut d, RequestBody::SetStream(StreamMode::Both), 0, &mut s);
-    let raw = RawSample { field_counts: [700_000.0, -1_100_000.0, 1_300_000.0], saturated: false, tag: None };
+    let raw = RawSample { field_counts: [700_000.0, -1_100_000.0, 1_300_000.0], saturated: false, tag: None, temp_c: Some(20.0) };
     let out = d.on_raw_sample(&raw, 100).unwrap();
     let cal = validate(&good()).unwrap();
     assert_eq!(out.field_nt.unwrap(), cal.field.apply(raw.field_counts));
@@ -157,7 +160,7 @@ fn the_onboard_fit_converges_to_the_truth() {
         let h = [u[0] * f, u[1] * f, u[2] * f];
         let r = calib_core::linalg::mul_mat_vec(&d_mat, h);
         let raw = [0, 1, 2].map(|k| ((r[k] * f64::from(COUNTS_PER_NT)) + b[k] + 3.0 * rng.gauss()) as f32);
-        dev.on_raw_sample(&RawSample { field_counts: raw, saturated: false, tag: None }, 0);
+        dev.on_raw_sample(&RawSample { field_counts: raw, saturated: false, tag: None, temp_c: Some(20.0) }, 0);
         truth_cal.get_or_insert(());
     }
     let ResponseBody::Fit(rep) = req(&mut dev, RequestBody::FitQuery, 0, &mut s) else { panic!() };
@@ -176,7 +179,7 @@ fn the_onboard_fit_converges_to_the_truth() {
     let psi = magnetic_heading_rad(cal.field.apply(raw), 0.2, 0.1);
     assert!(wrap_pi(f64::from(psi) - 1.3).abs() < 0.05f64.to_radians());
     // A dead sensor (all zeros) does not enter the fit.
-    dev.on_raw_sample(&RawSample { field_counts: [0.0; 3], saturated: false, tag: None }, 0);
+    dev.on_raw_sample(&RawSample { field_counts: [0.0; 3], saturated: false, tag: None, temp_c: Some(20.0) }, 0);
     let ResponseBody::Fit(rep) = req(&mut dev, RequestBody::FitQuery, 0, &mut s) else { panic!() };
     assert_eq!(rep.samples, 3000);
     assert!(matches!(req(&mut dev, RequestBody::FitStop, 0, &mut s), ResponseBody::Fit(FitReport { running: false, .. })));
@@ -211,7 +214,7 @@ fn the_onboard_gyro_fit_calibrates_a_vehicle_that_cannot_tumble() {
         assert_eq!(req(&mut dev, m, now_ms, &mut s), ResponseBody::Ack);
         let h = calib_core::linalg::mul_mat_vec(&d_mat, ned_to_body(ned, roll, pitch, yaw));
         let raw = [0, 1, 2].map(|k| (h[k] * f64::from(COUNTS_PER_NT) + b[k] + 30.0 * rng.gauss()) as f32);
-        dev.on_raw_sample(&RawSample { field_counts: raw, saturated: false, tag: None }, now_ms);
+        dev.on_raw_sample(&RawSample { field_counts: raw, saturated: false, tag: None, temp_c: Some(20.0) }, now_ms);
     }
     let ResponseBody::Fit(rep) = req(&mut dev, RequestBody::FitQuery, 300_000, &mut s) else { panic!() };
     let est = rep.estimate.expect("an estimate");
@@ -238,7 +241,7 @@ fn the_onboard_gyro_fit_calibrates_a_vehicle_that_cannot_tumble() {
     let r = req(&mut dev, RequestBody::FitStart { model: ModelKind::Gyro, field_nt: f as f32 }, 400_000, &mut s);
     assert!(matches!(r, ResponseBody::Fit(_)));
     for step in 0..100u32 {
-        dev.on_raw_sample(&RawSample { field_counts: [40_000.0 + step as f32, -15_000.0, 1_800_000.0], saturated: false, tag: None }, 400_000 + 500 + step * 100);
+        dev.on_raw_sample(&RawSample { field_counts: [40_000.0 + step as f32, -15_000.0, 1_800_000.0], saturated: false, tag: None, temp_c: Some(20.0) }, 400_000 + 500 + step * 100);
     }
     let ResponseBody::Fit(rep) = req(&mut dev, RequestBody::FitQuery, 420_000, &mut s) else { panic!() };
     assert_eq!(rep.samples, 0);
@@ -284,7 +287,7 @@ fn fuzz_seed_corpus_is_current() {
             frame(7, RequestBody::ReadCoefficients),
         ],
         vec![frame(1, RequestBody::SetMissionMode { enabled: true }), frame(2, RequestBody::Unlock { key }), frame(3, RequestBody::SetMissionMode { enabled: false }), frame(4, RequestBody::Unlock { key })],
-        vec![frame(1, RequestBody::FitStart { model: ModelKind::Full, field_nt: 48_730.0 }), frame(2, RequestBody::FitQuery), frame(3, RequestBody::SetStream(StreamMode::Both)), frame(4, RequestBody::Attitude { roll_rad: 0.1, pitch_rad: -0.05 })],
+        vec![frame(1, RequestBody::FitStart { model: ModelKind::Full, field_nt: 48_730.0 }), frame(2, RequestBody::FitQuery), frame(3, RequestBody::SetStream(StreamMode::Both)), frame(4, RequestBody::Attitude { roll_rad: 0.1, pitch_rad: -0.05 }), frame(5, RequestBody::AttitudeEnv { roll_rad: 0.1, pitch_rad: -0.05, motor_current_a: 12.5 })],
     ];
     // The first seed does commit on a device with the fuzz target's challenge.
     let mut dev = Device::new(Boot { stored: None, challenge: FUZZ_CHALLENGE });
@@ -306,4 +309,177 @@ fn fuzz_seed_corpus_is_current() {
         }
         assert_eq!(std::fs::read(&path).ok().as_deref(), Some(bytes.as_slice()), "{} is stale: rerun with MAGCAL_WRITE_FUZZ_SEEDS=1", path.display());
     }
+}
+
+/// The sensor of the environment tests, written from physics here: the
+/// bridges' gain is `1 + k·(T − T0)` for everything they see (the field
+/// through the chain, the hull's hard iron `b` and the thrusters' field
+/// `c·I`), with a soft-iron/scale diagonal `s`.
+struct EnvSensor {
+    k: [f64; 3],
+    t0_c: f64,
+    b: [f64; 3],
+    c: [f64; 3],
+    s: [f64; 3],
+}
+
+impl EnvSensor {
+    fn new() -> Self {
+        // HMC100x-like gain drift (≈ −0.3 %/°C), a steel hull's bias, and
+        // thrusters adding ~1 800 counts (50 nT) per ampere on z.
+        Self { k: [-0.003, -0.0028, -0.0032], t0_c: 15.0, b: [20_000.0, -15_000.0, 8_000.0], c: [600.0, -250.0, 1_800.0], s: [1.03, 0.97, 1.01] }
+    }
+
+    fn raw(&self, h_nt: [f64; 3], current_a: f64, temp_c: f64) -> [f32; 3] {
+        let k_chain = f64::from(COUNTS_PER_NT);
+        core::array::from_fn(|i| ((1.0 + self.k[i] * (temp_c - self.t0_c)) * (self.s[i] * h_nt[i] * k_chain + self.b[i] + self.c[i] * current_a)) as f32)
+    }
+
+    fn coefficients(&self, with_env: bool) -> Coefficients {
+        let g = |i: usize| (1.0 / (self.s[i] * f64::from(COUNTS_PER_NT))) as f32;
+        let f = |v: [f64; 3]| v.map(|x| x as f32);
+        Coefficients {
+            bias: f(self.b),
+            matrix: [[g(0), 0.0, 0.0], [0.0, g(1), 0.0], [0.0, 0.0, g(2)]],
+            swing: [0.0; 5],
+            declination_rad: 0.05,
+            field_nt: 48_730.0,
+            current_bias_per_a: if with_env { f(self.c) } else { [0.0; 3] },
+            temp_ref_c: self.t0_c as f32,
+            temp_gain_per_c: if with_env { f(self.k) } else { [0.0; 3] },
+        }
+    }
+}
+
+fn env_device(c: Coefficients) -> (Device, MemStore) {
+    let mut d = Device::new(Boot { stored: Some((c, 1)), challenge: 0 });
+    let mut s = store();
+    req(&mut d, RequestBody::SetStream(StreamMode::Both), 0, &mut s);
+    (d, s)
+}
+
+#[test]
+fn current_and_temperature_are_corrected_to_the_truth() {
+    let sensor = EnvSensor::new();
+    let (roll, pitch, yaw) = (0.12f64, -0.07f64, 2.3f64);
+    // Field built with declination 0.05 rad (as the coefficients): the true
+    // heading is the yaw.
+    let h = ned_to_body(ned_field(48_730.0, 1.12, 0.05), roll, pitch, yaw);
+    let (current_a, temp_c) = (35.0, 31.5);
+    let raw = RawSample { field_counts: sensor.raw(h, current_a, temp_c), saturated: false, tag: None, temp_c: Some(temp_c as f32) };
+    let run = |with_env: bool| {
+        let (mut d, mut s) = env_device(sensor.coefficients(with_env));
+        let att = RequestBody::AttitudeEnv { roll_rad: roll as f32, pitch_rad: pitch as f32, motor_current_a: current_a as f32 };
+        assert_eq!(req(&mut d, att, 100, &mut s), ResponseBody::Ack);
+        d.on_raw_sample(&raw, 150).unwrap()
+    };
+    let out = run(true);
+    let field = out.field_nt.unwrap();
+    // Measured: 0.0007 nT worst axis, 5e-8 rad heading (f32 rounding).
+    for i in 0..3 {
+        assert!((f64::from(field[i]) - h[i]).abs() < 0.005, "axis {i}: {} vs {}", field[i], h[i]);
+    }
+    assert!(wrap_pi(f64::from(out.heading_rad.unwrap()) - yaw).abs() < 1e-6, "{:?}", out.heading_rad);
+    assert_eq!(out.temp_c, Some(31.5));
+    // Without the terms the same sample is far off: 16.5 °C of gain drift
+    // scales the field by ~5 %, the thrusters add 63 000 counts on z
+    // (measured: 808 nT on z, the two partly cancelling).
+    let plain = run(false);
+    let err_nt = (f64::from(plain.field_nt.unwrap()[2]) - h[2]).abs();
+    assert!(err_nt > 500.0, "{err_nt} nT");
+}
+
+#[test]
+fn a_stale_current_withholds_the_heading_and_a_missing_temperature_falls_back_to_the_reference() {
+    let sensor = EnvSensor::new();
+    let (mut d, mut s) = env_device(sensor.coefficients(true));
+    let h = ned_to_body(ned_field(48_730.0, 1.12, 0.05), 0.0, 0.0, 1.0);
+    let sample = |temp_c: Option<f64>, current_a: f64| RawSample {
+        field_counts: sensor.raw(h, current_a, temp_c.unwrap_or(sensor.t0_c)),
+        saturated: false,
+        tag: None,
+        temp_c: temp_c.map(|t| t as f32),
+    };
+    let health = |d: &mut Device, s: &mut MemStore, now| match req(d, RequestBody::Status, now, s) {
+        ResponseBody::Status(h) => h,
+        other => panic!("{other:?}"),
+    };
+    // Never sent a current: the stored current term needs one.
+    req(&mut d, RequestBody::Attitude { roll_rad: 0.0, pitch_rad: 0.0 }, 0, &mut s);
+    let out = d.on_raw_sample(&sample(Some(20.0), 0.0), 10).unwrap();
+    assert_eq!(out.heading_rad, None);
+    assert!(out.field_nt.is_some());
+    let hl = health(&mut d, &mut s, 10);
+    assert_eq!((hl.current_stale, hl.temp_missing, hl.temp_c, hl.env_degraded), (1, 0, Some(20.0), true));
+    // Fresh current: heading back.
+    req(&mut d, RequestBody::AttitudeEnv { roll_rad: 0.0, pitch_rad: 0.0, motor_current_a: 10.0 }, 1000, &mut s);
+    let out = d.on_raw_sample(&sample(Some(20.0), 10.0), 1000 + ATTITUDE_TIMEOUT_MS).unwrap();
+    assert!(wrap_pi(f64::from(out.heading_rad.unwrap()) - 1.0).abs() < 5e-5);
+    assert!(!health(&mut d, &mut s, 1500).env_degraded);
+    // The current ages out with the attitude timeout, even if a plain
+    // Attitude keeps the attitude fresh.
+    req(&mut d, RequestBody::Attitude { roll_rad: 0.0, pitch_rad: 0.0 }, 1400, &mut s);
+    let out = d.on_raw_sample(&sample(Some(20.0), 10.0), 1000 + ATTITUDE_TIMEOUT_MS + 1).unwrap();
+    assert_eq!(out.heading_rad, None);
+    assert_eq!(health(&mut d, &mut s, 1600).current_stale, 2);
+    // Temperature missing (open thermistor): corrected at the reference
+    // temperature — exactly M·(raw − b − c·I), computed here — flagged,
+    // the last valid temperature kept.
+    req(&mut d, RequestBody::AttitudeEnv { roll_rad: 0.0, pitch_rad: 0.0, motor_current_a: 10.0 }, 2000, &mut s);
+    let raw = sample(None, 10.0);
+    let out = d.on_raw_sample(&raw, 2010).unwrap();
+    assert_eq!(out.temp_c, None);
+    assert!(out.heading_rad.is_some(), "a missing temperature does not withhold the heading");
+    let c = sensor.coefficients(true);
+    for i in 0..3 {
+        let want = f64::from(c.matrix[i][i]) * (f64::from(raw.field_counts[i]) - f64::from(c.bias[i]) - f64::from(c.current_bias_per_a[i]) * 10.0);
+        assert!((f64::from(out.field_nt.unwrap()[i]) - want).abs() < 0.05, "axis {i}");
+    }
+    let hl = health(&mut d, &mut s, 2010);
+    assert_eq!((hl.current_stale, hl.temp_missing, hl.temp_c, hl.env_degraded), (2, 1, Some(20.0), true));
+    // Without a current term no current is needed.
+    let (mut d, mut s) = env_device(EnvSensor { c: [0.0; 3], ..EnvSensor::new() }.coefficients(true));
+    req(&mut d, RequestBody::Attitude { roll_rad: 0.0, pitch_rad: 0.0 }, 0, &mut s);
+    assert!(d.on_raw_sample(&sample(Some(20.0), 0.0), 10).unwrap().heading_rad.is_some());
+    assert_eq!(health(&mut d, &mut s, 10).current_stale, 0);
+}
+
+#[test]
+fn implausible_current_or_temperature_terms_and_currents_are_refused() {
+    let mut d = device();
+    let mut s = store();
+    req(&mut d, RequestBody::Unlock { key: CHALLENGE ^ UNLOCK_XOR }, 0, &mut s);
+    let mut c = EnvSensor::new().coefficients(true);
+    assert_eq!(req(&mut d, RequestBody::WriteCoefficients(c), 0, &mut s), ResponseBody::Ack);
+    c.temp_gain_per_c[1] = 0.05; // 5 %/°C: no magnetometer
+    assert_eq!(req(&mut d, RequestBody::WriteCoefficients(c), 0, &mut s), ResponseBody::Error(DeviceError::InvalidCoefficients));
+    let mut c = EnvSensor::new().coefficients(true);
+    c.temp_ref_c = f32::NAN;
+    assert_eq!(req(&mut d, RequestBody::WriteCoefficients(c), 0, &mut s), ResponseBody::Error(DeviceError::InvalidCoefficients));
+    let mut c = EnvSensor::new().coefficients(true);
+    c.current_bias_per_a[2] = 2.0 * MAX_CURRENT_BIAS_PER_A;
+    assert_eq!(req(&mut d, RequestBody::WriteCoefficients(c), 0, &mut s), ResponseBody::Error(DeviceError::InvalidCoefficients));
+    for bad in [f32::NAN, f32::INFINITY, 2.0 * MAX_MOTOR_CURRENT_A] {
+        let r = RequestBody::AttitudeEnv { roll_rad: 0.0, pitch_rad: 0.0, motor_current_a: bad };
+        assert_eq!(req(&mut d, r, 0, &mut s), ResponseBody::Error(DeviceError::BadArgument));
+    }
+}
+
+#[test]
+fn a_record_of_the_previous_version_loads_without_terms() {
+    // The version-1 payload: postcard of the five fields the protocol-2
+    // Coefficients had (bias, matrix, swing, declination, field), written
+    // here field by field as f32 little-endian (postcard's f32 encoding).
+    let c = good();
+    let mut v1 = Vec::new();
+    for x in c.bias.iter().chain(c.matrix.iter().flatten()).chain(c.swing.iter()).chain([c.declination_rad, c.field_nt].iter()) {
+        v1.extend_from_slice(&x.to_le_bytes());
+    }
+    let (back, cal) = decode_coefficients(&v1, 1).unwrap();
+    assert_eq!((back.bias, back.matrix, back.swing, back.declination_rad, back.field_nt), (c.bias, c.matrix, c.swing, c.declination_rad, c.field_nt));
+    assert!(cal.env.is_none());
+    assert_eq!(back.env_terms(), EnvTerms::none());
+    // The same bytes are not a version-2 record (too short), nor version 9.
+    assert!(decode_coefficients(&v1, crate::store::VERSION).is_none());
+    assert!(decode_coefficients(&v1, 9).is_none());
 }

@@ -220,11 +220,42 @@ mod arbitrary_flash {
             let _ = flash.write(0, &image);
             let mut s = Store::new(flash, 0, 1024, 1024).unwrap();
             if let Ok(Some(r)) = s.load() {
-                let _ = crate::device::decode_coefficients(&r.payload);
+                let _ = crate::device::decode_coefficients(&r.payload, r.version);
             }
             prop_assert!(s.save(b"x").is_ok());
             let back = s.load().unwrap().unwrap();
             prop_assert_eq!(back.payload.as_slice(), &b"x"[..]);
         }
     }
+}
+
+#[test]
+fn a_record_of_the_previous_version_still_loads_and_the_next_save_upgrades_it() {
+    // A board that last saved with record version 1 (protocol-2
+    // coefficients: bias, matrix, swing, declination, field as f32 LE).
+    let fields: [f32; 19] = [1000.0, -2000.0, 500.0, 0.028, 0.0, 0.0, 0.0, 0.028, 0.0, 0.0, 0.0, 0.028, 0.01, 0.0, 0.0, 0.0, 0.002, 0.09, 48_730.0];
+    let v1: Vec<u8> = fields.iter().flat_map(|x| x.to_le_bytes()).collect();
+    let mut s = store(chip(11));
+    assert_eq!(s.save_version(&v1, 1).unwrap(), 1);
+    let f = s.release();
+    let mut s = store(f.powered_again(12));
+    let r = s.load().unwrap().unwrap();
+    assert_eq!((r.seq, r.version), (1, 1));
+    let (c, cal) = crate::device::decode_coefficients(&r.payload, r.version).expect("the old set loads");
+    assert_eq!((c.bias, c.field_nt), ([1000.0, -2000.0, 500.0], 48_730.0));
+    assert!(cal.env.is_none(), "no current or temperature terms");
+    // The next save writes the current version next to it; the old record
+    // stays readable in the other sector until that save is complete.
+    let mut c2 = c;
+    c2.temp_gain_per_c = [-0.003; 3];
+    let mut buf = [0u8; MAX_PAYLOAD];
+    let n = crate::device::encode_coefficients(&c2, &mut buf).unwrap();
+    assert_eq!(s.save(&buf[..n]).unwrap(), 2);
+    let r = s.load().unwrap().unwrap();
+    assert_eq!((r.seq, r.version), (2, VERSION));
+    assert_eq!(crate::device::decode_coefficients(&r.payload, r.version).unwrap().0, c2);
+    // A record of a version this firmware does not know is no record.
+    let mut s = store(chip(13));
+    s.save_version(b"future", VERSION + 1).unwrap_err();
+    assert_eq!(s.load(), Ok(None));
 }

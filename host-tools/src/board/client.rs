@@ -261,6 +261,12 @@ impl<P: Read + Write> BoardClient<P> {
         self.expect_ack(RequestBody::Motion { roll_rad, pitch_rad, rate_rad_s })
     }
 
+    /// Sends the vehicle's attitude with the thrusters' (motor) current, A,
+    /// for the board's current term.
+    pub fn attitude_env(&mut self, roll_rad: f32, pitch_rad: f32, motor_current_a: f32) -> Result<(), ClientError> {
+        self.expect_ack(RequestBody::AttitudeEnv { roll_rad, pitch_rad, motor_current_a })
+    }
+
     /// Enters or leaves mission mode.
     pub fn set_mission_mode(&mut self, enabled: bool) -> Result<(), ClientError> {
         self.expect_ack(RequestBody::SetMissionMode { enabled })

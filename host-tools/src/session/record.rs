@@ -41,7 +41,7 @@ pub struct Resume<'a, P> {
 const SAMPLE_TIMEOUT: Duration = Duration::from_millis(3000);
 
 fn lost_sample() -> Sample {
-    Sample { t_ms: 0, raw: None, field_nt: None, heading_rad: None, saturated: false, feed_seq: None }
+    Sample { t_ms: 0, raw: None, field_nt: None, heading_rad: None, saturated: false, feed_seq: None, temp_c: None }
 }
 
 /// Records the current manoeuvre of `vehicle`. `on_step` sees every step
@@ -100,6 +100,15 @@ pub fn record<P: Read + Write>(
                 col.get_or_insert_with(|| vec![f64::NAN; rows]).push(v);
             }
         }
+        // The thrusters' current once a step has it; the board's measured
+        // temperature once a sample has it (earlier rows NaN).
+        let rows = rec.mag.len() - 1;
+        if step.motor_current_a.is_finite() || rec.motor_current_a.is_some() {
+            rec.motor_current_a.get_or_insert_with(|| vec![f64::NAN; rows]).push(step.motor_current_a);
+        }
+        if sample.temp_c.is_some() || rec.temp_c.is_some() {
+            rec.temp_c.get_or_insert_with(|| vec![f64::NAN; rows]).push(sample.temp_c.map_or(f64::NAN, f64::from));
+        }
         on_step(i, &step, &sample, link)?;
         samples.push(sample);
         truth.push(step.true_heading_deg);
@@ -140,9 +149,15 @@ fn take_sample<P: Read + Write>(
 ) -> Result<Sample, SessionError> {
     if send_attitude {
         let (roll, pitch) = (step.roll_deg.to_radians() as f32, step.pitch_deg.to_radians() as f32);
-        if step.rate_rad_s.iter().all(|w| w.is_finite()) {
+        let has_rates = step.rate_rad_s.iter().all(|w| w.is_finite());
+        if has_rates {
             link.motion(roll, pitch, step.rate_rad_s.map(|w| w as f32))?;
-        } else {
+        }
+        // The motor current goes with the attitude when the navigation has
+        // it (the board's current term needs it fresh for the heading).
+        if step.motor_current_a.is_finite() {
+            link.attitude_env(roll, pitch, step.motor_current_a as f32)?;
+        } else if !has_rates {
             link.attitude(roll, pitch)?;
         }
     }

@@ -41,6 +41,8 @@ struct Board {
     streaming: bool,
     clock_ms: u32,
     roll_rad: f32,
+    /// The last motor current received (AttitudeEnv), A.
+    current_a: f32,
 }
 
 struct MemStore {
@@ -74,7 +76,7 @@ impl Write for Conn {
                 *n -= 1;
             }
             let mut board = self.board.borrow_mut();
-            let Board { link, device, store, streaming, roll_rad: roll, .. } = &mut *board;
+            let Board { link, device, store, streaming, roll_rad: roll, current_a, .. } = &mut *board;
             let info = DeviceInfo { platform: Platform::Qemu, uptime_ms: 0 };
             match link.on_byte(b, &info) {
                 Some(LinkEvent::Reply(f)) => self.out.extend(f),
@@ -85,6 +87,10 @@ impl Write for Conn {
                     }
                     match r.body {
                         magcal_protocol::RequestBody::Attitude { roll_rad, .. } | magcal_protocol::RequestBody::Motion { roll_rad, .. } => *roll = roll_rad,
+                        magcal_protocol::RequestBody::AttitudeEnv { roll_rad, motor_current_a, .. } => {
+                            *roll = roll_rad;
+                            *current_a = motor_current_a;
+                        }
                         magcal_protocol::RequestBody::SetStream(mode) => *streaming = mode != StreamMode::Off,
                         _ => {}
                     }
@@ -105,7 +111,7 @@ impl Read for Conn {
             let mut board = self.board.borrow_mut();
             if board.streaming {
                 board.clock_ms += 10;
-                let s = magcal_protocol::Sample { t_ms: board.clock_ms, raw: Some([board.roll_rad * 1000.0, 2.0, 3.0]), field_nt: None, heading_rad: None, saturated: false, feed_seq: None };
+                let s = magcal_protocol::Sample { t_ms: board.clock_ms, raw: Some([board.roll_rad * 1000.0, 2.0 + board.current_a * 100.0, 3.0]), field_nt: None, heading_rad: None, saturated: false, feed_seq: None, temp_c: Some(21.5) };
                 if let Some(f) = board.link.reply(None, magcal_protocol::ResponseBody::Sample(s)) {
                     self.out.extend(f);
                 }
@@ -133,12 +139,21 @@ impl Read for Conn {
 }
 
 fn board() -> Rc<RefCell<Board>> {
-    Rc::new(RefCell::new(Board { link: LinkServer::new(), device: Device::new(Boot { stored: None, challenge: 42 }), store: MemStore { saves: 0 }, streaming: false, clock_ms: 5000, roll_rad: 0.0 }))
+    Rc::new(RefCell::new(Board { link: LinkServer::new(), device: Device::new(Boot { stored: None, challenge: 42 }), store: MemStore { saves: 0 }, streaming: false, clock_ms: 5000, roll_rad: 0.0, current_a: 0.0 }))
 }
 
 fn coefficients() -> Coefficients {
     let g = 1.0 / firmware::acquisition::COUNTS_PER_NT;
-    Coefficients { bias: [1000.0, 2000.0, -500.0], matrix: [[g, 0.0, 0.0], [0.0, g, 0.0], [0.0, 0.0, g]], swing: [0.01, 0.0, 0.0, 0.0, 0.0], declination_rad: 0.1, field_nt: 48_730.0 }
+    Coefficients {
+        bias: [1000.0, 2000.0, -500.0],
+        matrix: [[g, 0.0, 0.0], [0.0, g, 0.0], [0.0, 0.0, g]],
+        swing: [0.01, 0.0, 0.0, 0.0, 0.0],
+        declination_rad: 0.1,
+        field_nt: 48_730.0,
+        current_bias_per_a: [0.0; 3],
+        temp_ref_c: 20.0,
+        temp_gain_per_c: [0.0; 3],
+    }
 }
 
 fn connector(b: &Rc<RefCell<Board>>, budgets: Vec<(Option<usize>, Option<usize>)>) -> impl FnMut() -> Result<BoardClient<Conn>, ClientError> {
@@ -242,6 +257,25 @@ fn a_navigation_stream_with_a_gyro_sends_motion_and_records_the_rates() {
     // Motion would have failed the step): its samples carry the roll sent
     // (the mock board echoes it).
     assert!((rec.mag[7][0] - 7f64.to_radians() * 1000.0).abs() < 1e-3, "{:?}", rec.mag[7]);
+}
+
+#[test]
+fn a_navigation_stream_with_motor_current_sends_it_with_the_attitude_and_records_it() {
+    let b = board();
+    let nav = "t,roll_deg,pitch_deg,motor_current_a\n".to_string() + &(0..6).map(|k| format!("{k},{},0,{}", k as f64, if k == 2 { "".into() } else { format!("{}", 1.5 * k as f64) })).collect::<Vec<_>>().join("\n");
+    let mut vehicle = NavVehicle::new(std::io::Cursor::new(nav.into_bytes()), std::io::Cursor::new(Vec::new()), None);
+    assert!(vehicle.begin(Phase::Swing).unwrap());
+    let mut link = BoardClient::new(Conn { board: b.clone(), out: VecDeque::new(), write_budget: None, read_budget: None, delivered: vec![] });
+    link.set_stream(StreamMode::Raw).unwrap();
+    let Recorded { recording: rec, .. } = record(&mut link, &mut vehicle, true, None, |_, _, _, _| Ok(())).unwrap();
+    let current = rec.motor_current_a.as_ref().expect("motor_current_a recorded");
+    assert_eq!(current[3], 4.5);
+    assert!(current[2].is_nan(), "a missing current stays missing");
+    // The real device logic accepted AttitudeEnv (a refused one fails the
+    // step); the mock board echoes the current in its samples.
+    assert!((rec.mag[5][1] - (2.0 + 7.5 * 100.0)).abs() < 1e-3, "{:?}", rec.mag[5]);
+    // The board's temperature is recorded as temp_c.
+    assert_eq!(rec.temp_c.as_ref().unwrap()[0], 21.5);
 }
 
 #[test]

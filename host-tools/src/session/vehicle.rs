@@ -55,6 +55,10 @@ pub struct Step {
     /// sent to the board with the attitude, for its gyro-aided fit, and
     /// recorded as `gx, gy, gz`.
     pub rate_rad_s: [f64; 3],
+    /// Thruster (motor) current, A (NaN when not available): sent to the
+    /// board with the attitude, for its current term, and recorded as
+    /// `motor_current_a`.
+    pub motor_current_a: f64,
 }
 
 /// A source of steps: applies each step's stimulus to the board (simulated)
@@ -81,13 +85,13 @@ pub trait Vehicle {
 
 /// Navigation columns a stream may carry (`t`, `roll_deg`, `pitch_deg`
 /// required).
-const NAV_COLUMNS: [&str; 10] = ["t", "roll_deg", "pitch_deg", "ref_heading_deg", "lat_deg", "lon_deg", "true_heading_deg", "gx", "gy", "gz"];
+const NAV_COLUMNS: [&str; 11] = ["t", "roll_deg", "pitch_deg", "ref_heading_deg", "lat_deg", "lon_deg", "true_heading_deg", "gx", "gy", "gz", "motor_current_a"];
 
 /// One navigation stream: CSV lines in the INTERFACES.md columns from a
 /// file, a FIFO or stdin, one line per step.
 pub struct NavStream<R> {
     lines: std::io::Lines<R>,
-    columns: [Option<usize>; 10],
+    columns: [Option<usize>; 11],
     line_no: usize,
 }
 
@@ -133,6 +137,7 @@ impl<R: BufRead> NavStream<R> {
                         true_heading_deg: v[6],
                         feed_seq: None,
                         rate_rad_s: [v[7], v[8], v[9]],
+                        motor_current_a: v[10],
                     }))
                 }
                 _ => eprintln!("  navigation line {} skipped: not numbers: {line}", self.line_no),

@@ -33,7 +33,7 @@ pub struct Args {
     /// Real vehicle: navigation CSV (t, roll_deg, pitch_deg, ...) during the swing test.
     #[arg(long, requires = "nav_run")]
     nav_swing: Option<PathBuf>,
-    /// Real vehicle: navigation CSV (t, roll_deg, pitch_deg, ref_heading_deg, lat_deg, lon_deg) during the run.
+    /// Real vehicle: navigation CSV (t, roll_deg, pitch_deg, ref_heading_deg, lat_deg, lon_deg; optional gx, gy, gz, motor_current_a — sent to the board with the attitude) during the run.
     #[arg(long, requires = "nav_swing")]
     nav_run: Option<PathBuf>,
     /// Real vehicle, optional: navigation CSV of a validation run with a reference heading (`true_heading_deg`).

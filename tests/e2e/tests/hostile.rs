@@ -13,7 +13,16 @@ use magcal_protocol::{self as proto, CoefficientSource, Coefficients, DeviceErro
 
 fn coefficients(bias_x: f32) -> Coefficients {
     let g = 1.0 / COUNTS_PER_NT;
-    Coefficients { bias: [bias_x, -2000.0, 500.0], matrix: [[g, 0.0, 0.0], [0.0, g, 0.0], [0.0, 0.0, g]], swing: [0.0; 5], declination_rad: 0.05, field_nt: 48_730.0 }
+    Coefficients {
+        bias: [bias_x, -2000.0, 500.0],
+        matrix: [[g, 0.0, 0.0], [0.0, g, 0.0], [0.0, 0.0, g]],
+        swing: [0.0; 5],
+        declination_rad: 0.05,
+        field_nt: 48_730.0,
+        current_bias_per_a: [0.0; 3],
+        temp_ref_c: 20.0,
+        temp_gain_per_c: [0.0; 3],
+    }
 }
 
 fn frame(seq: u16, body: RequestBody) -> Vec<u8> {

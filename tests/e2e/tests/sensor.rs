@@ -5,8 +5,8 @@
 
 use std::time::{Duration, Instant};
 
-use calib_core::cal::Calibration;
-use calib_core::heading::{ned_field, ned_to_body, wrap_pi};
+use calib_core::cal::{Calibration, Environment};
+use calib_core::heading::{ned_field, ned_to_body, wrap_pi, Tilt};
 use calib_core::linalg::{inverse3, mul_mat_vec};
 use e2e_tests::boot_with_feed;
 use firmware::acquisition::COUNTS_PER_NT;
@@ -26,6 +26,9 @@ fn coefficients() -> Coefficients {
         swing: [0.0; 5],
         declination_rad: 0.05,
         field_nt: 48_730.0,
+        current_bias_per_a: [0.0; 3],
+        temp_ref_c: 20.0,
+        temp_gain_per_c: [0.0; 3],
     }
 }
 
@@ -95,6 +98,103 @@ fn fed_field_comes_back_calibrated_with_the_heading() {
         Err(ClientError::Remote(Remote::MissionMode)) => {}
         other => panic!("{other:?}"),
     }
+}
+
+/// The current and temperature terms on the board: the feed sets the
+/// sensor's temperature (the ADC model makes the thermistor's voltage on
+/// channel 3 from it), the host sends the motor current with the attitude,
+/// and the bridges see the field through a drifted gain plus the thrusters'
+/// field — written here from that physics.
+#[test]
+fn current_and_temperature_terms_are_applied_on_the_board() {
+    let board = boot_with_feed("sensor-env");
+    let mut link = BoardClient::open(board.link_port()).expect("open link");
+    let mut feed = FeedWriter::open(board.sensor_port().expect("feed pty")).expect("open feed");
+    link.identify().expect("identify");
+    // HMC100x-like drift, −0.3 %/°C from 20 °C; thrusters adding 40 nT/A on z.
+    let (k, t0_c, c_nt_per_a) = ([-0.003f64, -0.0028, -0.0032], 20.0f64, [15.0f64, -6.0, 40.0]);
+    let (temp_c, current_a) = (31.0f32, 22.0f32);
+    let g = f64::from(COUNTS_PER_NT);
+    let c = Coefficients {
+        current_bias_per_a: c_nt_per_a.map(|v| (v * g) as f32),
+        temp_ref_c: t0_c as f32,
+        temp_gain_per_c: k.map(|v| v as f32),
+        ..coefficients()
+    };
+    link.upload_coefficients(&c).expect("upload");
+    link.set_output_rate(20).unwrap();
+    link.set_stream(StreamMode::Both).unwrap();
+    let (roll, pitch, yaw) = (0.15f32, 0.05f32, 4.0f64);
+    let h = ned_to_body(ned_field(48_730.0, 0.97, 0.05), f64::from(roll), f64::from(pitch), yaw);
+    let at_bridges = {
+        let d = mul_mat_vec(&D, h);
+        [0, 1, 2].map(|i| ((1.0 + k[i] * (f64::from(temp_c) - t0_c)) * (d[i] + B_NT[i] + c_nt_per_a[i] * f64::from(current_a))) as f32)
+    };
+    let expected_raw = at_bridges.map(|v| (f64::from(v) * firmware::ads131m04_model::model_codes_per_nt()).round() as f32);
+    let offsets = [120_000.0, -95_000.0, 33_000.0];
+    let cal: Calibration<f32> = firmware::device::validate(&c).unwrap();
+    // Phase 1: fresh current and a sound thermistor; phase 2: attitude
+    // without current (heading withheld); phase 3: open thermistor.
+    let deadline = Instant::now() + Duration::from_secs(30);
+    let (mut checked, mut phase) = (0, 1);
+    let mut last_attitude = Instant::now() - Duration::from_secs(1);
+    while phase <= 3 && Instant::now() < deadline {
+        let feed_temp = if phase == 3 { f32::NAN } else { temp_c };
+        feed.send_env(at_bridges, offsets, Some(feed_temp)).unwrap();
+        if last_attitude.elapsed() > Duration::from_millis(200) {
+            match phase {
+                1 => link.attitude_env(roll, pitch, current_a).unwrap(),
+                _ => link.attitude(roll, pitch).unwrap(),
+            }
+            last_attitude = Instant::now();
+        }
+        let Some(s) = link.next_sample(Duration::from_millis(100)).unwrap() else { continue };
+        let (Some(raw), Some(field)) = (s.raw, s.field_nt) else { continue };
+        if raw.iter().zip(expected_raw).any(|(a, b)| (a - b).abs() > 1.0) {
+            continue;
+        }
+        match phase {
+            1 => {
+                let (Some(heading), Some(measured_c)) = (s.heading_rad, s.temp_c) else { continue };
+                // The thermistor through the model and the driver (host: 0.11 °C).
+                assert!((measured_c - temp_c).abs() < 0.3, "{measured_c} °C");
+                let env = Environment { current_a, temp_c: measured_c };
+                let want = cal.apply_tilt_env(raw, &Tilt::new(roll, pitch), &env);
+                assert_eq!((field, heading), (want.field_nt, want.true_heading_rad), "calib-core, bit for bit");
+                // The truth, to what the temperature reading allows (0.1 °C
+                // × 0.3 %/°C of 48 000 nT: 15 nT).
+                for i in 0..3 {
+                    assert!((f64::from(field[i]) - h[i]).abs() < 30.0, "field {field:?} vs {h:?}");
+                }
+                assert!(wrap_pi(f64::from(heading) - yaw).abs() < 0.05f64.to_radians(), "heading {heading} vs {yaw}");
+                checked += 1;
+                if checked == 3 {
+                    let health = link.status().unwrap();
+                    assert!(!health.env_degraded && health.temp_c.is_some(), "{health:?}");
+                    phase = 2;
+                    // Let the current go stale.
+                    std::thread::sleep(Duration::from_millis(600));
+                }
+            }
+            2 => {
+                if s.heading_rad.is_some() {
+                    continue; // a sample from before the current went stale
+                }
+                let health = link.status().unwrap();
+                assert!(health.current_stale > 0 && health.env_degraded, "{health:?}");
+                phase = 3;
+            }
+            _ => {
+                if s.temp_c.is_some() {
+                    continue;
+                }
+                let health = link.status().unwrap();
+                assert!(health.temp_missing > 0 && health.env_degraded, "{health:?}");
+                phase = 4;
+            }
+        }
+    }
+    assert_eq!(phase, 4, "phase {phase} not reached within the deadline ({checked} samples checked)");
 }
 
 #[test]

@@ -139,6 +139,8 @@ mod tests {
         use firmware::acquisition::{run_ready, Acquisition, Decimator, SetResetStrap, COUNTS_PER_NT};
         use firmware::device::{BoardCounters, Boot, CoefficientStore, Device};
         use firmware::ads131m04_model::{Ads131m04Model, BridgeModel, DrdyPinModel, StrapPinModel};
+        use calib_core::cal::Environment;
+        use calib_core::heading::Tilt;
         use magcal_protocol::{Coefficients, RequestBody, StreamMode};
 
         struct NoStore;
@@ -153,27 +155,33 @@ mod tests {
         }
         static SENSOR: BridgeModel = BridgeModel::new();
         let g = 1.0 / COUNTS_PER_NT;
+        // With current and temperature terms: the bridges' gain drifts by
+        // k per °C from 20 °C, the thrusters add c counts per ampere.
+        let (k, t0_c, cur, current_a, temp_c) = ([-0.003f32, -0.0028, -0.0032], 20.0f32, [300.0f32, -120.0, 900.0], 20.0f32, 28.0f32);
         let c = Coefficients {
             bias: [50_000.0, -30_000.0, 10_000.0],
             matrix: [[g, 0.0, 0.0], [0.0, g * 1.05, 0.0], [0.0, 0.0, g * 0.97]],
             swing: [0.01, 0.0, 0.0, 0.0, 0.0],
             declination_rad: 0.0,
             field_nt: 48_730.0,
+            current_bias_per_a: cur,
+            temp_ref_c: t0_c,
+            temp_gain_per_c: k,
         };
         let mut dev = Device::new(Boot { stored: Some((c, 1)), challenge: 0 });
         dev.handle(&RequestBody::SetStream(StreamMode::Both), 0, &mut NoStore, &BoardCounters::default());
-        dev.handle(&RequestBody::Attitude { roll_rad: 0.1, pitch_rad: 0.05 }, 0, &mut NoStore, &BoardCounters::default());
+        dev.handle(&RequestBody::AttitudeEnv { roll_rad: 0.1, pitch_rad: 0.05, motor_current_a: current_a }, 0, &mut NoStore, &BoardCounters::default());
         let strap = SetResetStrap::new(StrapPinModel::set(&SENSOR), StrapPinModel::reset(&SENSOR));
         let mut acq = Acquisition::new(Ads131m04Model::new(&SENSOR), strap, DrdyPinModel::new(&SENSOR)).unwrap();
         let field_nt = [20_000.0f32, -15_000.0, 40_000.0];
-        // What the bridges see: the calibration's inverse applied to the field.
-        let counts = [
-            field_nt[0] / g + c.bias[0],
-            field_nt[1] / (g * 1.05) + c.bias[1],
-            field_nt[2] / (g * 0.97) + c.bias[2],
-        ];
-        // The model takes the field in nT and converts with its own chain.
+        // What the bridges see: the calibration's inverse applied to the
+        // field, the thrusters' field added, all through the drifted gain.
+        let scale = [g, g * 1.05, g * 0.97];
+        let counts: [f32; 3] = core::array::from_fn(|i| (1.0 + k[i] * (temp_c - t0_c)) * (field_nt[i] / scale[i] + c.bias[i] + cur[i] * current_a));
+        // The model takes the field in nT and converts with its own chain;
+        // the thermistor next to the sensor is at temp_c.
         SENSOR.set_truth(counts.map(|c| c / COUNTS_PER_NT), [25_000.0, 25_000.0, -25_000.0]);
+        SENSOR.set_temp_c(temp_c);
         let mut dec = Decimator::new(4);
         let mut out = None;
         for _ in 0..4 {
@@ -184,11 +192,20 @@ mod tests {
         }
         let s = out.unwrap();
         let raw = s.raw.unwrap();
+        let measured_c = s.temp_c.unwrap();
+        // The thermistor read through the ADC model and the driver's
+        // Steinhart–Hart conversion (host test: within 0.11 °C).
+        assert!((measured_c - temp_c).abs() < 0.3, "{measured_c} °C");
+        // On the MCU the sample is exactly what calib-core computes.
         let cal = firmware::device::validate(&c).unwrap();
-        assert_eq!(s.field_nt.unwrap(), cal.field_nt(raw));
-        assert_eq!(s.heading_rad.unwrap(), cal.apply(raw, 0.1, 0.05).true_heading_rad);
+        let env = Environment { current_a, temp_c: measured_c };
+        let want = cal.apply_tilt_env(raw, &Tilt::new(0.1, 0.05), &env);
+        assert_eq!(s.field_nt.unwrap(), want.field_nt);
+        assert_eq!(s.heading_rad.unwrap(), want.true_heading_rad);
+        // And close to the truth: the temperature read 0.03 °C off moves
+        // the gain by 1e-4, ≤ 4 nT on 40 000 nT.
         for k in 0..3 {
-            assert!((s.field_nt.unwrap()[k] - field_nt[k]).abs() < 0.1, "{:?}", s.field_nt);
+            assert!((s.field_nt.unwrap()[k] - field_nt[k]).abs() < 10.0, "{:?}", s.field_nt);
         }
     }
 
