@@ -4,6 +4,8 @@
 //!
 //! * [`field_test`]: paper 000's swing test and out-and-back runs
 //!   (`magcal simulate`);
+//! * [`logs`]: a field test as a board log and a navigation log on two
+//!   clocks (`magcal merge`'s inputs, its tests and benchmark);
 //! * [`scenario`]: the whole chain on simulated field tests against the
 //!   truth (acceptance tests, `cargo xtask bench`);
 //! * [`vehicle`]: the simulated vehicle that plays the field tests into the
@@ -14,6 +16,7 @@
 #![deny(missing_docs)]
 
 pub mod field_test;
+pub mod logs;
 pub mod scenario;
 pub mod vehicle;
 
