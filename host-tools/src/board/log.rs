@@ -25,6 +25,9 @@ use super::{BoardClient, ClientError};
 use crate::data::merge::{HEALTH_AFTER_GAP, HEALTH_SATURATED};
 use crate::session::record::{reconnect_at, Resume};
 
+/// Samples written between flushes and progress updates, at most.
+const BATCH: usize = 64;
+
 /// The board log's header (`docs/INTERFACES.md`, "Board log").
 pub const LOG_HEADER: &str = "t,mx,my,mz,temp_c,health";
 
@@ -317,6 +320,7 @@ pub fn log_board<P: Read + Write, W: Write>(
         let dropped = match got {
             Ok(Some(first)) => {
                 let mut next = Some(first);
+                let mut batch = 0;
                 while let Some(sample) = next {
                     last_sample_at = Instant::now();
                     match clock.unwrap(sample.t_ms) {
@@ -353,10 +357,11 @@ pub fn log_board<P: Read + Write, W: Write>(
                             last_ms = Some(ms);
                         }
                     }
-                    next = match link.next_sample(Duration::ZERO) {
-                        Ok(n) => n,
-                        Err(_) => None,
-                    };
+                    // What has arrived already, a bounded batch (a stream
+                    // faster than the file would never end one).
+                    batch += 1;
+                    // (An error here shows again on the next wait.)
+                    next = if batch < BATCH { link.next_sample(Duration::ZERO).ok().flatten() } else { None };
                 }
                 out.flush().map_err(io_err)?;
                 on_progress(&progress(&s, false));
