@@ -53,6 +53,10 @@ enum Cmd {
     /// another clock: the clock offset and drift estimated from the turns
     /// both see (or given), navigation interpolated to the board's samples.
     Merge(cmd::merge::Args),
+    /// The board's raw stream to a board log on the board's clock (for
+    /// `merge`): t, mx, my, mz, temp_c, health, flushed as it goes; link
+    /// drops reopened and kept as gaps; Ctrl-C ends it cleanly.
+    Log(cmd::log::Args),
 }
 
 fn main() {
@@ -71,6 +75,7 @@ fn main() {
         Cmd::Card(a) => cmd::card::run(a),
         Cmd::Import(a) => cmd::import::run(a),
         Cmd::Merge(a) => cmd::merge::run(a),
+        Cmd::Log(a) => cmd::log::run(a),
     };
     if let Err(e) = result {
         // One line: the chain of causes, each said once.

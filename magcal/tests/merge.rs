@@ -6,50 +6,18 @@
 
 use std::path::Path;
 
-use calib_core::conformance::SplitMix64;
 use host_tools::compute::{self, ChainOptions};
 use host_tools::data::merge::{merge, BoardLog, Clock, MergeReport, NavLog};
-use host_tools::data::pairing::ClockMap;
 use host_tools::data::Recording;
 use magcal_sim::field_test::{self, paper_site, RunParams, SensorModel, Simulation};
+use magcal_sim::logs::{self, LogSplit, NAV_T0_S};
 use magcal_sim::scenario::heading_rms_deg;
 
-/// Navigation-clock time of the simulation's first row, s.
-const NAV_T0_S: f64 = 1000.0;
-
-/// Splits a simulation (one row per board sample) into a board log whose
-/// clock runs `t_nav = t_board + offset_s + drift_ppm·10⁻⁶·(t_board − first)`
-/// (board times in whole milliseconds, as the board stamps them) and a
-/// navigation log of every `nav_every`-th row within `trim_s` of each end
-/// (the AHRS heading with 0.15° of noise, the GPS as simulated).
+/// Splits a simulation into a board log and a navigation log
+/// ([`magcal_sim::logs::split`]: board times in whole milliseconds, the
+/// AHRS heading with 0.15° of noise, the GPS as simulated).
 fn split(sim: &Simulation, offset_s: f64, drift_ppm: f64, nav_every: usize, trim_s: (f64, f64), seed: u64) -> (BoardLog, NavLog) {
-    let rec = &sim.recording;
-    let t = rec.t_s.as_ref().unwrap();
-    let first_board = NAV_T0_S + t[0] - offset_s;
-    let map = ClockMap { offset_s, drift_ppm, board_ref_s: first_board };
-    let board = BoardLog {
-        t_s: t.iter().map(|&ts| (map.to_board(NAV_T0_S + ts) * 1000.0).round() / 1000.0).collect(),
-        mag: rec.mag.clone(),
-        temp_c: None,
-        health: None,
-    };
-    let end = *t.last().unwrap();
-    let rows: Vec<usize> = (0..t.len()).step_by(nav_every).filter(|&i| t[i] >= t[0] + trim_s.0 && t[i] <= end - trim_s.1).collect();
-    let pick = |c: &Option<Vec<f64>>| c.as_ref().map(|c| rows.iter().map(|&i| c[i]).collect::<Vec<f64>>());
-    let mut rng = SplitMix64::new(seed);
-    let nav = NavLog {
-        t_s: rows.iter().map(|&i| NAV_T0_S + t[i]).collect(),
-        roll_deg: pick(&rec.roll_deg).unwrap(),
-        pitch_deg: pick(&rec.pitch_deg).unwrap(),
-        heading_deg: Some(rows.iter().map(|&i| (sim.true_heading_deg[i] + 0.15 * rng.gauss()).rem_euclid(360.0)).collect()),
-        ref_heading_deg: pick(&rec.ref_heading_deg),
-        lat_deg: pick(&rec.lat_deg),
-        lon_deg: pick(&rec.lon_deg),
-        gyro_rad_s: None,
-        speed_mps: None,
-        motor_current_a: None,
-    };
-    (board, nav)
+    logs::split(sim, &LogSplit { offset_s, drift_ppm, nav_every, trim_s, seed })
 }
 
 fn estimate() -> Clock {

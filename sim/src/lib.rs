@@ -7,6 +7,8 @@
 //!   current), each switchable;
 //! * [`field_test`]: paper 000's swing test and out-and-back runs
 //!   (`magcal simulate`);
+//! * [`logs`]: a field test as a board log and a navigation log on two
+//!   clocks (`magcal merge`'s inputs, its tests and benchmark);
 //! * [`scenario`]: the whole chain on simulated field tests against the
 //!   truth (acceptance tests, `cargo xtask bench`);
 //! * [`vehicle`]: the simulated vehicle that plays the field tests into the
@@ -18,6 +20,7 @@
 
 pub mod effects;
 pub mod field_test;
+pub mod logs;
 pub mod scenario;
 pub mod vehicle;
 

@@ -4,13 +4,16 @@
 //!   (USART1), with the samples the board streams;
 //! * [`feed`]: [`FeedWriter`], the QEMU board's sensor feed (USART2);
 //! * [`qemu`]: [`qemu::QemuBoard`], boots the firmware in QEMU;
-//! * [`coefficients`]: the calibration document ↔ the board's coefficients.
+//! * [`coefficients`]: the calibration document ↔ the board's coefficients;
+//! * [`log`]: `magcal log`, the board's raw stream to a board log on the
+//!   board's clock.
 
 use std::time::Duration;
 
 pub mod client;
 pub mod coefficients;
 pub mod feed;
+pub mod log;
 pub mod qemu;
 
 pub use client::{BoardClient, ClientError, SAMPLE_QUEUE};

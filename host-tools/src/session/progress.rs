@@ -11,7 +11,7 @@ pub struct Progress {
 }
 
 impl Progress {
-    /// A progress display for `total` steps.
+    /// A progress display for `total` steps (0: not known).
     pub fn new(label: &str, total: usize, interactive: bool) -> Self {
         let bar = interactive.then(|| {
             // A stream of unknown length (a real vehicle) gets a spinner.
@@ -34,7 +34,11 @@ impl Progress {
             }
             None => {
                 if self.last_line.elapsed() > Duration::from_secs(2) || i + 1 == self.total {
-                    eprintln!("  {} {}/{}: {detail}", self.label, i + 1, self.total);
+                    if self.total == 0 {
+                        eprintln!("  {} {}: {detail}", self.label, i + 1);
+                    } else {
+                        eprintln!("  {} {}/{}: {detail}", self.label, i + 1, self.total);
+                    }
                     self.last_line = Instant::now();
                 }
             }

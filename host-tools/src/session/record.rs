@@ -218,12 +218,18 @@ fn take_by_time<P: Read + Write>(link: &mut BoardClient<P>, step: &Step, deadlin
     }
 }
 
-/// Opens the link again and restarts the stream.
+/// Opens the link again and restarts the stream at 100 Hz.
 fn reconnect<P: Read + Write>(r: &mut Resume<'_, P>) -> Result<BoardClient<P>, SessionError> {
+    reconnect_at(r, 100)
+}
+
+/// Opens the link again (up to `r.attempts` times, 200 ms apart) and
+/// restarts the stream at `rate_hz` (also `magcal log`'s reconnect).
+pub(crate) fn reconnect_at<P: Read + Write>(r: &mut Resume<'_, P>, rate_hz: u8) -> Result<BoardClient<P>, SessionError> {
     let mut last = None;
     for _ in 0..r.attempts.max(1) {
         match (r.connect)() {
-            Ok(mut l) => match l.set_stream(r.stream).and_then(|()| l.set_output_rate(100)) {
+            Ok(mut l) => match l.set_stream(r.stream).and_then(|()| l.set_output_rate(rate_hz)) {
                 Ok(()) => return Ok(l),
                 Err(e) => last = Some(e),
             },

@@ -307,3 +307,6 @@ fn a_faster_board_stream_is_paired_by_time_with_a_bounded_lag() {
         assert!((rec.mag[k][0] - (k as f64 * 0.5).to_radians() * 1000.0).abs() < 1e-2, "row {k}: {:?}", rec.mag[k]);
     }
 }
+
+/// `magcal log` against the same in-memory board and link.
+mod log;

@@ -7,6 +7,7 @@ pub mod fit;
 pub mod identify;
 pub mod igrf;
 pub mod import;
+pub mod log;
 pub mod merge;
 pub mod ortho;
 pub mod report;

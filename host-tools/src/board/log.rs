@@ -1,0 +1,461 @@
+//! `magcal log`: the board's raw stream written to a board log (the CSV
+//! that [`crate::data::merge::BoardLog`] reads), on the board's own clock,
+//! for as long as asked.
+//!
+//! * `t` is the board's `t_ms` in seconds, unwrapped across the `u32`
+//!   millisecond counter's wrap-around (every 49.7 days) by [`BoardClock`];
+//! * every row is written and flushed as it arrives, so a killed process
+//!   loses nothing it had written;
+//! * a dropped link is reopened (the session's reconnect, with a growing
+//!   backoff between rounds) and logging goes on; the samples lost meanwhile
+//!   show as a gap in `t`, the first sample after it carries
+//!   [`HEALTH_AFTER_GAP`], and the gaps are listed in the [`LogSummary`];
+//! * the board's `Health` counters before and after give what the board
+//!   produced and dropped on its side.
+
+use std::io::{self, Read, Write};
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use magcal_protocol::{Health, Sample, StreamMode};
+use serde::{Deserialize, Serialize};
+
+use super::{BoardClient, ClientError};
+use crate::data::merge::{HEALTH_AFTER_GAP, HEALTH_SATURATED};
+use crate::session::record::{reconnect_at, Resume};
+
+/// Samples written between flushes and progress updates, at most.
+const BATCH: usize = 64;
+
+/// The board log's header (`docs/INTERFACES.md`, "Board log").
+pub const LOG_HEADER: &str = "t,mx,my,mz,temp_c,health";
+
+/// Why logging could not start or could not go on.
+#[derive(Debug, thiserror::Error)]
+pub enum LogError {
+    /// The output file exists (and overwriting was not asked for).
+    #[error("{0} exists: give another --out, or --force to overwrite it")]
+    Exists(PathBuf),
+    /// The output file could not be created or written.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// What the OS said.
+        #[source]
+        source: io::Error,
+    },
+    /// The port could not be opened at the start.
+    #[error(transparent)]
+    Open(ClientError),
+    /// The port opened but no board answered `Identify`.
+    #[error("no board answers on the port (Identify): {0}")]
+    Identify(ClientError),
+    /// The board refused to stream (at the start).
+    #[error("the board would not stream raw samples: {0}")]
+    Stream(ClientError),
+    /// An option is out of range.
+    #[error("{0}")]
+    Option(String),
+}
+
+/// How long to log and how to treat the link.
+#[derive(Debug, Clone)]
+pub struct LogOptions {
+    /// Stop after this long (host time); `None`: until stopped.
+    pub duration: Option<Duration>,
+    /// The board's output rate, Hz (1–100).
+    pub rate_hz: u8,
+    /// No sample for this long means the link is down (reopened).
+    pub silence: Duration,
+    /// First pause between reconnection rounds; doubled each failed round.
+    pub backoff_initial: Duration,
+    /// Longest pause between reconnection rounds.
+    pub backoff_max: Duration,
+    /// Show an indicatif bar (a terminal); otherwise plain progress lines.
+    pub interactive: bool,
+}
+
+impl Default for LogOptions {
+    fn default() -> Self {
+        Self {
+            duration: None,
+            rate_hz: 100,
+            silence: Duration::from_secs(3),
+            backoff_initial: Duration::from_millis(200),
+            backoff_max: Duration::from_secs(5),
+            interactive: false,
+        }
+    }
+}
+
+/// A stretch of board time without samples.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Gap {
+    /// Board time of the last sample before the gap, s.
+    pub after_t_s: f64,
+    /// Board time from that sample to the next one, s.
+    pub length_s: f64,
+    /// Samples missing in it at the output rate.
+    pub missing_samples: u64,
+}
+
+/// Why logging ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LogEnd {
+    /// The duration asked for passed.
+    Duration,
+    /// Stopped (Ctrl-C).
+    Interrupted,
+    /// The board's clock went back (it restarted): the log ends there, on
+    /// one clock (start another log for what follows).
+    BoardRestarted,
+}
+
+/// What was logged (`magcal log --json`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LogSummary {
+    /// The file written.
+    pub out: PathBuf,
+    /// Rows written.
+    pub samples: u64,
+    /// Board time of the first row, s.
+    pub first_t_s: Option<f64>,
+    /// Board time of the last row, s.
+    pub last_t_s: Option<f64>,
+    /// The output rate asked for, Hz.
+    pub rate_hz: u8,
+    /// Gaps in the board's time (more than 1.5 output intervals between rows).
+    pub gaps: Vec<Gap>,
+    /// Board time in gaps, s.
+    pub gap_total_s: f64,
+    /// Samples missing in the gaps at the output rate.
+    pub missing_samples: u64,
+    /// Times the link dropped (an I/O error or silence) and was reopened.
+    pub link_drops: u32,
+    /// Rows with a saturated channel.
+    pub saturated_samples: u64,
+    /// Rows with a temperature.
+    pub samples_with_temp: u64,
+    /// Frames the host received damaged or out of place.
+    pub host_discarded_frames: u64,
+    /// Samples the host dropped because its queue was full.
+    pub host_queue_dropped: u64,
+    /// Samples repeated or out of order (board time not after the last row), not written.
+    pub out_of_order_samples: u64,
+    /// Output samples the board produced from the first to the last
+    /// `Status` (its `Health` counters; `None` when the last could not be read).
+    pub board_samples_produced: Option<u32>,
+    /// Frames the board dropped because its transmit queue was full, over the same span.
+    pub board_tx_dropped: Option<u32>,
+    /// Pairs the board saw saturated, over the same span.
+    pub board_saturated_pairs: Option<u32>,
+    /// Why logging ended.
+    pub ended: LogEnd,
+    /// Host time spent logging, s.
+    pub wall_s: f64,
+}
+
+/// What [`BoardClock::unwrap`] made of a `t_ms`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ClockStep {
+    /// Milliseconds since the board's boot, unwrapped.
+    Ms(u64),
+    /// Not after the last time (a repeated or reordered sample).
+    Stale,
+    /// The clock went back by less than half its range: the board restarted.
+    Restarted,
+}
+
+/// A step back of less than this is a repeated sample, not a restart, ms.
+const STALE_MS: u32 = 50;
+
+/// The board's `u32` millisecond clock unwrapped into a `u64`: a step
+/// backwards by more than half the counter's range is a wrap-around (the
+/// counter passed 2³² − 1), a smaller one a restart (its uptime starts
+/// again from 0) unless it is under 50 ms (a repeated sample).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct BoardClock {
+    last: Option<u64>,
+}
+
+impl BoardClock {
+    /// The unwrapped time of `t_ms`, the sample after the last one taken.
+    pub fn unwrap(&mut self, t_ms: u32) -> ClockStep {
+        let Some(last) = self.last else {
+            self.last = Some(u64::from(t_ms));
+            return ClockStep::Ms(u64::from(t_ms));
+        };
+        let last_low = last as u32;
+        let ahead = t_ms.wrapping_sub(last_low);
+        if ahead == 0 {
+            ClockStep::Stale
+        } else if ahead < 1 << 31 {
+            let now = last + u64::from(ahead);
+            self.last = Some(now);
+            ClockStep::Ms(now)
+        } else if last_low.wrapping_sub(t_ms) < STALE_MS {
+            // A hair behind: a repeated sample.
+            ClockStep::Stale
+        } else {
+            ClockStep::Restarted
+        }
+    }
+}
+
+/// The temperature at the sensor of a sample, °C, when the board measured
+/// one (its thermistor; `None` when open, shorted or not fitted).
+pub fn sample_temp_c(s: &Sample) -> Option<f64> {
+    s.temp_c.map(f64::from)
+}
+
+/// The `health` flags of a sample ([`HEALTH_SATURATED`], [`HEALTH_AFTER_GAP`]).
+pub fn health_flags(s: &Sample, after_gap: bool) -> u32 {
+    (if s.saturated { HEALTH_SATURATED } else { 0 }) | (if after_gap { HEALTH_AFTER_GAP } else { 0 })
+}
+
+/// Opens the output for a new log: refused when it exists unless `force`.
+pub fn create_log_file(path: &std::path::Path, force: bool) -> Result<std::fs::File, LogError> {
+    let mut o = std::fs::OpenOptions::new();
+    o.write(true);
+    if force {
+        o.create(true).truncate(true);
+    } else {
+        o.create_new(true);
+    }
+    o.open(path).map_err(|source| {
+        if source.kind() == io::ErrorKind::AlreadyExists {
+            LogError::Exists(path.to_path_buf())
+        } else {
+            LogError::Io { path: path.to_path_buf(), source }
+        }
+    })
+}
+
+/// The state shown on the progress line.
+#[derive(Debug, Clone, Copy)]
+pub struct LogProgress {
+    /// Rows written so far.
+    pub samples: u64,
+    /// Board time of the last row, s.
+    pub last_t_s: f64,
+    /// Gaps so far.
+    pub gaps: usize,
+    /// Link drops so far.
+    pub link_drops: u32,
+    /// The link is down (reconnecting).
+    pub link_down: bool,
+}
+
+fn fmt_cell(v: Option<f64>) -> String {
+    v.filter(|x| x.is_finite()).map_or(String::new(), |x| format!("{x}"))
+}
+
+/// Logs the board's raw stream into `out` (a fresh file, see
+/// [`create_log_file`]; `out_path` names it in errors) until the duration
+/// passes, `stop` is set, or the board restarts. `connect` opens the link
+/// (at the start and after each drop); `on_progress` sees every batch.
+pub fn log_board<P: Read + Write, W: Write>(
+    connect: &mut dyn FnMut() -> Result<BoardClient<P>, ClientError>,
+    out: W,
+    out_path: PathBuf,
+    opts: &LogOptions,
+    stop: &AtomicBool,
+    mut on_progress: impl FnMut(&LogProgress),
+) -> Result<LogSummary, LogError> {
+    if !(1..=100).contains(&opts.rate_hz) {
+        return Err(LogError::Option(format!("--rate-hz must be 1 to 100, not {}", opts.rate_hz)));
+    }
+    let io_err = |source| LogError::Io { path: out_path.clone(), source };
+    let mut out = io::LineWriter::new(out);
+    let mut link = connect().map_err(LogError::Open)?;
+    link.identify().map_err(LogError::Identify)?;
+    let health_start = link.status().ok();
+    link.set_output_rate(opts.rate_hz).map_err(LogError::Stream)?;
+    link.set_stream(StreamMode::Raw).map_err(LogError::Stream)?;
+    link.clear_samples();
+    writeln!(out, "{LOG_HEADER}").map_err(io_err)?;
+    out.flush().map_err(io_err)?;
+
+    let started = Instant::now();
+    let interval_ms = 1000.0 / f64::from(opts.rate_hz);
+    let mut clock = BoardClock::default();
+    let mut s = LogSummary {
+        out: out_path.clone(),
+        samples: 0,
+        first_t_s: None,
+        last_t_s: None,
+        rate_hz: opts.rate_hz,
+        gaps: vec![],
+        gap_total_s: 0.0,
+        missing_samples: 0,
+        link_drops: 0,
+        saturated_samples: 0,
+        samples_with_temp: 0,
+        host_discarded_frames: 0,
+        host_queue_dropped: 0,
+        out_of_order_samples: 0,
+        board_samples_produced: None,
+        board_tx_dropped: None,
+        board_saturated_pairs: None,
+        ended: LogEnd::Interrupted,
+        wall_s: 0.0,
+    };
+    let mut last_ms: Option<u64> = None;
+    let mut last_sample_at = Instant::now();
+    let mut link_alive = true;
+    let progress = |s: &LogSummary, down: bool| LogProgress { samples: s.samples, last_t_s: s.last_t_s.unwrap_or(f64::NAN), gaps: s.gaps.len(), link_drops: s.link_drops, link_down: down };
+    let ended = 'log: loop {
+        if stop.load(Ordering::Relaxed) {
+            break LogEnd::Interrupted;
+        }
+        if opts.duration.is_some_and(|d| started.elapsed() >= d) {
+            break LogEnd::Duration;
+        }
+        let got = link.next_sample(Duration::from_millis(100));
+        let dropped = match got {
+            Ok(Some(first)) => {
+                let mut next = Some(first);
+                let mut batch = 0;
+                while let Some(sample) = next {
+                    last_sample_at = Instant::now();
+                    match clock.unwrap(sample.t_ms) {
+                        ClockStep::Stale => s.out_of_order_samples += 1,
+                        ClockStep::Restarted => break 'log LogEnd::BoardRestarted,
+                        ClockStep::Ms(ms) => {
+                            let t_s = ms as f64 / 1000.0;
+                            let after_gap = last_ms.is_some_and(|l| (ms - l) as f64 > 1.5 * interval_ms);
+                            if let (true, Some(l)) = (after_gap, last_ms) {
+                                let length_s = (ms - l) as f64 / 1000.0;
+                                let missing = ((ms - l) as f64 / interval_ms).round().max(1.0) as u64 - 1;
+                                s.gaps.push(Gap { after_t_s: l as f64 / 1000.0, length_s, missing_samples: missing });
+                                s.gap_total_s += length_s;
+                                s.missing_samples += missing;
+                            }
+                            let raw = sample.raw.map(|r| r.map(f64::from));
+                            let temp = sample_temp_c(&sample);
+                            let flags = health_flags(&sample, after_gap);
+                            writeln!(
+                                out,
+                                "{:.3},{},{},{},{},{flags}",
+                                t_s,
+                                fmt_cell(raw.map(|r| r[0])),
+                                fmt_cell(raw.map(|r| r[1])),
+                                fmt_cell(raw.map(|r| r[2])),
+                                fmt_cell(temp)
+                            )
+                            .map_err(io_err)?;
+                            s.samples += 1;
+                            s.saturated_samples += u64::from(sample.saturated);
+                            s.samples_with_temp += u64::from(temp.is_some());
+                            s.first_t_s.get_or_insert(t_s);
+                            s.last_t_s = Some(t_s);
+                            last_ms = Some(ms);
+                        }
+                    }
+                    // What has arrived already, a bounded batch (a stream
+                    // faster than the file would never end one).
+                    batch += 1;
+                    // (An error here shows again on the next wait.)
+                    next = if batch < BATCH { link.next_sample(Duration::ZERO).ok().flatten() } else { None };
+                }
+                out.flush().map_err(io_err)?;
+                on_progress(&progress(&s, false));
+                false
+            }
+            Ok(None) => last_sample_at.elapsed() >= opts.silence,
+            Err(_) => true,
+        };
+        if !dropped {
+            continue;
+        }
+        // The link is down: reopen it (the session's reconnect), backing
+        // off between rounds, until it answers or logging is over.
+        s.link_drops += 1;
+        s.host_discarded_frames += u64::from(link.discarded_frames);
+        s.host_queue_dropped += link.dropped_samples;
+        link_alive = false;
+        on_progress(&progress(&s, true));
+        let mut pause = opts.backoff_initial;
+        loop {
+            if stop.load(Ordering::Relaxed) {
+                break 'log LogEnd::Interrupted;
+            }
+            if opts.duration.is_some_and(|d| started.elapsed() >= d) {
+                break 'log LogEnd::Duration;
+            }
+            let mut resume = Resume { connect: &mut *connect, stream: StreamMode::Raw, attempts: 1 };
+            if let Ok(l) = reconnect_at(&mut resume, opts.rate_hz) {
+                link = l;
+                link_alive = true;
+                last_sample_at = Instant::now();
+                break;
+            }
+            let until = Instant::now() + pause;
+            while Instant::now() < until && !stop.load(Ordering::Relaxed) {
+                std::thread::sleep(Duration::from_millis(20));
+            }
+            pause = (pause * 2).min(opts.backoff_max);
+        }
+    };
+    s.ended = ended;
+    s.wall_s = started.elapsed().as_secs_f64();
+    out.flush().map_err(io_err)?;
+    if link_alive {
+        s.host_discarded_frames += u64::from(link.discarded_frames);
+        s.host_queue_dropped += link.dropped_samples;
+        let health_end = link.status().ok();
+        // Best effort: the file is complete whatever the board says now.
+        let _ = link.set_stream(StreamMode::Off);
+        if let (Some(a), Some(b)) = (health_start, health_end) {
+            (s.board_samples_produced, s.board_tx_dropped, s.board_saturated_pairs) = health_deltas(&a, &b);
+        }
+    }
+    Ok(s)
+}
+
+/// The board's counters between two `Status` replies (`None` when the
+/// board restarted in between: its uptime went back).
+fn health_deltas(a: &Health, b: &Health) -> (Option<u32>, Option<u32>, Option<u32>) {
+    if b.uptime_ms < a.uptime_ms {
+        return (None, None, None);
+    }
+    (Some(b.samples.wrapping_sub(a.samples)), Some(b.tx_dropped.wrapping_sub(a.tx_dropped)), Some(b.saturated.wrapping_sub(a.saturated)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The counter's wrap-around continues the time; a small step back is
+    /// a stale sample; a large one (not a wrap) a restart.
+    #[test]
+    fn the_board_clock_unwraps_and_tells_a_restart() {
+        let mut c = BoardClock::default();
+        assert_eq!(c.unwrap(u32::MAX - 14), ClockStep::Ms(u64::from(u32::MAX) - 14));
+        // 2³² − 15 + 20 ms = 2³² + 5 ms.
+        assert_eq!(c.unwrap(5), ClockStep::Ms((1u64 << 32) + 5));
+        assert_eq!(c.unwrap(15), ClockStep::Ms((1u64 << 32) + 15));
+        assert_eq!(c.unwrap(15), ClockStep::Stale);
+        assert_eq!(c.unwrap(5), ClockStep::Stale);
+        assert_eq!(c.unwrap(25), ClockStep::Ms((1u64 << 32) + 25));
+        let mut d = BoardClock::default();
+        assert_eq!(d.unwrap(3_600_000), ClockStep::Ms(3_600_000));
+        assert_eq!(d.unwrap(3_599_990), ClockStep::Stale);
+        assert_eq!(d.unwrap(1_200), ClockStep::Restarted);
+    }
+
+    #[test]
+    fn an_existing_output_is_refused_unless_forced() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("board.csv");
+        std::fs::write(&p, "keep me").unwrap();
+        let e = create_log_file(&p, false).unwrap_err();
+        assert!(matches!(e, LogError::Exists(_)) && e.to_string().contains("--force"), "{e}");
+        assert_eq!(std::fs::read_to_string(&p).unwrap(), "keep me");
+        drop(create_log_file(&p, true).unwrap());
+        assert_eq!(std::fs::read_to_string(&p).unwrap(), "");
+    }
+}

@@ -1,0 +1,152 @@
+//! `magcal log` ([`crate::board::log`]) against the in-memory board of the
+//! session's tests: the firmware's own request handling behind a link that
+//! can be cut. The board streams a sample every 10 ms of its clock, which
+//! advances 10 ms per read of the link (100 Hz in virtual time), with
+//! `raw = [1000·roll, 2, 3]` (roll 0 here).
+
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use super::*;
+use crate::board::log::{log_board, LogEnd, LogError, LogOptions, LogSummary};
+use crate::data::merge::{BoardLog, HEALTH_AFTER_GAP};
+
+fn opts() -> LogOptions {
+    LogOptions { rate_hz: 100, silence: Duration::from_millis(200), backoff_initial: Duration::from_millis(10), ..LogOptions::default() }
+}
+
+/// Logs until `rows` rows are written (the stop flag, as Ctrl-C sets it),
+/// then reads the file back with `merge`'s own reader.
+fn log_until(rows: u64, connect: &mut dyn FnMut() -> Result<BoardClient<Conn>, ClientError>, mut each: impl FnMut(u64)) -> (LogSummary, BoardLog, String) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("board.csv");
+    let file = crate::board::log::create_log_file(&path, false).unwrap();
+    let stop = AtomicBool::new(false);
+    let summary = log_board(connect, file, path.clone(), &opts(), &stop, |p| {
+        each(p.samples);
+        if p.samples >= rows {
+            stop.store(true, Ordering::Relaxed);
+        }
+    })
+    .unwrap();
+    (summary, BoardLog::read(&path).unwrap(), std::fs::read_to_string(&path).unwrap())
+}
+
+/// Board-time steps between rows, ms (the board stamps whole milliseconds).
+fn steps_ms(log: &BoardLog) -> Vec<i64> {
+    log.t_s.windows(2).map(|w| ((w[1] - w[0]) * 1000.0).round() as i64).collect()
+}
+
+#[test]
+fn a_link_cut_mid_log_is_reopened_and_the_gap_kept_and_counted() {
+    let b = board();
+    // The first connection dies after 2000 bytes have come back (about 60
+    // samples after the set-up replies); the next ones work.
+    let mut connect = connector(&b, vec![(None, Some(2000)), (None, None), (None, None)]);
+    let (s, log, text) = log_until(300, &mut connect, |_| {});
+    assert_eq!(s.ended, LogEnd::Interrupted);
+    assert_eq!(s.link_drops, 1, "{s:?}");
+    assert_eq!(s.samples as usize, log.t_s.len());
+    assert!(s.samples >= 300);
+    // Every step is the board's 10 ms except at the gap, which is longer
+    // (at least the sample that was on the wire when the link broke) and
+    // flagged on the row after it.
+    let steps = steps_ms(&log);
+    let health = log.health.as_ref().expect("health column");
+    let gaps: Vec<usize> = (0..steps.len()).filter(|&i| steps[i] != 10).collect();
+    assert_eq!(gaps.len(), 1, "steps {steps:?}");
+    let g = gaps[0];
+    assert!(steps[g] >= 20 && steps[g] % 10 == 0, "gap {} ms", steps[g]);
+    assert_eq!(s.gaps.len(), 1);
+    assert!((s.gaps[0].length_s - steps[g] as f64 / 1000.0).abs() < 1e-9, "{s:?}");
+    assert!((s.gaps[0].after_t_s - log.t_s[g]).abs() < 1e-9);
+    assert_eq!(s.gaps[0].missing_samples as i64, steps[g] / 10 - 1);
+    for (i, h) in health.iter().enumerate() {
+        assert_eq!(*h as u32, if i == g + 1 { HEALTH_AFTER_GAP } else { 0 }, "row {i}");
+    }
+    // The cut came after the set-up and well before the end.
+    assert!(g > 20 && g < 150, "gap at row {g}");
+    // The raw field and the temperature as the board sent them (the mock
+    // board's thermistor reads 21.5 °C).
+    assert!(log.mag.iter().all(|m| *m == [0.0, 2.0, 3.0]));
+    assert!(log.temp_c.as_ref().unwrap().iter().all(|t| *t == 21.5));
+    assert!(text.starts_with("t,mx,my,mz,temp_c,health\n"));
+    // The board's clock started at 5 s and advanced 10 ms per read.
+    assert!(log.t_s[0] > 5.0 && log.t_s[0] < 5.5, "{}", log.t_s[0]);
+}
+
+#[test]
+fn failed_reopens_are_retried_with_backoff_until_the_board_is_back() {
+    let b = board();
+    let mut inner = connector(&b, vec![(None, Some(1500)), (None, None), (None, None), (None, None)]);
+    let mut calls = 0;
+    // Calls 2 and 3 (the first reopenings) find no port.
+    let mut connect = move || {
+        calls += 1;
+        if calls == 2 || calls == 3 {
+            Err(ClientError::Io(io::Error::new(io::ErrorKind::NotFound, "unplugged")))
+        } else {
+            inner()
+        }
+    };
+    let (s, log, _) = log_until(200, &mut connect, |_| {});
+    assert_eq!((s.link_drops, s.gaps.len()), (1, 1), "{s:?}");
+    assert!(log.t_s.windows(2).all(|w| w[1] > w[0]));
+}
+
+#[test]
+fn a_silent_board_is_reopened_and_its_stream_restarted() {
+    let b = board();
+    let mut connect = connector(&b, vec![]);
+    let quiet = b.clone();
+    let mut silenced = false;
+    // After 50 rows the board stops streaming (as if it lost the stream
+    // request); reopening sets the stream again.
+    let (s, log, _) = log_until(150, &mut connect, |n| {
+        if n >= 50 && !silenced {
+            quiet.borrow_mut().streaming = false;
+            silenced = true;
+        }
+    });
+    assert_eq!(s.link_drops, 1, "{s:?}");
+    assert!(log.t_s.len() >= 150);
+    // No board time passes while it is silent (its clock runs on reads of
+    // a streaming link): no gap, only the drop.
+    assert!(steps_ms(&log).iter().all(|&d| d == 10), "{:?}", steps_ms(&log));
+}
+
+/// A port that accepts bytes and never answers.
+struct Dead;
+impl Read for Dead {
+    fn read(&mut self, _: &mut [u8]) -> io::Result<usize> {
+        std::thread::sleep(Duration::from_millis(1));
+        Ok(0)
+    }
+}
+impl Write for Dead {
+    fn write(&mut self, b: &[u8]) -> io::Result<usize> {
+        Ok(b.len())
+    }
+    fn flush(&mut self) -> io::Result<()> {
+        Ok(())
+    }
+}
+
+#[test]
+fn a_port_without_a_board_and_a_port_that_cannot_open_are_refused() {
+    let stop = AtomicBool::new(false);
+    let mut silent = || {
+        let mut l = BoardClient::new(Dead);
+        l.timeout = Duration::from_millis(30);
+        Ok(l)
+    };
+    let mut out = Vec::new();
+    let e = log_board(&mut silent, &mut out, "board.csv".into(), &opts(), &stop, |_| {}).unwrap_err();
+    assert!(matches!(e, LogError::Identify(ClientError::Timeout { .. })), "{e:?}");
+    assert!(e.to_string().starts_with("no board answers"), "{e}");
+    assert!(out.is_empty(), "nothing written before the board answered");
+    let mut missing = || -> Result<BoardClient<Dead>, ClientError> { Err(ClientError::Io(io::Error::new(io::ErrorKind::NotFound, "no such port"))) };
+    let e = log_board(&mut missing, &mut out, "board.csv".into(), &opts(), &stop, |_| {}).unwrap_err();
+    assert!(matches!(e, LogError::Open(_)), "{e:?}");
+    let e = log_board(&mut missing, &mut out, "board.csv".into(), &LogOptions { rate_hz: 0, ..opts() }, &stop, |_| {}).unwrap_err();
+    assert!(e.to_string().contains("--rate-hz"), "{e}");
+}

@@ -1,0 +1,124 @@
+//! `magcal log`: the board's raw stream to a board log on the board's clock
+//! (`host_tools::board::log`), for `magcal merge`.
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+use anyhow::{bail, Result};
+use host_tools::board::log::{create_log_file, log_board, LogEnd, LogOptions, LogSummary};
+use host_tools::board::BoardClient;
+use host_tools::session::Progress;
+
+/// Arguments of `magcal log`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Serial port of the board, e.g. /dev/ttyUSB0 or QEMU's /dev/pts/N.
+    #[arg(long)]
+    port: String,
+    /// The board log to write (CSV: t, mx, my, mz, temp_c, health).
+    #[arg(long)]
+    out: PathBuf,
+    /// Stop after this many seconds (default: until Ctrl-C).
+    #[arg(long)]
+    duration_s: Option<f64>,
+    /// The board's output rate, Hz (1–100).
+    #[arg(long, default_value_t = 100)]
+    rate_hz: u8,
+    /// Overwrite --out if it exists.
+    #[arg(long)]
+    force: bool,
+    /// Print the summary as one JSON document on stdout.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Set by SIGINT/SIGTERM: the log ends cleanly at the next sample.
+static STOP: AtomicBool = AtomicBool::new(false);
+
+extern "C" fn on_signal(_: libc::c_int) {
+    STOP.store(true, Ordering::Relaxed);
+}
+
+fn catch_interrupts() {
+    let handler = on_signal as extern "C" fn(libc::c_int) as libc::sighandler_t;
+    // SAFETY: the handler only stores to an atomic (async-signal-safe).
+    unsafe {
+        libc::signal(libc::SIGINT, handler);
+        libc::signal(libc::SIGTERM, handler);
+    }
+}
+
+/// Runs `magcal log`.
+pub fn run(a: Args) -> Result<()> {
+    let duration = match a.duration_s {
+        Some(d) if d > 0.0 && d.is_finite() => Some(Duration::from_secs_f64(d)),
+        Some(d) => bail!("--duration-s must be a positive number of seconds, not {d}"),
+        None => None,
+    };
+    if !(1..=100).contains(&a.rate_hz) {
+        bail!("--rate-hz must be 1 to 100, not {}", a.rate_hz);
+    }
+    let file = create_log_file(&a.out, a.force)?;
+    let opts = LogOptions { duration, rate_hz: a.rate_hz, interactive: std::io::stderr().is_terminal(), ..LogOptions::default() };
+    catch_interrupts();
+    let total = duration.map_or(0, |d| (d.as_secs_f64() * f64::from(a.rate_hz)) as usize);
+    let mut progress = Progress::new("log", total, opts.interactive);
+    let port = a.port.clone();
+    let mut connect = move || BoardClient::open(&port);
+    let result = log_board(&mut connect, file, a.out.clone(), &opts, &STOP, |p| {
+        let line = if p.link_down {
+            format!("link down, reconnecting (drops {}, gaps {})", p.link_drops, p.gaps)
+        } else {
+            format!("t {:.1} s, {} gaps, {} drops", p.last_t_s, p.gaps, p.link_drops)
+        };
+        progress.update((p.samples as usize).saturating_sub(1), &line);
+    });
+    progress.finish();
+    let s = match result {
+        Ok(s) => s,
+        Err(e) => {
+            // Nothing was logged: do not leave an empty file behind.
+            if std::fs::metadata(&a.out).is_ok_and(|m| m.len() <= 30) {
+                let _ = std::fs::remove_file(&a.out);
+            }
+            return Err(e.into());
+        }
+    };
+    eprintln!("{}", describe(&s));
+    if s.ended == LogEnd::BoardRestarted {
+        eprintln!("warning: the board restarted (its clock went back): the log ends there; start another log for what follows");
+    }
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&s)?);
+    }
+    Ok(())
+}
+
+/// The summary in words.
+fn describe(s: &LogSummary) -> String {
+    let span = match (s.first_t_s, s.last_t_s) {
+        (Some(a), Some(b)) => format!("board t {a:.3}…{b:.3} s"),
+        _ => "no samples".into(),
+    };
+    let longest = s.gaps.iter().map(|g| g.length_s).fold(0.0, f64::max);
+    let board = match (s.board_samples_produced, s.board_tx_dropped) {
+        (Some(p), Some(d)) => format!("; the board produced {p} samples and dropped {d} frames meanwhile"),
+        _ => String::new(),
+    };
+    format!(
+        "wrote {} ({} samples, {span}; {} gaps, {:.3} s in all, longest {:.3} s, {} samples missing; {} link drops; {} saturated; {} damaged frames, {} queue drops{board}; ended: {:?})",
+        s.out.display(),
+        s.samples,
+        s.gaps.len(),
+        s.gap_total_s,
+        longest,
+        s.missing_samples,
+        s.link_drops,
+        s.saturated_samples,
+        s.host_discarded_frames,
+        s.host_queue_dropped,
+        s.ended
+    )
+}

@@ -1,0 +1,70 @@
+//! A simulated field test as the two logs a real one leaves: the board's
+//! field log on the board's clock and the navigation computer's log on its
+//! own, slower and shorter (`magcal merge`'s inputs), with a known clock
+//! offset and drift between them.
+
+use calib_core::conformance::SplitMix64;
+use host_tools::data::merge::{BoardLog, NavLog};
+use host_tools::data::pairing::ClockMap;
+
+use crate::field_test::Simulation;
+
+/// Navigation-clock time of the simulation's first row, s.
+pub const NAV_T0_S: f64 = 1000.0;
+
+/// How the logs are cut from a simulation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LogSplit {
+    /// `t_nav − t_board` at the board log's first sample, s.
+    pub offset_s: f64,
+    /// How much faster the navigation clock runs, ppm.
+    pub drift_ppm: f64,
+    /// The navigation log keeps every `nav_every`-th row (1 or more).
+    pub nav_every: usize,
+    /// The navigation log starts this long after the board log and ends
+    /// this long before it, s.
+    pub trim_s: (f64, f64),
+    /// Seed of the AHRS heading's noise.
+    pub seed: u64,
+}
+
+/// Splits a simulation (one row per board sample) into a board log whose
+/// clock runs `t_nav = t_board + offset_s + drift_ppm·10⁻⁶·(t_board − first)`
+/// (board times in whole milliseconds, as the board stamps them) and a
+/// navigation log of every `nav_every`-th row within `trim_s` of each end
+/// (roll and pitch as recorded, the AHRS heading = the true heading with
+/// 0.15° of noise, the GPS as simulated). The navigation log's `t` is
+/// [`NAV_T0_S`] plus the simulation's time.
+pub fn split(sim: &Simulation, s: &LogSplit) -> (BoardLog, NavLog) {
+    let rec = &sim.recording;
+    let t: Vec<f64> = match &rec.t_s {
+        Some(t) => t.clone(),
+        None => (0..rec.len()).map(|i| i as f64).collect(),
+    };
+    let (Some(&first), Some(&end)) = (t.first(), t.last()) else {
+        return (BoardLog::default(), NavLog::default());
+    };
+    let map = ClockMap { offset_s: s.offset_s, drift_ppm: s.drift_ppm, board_ref_s: NAV_T0_S + first - s.offset_s };
+    let board = BoardLog {
+        t_s: t.iter().map(|&ts| (map.to_board(NAV_T0_S + ts) * 1000.0).round() / 1000.0).collect(),
+        mag: rec.mag.clone(),
+        temp_c: None,
+        health: None,
+    };
+    let rows: Vec<usize> = (0..t.len()).step_by(s.nav_every.max(1)).filter(|&i| t[i] >= first + s.trim_s.0 && t[i] <= end - s.trim_s.1).collect();
+    let pick = |c: &Option<Vec<f64>>| c.as_ref().map(|c| rows.iter().map(|&i| c.get(i).copied().unwrap_or(f64::NAN)).collect::<Vec<f64>>());
+    let mut rng = SplitMix64::new(s.seed);
+    let nav = NavLog {
+        t_s: rows.iter().map(|&i| NAV_T0_S + t[i]).collect(),
+        roll_deg: pick(&rec.roll_deg).unwrap_or_else(|| vec![f64::NAN; rows.len()]),
+        pitch_deg: pick(&rec.pitch_deg).unwrap_or_else(|| vec![f64::NAN; rows.len()]),
+        heading_deg: Some(rows.iter().map(|&i| (sim.true_heading_deg.get(i).copied().unwrap_or(f64::NAN) + 0.15 * rng.gauss()).rem_euclid(360.0)).collect()),
+        ref_heading_deg: pick(&rec.ref_heading_deg),
+        lat_deg: pick(&rec.lat_deg),
+        lon_deg: pick(&rec.lon_deg),
+        gyro_rad_s: None,
+        speed_mps: None,
+        motor_current_a: None,
+    };
+    (board, nav)
+}
