@@ -26,6 +26,7 @@ pub mod lsq;
 pub mod ortho;
 pub mod quality;
 pub mod swing;
+pub mod uncertainty;
 pub mod real;
 
 pub use real::Real;
