@@ -7,7 +7,10 @@ use calib_core::cal::ModelKind;
 use super::swing::magnetic_headings;
 use super::units::check_units;
 use super::ComputeError;
-use crate::data::results::{BackstepMethod, BackstepQuality, Correction, JointDetails, RunStatsDoc, TraceEntry};
+use calib_core::backstep::{JointConfig, JointSolution, SwingSample};
+
+use crate::data::caldoc::{CurrentBlock, TemperatureBlock};
+use crate::data::results::{BackstepMethod, BackstepQuality, Correction, Estimate3, JointDetails, JointEstimates, RunStatsDoc, TraceEntry};
 use crate::data::{CalDoc, Recording};
 use crate::geomag::Site;
 
@@ -35,6 +38,25 @@ pub struct SwingMagnitudes {
     pub raw: Vec<[f64; 3]>,
     /// Reference intensity, nT.
     pub field_nt: f64,
+    /// Motor current of each sample, A (`None`: not recorded, thrusters off).
+    pub current_a: Option<Vec<f64>>,
+    /// Temperature of each sample, °C (`None`: not recorded).
+    pub temp_c: Option<Vec<f64>>,
+}
+
+impl SwingMagnitudes {
+    /// The complete samples of a swing-test recording, with its
+    /// `motor_current_a` and `temp_c` columns when present.
+    pub fn from_recording(rec: &Recording, field_nt: f64) -> Self {
+        let (rows, raw) = rec.complete_mag();
+        let pick = |c: &Option<Vec<f64>>| c.as_ref().map(|v| rows.iter().map(|&i| v.get(i).copied().unwrap_or(f64::NAN)).collect());
+        Self { raw, field_nt, current_a: pick(&rec.motor_current_a), temp_c: pick(&rec.temp_c) }
+    }
+
+    fn samples(&self) -> Vec<SwingSample<f64>> {
+        let at = |c: &Option<Vec<f64>>, i: usize| c.as_ref().and_then(|v| v.get(i).copied()).unwrap_or(f64::NAN);
+        self.raw.iter().enumerate().map(|(i, &raw)| SwingSample { raw, current_a: at(&self.current_a, i), temp_c: at(&self.temp_c, i) }).collect()
+    }
 }
 
 /// Options of the back-stepping command.
@@ -54,13 +76,28 @@ pub struct BackstepOptions {
     pub swing: Option<SwingMagnitudes>,
     /// Paper: most iterations.
     pub max_iterations: u8,
+    /// Joint: thresholds and priors of the environment terms (`ref_c`
+    /// `None`: the median temperature of the run).
+    pub joint: JointConfig<f64>,
+    /// Joint: the length of a hypothetical surface circle for the guidance, s.
+    pub circle_s: f64,
 }
 
 impl BackstepOptions {
     /// Defaults: joint solver, turnaround found automatically, 300 s windows,
     /// 60 s skipped either side of the turn.
     pub fn new(reference: RunReference) -> Self {
-        Self { method: BackstepMethod::Joint, reference, turnaround_s: None, window_s: 300.0, exclude_s: 60.0, swing: None, max_iterations: 10 }
+        Self {
+            method: BackstepMethod::Joint,
+            reference,
+            turnaround_s: None,
+            window_s: 300.0,
+            exclude_s: 60.0,
+            swing: None,
+            max_iterations: 10,
+            joint: JointConfig::default(),
+            circle_s: 120.0,
+        }
     }
 }
 
@@ -71,8 +108,10 @@ pub struct BackstepReport {
     pub turnaround_s: f64,
     /// Run statistics with the input calibration.
     pub before: calib_core::backstep::RunStats<f64>,
-    /// And with the result.
+    /// And with the result (its current and temperature terms applied).
     pub after: calib_core::backstep::RunStats<f64>,
+    /// The joint solver's full solution (covariance-based predictions).
+    pub joint: Option<JointSolution<f64>>,
 }
 
 /// Finds the turnaround: the time where the mean heading of the `window_s`
@@ -115,7 +154,7 @@ fn paper_trace_entry(e: &calib_core::backstep::TraceEntry<f64>) -> TraceEntry {
 
 /// Refines a calibration on an out-and-back run.
 pub fn backstep_recording(rec: &Recording, doc: &CalDoc, opts: &BackstepOptions) -> Result<(CalDoc, BackstepReport), ComputeError> {
-    use calib_core::backstep::{joint_refine, paper_backstep, run_stats, AxisCoefficients, JointWeights, Leg, RunSample};
+    use calib_core::backstep::{paper_backstep, run_stats, AxisCoefficients, Leg, RunSample};
     let t = rec.t_s.as_ref().ok_or(ComputeError::NeedsColumn("t"))?;
     let roll = rec.roll_deg.as_ref().ok_or(ComputeError::NeedsColumn("roll_deg"))?;
     let pitch = rec.pitch_deg.as_ref().ok_or(ComputeError::NeedsColumn("pitch_deg"))?;
@@ -154,11 +193,22 @@ pub fn backstep_recording(rec: &Recording, doc: &CalDoc, opts: &BackstepOptions)
         if dt.abs() <= opts.exclude_s {
             continue;
         }
-        samples.push(RunSample { raw, roll_rad: roll[i].to_radians(), pitch_rad: pitch[i].to_radians(), h_ref_nt: h_ref, z_ref_nt: z_ref, leg });
+        let col = |c: &Option<Vec<f64>>| c.as_ref().and_then(|v| v.get(i).copied()).unwrap_or(f64::NAN);
+        samples.push(RunSample {
+            raw,
+            roll_rad: roll[i].to_radians(),
+            pitch_rad: pitch[i].to_radians(),
+            h_ref_nt: h_ref,
+            z_ref_nt: z_ref,
+            leg,
+            current_a: col(&rec.motor_current_a),
+            temp_c: col(&rec.temp_c),
+        });
     }
     let bs = |e: calib_core::backstep::BackstepError| ComputeError::Backstep(e.to_string());
     let before = run_stats(&doc.field_cal(), &samples).map_err(bs)?;
     let mut trace = Vec::new();
+    let mut joint: Option<JointSolution<f64>> = None;
     let (kind, cal, extra) = match opts.method {
         BackstepMethod::Paper => {
             let start = AxisCoefficients::from_field_cal(&doc.field_cal()).ok_or_else(|| {
@@ -168,13 +218,15 @@ pub fn backstep_recording(rec: &Recording, doc: &CalDoc, opts: &BackstepOptions)
             (ModelKind::Axis, end.field_cal(), None)
         }
         BackstepMethod::Joint => {
-            let (swing, swing_f): (&[[f64; 3]], f64) = match &opts.swing {
-                Some(m) => (m.raw.as_slice(), m.field_nt),
-                None => (&[], 1.0),
-            };
+            let swing = opts.swing.as_ref().map(SwingMagnitudes::samples).unwrap_or_default();
+            let swing_f = opts.swing.as_ref().map_or(1.0, |m| m.field_nt);
             trace.push(TraceEntry { iteration: 0, correction: Correction::Start, bias: None, scale: None, matrix: None, stats: RunStatsDoc::from(&before) });
-            let r = joint_refine(&doc.field_cal(), &samples, swing, swing_f, &JointWeights::default()).map_err(bs)?;
-            let s = run_stats(&r.running, &samples).map_err(bs)?;
+            let mut cfg = opts.joint;
+            if cfg.ref_c.is_none() {
+                cfg.ref_c = median(samples.iter().map(|s| s.temp_c).chain(swing.iter().map(|s| s.temp_c)));
+            }
+            let r = calib_core::backstep::joint_refine_env(&doc.field_cal(), &samples, &swing, swing_f, &cfg).map_err(bs)?;
+            let s = run_stats(&r.running, &corrected(&samples, &r)).map_err(bs)?;
             trace.push(TraceEntry {
                 iteration: r.iterations,
                 correction: Correction::JointLeastSquares,
@@ -183,13 +235,29 @@ pub fn backstep_recording(rec: &Recording, doc: &CalDoc, opts: &BackstepOptions)
                 matrix: Some(r.running.matrix),
                 stats: RunStatsDoc::from(&s),
             });
-            (ModelKind::Full, r.running, Some(JointDetails { running_bias_raw: r.running_bias, resting_bias_raw: r.resting.bias, swing_samples: swing.len() }))
+            let details = JointDetails { running_bias_raw: r.running_bias, resting_bias_raw: r.resting.bias, swing_samples: swing.len() };
+            joint = Some(r);
+            (ModelKind::Full, joint.as_ref().map_or(doc.field_cal(), |r| r.running), Some(details))
         }
     };
-    let after = run_stats(&cal, &samples).map_err(bs)?;
+    let after = match &joint {
+        Some(r) => run_stats(&cal, &corrected(&samples, r)),
+        None => run_stats(&cal, &samples),
+    }
+    .map_err(bs)?;
     let (_, f_ref) = calib_core::backstep::reference_means(&samples);
     let mut out = CalDoc::new(kind, &cal, f_ref, doc.quality.clone());
     out.declination_deg = doc.declination_deg;
+    let estimates = joint.as_ref().map(|r| {
+        if r.current_estimated {
+            out.current = Some(CurrentBlock { bias_per_a: r.env.bias_per_a });
+        }
+        if r.temperature_estimated {
+            out.temperature = Some(TemperatureBlock { ref_c: r.env.ref_c, gain_per_c: r.env.gain_per_c });
+        }
+        out.quality.predicted_heading_rms_deg = Some(r.predicted_heading_rms_rad.to_degrees());
+        joint_estimates(r, circle_samples(t, opts.circle_s))
+    });
     out.swing = None; // a swing fit made with the old field calibration no longer applies
     out.quality.backstep = Some(BackstepQuality {
         method: opts.method,
@@ -198,7 +266,93 @@ pub fn backstep_recording(rec: &Recording, doc: &CalDoc, opts: &BackstepOptions)
         before: RunStatsDoc::from(&before),
         after: RunStatsDoc::from(&after),
         details: extra,
+        estimates,
     });
     out.trace = Some(trace);
-    Ok((out, BackstepReport { turnaround_s: turnaround, before, after }))
+    Ok((out, BackstepReport { turnaround_s: turnaround, before, after, joint }))
+}
+
+/// The run samples with the solution's current and temperature terms
+/// applied to the raw field (for statistics with the field calibration).
+fn corrected(samples: &[calib_core::backstep::RunSample<f64>], r: &JointSolution<f64>) -> Vec<calib_core::backstep::RunSample<f64>> {
+    use calib_core::cal::Environment;
+    samples
+        .iter()
+        .map(|s| {
+            let env = Environment {
+                current_a: if r.current_estimated { s.current_a } else { 0.0 },
+                temp_c: if r.temperature_estimated { s.temp_c } else { r.env.ref_c },
+            };
+            calib_core::backstep::RunSample { raw: r.env.correct_raw(s.raw, &env), ..*s }
+        })
+        .collect()
+}
+
+/// The median of the finite values.
+fn median(values: impl Iterator<Item = f64>) -> Option<f64> {
+    let mut v: Vec<f64> = values.filter(|x| x.is_finite()).collect();
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    Some(v[v.len() / 2])
+}
+
+/// Samples in a circle of `circle_s` seconds at the run's median rate.
+fn circle_samples(t: &[f64], circle_s: f64) -> usize {
+    let dt = median(t.windows(2).map(|w| w[1] - w[0]).filter(|d| *d > 0.0)).unwrap_or(1.0);
+    ((circle_s / dt).round() as usize).clamp(36, 100_000)
+}
+
+/// Most hypothetical circles the guidance considers.
+const MAX_CIRCLES: usize = 5;
+
+/// What more coverage would buy: the predicted heading RMS (degrees) with
+/// 1 … 5 more level surface circles of `samples_per_circle` samples each,
+/// and one sentence ("coverage so far predicts 0.60°; 3 more surface
+/// circles would bring it to 0.30°").
+pub fn coverage_guidance(r: &JointSolution<f64>, samples_per_circle: usize) -> (Vec<f64>, String) {
+    let now = r.predicted_heading_rms_rad.to_degrees();
+    let with: Vec<f64> =
+        (1..=MAX_CIRCLES).map(|n| r.predicted_with(r.level_turn(samples_per_circle * n)).map_or(f64::NAN, |(_, rms)| rms.to_degrees())).collect();
+    let sentence = match with.iter().position(|w| *w <= 0.5 * now) {
+        Some(i) => {
+            format!("coverage so far predicts {now:.2}°; {} more surface circle{} would bring it to {:.2}°", i + 1, if i == 0 { "" } else { "s" }, with[i])
+        }
+        None if with.first().is_some_and(|w| *w < 0.9 * now) => {
+            format!(
+                "coverage so far predicts {now:.2}°; one more surface circle would bring it to {:.2}°, {MAX_CIRCLES} to {:.2}°",
+                with[0],
+                with[MAX_CIRCLES - 1]
+            )
+        }
+        None => format!("coverage so far predicts {now:.2}°; more surface circles would not improve it (the remaining error is not one a circle determines)"),
+    };
+    (with, sentence)
+}
+
+/// The quality block's estimates from a joint solution.
+fn joint_estimates(r: &JointSolution<f64>, samples_per_circle: usize) -> JointEstimates {
+    let (with, guidance) = coverage_guidance(r, samples_per_circle);
+    let deg2 = |v: [f64; 2]| v.map(f64::to_degrees);
+    JointEstimates {
+        bias_per_a_raw: r.current_estimated.then_some(Estimate3 { value: r.env.bias_per_a, sigma: r.sigma.bias_per_a }),
+        gain_per_c: r.temperature_estimated.then_some(Estimate3 { value: r.env.gain_per_c, sigma: r.sigma.gain_per_c }),
+        ref_c: r.env.ref_c,
+        bias_raw: Estimate3 { value: r.resting.bias, sigma: r.sigma.bias },
+        running_bias_raw: Estimate3 { value: r.running_bias, sigma: r.sigma.running_bias },
+        matrix_sigma: r.sigma.matrix,
+        local_inclination_offset_deg: r.local_inclination_offset_rad.to_degrees(),
+        local_inclination_sigma_deg: r.sigma.local_inclination_rad.to_degrees(),
+        local_hz_nt: [r.reference_hz_nt[0] + r.local_offset_hz_nt[0], r.reference_hz_nt[1] + r.local_offset_hz_nt[1]],
+        intensity_sigma_nt: r.intensity_sigma_nt,
+        misalignment_deg: r.misalignment_estimated.then_some(deg2(r.misalignment_rad)),
+        misalignment_sigma_deg: r.misalignment_estimated.then_some(deg2(r.sigma.misalignment_rad)),
+        residual_rms_nt: r.residual_rms_nt,
+        heading_sigma_deg: r.heading_sigma_rad.iter().map(|v| v.to_degrees()).collect(),
+        predicted_heading_rms_deg: r.predicted_heading_rms_rad.to_degrees(),
+        predicted_with_circles_deg: with,
+        guidance,
+        notes: r.notes.iter().flatten().map(|n| n.to_string()).collect(),
+    }
 }
