@@ -7,7 +7,7 @@ use calib_core::cal::ModelKind;
 use super::swing::magnetic_headings;
 use super::units::check_units;
 use super::ComputeError;
-use calib_core::backstep::{JointConfig, JointSolution, SwingSample};
+use calib_core::backstep::{JointConfig, JointSolution, Leg, RunSample, SwingSample};
 
 use crate::data::caldoc::{CurrentBlock, TemperatureBlock};
 use crate::data::results::{BackstepMethod, BackstepQuality, Correction, Estimate3, JointDetails, JointEstimates, RunStatsDoc, TraceEntry};
@@ -81,6 +81,11 @@ pub struct BackstepOptions {
     pub joint: JointConfig<f64>,
     /// Joint: the length of a hypothetical surface circle for the guidance, s.
     pub circle_s: f64,
+    /// Joint: a dedicated thrust test (hold heading, step the thrusters),
+    /// with `motor_current_a`, roll and pitch: its rows join the run's. Hold
+    /// two headings about 90° apart: at one, the thrusters' field across the
+    /// horizontal field turns the heading without changing the residuals.
+    pub thrust_test: Option<Recording>,
 }
 
 impl BackstepOptions {
@@ -97,6 +102,7 @@ impl BackstepOptions {
             max_iterations: 10,
             joint: JointConfig::default(),
             circle_s: 120.0,
+            thrust_test: None,
         }
     }
 }
@@ -154,10 +160,10 @@ fn paper_trace_entry(e: &calib_core::backstep::TraceEntry<f64>) -> TraceEntry {
 
 /// Refines a calibration on an out-and-back run.
 pub fn backstep_recording(rec: &Recording, doc: &CalDoc, opts: &BackstepOptions) -> Result<(CalDoc, BackstepReport), ComputeError> {
-    use calib_core::backstep::{paper_backstep, run_stats, AxisCoefficients, Leg, RunSample};
+    use calib_core::backstep::{paper_backstep, run_stats, AxisCoefficients};
     let t = rec.t_s.as_ref().ok_or(ComputeError::NeedsColumn("t"))?;
-    let roll = rec.roll_deg.as_ref().ok_or(ComputeError::NeedsColumn("roll_deg"))?;
-    let pitch = rec.pitch_deg.as_ref().ok_or(ComputeError::NeedsColumn("pitch_deg"))?;
+    rec.roll_deg.as_ref().ok_or(ComputeError::NeedsColumn("roll_deg"))?;
+    rec.pitch_deg.as_ref().ok_or(ComputeError::NeedsColumn("pitch_deg"))?;
     check_units(rec, doc)?;
     let headings = magnetic_headings(rec, doc)?;
     let turnaround = match opts.turnaround_s {
@@ -166,45 +172,16 @@ pub fn backstep_recording(rec: &Recording, doc: &CalDoc, opts: &BackstepOptions)
             ComputeError::Backstep("no turnaround found (no 180° change of heading): give it with --turnaround-s".into())
         })?,
     };
-    let mut samples = Vec::with_capacity(rec.len());
-    for i in 0..rec.len() {
-        let raw = rec.mag[i];
-        if !raw.iter().all(|v| v.is_finite()) || !roll[i].is_finite() || !pitch[i].is_finite() {
-            continue;
-        }
-        let (h_ref, z_ref) = match opts.reference {
-            RunReference::Given { h_nt, z_nt } => (h_nt, z_nt),
-            RunReference::Igrf(site) => {
-                let lat = rec.lat_deg.as_ref().and_then(|c| c.get(i).copied()).filter(|v| v.is_finite()).unwrap_or(site.lat_deg);
-                let lon = rec.lon_deg.as_ref().and_then(|c| c.get(i).copied()).filter(|v| v.is_finite()).unwrap_or(site.lon_deg);
-                let f = site.field_at(lat, lon)?;
-                (f.horizontal_nt(), f.down_nt)
+    let samples = run_samples(rec, &opts.reference, Some((turnaround, opts.window_s, opts.exclude_s)))?;
+    let thrust = match &opts.thrust_test {
+        Some(tt) => {
+            if !tt.motor_current_a.as_ref().is_some_and(|c| c.iter().any(|v| v.is_finite())) {
+                return Err(ComputeError::Backstep("the thrust test has no motor_current_a: it cannot show the thrusters' field".into()));
             }
-        };
-        let dt = t[i] - turnaround;
-        let leg = if dt < -opts.exclude_s && dt >= -opts.exclude_s - opts.window_s {
-            Leg::Out
-        } else if dt > opts.exclude_s && dt <= opts.exclude_s + opts.window_s {
-            Leg::Back
-        } else {
-            Leg::Other
-        };
-        // The turn itself (heading sweeping through, vehicle at the surface) is left out of the fits.
-        if dt.abs() <= opts.exclude_s {
-            continue;
+            run_samples(tt, &opts.reference, None)?
         }
-        let col = |c: &Option<Vec<f64>>| c.as_ref().and_then(|v| v.get(i).copied()).unwrap_or(f64::NAN);
-        samples.push(RunSample {
-            raw,
-            roll_rad: roll[i].to_radians(),
-            pitch_rad: pitch[i].to_radians(),
-            h_ref_nt: h_ref,
-            z_ref_nt: z_ref,
-            leg,
-            current_a: col(&rec.motor_current_a),
-            temp_c: col(&rec.temp_c),
-        });
-    }
+        None => Vec::new(),
+    };
     let bs = |e: calib_core::backstep::BackstepError| ComputeError::Backstep(e.to_string());
     let before = run_stats(&doc.field_cal(), &samples).map_err(bs)?;
     let mut trace = Vec::new();
@@ -223,9 +200,10 @@ pub fn backstep_recording(rec: &Recording, doc: &CalDoc, opts: &BackstepOptions)
             trace.push(TraceEntry { iteration: 0, correction: Correction::Start, bias: None, scale: None, matrix: None, stats: RunStatsDoc::from(&before) });
             let mut cfg = opts.joint;
             if cfg.ref_c.is_none() {
-                cfg.ref_c = median(samples.iter().map(|s| s.temp_c).chain(swing.iter().map(|s| s.temp_c)));
+                cfg.ref_c = median(samples.iter().chain(&thrust).map(|s| s.temp_c).chain(swing.iter().map(|s| s.temp_c)));
             }
-            let r = calib_core::backstep::joint_refine_env(&doc.field_cal(), &samples, &swing, swing_f, &cfg).map_err(bs)?;
+            let all: Vec<RunSample<f64>> = samples.iter().chain(&thrust).copied().collect();
+            let r = calib_core::backstep::joint_refine_env(&doc.field_cal(), &all, &swing, swing_f, &cfg).map_err(bs)?;
             let s = run_stats(&r.running, &corrected(&samples, &r)).map_err(bs)?;
             trace.push(TraceEntry {
                 iteration: r.iterations,
@@ -270,6 +248,57 @@ pub fn backstep_recording(rec: &Recording, doc: &CalDoc, opts: &BackstepOptions)
     });
     out.trace = Some(trace);
     Ok((out, BackstepReport { turnaround_s: turnaround, before, after, joint }))
+}
+
+/// The samples of a recording with attitude, with their reference field.
+/// `legs` = (turnaround, window, excluded either side), s: rows within the
+/// exclusion are left out (the turn itself), the windows either side marked;
+/// `None` (a thrust test): every row, [`Leg::Other`].
+fn run_samples(rec: &Recording, reference: &RunReference, legs: Option<(f64, f64, f64)>) -> Result<Vec<RunSample<f64>>, ComputeError> {
+    let roll = rec.roll_deg.as_ref().ok_or(ComputeError::NeedsColumn("roll_deg"))?;
+    let pitch = rec.pitch_deg.as_ref().ok_or(ComputeError::NeedsColumn("pitch_deg"))?;
+    let t = rec.t_s.as_ref();
+    let mut samples = Vec::with_capacity(rec.len());
+    for i in 0..rec.len() {
+        let raw = rec.mag[i];
+        if !raw.iter().all(|v| v.is_finite()) || !roll[i].is_finite() || !pitch[i].is_finite() {
+            continue;
+        }
+        let (h_ref, z_ref) = match reference {
+            RunReference::Given { h_nt, z_nt } => (*h_nt, *z_nt),
+            RunReference::Igrf(site) => {
+                let lat = rec.lat_deg.as_ref().and_then(|c| c.get(i).copied()).filter(|v| v.is_finite()).unwrap_or(site.lat_deg);
+                let lon = rec.lon_deg.as_ref().and_then(|c| c.get(i).copied()).filter(|v| v.is_finite()).unwrap_or(site.lon_deg);
+                let f = site.field_at(lat, lon)?;
+                (f.horizontal_nt(), f.down_nt)
+            }
+        };
+        let mut leg = Leg::Other;
+        if let (Some((turnaround, window_s, exclude_s)), Some(t)) = (legs, t) {
+            let dt = t.get(i).copied().unwrap_or(f64::NAN) - turnaround;
+            if dt < -exclude_s && dt >= -exclude_s - window_s {
+                leg = Leg::Out;
+            } else if dt > exclude_s && dt <= exclude_s + window_s {
+                leg = Leg::Back;
+            }
+            // The turn itself (heading sweeping through, vehicle at the surface) is left out of the fits.
+            if !(dt.abs() > exclude_s) {
+                continue;
+            }
+        }
+        let col = |c: &Option<Vec<f64>>| c.as_ref().and_then(|v| v.get(i).copied()).unwrap_or(f64::NAN);
+        samples.push(RunSample {
+            raw,
+            roll_rad: roll[i].to_radians(),
+            pitch_rad: pitch[i].to_radians(),
+            h_ref_nt: h_ref,
+            z_ref_nt: z_ref,
+            leg,
+            current_a: col(&rec.motor_current_a),
+            temp_c: col(&rec.temp_c),
+        });
+    }
+    Ok(samples)
 }
 
 /// The run samples with the solution's current and temperature terms
@@ -457,5 +486,38 @@ mod tests {
         assert_eq!(deg_text(0.6), "0.60°");
         assert_eq!(deg_text(0.0004057), "0.00041°");
         assert_eq!(deg_text(12.34), "12.34°");
+    }
+
+    #[test]
+    fn a_thrust_test_separates_the_current_a_constant_run_cannot() {
+        let run = recording(|_| 8.0, |_| T0_C);
+        // Hold heading, level, and step the thrusters 0 → 14 A; at 130° then
+        // at 220°. (At one heading only the thrusters' field across the
+        // horizontal field changes the heading, not the residuals: held at
+        // 130° alone, x came out 3.6 % off.)
+        let mut tt = Recording::default();
+        let steps = [0.0, 4.0, 8.0, 14.0, 0.0, 10.0];
+        let cur: Vec<f64> = (0..600).map(|k| steps[k / 100]).collect();
+        tt.mag = cur
+            .iter()
+            .enumerate()
+            .map(|(k, &i)| raw(ned_to_body(FIELD_NED, 0.0, 0.0, if k < 300 { 130f64 } else { 220.0 }.to_radians()), i, T0_C))
+            .collect();
+        tt.t_s = Some((0..600).map(f64::from).collect());
+        tt.roll_deg = Some(vec![0.0; 600]);
+        tt.pitch_deg = Some(vec![0.0; 600]);
+        tt.motor_current_a = Some(cur);
+        let mut o = options();
+        o.thrust_test = Some(tt.clone());
+        let (doc, _) = backstep_recording(&run, &step1(), &o).unwrap();
+        let c = doc.current.expect("the thrust test separates the current").bias_per_a;
+        // Noise-free, two headings: measured within 1e-8 relative.
+        for i in 0..3 {
+            assert!((c[i] - C_PER_A[i]).abs() < 1e-4 * C_PER_A[i].abs(), "{c:?}");
+        }
+        tt.motor_current_a = None;
+        o.thrust_test = Some(tt);
+        let err = backstep_recording(&run, &step1(), &o).unwrap_err().to_string();
+        assert!(err.contains("thrust test has no motor_current_a"), "{err}");
     }
 }

@@ -44,6 +44,9 @@ pub struct Args {
     /// The swing-test recording (thrusters off), to let the joint solver separate the running-only bias.
     #[arg(long)]
     swing_input: Option<PathBuf>,
+    /// A thrust test (hold heading, step the thrusters; two headings ~90° apart), with motor_current_a, roll_deg, pitch_deg: lets the joint solver separate the per-ampere field when the run's current hardly varies.
+    #[arg(long)]
+    thrust_input: Option<PathBuf>,
     /// Write the calibration document here.
     #[arg(long)]
     out: Option<PathBuf>,
@@ -70,6 +73,9 @@ pub fn run(a: Args) -> Result<()> {
     if let Some(p) = &a.swing_input {
         let swing = Recording::read(p)?;
         opts.swing = Some(SwingMagnitudes::from_recording(&swing, doc.field_nt));
+    }
+    if let Some(p) = &a.thrust_input {
+        opts.thrust_test = Some(Recording::read(p)?);
     }
     let (out_doc, report) = compute::backstep_recording(&rec, &doc, &opts).with_context(|| format!("{}: back-stepping", a.input.display()))?;
     if !a.json {
