@@ -72,6 +72,38 @@ const DI: usize = 21;
 const MR: usize = 22;
 const MP: usize = 23;
 
+/// Largest variance inflation for correlated residuals.
+const MAX_INFLATION: f64 = 1000.0;
+
+/// Lag-1 autocorrelation of the run's residuals (vertical and horizontal
+/// channels each with its predecessor), in [0, 1).
+fn residual_autocorrelation<T: Real>(model: &Model<T>, p: &[T; NP], run: &[RunSample<T>]) -> T {
+    let (mut prev, mut cross, mut square) = ([T::NAN; 2], T::ZERO, T::ZERO);
+    for s in run {
+        let mut k = 0usize;
+        let mut now = [T::NAN; 2];
+        model.run_residuals(p, s, &mut |r, _, _| {
+            if k < 2 {
+                now[k] = r;
+            }
+            k += 1;
+        });
+        for c in 0..2 {
+            if now[c].is_finite() {
+                square += now[c] * now[c];
+                if prev[c].is_finite() {
+                    cross += now[c] * prev[c];
+                }
+            }
+        }
+        prev = now;
+    }
+    if !(square > T::ZERO) {
+        return T::ZERO;
+    }
+    (cross / square).max(T::ZERO).min(T::from_f64(0.999))
+}
+
 /// Smallest residual σ the re-weighting uses, nT.
 const MIN_RESIDUAL_SIGMA_NT: f64 = 0.5;
 
@@ -263,6 +295,9 @@ pub struct JointSolution<T> {
     pub iterations: u8,
     /// Why terms were not estimated.
     pub notes: [Option<JointNote<T>>; 3],
+    /// The factor the data's information was divided by for the
+    /// correlation of neighbouring residuals, `(1 + ρ)/(1 − ρ)` (≥ 1).
+    pub correlation_inflation: T,
     /// Typical conditions of the run (mean current, A; mean temperature, °C).
     pub typical_current_a: T,
     /// See `typical_current_a`.
@@ -581,9 +616,9 @@ pub fn joint_refine_env<T: Real>(
     p = p1;
     iterations = iterations.saturating_add(it1);
     let mut n = normal_equations(&model, &p, &prior, &prior_w, run, swing);
-    let mut cov = spd_cov(&n, &model)?;
+    let first = spd_cov(&n, &model)?;
     // The misalignment: kept only where the data shrink its σ.
-    let ratio = (cov.0[MR][MR].max(cov.0[MP][MP]) / cov.1).sqrt() / cfg.misalignment_prior_rad;
+    let ratio = (first.0[MR][MR].max(first.0[MP][MP]) / first.1).sqrt() / cfg.misalignment_prior_rad;
     let mut misalignment_estimated = true;
     if !(ratio < T::from_f64(0.5)) {
         notes[2] = Some(JointNote::MisalignmentNotObservable { sigma_ratio: ratio });
@@ -597,9 +632,26 @@ pub fn joint_refine_env<T: Real>(
         p = p2;
         iterations = iterations.saturating_add(it2);
         n = normal_equations(&model, &p, &prior, &prior_w, run, swing);
-        cov = spd_cov(&n, &model)?;
     }
-    let (cov_unscaled, scale2) = cov;
+    // Residuals of neighbouring samples are not independent (slow AHRS
+    // errors, the field's gradient along the track): the information of
+    // the data is divided by the AR(1) variance inflation (1 + ρ)/(1 − ρ)
+    // of the run's residuals.
+    let rho = residual_autocorrelation(&model, &p, run);
+    let inflation = ((T::ONE + rho) / (T::ONE - rho)).max(T::ONE).min(T::from_f64(MAX_INFLATION));
+    for a in 0..NP {
+        if !model.active[a] {
+            continue;
+        }
+        let pa = prior_w[a] * prior_w[a];
+        for b in 0..NP {
+            if model.active[b] {
+                let prior_part = if a == b { pa } else { T::ZERO };
+                n.jtj[a][b] = (n.jtj[a][b] - prior_part) / inflation + prior_part;
+            }
+        }
+    }
+    let (cov_unscaled, scale2) = spd_cov(&n, &model)?;
     let residual_rms_nt = ((n.run_ss.0 + n.swing_ss.0) / T::from_f64(f64::from((n.run_ss.1 + n.swing_ss.1).max(1)))).sqrt();
     let sd = |a: usize| (cov_unscaled[a][a] * scale2).max(T::ZERO).sqrt();
     let sigma = JointSigmas {
@@ -646,6 +698,7 @@ pub fn joint_refine_env<T: Real>(
         params: p,
         model,
         information: n.jtj,
+        correlation_inflation: inflation,
         scale2,
     };
     let (per, rms) = sol.heading_sigmas(&cov_unscaled);
@@ -798,7 +851,8 @@ impl<T: Real> JointSolution<T> {
         let mut n = Normal::new(self.information);
         let active = self.model.active;
         for s in extra {
-            self.model.run_residuals(&self.params, &s, &mut |r, w, j| add_row(&mut n, &active, r, w, j));
+            let k = self.correlation_inflation.sqrt();
+            self.model.run_residuals(&self.params, &s, &mut |r, w, j| add_row(&mut n, &active, r, w / k, j));
         }
         n.data_cost = T::ZERO;
         let (cov, _) = spd_cov(&n, &self.model).ok()?;
