@@ -17,11 +17,14 @@
 //!   fitting every run sample's levelled vertical component to IGRF's `Z` and
 //!   its levelled horizontal intensity to IGRF's `H` (vectors, not just the
 //!   magnitude), optionally with the swing test's magnitudes, and with the
-//!   step-1 coefficients as a prior for what the run cannot see.
+//!   step-1 coefficients as a prior for what the run cannot see;
+//!   [`joint::joint_refine_env`] adds the thruster current, the temperature
+//!   gains, the local field as a nuisance and the AHRS misalignment, and
+//!   predicts its own heading error.
 
 use crate::cal::FieldCal;
 use crate::heading::{horizontal, level, Vec3};
-use crate::linalg::{cholesky_solve, Mat3};
+use crate::linalg::Mat3;
 use crate::Real;
 
 /// Which part of the run a sample belongs to, for the turnaround step.
@@ -52,6 +55,10 @@ pub struct RunSample<T> {
     pub z_ref_nt: T,
     /// Where on the run.
     pub leg: Leg,
+    /// Motor (thruster) current, A (NaN: not recorded).
+    pub current_a: T,
+    /// Temperature at the magnetometer, °C (NaN: not recorded).
+    pub temp_c: T,
 }
 
 /// The paper's axis coefficients: `H_i = (Ĥ_i − b_i)/s_i` (eq 18).
@@ -344,13 +351,6 @@ pub struct JointResult<T> {
     pub iterations: u8,
 }
 
-const NP: usize = 15;
-
-/// Parameters: M (row major, 9), b (3), b_run (3).
-fn unpack<T: Real>(p: &[T; NP]) -> (Mat3<T>, Vec3<T>, Vec3<T>) {
-    ([[p[0], p[1], p[2]], [p[3], p[4], p[5]], [p[6], p[7], p[8]]], [p[9], p[10], p[11]], [p[12], p[13], p[14]])
-}
-
 /// Levelling matrix `C2ᵀ(θ) C1ᵀ(φ)` rows.
 fn level_matrix<T: Real>(roll: T, pitch: T) -> Mat3<T> {
     let (sr, cr) = (roll.sin(), roll.cos());
@@ -358,203 +358,25 @@ fn level_matrix<T: Real>(roll: T, pitch: T) -> Mat3<T> {
     [[cp, sp * sr, sp * cr], [T::ZERO, cr, -sr], [-sp, cp * sr, cp * cr]]
 }
 
-/// Accumulates one weighted residual and its gradient row.
-fn accumulate<T: Real>(jtj: &mut [[T; NP]; NP], jtr: &mut [T; NP], cost: &mut T, r: T, j: &[T; NP], w: T) {
-    let (r, w2) = (r * w, w * w);
-    *cost += r * r;
-    for a in 0..NP {
-        if j[a] == T::ZERO {
-            continue;
-        }
-        jtr[a] += j[a] * w * r;
-        for b in 0..NP {
-            jtj[a][b] += j[a] * j[b] * w2;
-        }
-    }
-}
-
-/// Builds the normal equations of the joint problem at `p`.
-fn normal_equations<T: Real>(
-    p: &[T; NP],
-    prior: &[T; NP],
-    prior_w: &[T; NP],
-    run: &[RunSample<T>],
-    swing: &[Vec3<T>],
-    swing_field_nt: T,
-    weights: &JointWeights<T>,
-) -> ([[T; NP]; NP], [T; NP], T) {
-    let (m, b, br) = unpack(p);
-    let mut jtj = [[T::ZERO; NP]; NP];
-    let mut jtr = [T::ZERO; NP];
-    let mut cost = T::ZERO;
-    let w_run = T::ONE / weights.run_sigma_nt;
-    for s in run {
-        let d = [s.raw[0] - b[0] - br[0], s.raw[1] - b[1] - br[1], s.raw[2] - b[2] - br[2]];
-        let h = crate::linalg::mul_mat_vec(&m, d);
-        let lm = level_matrix(s.roll_rad, s.pitch_rad);
-        let l = crate::linalg::mul_mat_vec(&lm, h);
-        // Vertical: l_z − Z_ref; ∂/∂M_ij = L_zi d_j; ∂/∂b = −(L_z M).
-        let mut j = [T::ZERO; NP];
-        let lz = lm[2];
-        for i in 0..3 {
-            for k in 0..3 {
-                j[3 * i + k] = lz[i] * d[k];
-            }
-        }
-        for k in 0..3 {
-            let g = -(lz[0] * m[0][k] + lz[1] * m[1][k] + lz[2] * m[2][k]);
-            j[9 + k] = g;
-            j[12 + k] = g;
-        }
-        accumulate(&mut jtj, &mut jtr, &mut cost, l[2] - s.z_ref_nt, &j, w_run);
-        // Horizontal intensity: |(l_x, l_y)| − H_ref.
-        let hh = (l[0] * l[0] + l[1] * l[1]).sqrt();
-        if hh > T::ZERO {
-            let (ux, uy) = (l[0] / hh, l[1] / hh);
-            let u = [ux * lm[0][0] + uy * lm[1][0], ux * lm[0][1] + uy * lm[1][1], ux * lm[0][2] + uy * lm[1][2]];
-            let mut j = [T::ZERO; NP];
-            for i in 0..3 {
-                for k in 0..3 {
-                    j[3 * i + k] = u[i] * d[k];
-                }
-            }
-            for k in 0..3 {
-                let g = -(u[0] * m[0][k] + u[1] * m[1][k] + u[2] * m[2][k]);
-                j[9 + k] = g;
-                j[12 + k] = g;
-            }
-            accumulate(&mut jtj, &mut jtr, &mut cost, hh - s.h_ref_nt, &j, w_run);
-        }
-    }
-    let w_swing = T::ONE / weights.swing_sigma_nt;
-    for raw in swing {
-        let d = [raw[0] - b[0], raw[1] - b[1], raw[2] - b[2]];
-        let h = crate::linalg::mul_mat_vec(&m, d);
-        let mag = (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt();
-        if !(mag > T::ZERO) {
-            continue;
-        }
-        let u = [h[0] / mag, h[1] / mag, h[2] / mag];
-        let mut j = [T::ZERO; NP];
-        for i in 0..3 {
-            for k in 0..3 {
-                j[3 * i + k] = u[i] * d[k];
-            }
-        }
-        for k in 0..3 {
-            j[9 + k] = -(u[0] * m[0][k] + u[1] * m[1][k] + u[2] * m[2][k]);
-        }
-        accumulate(&mut jtj, &mut jtr, &mut cost, mag - swing_field_nt, &j, w_swing);
-    }
-    for a in 0..NP {
-        let mut j = [T::ZERO; NP];
-        j[a] = T::ONE;
-        accumulate(&mut jtj, &mut jtr, &mut cost, p[a] - prior[a], &j, prior_w[a]);
-    }
-    (jtj, jtr, cost)
-}
-
-/// Ours: the joint refinement. `start` is the step-1 calibration (the prior);
-/// `swing` optionally adds the swing test's raw samples with their reference
-/// intensity.
+/// Ours: the joint refinement without current, temperature or misalignment
+/// estimates beyond what the samples carry ([`joint::joint_refine_env`] with
+/// [`JointConfig`] from `weights`). `start` is the step-1 calibration (the
+/// prior); `swing` optionally adds the swing test's samples with their
+/// reference intensity.
 pub fn joint_refine<T: Real>(
     start: &FieldCal<T>,
     run: &[RunSample<T>],
-    swing: &[Vec3<T>],
+    swing: &[SwingSample<T>],
     swing_field_nt: T,
     weights: &JointWeights<T>,
 ) -> Result<JointResult<T>, BackstepError> {
-    let mut p = [T::ZERO; NP];
-    for i in 0..3 {
-        for k in 0..3 {
-            p[3 * i + k] = start.matrix[i][k];
-        }
-        p[9 + i] = start.bias[i];
-    }
-    let prior = p;
-    let gain = (start.matrix[0][0].abs() + start.matrix[1][1].abs() + start.matrix[2][2].abs()) / T::from_f64(3.0);
-    if !(gain > T::ZERO) {
-        return Err(BackstepError::Diverged);
-    }
-    let mut prior_w = [T::ZERO; NP];
-    for (a, w) in prior_w.iter_mut().enumerate() {
-        *w = if a < 9 {
-            T::ONE / (weights.matrix_prior_rel * gain)
-        } else if a < 12 {
-            gain / weights.bias_prior_nt
-        } else {
-            gain / weights.running_bias_prior_nt
-        };
-    }
-    let (mut jtj, mut jtr, mut cost) = normal_equations(&p, &prior, &prior_w, run, swing, swing_field_nt, weights);
-    let mut mu = T::from_f64(1e-4);
-    let mut iterations = 0u8;
-    for it in 1..=50u8 {
-        iterations = it;
-        let mut accepted = false;
-        for _ in 0..20 {
-            // Jacobi scaling: matrix entries, counts-sized biases and their
-            // gradients differ by many orders of magnitude.
-            let mut scale = [T::ONE; NP];
-            for (k, d) in scale.iter_mut().enumerate() {
-                let a = jtj[k][k];
-                *d = if a > T::ZERO { T::ONE / a.sqrt() } else { T::ONE };
-            }
-            let mut a = jtj;
-            for i in 0..NP {
-                for j in 0..NP {
-                    a[i][j] *= scale[i] * scale[j];
-                }
-                a[i][i] += mu;
-            }
-            let mut neg = [T::ZERO; NP];
-            for k in 0..NP {
-                neg[k] = -jtr[k] * scale[k];
-            }
-            let mut step = cholesky_solve(&a, &neg).map_err(|_| BackstepError::Singular)?;
-            for k in 0..NP {
-                step[k] *= scale[k];
-            }
-            let mut cand = p;
-            for k in 0..NP {
-                cand[k] += step[k];
-            }
-            let (cj, cr, cc) = normal_equations(&cand, &prior, &prior_w, run, swing, swing_field_nt, weights);
-            if cc < cost {
-                let rel = (cost - cc) / cost;
-                p = cand;
-                jtj = cj;
-                jtr = cr;
-                cost = cc;
-                mu = (mu / T::from_f64(10.0)).max(T::from_f64(1e-12));
-                accepted = true;
-                if rel < T::from_f64(1e-10) {
-                    return finish(&p, iterations);
-                }
-                break;
-            }
-            mu *= T::from_f64(10.0);
-        }
-        if !accepted {
-            break;
-        }
-    }
-    finish(&p, iterations)
+    let cfg = JointConfig { weights: *weights, ..JointConfig::default() };
+    let s = joint_refine_env(start, run, swing, swing_field_nt, &cfg)?;
+    Ok(JointResult { running: s.running, resting: s.resting, running_bias: s.running_bias, iterations: s.iterations })
 }
 
-fn finish<T: Real>(p: &[T; NP], iterations: u8) -> Result<JointResult<T>, BackstepError> {
-    if !p.iter().all(|v| v.is_finite()) {
-        return Err(BackstepError::Diverged);
-    }
-    let (m, b, br) = unpack(p);
-    let running_bias = [b[0] + br[0], b[1] + br[1], b[2] + br[2]];
-    Ok(JointResult {
-        running: FieldCal { bias: running_bias, matrix: m },
-        resting: FieldCal { bias: b, matrix: m },
-        running_bias: br,
-        iterations,
-    })
-}
+pub mod joint;
+pub use joint::{joint_refine_env, JointConfig, JointNote, JointSolution, SwingSample};
 
 #[cfg(test)]
 mod tests;

@@ -472,21 +472,8 @@ fn predicted_heading_rms<T: Real>(x: &[T; UNKNOWNS], n: &Normalised<T>, rms: T, 
         let psi = T::from_f64(f64::from(step) * 10.0f64.to_radians());
         let h = [horizontal * psi.cos(), -horizontal * psi.sin(), z];
         let raw = mul_mat_vec(&inv, [h[0] + n.c[0], h[1] + n.c[1], h[2] + n.c[2]]);
-        let base = heading(x, raw);
-        let mut grad = [T::ZERO; UNKNOWNS];
-        for (i, g) in grad.iter_mut().enumerate() {
-            let eps = T::from_f64(1e-4) * (x[i].abs() + T::from_f64(0.1));
-            let mut xp = *x;
-            xp[i] += eps;
-            let d = crate::heading::wrap_pi(heading(&xp, raw) - base);
-            *g = d / eps;
-        }
-        let mut var = T::ZERO;
-        for i in 0..UNKNOWNS {
-            for j in 0..UNKNOWNS {
-                var += grad[i] * cov[i][j] * grad[j];
-            }
-        }
+        let sigma = crate::uncertainty::angle_sigma(x, cov, |xx| heading(xx, raw));
+        let var = sigma * sigma;
         total += var * sigma2;
     }
     (total / T::from_f64(f64::from(steps))).max(T::ZERO).sqrt()

@@ -30,6 +30,7 @@ pub mod lsq;
 pub mod ortho;
 pub mod quality;
 pub mod swing;
+pub mod uncertainty;
 pub mod real;
 pub mod trigf;
 

@@ -83,7 +83,7 @@ pub fn refine(step1: CalDoc, swing: &Recording, run: &Recording, site: &Site, op
     let mut backstep_opts = BackstepOptions::new(RunReference::Igrf(*site));
     backstep_opts.method = opts.method;
     if opts.method == BackstepMethod::Joint {
-        backstep_opts.swing = Some(SwingMagnitudes { raw: swing.complete_mag().1, field_nt: site.field()?.total_nt() });
+        backstep_opts.swing = Some(SwingMagnitudes::from_recording(swing, site.field()?.total_nt()));
     }
     let (backstepped, backstep) = backstep_recording(run, &step1, &backstep_opts)?;
     let (final_doc, _, delay_s) = swing_recording(run, &backstepped, opts.delay)?;

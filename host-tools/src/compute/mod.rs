@@ -25,7 +25,7 @@ pub mod swing;
 pub mod truth;
 pub mod units;
 
-pub use backstep::{backstep_recording, find_turnaround, BackstepOptions, BackstepReport, RunReference, SwingMagnitudes};
+pub use backstep::{backstep_recording, coverage_guidance, find_turnaround, BackstepOptions, BackstepReport, RunReference, SwingMagnitudes};
 pub use chain::{axis_step, calibrate, gyro_step, refine, Chain, ChainOptions, FirstStep};
 pub use fit::{fit_recording, FitOptions};
 pub use ortho::{ortho_recording, OrthoSolver};

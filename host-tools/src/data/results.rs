@@ -166,6 +166,67 @@ pub struct BackstepQuality {
     /// The joint solver's separated biases.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub details: Option<JointDetails>,
+    /// The joint solver's environment estimates with their 1σ.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub estimates: Option<JointEstimates>,
+}
+
+/// An estimate and its 1σ.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct Estimate3 {
+    /// The value per axis.
+    pub value: [f64; 3],
+    /// Its 1σ per axis.
+    pub sigma: [f64; 3],
+}
+
+/// What the joint refinement estimated besides the field calibration, each
+/// with its 1σ from the fit's covariance, and what it could not estimate.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct JointEstimates {
+    /// The thrusters' field per ampere, raw units per A (when estimated).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bias_per_a_raw: Option<Estimate3>,
+    /// The gains' change per °C (when estimated).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gain_per_c: Option<Estimate3>,
+    /// Reference temperature of the gains, °C.
+    pub ref_c: f64,
+    /// The resting bias, raw units.
+    pub bias_raw: Estimate3,
+    /// The running-only bias, raw units (zero when the current term is used).
+    pub running_bias_raw: Estimate3,
+    /// 1σ of the matrix entries, row major.
+    pub matrix_sigma: [f64; 9],
+    /// The local inclination minus the reference's, degrees.
+    pub local_inclination_offset_deg: f64,
+    /// Its 1σ, degrees.
+    pub local_inclination_sigma_deg: f64,
+    /// The local horizontal and down components this gives, nT (the
+    /// intensity is the reference's: not observable).
+    pub local_hz_nt: [f64; 2],
+    /// 1σ of the intensity (IGRF-14's, along F), nT.
+    pub intensity_sigma_nt: f64,
+    /// The AHRS misalignment added to roll and pitch, degrees (when
+    /// observable), with its 1σ.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub misalignment_deg: Option<[f64; 2]>,
+    /// 1σ of the misalignment, degrees.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub misalignment_sigma_deg: Option<[f64; 2]>,
+    /// RMS of the run and swing residuals, nT.
+    pub residual_rms_nt: f64,
+    /// The 1σ heading error at level headings 0°, 15°, … 345°, degrees.
+    pub heading_sigma_deg: Vec<f64>,
+    /// Their RMS, degrees.
+    pub predicted_heading_rms_deg: f64,
+    /// Predicted RMS with 1, 2, 3 … more level surface circles, degrees.
+    pub predicted_with_circles_deg: Vec<f64>,
+    /// What more coverage would buy, one sentence.
+    pub guidance: String,
+    /// What the data could not separate, one sentence each.
+    pub notes: Vec<String>,
 }
 
 /// The swing (Fourier heading) fit's report.

@@ -44,6 +44,9 @@ pub struct Args {
     /// The swing-test recording (thrusters off), to let the joint solver separate the running-only bias.
     #[arg(long)]
     swing_input: Option<PathBuf>,
+    /// A thrust test (hold heading, step the thrusters; two headings ~90° apart), with motor_current_a, roll_deg, pitch_deg: lets the joint solver separate the per-ampere field when the run's current hardly varies.
+    #[arg(long)]
+    thrust_input: Option<PathBuf>,
     /// Write the calibration document here.
     #[arg(long)]
     out: Option<PathBuf>,
@@ -69,7 +72,10 @@ pub fn run(a: Args) -> Result<()> {
     opts.turnaround_s = a.turnaround_s;
     if let Some(p) = &a.swing_input {
         let swing = Recording::read(p)?;
-        opts.swing = Some(SwingMagnitudes { raw: swing.complete_mag().1, field_nt: doc.field_nt });
+        opts.swing = Some(SwingMagnitudes::from_recording(&swing, doc.field_nt));
+    }
+    if let Some(p) = &a.thrust_input {
+        opts.thrust_test = Some(Recording::read(p)?);
     }
     let (out_doc, report) = compute::backstep_recording(&rec, &doc, &opts).with_context(|| format!("{}: back-stepping", a.input.display()))?;
     if !a.json {
@@ -85,6 +91,9 @@ pub fn run(a: Args) -> Result<()> {
             );
         }
     }
+    if let Some(e) = out_doc.quality.backstep.as_ref().and_then(|b| b.estimates.as_ref()) {
+        print_estimates(e);
+    }
     let summary = format!(
         "back-stepping ({}) around the turnaround at {:.0} s: step {:.1} → {:.1} nT, |F − IGRF| RMS {:.1} → {:.1} nT",
         opts.method.name(),
@@ -95,4 +104,32 @@ pub fn run(a: Args) -> Result<()> {
         report.after.f_error_rms_nt
     );
     emit(&out_doc, a.out.as_ref(), a.json, &summary)
+}
+
+/// Prints the joint solver's estimates with their 1σ on stderr.
+pub fn print_estimates(e: &host_tools::data::results::JointEstimates) {
+    let v3 = |v: [f64; 3], k: f64| format!("[{:.4}, {:.4}, {:.4}]", v[0] * k, v[1] * k, v[2] * k);
+    if let Some(c) = &e.bias_per_a_raw {
+        eprintln!("  thruster field per A    {} ± {} raw/A", v3(c.value, 1.0), v3(c.sigma, 1.0));
+    }
+    if let Some(k) = &e.gain_per_c {
+        eprintln!("  gain per °C (ref {:.1} °C) {} ± {} %/°C", e.ref_c, v3(k.value, 100.0), v3(k.sigma, 100.0));
+    }
+    eprintln!("  resting bias            {} ± {} raw", v3(e.bias_raw.value, 1.0), v3(e.bias_raw.sigma, 1.0));
+    if e.bias_per_a_raw.is_none() {
+        eprintln!("  running-only bias       {} ± {} raw", v3(e.running_bias_raw.value, 1.0), v3(e.running_bias_raw.sigma, 1.0));
+    }
+    eprintln!(
+        "  local field             H {:.0} nT, Z {:.0} nT (inclination {:+.3}° ± {:.3}° from IGRF; intensity IGRF's ± {:.0} nT, not observable)",
+        e.local_hz_nt[0], e.local_hz_nt[1], e.local_inclination_offset_deg, e.local_inclination_sigma_deg, e.intensity_sigma_nt
+    );
+    if let (Some(m), Some(s)) = (e.misalignment_deg, e.misalignment_sigma_deg) {
+        eprintln!("  AHRS misalignment       roll {:+.2}° ± {:.2}°, pitch {:+.2}° ± {:.2}°", m[0], s[0], m[1], s[1]);
+    }
+    eprintln!("  residual RMS            {:.1} nT", e.residual_rms_nt);
+    eprintln!("  predicted heading error {:.3}° RMS (1σ over level headings)", e.predicted_heading_rms_deg);
+    eprintln!("  {}", e.guidance);
+    for n in &e.notes {
+        eprintln!("  note: {n}");
+    }
 }

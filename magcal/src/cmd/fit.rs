@@ -69,6 +69,7 @@ pub fn run(a: Args) -> Result<()> {
         doc.declination_deg = Some(reference.declination_deg());
     }
     warn_all(&doc);
+    print_environment_columns(&rec);
     let summary = match &doc.quality.fit {
         Some(q) => format!(
             "{} fit of {} samples: bias {:?}, residual {:.1} nT RMS ({:.2} %), coverage {} %",
@@ -82,4 +83,20 @@ pub fn run(a: Args) -> Result<()> {
         None => format!("{} fit: bias {:?}", doc.model.name(), doc.bias),
     };
     emit(&doc, a.out.as_ref(), a.json, &summary)
+}
+
+/// Says what the recording's current and temperature columns span: the
+/// field fit does not model them (a swing test is made thrusters off at one
+/// temperature); `magcal backstep` estimates them from the run.
+fn print_environment_columns(rec: &Recording) {
+    let span = |c: &Option<Vec<f64>>| {
+        let v: Vec<f64> = c.iter().flatten().copied().filter(|x| x.is_finite()).collect();
+        (!v.is_empty()).then(|| (v.iter().copied().fold(f64::MAX, f64::min), v.iter().copied().fold(f64::MIN, f64::max)))
+    };
+    if let Some((lo, hi)) = span(&rec.motor_current_a) {
+        eprintln!("  motor_current_a {lo:.1} … {hi:.1} A: not modelled by the field fit; `magcal backstep` estimates the per-ampere field from the run");
+    }
+    if let Some((lo, hi)) = span(&rec.temp_c) {
+        eprintln!("  temp_c {lo:.1} … {hi:.1} °C: not modelled by the field fit; `magcal backstep` estimates the gains from the run");
+    }
 }
