@@ -29,12 +29,30 @@ pub fn heading_rms_deg(doc: &CalDoc, sim: &Simulation) -> f64 {
     truth::heading_rms_deg(headings.into_iter().zip(sim.true_heading_deg.iter().copied())).rms
 }
 
-/// RMS of |h| − IGRF over a simulated run (every tenth row), nT.
+/// RMS of |h| − IGRF over a simulated run (every tenth row), nT; the
+/// document's current and temperature terms applied.
 pub fn field_error_nt(doc: &CalDoc, sim: &Simulation) -> f64 {
-    let cal = doc.field_cal();
     let rec = &sim.recording;
-    let fields = (0..rec.len()).step_by(10).map(|i| (cal.apply(rec.mag[i]), i));
+    let h = truth::calibrated_fields_nt(doc, rec);
+    let fields = (0..rec.len()).step_by(10).map(|i| (h[i], i));
     truth::field_rms_nt(fields, rec, &sim.truth.site).rms
+}
+
+/// RMS of |h| − |true local field| over a simulated run with the anomaly
+/// effect (every tenth row), nT: the error against the field the vehicle
+/// was really in, not IGRF. `None` without the simulator's true-field columns.
+pub fn field_error_true_nt(doc: &CalDoc, sim: &Simulation) -> Option<f64> {
+    let (n, e, d) = (sim.effect_column("true_field_n_nt")?, sim.effect_column("true_field_e_nt")?, sim.effect_column("true_field_d_nt")?);
+    let h = truth::calibrated_fields_nt(doc, &sim.recording);
+    let (mut ss, mut count) = (0.0, 0usize);
+    for i in (0..h.len()).step_by(10) {
+        let err = (h[i][0].powi(2) + h[i][1].powi(2) + h[i][2].powi(2)).sqrt() - (n[i].powi(2) + e[i].powi(2) + d[i].powi(2)).sqrt();
+        if err.is_finite() {
+            ss += err * err;
+            count += 1;
+        }
+    }
+    (count > 0).then(|| (ss / count as f64).sqrt())
 }
 
 /// What the chain achieved on one simulated field test.

@@ -101,12 +101,11 @@ fn interpolation_gap_s(t: &[f64]) -> f64 {
 pub fn magnetic_headings(rec: &Recording, doc: &CalDoc) -> Result<Vec<f64>, ComputeError> {
     let roll = rec.roll_deg.as_ref().ok_or(ComputeError::NeedsColumn("roll_deg"))?;
     let pitch = rec.pitch_deg.as_ref().ok_or(ComputeError::NeedsColumn("pitch_deg"))?;
-    let cal = doc.field_cal();
-    Ok(rec
-        .mag
-        .iter()
+    // The current and temperature terms too, when the document has them.
+    Ok(super::truth::calibrated_fields_nt(doc, rec)
+        .into_iter()
         .zip(roll.iter().zip(pitch))
-        .map(|(m, (r, p))| magnetic_heading_rad(cal.apply(*m), r.to_radians(), p.to_radians()))
+        .map(|(h, (r, p))| magnetic_heading_rad(h, r.to_radians(), p.to_radians()))
         .collect())
 }
 

@@ -71,6 +71,14 @@ pub fn true_headings_rad(doc: &CalDoc, rec: &Recording) -> Vec<f64> {
         .collect()
 }
 
+/// The calibrated field (nT) at every row: the document's current and
+/// temperature terms from the rows' `motor_current_a`/`temp_c`, then the
+/// field calibration; NaN where a column the blocks need is missing.
+pub fn calibrated_fields_nt(doc: &CalDoc, rec: &Recording) -> Vec<[f64; 3]> {
+    let cal = doc.calibration();
+    rec.mag.iter().zip(environments(doc, rec)).map(|(m, env)| cal.field.apply(cal.env.correct_raw(*m, &env))).collect()
+}
+
 /// Each row's current and temperature as the document's blocks need them:
 /// the rows' columns where the document has the block (NaN where the
 /// column is missing or empty), the neutral value (0 A, the reference
