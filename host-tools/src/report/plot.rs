@@ -146,6 +146,34 @@ fn svg(figure: &str, draw: impl FnOnce(&DrawingArea<SVGBackend<'_>, Shift>) -> R
     Ok(text)
 }
 
+/// The frame every figure shares: caption, margins, the two value axes with
+/// their round ticks and unit labels, and (unless `mesh` is false) light
+/// grid lines at the ticks.
+fn framed<'a, 'b>(
+    root: &'a DrawingArea<SVGBackend<'b>, Shift>,
+    title: &str,
+    (ax, ay): (Axis, Axis),
+    (x_label, y_label): (&str, &str),
+    mesh: bool,
+) -> Result<ChartContext<'a, SVGBackend<'b>, Cartesian2d<Axis, Axis>>, PlotError> {
+    let mut chart = ChartBuilder::on(root)
+        .caption(title, ("sans-serif", 17))
+        .margin(12)
+        .x_label_area_size(42)
+        .y_label_area_size(70)
+        .build_cartesian_2d(ax, ay)
+        .map_err(|e| err(title, e))?;
+    let mut m = chart.configure_mesh();
+    m.x_desc(x_label).y_desc(y_label).x_labels(100).y_labels(100).axis_desc_style(("sans-serif", 15)).label_style(("sans-serif", 13));
+    if mesh {
+        m.light_line_style(RGBColor(0xee, 0xee, 0xee)).bold_line_style(RGBColor(0xcc, 0xcc, 0xcc));
+    } else {
+        m.disable_mesh();
+    }
+    m.draw().map_err(|e| err(title, e))?;
+    Ok(chart)
+}
+
 /// A line/scatter plot with a legend. `x_range`/`y_range` fix the axes
 /// (else the data's range, padded).
 pub fn try_line_plot(title: &str, x_label: &str, y_label: &str, series: &[Series], x_range: Option<(f64, f64)>, y_range: Option<(f64, f64)>) -> Result<String, PlotError> {
@@ -164,25 +192,7 @@ pub fn try_line_plot_ticks(title: &str, x_label: &str, y_label: &str, series: &[
     });
     let (ax, ay) = (axis(x0, x1, 10, x_ticks), axis(y0, y1, 8, None));
     svg(title, |root| {
-        let mut chart = ChartBuilder::on(root)
-            .caption(title, ("sans-serif", 17))
-            .margin(12)
-            .x_label_area_size(42)
-            .y_label_area_size(70)
-            .build_cartesian_2d(ax, ay)
-            .map_err(|e| err(title, e))?;
-        chart
-            .configure_mesh()
-            .x_desc(x_label)
-            .y_desc(y_label)
-            .x_labels(100)
-            .y_labels(100)
-            .axis_desc_style(("sans-serif", 15))
-            .label_style(("sans-serif", 13))
-            .light_line_style(RGBColor(0xee, 0xee, 0xee))
-            .bold_line_style(RGBColor(0xcc, 0xcc, 0xcc))
-            .draw()
-            .map_err(|e| err(title, e))?;
+        let mut chart = framed(root, title, (ax, ay), (x_label, y_label), true)?;
         for (i, s) in series.iter().enumerate() {
             let c = color(i);
             let inside = |p: &&(f64, f64)| p.0.is_finite() && p.1.is_finite() && p.1 >= y0 && p.1 <= y1 && p.0 >= x0 && p.0 <= x1;
@@ -264,25 +274,7 @@ pub fn try_histogram(title: &str, x_label: &str, samples: &[(String, Vec<f64>)],
     }
     let (ax, ay) = (axis(range.0, range.1, 10, None), axis(0.0, y_max * (1.1 + 0.08 * samples.len() as f64), 6, None));
     svg(title, |root| {
-        let mut chart = ChartBuilder::on(root)
-            .caption(title, ("sans-serif", 17))
-            .margin(12)
-            .x_label_area_size(42)
-            .y_label_area_size(70)
-            .build_cartesian_2d(ax, ay)
-            .map_err(|e| err(title, e))?;
-        chart
-            .configure_mesh()
-            .x_desc(x_label)
-            .y_desc("share of samples, %")
-            .x_labels(100)
-            .y_labels(100)
-            .axis_desc_style(("sans-serif", 15))
-            .label_style(("sans-serif", 13))
-            .light_line_style(RGBColor(0xee, 0xee, 0xee))
-            .bold_line_style(RGBColor(0xcc, 0xcc, 0xcc))
-            .draw()
-            .map_err(|e| err(title, e))?;
+        let mut chart = framed(root, title, (ax, ay), (x_label, "share of samples, %"), true)?;
         for (i, (label, pct)) in hists.iter().enumerate() {
             let c = color(i);
             let bars = pct.iter().enumerate().filter(|(_, p)| **p > 0.0).flat_map(move |(k, p)| {
@@ -366,24 +358,7 @@ pub fn try_coverage_map(title: &str, y_label: &str, grid: &CoverageGrid) -> Resu
     let heading_ticks: Vec<f64> = (0..=12).map(|k| k as f64 * 30.0).collect();
     let (ax, ay) = (axis(x0, x1, 8, Some(&heading_ticks)), axis(y0, y1, 8, None));
     svg(title, |root| {
-        let mut chart = ChartBuilder::on(root)
-            .caption(title, ("sans-serif", 17))
-            .margin(12)
-            .x_label_area_size(42)
-            .y_label_area_size(70)
-            .build_cartesian_2d(ax, ay)
-            .map_err(|e| err(title, e))?;
-        chart
-            .configure_mesh()
-            .x_desc("heading, ° from magnetic north")
-            .y_desc(y_label)
-            .x_labels(100)
-            .y_labels(100)
-            .axis_desc_style(("sans-serif", 15))
-            .disable_mesh()
-            .label_style(("sans-serif", 13))
-            .draw()
-            .map_err(|e| err(title, e))?;
+        let mut chart = framed(root, title, (ax, ay), ("heading, ° from magnetic north", y_label), false)?;
         let base = RGBColor(0x1f, 0x77, 0xb4);
         let mut cells = Vec::new();
         let mut gaps = Vec::new();
