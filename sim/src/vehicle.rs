@@ -240,9 +240,8 @@ mod tests {
             let h = calib_core::heading::ned_to_body([fnn[i], fe[i], fd[i]], run.true_roll_deg[i].to_radians(), run.true_pitch_deg[i].to_radians(), run.true_heading_deg[i].to_radians());
             let th = thrusters.field_nt(&[i0[i], i1[i]]);
             let gain = thermal.gain(temp[i]);
-            for k in 0..3 {
-                let d = &sensor.gain_raw_per_nt[k];
-                let expected = gain[k] * (d[0] * (h[0] + th[0]) + d[1] * (h[1] + th[1]) + d[2] * (h[2] + th[2]) + sensor.bias_raw[k]);
+            for (k, (d, g)) in sensor.gain_raw_per_nt.iter().zip(gain).enumerate() {
+                let expected = g * (d[0] * (h[0] + th[0]) + d[1] * (h[1] + th[1]) + d[2] * (h[2] + th[2]) + sensor.bias_raw[k]);
                 worst = worst.max((run.recording.mag[i][k] - expected).abs());
             }
         }
