@@ -27,4 +27,4 @@ pub mod vehicle;
 pub use effects::{Effect, Effects};
 pub use field_test::{paper_site, RunParams, SensorModel, SimError, Simulation, Truth};
 pub use scenario::{evaluate, Outcome, ScenarioError};
-pub use vehicle::{SimPlan, SimVehicle};
+pub use vehicle::{SimPlan, SimVehicle, SHORT_TEST_EFFECTS};

@@ -378,8 +378,15 @@ pub struct ValidationMetrics {
     pub heading_rms_deg_before: f64,
     /// With the uploaded coefficients, from the board's own output, °.
     pub heading_rms_deg_after: f64,
-    /// RMS of |F| − IGRF with the uploaded coefficients, nT.
+    /// RMS of the board's |F| minus the reference field with the uploaded
+    /// coefficients, nT: the true local field where the vehicle knows it
+    /// (`field_reference` `true`: a simulated vehicle, crustal anomaly
+    /// included), otherwise IGRF-14 at the logged position.
     pub field_error_nt_after: f64,
+    /// `field_error_nt_after` is against the true local field (`false`:
+    /// against IGRF).
+    #[serde(default)]
+    pub field_against_truth: bool,
     /// Samples with a heading from the board.
     pub validation_samples: usize,
 }
@@ -400,6 +407,17 @@ pub struct SessionSummary {
     pub backstep: BackstepQuality,
     /// The swing fit's report.
     pub swing: SwingQuality,
+    /// The true-heading error the final calibration predicts for itself,
+    /// ° RMS (its `quality.predicted_heading_rms_deg`: the back-stepping's
+    /// estimate from its parameters' covariance), to set beside the
+    /// validation's observed `heading_rms_deg_after`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub predicted_heading_rms_deg: Option<f64>,
+    /// Observed over predicted: `heading_rms_deg_after /
+    /// predicted_heading_rms_deg` (near 1: the prediction is honest; well
+    /// above 1: errors the model does not know about).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub heading_rms_observed_over_predicted: Option<f64>,
     /// Where the session's files are.
     pub session_dir: std::path::PathBuf,
 }

@@ -188,13 +188,21 @@ pub fn run<P: Read + Write>(
         ],
     };
     save_json(&cfg.out_dir, "settings.json", &settings)?;
+    let validation_summary = validation.as_ref().map(|(_, m)| *m).filter(|v| v.validation_samples > 0);
+    let predicted_heading_rms_deg = chain.final_doc.quality.predicted_heading_rms_deg.or(chain.backstepped.quality.predicted_heading_rms_deg);
+    let heading_rms_observed_over_predicted = match (validation_summary, predicted_heading_rms_deg) {
+        (Some(v), Some(p)) if p > 0.0 && v.heading_rms_deg_after.is_finite() => Some(v.heading_rms_deg_after / p),
+        _ => None,
+    };
     let summary = SessionSummary {
-        validation: validation.as_ref().map(|(_, m)| *m).filter(|v| v.validation_samples > 0),
+        validation: validation_summary,
         coefficients_verified: true,
         coefficient_seq: seq,
         onboard_fit: OnboardFitSummary { samples: fit.samples, coverage_pct: fit.coverage_pct, residual_rms_nt: fit.residual_rms_nt },
         backstep: chain.backstepped.quality.backstep.clone().ok_or_else(|| io_error("the back-stepping left no report"))?,
         swing: chain.final_doc.quality.swing.clone().ok_or_else(|| io_error("the swing fit left no report"))?,
+        predicted_heading_rms_deg,
+        heading_rms_observed_over_predicted,
         session_dir: cfg.out_dir.clone(),
     };
     save_json(&cfg.out_dir, "summary.json", &summary)?;
@@ -254,7 +262,8 @@ pub fn prepare_board<P: Read + Write>(link: &mut BoardClient<P>, stream: StreamM
 }
 
 /// Heading and field errors of the board's own output on a validation run
-/// against the vehicle's true heading, and what the coefficients the board
+/// against the vehicle's true heading (and its true local field, when the
+/// vehicle knows it; else IGRF), and what the coefficients the board
 /// had before the session would have given.
 pub fn validation_metrics(val: &Recorded, before: &CalDoc, site: &Site) -> ValidationMetrics {
     let cal_before = before.calibration();
@@ -271,14 +280,35 @@ pub fn validation_metrics(val: &Recorded, before: &CalDoc, site: &Site) -> Valid
         (cal_before.apply(raw.map(f64::from), r.to_radians(), p.to_radians()).true_heading_rad, t)
     }));
     let after_rms = truth::heading_rms_deg(with_heading().map(|(_, h, _, t)| (f64::from(h), t)));
-    let fields = val.samples.iter().enumerate().filter_map(|(i, s)| s.field_nt.map(|f| (f.map(f64::from), i)));
-    let field = truth::field_rms_nt(fields, rec, site);
+    let fields = || val.samples.iter().enumerate().filter_map(|(i, s)| s.field_nt.map(|f| (f.map(f64::from), i)));
+    // Against the true local field where the vehicle knows it, else IGRF.
+    let field_against_truth = val.true_field_nt.iter().any(|f| f.is_finite());
+    let field = if field_against_truth {
+        field_rms_against_nt(fields().map(|(f, i)| (f, val.true_field_nt.get(i).copied().unwrap_or(f64::NAN))))
+    } else {
+        truth::field_rms_nt(fields(), rec, site)
+    };
     ValidationMetrics {
         heading_rms_deg_before: before_rms.rms,
         heading_rms_deg_after: after_rms.rms,
         field_error_nt_after: field.rms,
+        field_against_truth,
         validation_samples: after_rms.samples,
     }
+}
+
+/// RMS of `|field| − reference` over `(field_nt, reference_nt)` pairs, nT;
+/// pairs with a non-finite side are left out.
+fn field_rms_against_nt(pairs: impl IntoIterator<Item = ([f64; 3], f64)>) -> truth::Rms {
+    let (mut ss, mut n) = (0.0, 0usize);
+    for (h, reference_nt) in pairs {
+        let e = (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt() - reference_nt;
+        if e.is_finite() {
+            ss += e * e;
+            n += 1;
+        }
+    }
+    truth::Rms { rms: if n == 0 { f64::NAN } else { (ss / n as f64).sqrt() }, samples: n }
 }
 
 /// The session's report (`report/index.html`) and the deviation card of

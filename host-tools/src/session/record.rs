@@ -23,6 +23,9 @@ pub struct Recorded {
     pub samples: Vec<Sample>,
     /// The vehicle's true heading at every step, degrees (NaN when unknown).
     pub true_heading_deg: Vec<f64>,
+    /// The magnitude of the true local field at every step, nT (NaN when
+    /// unknown).
+    pub true_field_nt: Vec<f64>,
     /// Steps lost to link drops.
     pub lost_steps: usize,
 }
@@ -55,7 +58,7 @@ pub fn record<P: Read + Write>(
     mut on_step: impl FnMut(usize, &Step, &Sample, &mut BoardClient<P>) -> Result<(), SessionError>,
 ) -> Result<Recorded, SessionError> {
     let mut rec = Recording { t_s: Some(vec![]), roll_deg: Some(vec![]), pitch_deg: Some(vec![]), ref_heading_deg: Some(vec![]), lat_deg: Some(vec![]), lon_deg: Some(vec![]), ..Recording::default() };
-    let (mut samples, mut truth) = (Vec::new(), Vec::new());
+    let (mut samples, mut truth, mut truth_field) = (Vec::new(), Vec::new(), Vec::new());
     let mut i = 0;
     let started = Instant::now();
     let mut lost = 0usize;
@@ -106,12 +109,17 @@ pub fn record<P: Read + Write>(
         if step.motor_current_a.is_finite() || rec.motor_current_a.is_some() {
             rec.motor_current_a.get_or_insert_with(|| vec![f64::NAN; rows]).push(step.motor_current_a);
         }
+        // Speed through water once a step has it (the swing fit's current).
+        if step.speed_mps.is_finite() || rec.speed_mps.is_some() {
+            rec.speed_mps.get_or_insert_with(|| vec![f64::NAN; rows]).push(step.speed_mps);
+        }
         if sample.temp_c.is_some() || rec.temp_c.is_some() {
             rec.temp_c.get_or_insert_with(|| vec![f64::NAN; rows]).push(sample.temp_c.map_or(f64::NAN, f64::from));
         }
         on_step(i, &step, &sample, link)?;
         samples.push(sample);
         truth.push(step.true_heading_deg);
+        truth_field.push(step.true_field_nt);
         i += 1;
     }
     if i > 0 {
@@ -120,7 +128,7 @@ pub fn record<P: Read + Write>(
     if lost > 0 {
         eprintln!("  {lost} steps lost to link drops are kept as rows without a field");
     }
-    Ok(Recorded { recording: rec, samples, true_heading_deg: truth, lost_steps: lost })
+    Ok(Recorded { recording: rec, samples, true_heading_deg: truth, true_field_nt: truth_field, lost_steps: lost })
 }
 
 /// Pairing a real vehicle's navigation rows with the board's stream by time

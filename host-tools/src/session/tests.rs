@@ -227,7 +227,7 @@ fn a_real_vehicle_recording_survives_a_link_drop() {
     let Recorded { recording: rec, samples, lost_steps, .. } = record(&mut link, &mut vehicle, true, Some(resume), |_, _, _, _| Ok(())).unwrap();
     assert_eq!(rec.len(), 20, "every navigation step has its row");
     let lost = rec.mag.iter().filter(|m| m[0].is_nan()).count();
-    assert!(lost >= 1 && lost <= 2, "{lost} rows lost");
+    assert!((1..=2).contains(&lost), "{lost} rows lost");
     assert_eq!(lost, lost_steps);
     // The rows that have a field have the board's sample for that step.
     for (i, m) in rec.mag.iter().enumerate() {
@@ -276,6 +276,44 @@ fn a_navigation_stream_with_motor_current_sends_it_with_the_attitude_and_records
     assert!((rec.mag[5][1] - (2.0 + 7.5 * 100.0)).abs() < 1e-3, "{:?}", rec.mag[5]);
     // The board's temperature is recorded as temp_c.
     assert_eq!(rec.temp_c.as_ref().unwrap()[0], 21.5);
+}
+
+#[test]
+fn a_navigation_stream_with_speed_and_true_field_records_them() {
+    let b = board();
+    let nav = "t,roll_deg,pitch_deg,speed_mps,true_field_nt\n".to_string() + &(0..5).map(|k| format!("{k},0,0,{},{}", 1.0 + 0.1 * k as f64, 48_000 + k)).collect::<Vec<_>>().join("\n");
+    let mut vehicle = NavVehicle::new(std::io::Cursor::new(nav.into_bytes()), std::io::Cursor::new(Vec::new()), None);
+    assert!(vehicle.begin(Phase::Swing).unwrap());
+    let mut link = BoardClient::new(Conn { board: b.clone(), out: VecDeque::new(), write_budget: None, read_budget: None, delivered: vec![] });
+    link.set_stream(StreamMode::Raw).unwrap();
+    let Recorded { recording: rec, true_field_nt, .. } = record(&mut link, &mut vehicle, true, None, |_, _, _, _| Ok(())).unwrap();
+    assert_eq!(rec.speed_mps.as_ref().expect("speed_mps recorded")[3], 1.3);
+    assert_eq!(true_field_nt, vec![48_000.0, 48_001.0, 48_002.0, 48_003.0, 48_004.0]);
+}
+
+/// The validation's field error is taken against the true local field
+/// where the vehicle knows it, else against IGRF at the logged position.
+#[test]
+fn the_validation_field_error_is_against_the_true_field_when_known() {
+    let site = Site { lat_deg: 36.9, lon_deg: 50.6, decimal_year: 2021.0 };
+    let igrf_nt = site.field_at(36.9, 50.6).unwrap().total_nt();
+    // |F| 48 100, 48 300 and 48 000 nT from the board.
+    let fields = [[48_100.0f32, 0.0, 0.0], [0.0, 48_300.0, 0.0], [0.0, 0.0, 48_000.0]];
+    let samples: Vec<Sample> = fields.iter().map(|f| Sample { t_ms: 0, raw: Some([1.0, 0.0, 0.0]), field_nt: Some(*f), heading_rad: Some(0.0), saturated: false, feed_seq: None, temp_c: None }).collect();
+    let n = samples.len();
+    let rec = crate::data::Recording { t_s: Some(vec![0.0, 1.0, 2.0]), roll_deg: Some(vec![0.0; n]), pitch_deg: Some(vec![0.0; n]), lat_deg: Some(vec![36.9; n]), lon_deg: Some(vec![50.6; n]), mag: vec![[1.0, 0.0, 0.0]; n], ..crate::data::Recording::default() };
+    let before = crate::board::coefficients::doc_from_coefficients(&coefficients());
+    let truth = vec![48_000.0, 48_000.0, 48_000.0];
+    let known = Recorded { recording: rec.clone(), samples: samples.clone(), true_heading_deg: vec![0.0; n], true_field_nt: truth, lost_steps: 0 };
+    let m = validation_metrics(&known, &before, &site);
+    // Errors 100, 300, 0 nT: RMS sqrt((100² + 300²) / 3).
+    assert!(m.field_against_truth);
+    assert!((m.field_error_nt_after - (100_000.0f64 / 3.0).sqrt()).abs() < 1e-6, "{}", m.field_error_nt_after);
+    let unknown = Recorded { true_field_nt: vec![f64::NAN; n], ..known };
+    let m = validation_metrics(&unknown, &before, &site);
+    let expected = ([48_100.0, 48_300.0, 48_000.0].iter().map(|f: &f64| (f - igrf_nt).powi(2)).sum::<f64>() / 3.0).sqrt();
+    assert!(!m.field_against_truth);
+    assert!((m.field_error_nt_after - expected).abs() < 1e-6, "{} vs {expected}", m.field_error_nt_after);
 }
 
 #[test]

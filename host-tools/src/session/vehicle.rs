@@ -59,6 +59,15 @@ pub struct Step {
     /// board with the attitude, for its current term, and recorded as
     /// `motor_current_a`.
     pub motor_current_a: f64,
+    /// Speed through water from the speed log, m/s (NaN when not
+    /// available): recorded as `speed_mps`, for the swing fit's removal of
+    /// the water current.
+    pub speed_mps: f64,
+    /// The magnitude of the true local field at the vehicle, nT (NaN when
+    /// unknown: the validation's field error is then taken against IGRF at
+    /// the logged position). A simulated vehicle knows it (crustal anomaly
+    /// included); a real one may from a magnetic survey.
+    pub true_field_nt: f64,
 }
 
 /// A source of steps: applies each step's stimulus to the board (simulated)
@@ -85,13 +94,13 @@ pub trait Vehicle {
 
 /// Navigation columns a stream may carry (`t`, `roll_deg`, `pitch_deg`
 /// required).
-const NAV_COLUMNS: [&str; 11] = ["t", "roll_deg", "pitch_deg", "ref_heading_deg", "lat_deg", "lon_deg", "true_heading_deg", "gx", "gy", "gz", "motor_current_a"];
+const NAV_COLUMNS: [&str; 13] = ["t", "roll_deg", "pitch_deg", "ref_heading_deg", "lat_deg", "lon_deg", "true_heading_deg", "gx", "gy", "gz", "motor_current_a", "speed_mps", "true_field_nt"];
 
 /// One navigation stream: CSV lines in the INTERFACES.md columns from a
 /// file, a FIFO or stdin, one line per step.
 pub struct NavStream<R> {
     lines: std::io::Lines<R>,
-    columns: [Option<usize>; 11],
+    columns: [Option<usize>; 13],
     line_no: usize,
 }
 
@@ -138,6 +147,8 @@ impl<R: BufRead> NavStream<R> {
                         feed_seq: None,
                         rate_rad_s: [v[7], v[8], v[9]],
                         motor_current_a: v[10],
+                        speed_mps: v[11],
+                        true_field_nt: v[12],
                     }))
                 }
                 _ => eprintln!("  navigation line {} skipped: not numbers: {line}", self.line_no),

@@ -8,7 +8,7 @@ use anyhow::{bail, Context, Result};
 use clap::ValueEnum;
 use host_tools::board::{BoardClient, FeedWriter};
 use host_tools::session::{self, NavVehicle, SessionConfig, Vehicle};
-use magcal_sim::{SimPlan, SimVehicle};
+use magcal_sim::{Effects, SimPlan, SimVehicle};
 
 use super::Place;
 
@@ -50,9 +50,18 @@ pub struct Args {
     /// Random seed of the simulated vehicle.
     #[arg(long)]
     seed: Option<u64>,
+    /// Real-vehicle effects of the simulated vehicle: `all`, `none`, or a
+    /// comma-separated list of thrusters, temperature, anomaly, ahrs,
+    /// current (only with --sim-feed).
+    #[arg(long, default_value = "none", value_parser = parse_effects)]
+    effects: Effects,
     /// Print the summary as JSON on stdout.
     #[arg(long)]
     json: bool,
+}
+
+fn parse_effects(text: &str) -> Result<Effects, String> {
+    Effects::parse(text).map_err(|e| e.to_string())
 }
 
 /// Runs `magcal session`.
@@ -70,8 +79,10 @@ pub fn run(a: Args) -> Result<()> {
             if let Some(s) = a.seed {
                 plan.seed = s;
             }
+            let plan = plan.with_effects(a.effects.clone());
             Box::new(SimVehicle::new(plan, &site, FeedWriter::open(feed)?)?)
         }
+        (None, Some(_), Some(_)) if !a.effects.is_none() => bail!("--effects is for the simulated vehicle (--sim-feed): a real vehicle has its own"),
         (None, Some(swing), Some(run)) => Box::new(NavVehicle::new(open(swing)?, open(run)?, a.nav_validation.as_ref().map(open).transpose()?)),
         _ => bail!("give the vehicle: --sim-feed PORT (simulated, QEMU board) or --nav-swing FILE --nav-run FILE (real vehicle)"),
     };
@@ -82,8 +93,12 @@ pub fn run(a: Args) -> Result<()> {
     } else {
         match &summary.validation {
             Some(v) => println!(
-                "session done: true heading RMS {:.2}° → {:.2}° on the validation run, |F| − IGRF {:.1} nT; coefficients verified on the board",
-                v.heading_rms_deg_before, v.heading_rms_deg_after, v.field_error_nt_after
+                "session done: true heading RMS {:.2}° → {:.2}° on the validation run (predicted {}), |F| − {} {:.1} nT; coefficients verified on the board",
+                v.heading_rms_deg_before,
+                v.heading_rms_deg_after,
+                summary.predicted_heading_rms_deg.map_or("—".to_string(), |p| format!("{p:.2}°")),
+                if v.field_against_truth { "true field" } else { "IGRF" },
+                v.field_error_nt_after
             ),
             None => println!(
                 "session done: coefficients #{} verified on the board; turnaround step {:.1} nT after back-stepping",
