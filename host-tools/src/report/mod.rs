@@ -247,9 +247,15 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs<'_>) -> Result<WrittenRepo
     };
     row("True-heading RMS on validation, before → after", format!("{} → {}", fmt_opt(before_rms, 2, "°"), fmt_opt(after_rms, 2, "°")));
     row("Predicted heading error (from the fit's uncertainty)", fmt_opt(predicted, 2, "° RMS"));
+    if let (Some(p), Some(after)) = (predicted, after_rms) {
+        if p > 0.0 {
+            row("Observed ÷ predicted heading error", format!("{:.2} (near 1: the prediction is honest)", after / p));
+        }
+    }
     row("Coefficients verified on the board", verified);
     if let Some(s) = inputs.summary.and_then(|s| s.validation) {
-        row("|F| − IGRF on validation, after", fmt_opt(Some(s.field_error_nt_after), 1, " nT RMS"));
+        let reference = if s.field_against_truth { "the true local field" } else { "IGRF" };
+        row(&format!("|F| − {reference} on validation, after"), fmt_opt(Some(s.field_error_nt_after), 1, " nT RMS"));
     }
     match &inputs.site {
         Some(s) => {
