@@ -4,11 +4,12 @@
 //! simulator's scenario harness and the bench all call this; the CLI runs
 //! the same steps one command at a time (`fit`, `backstep`, `swing`).
 
+use calib_core::backstep::JointConfig;
 use calib_core::cal::ModelKind;
 
 use super::backstep::{backstep_recording, BackstepOptions, BackstepReport, RunReference, SwingMagnitudes};
 use super::fit::{fit_recording, FitOptions};
-use super::swing::{swing_recording, Delay};
+use super::swing::{swing_recording_with, CurrentMode, Delay};
 use super::ComputeError;
 use crate::data::results::BackstepMethod;
 use crate::data::{CalDoc, Recording};
@@ -34,13 +35,24 @@ pub struct ChainOptions {
     pub delay: Delay,
     /// The fit of the swing test.
     pub first_step: FirstStep,
+    /// The joint back-stepping's thresholds, priors and which environment
+    /// terms it may estimate ([`calib_core::backstep::JointTerms`]).
+    pub joint: JointConfig<f64>,
+    /// Whether the swing fit removes the water current from GPS course.
+    pub current: CurrentMode,
 }
 
 impl Default for ChainOptions {
-    /// The axis fit; our joint back-stepping; the GPS delay estimated
-    /// within 0…5 s.
+    /// The axis fit; our joint back-stepping with every environment term;
+    /// the GPS delay estimated within 0…5 s; the water current removed.
     fn default() -> Self {
-        Self { method: BackstepMethod::Joint, delay: Delay::Estimate { max_s: 5.0 }, first_step: FirstStep::Axis }
+        Self {
+            method: BackstepMethod::Joint,
+            delay: Delay::Estimate { max_s: 5.0 },
+            first_step: FirstStep::Axis,
+            joint: JointConfig::default(),
+            current: CurrentMode::Auto,
+        }
     }
 }
 
@@ -82,11 +94,12 @@ pub fn gyro_step(swing: &Recording, site: &Site) -> Result<CalDoc, ComputeError>
 pub fn refine(step1: CalDoc, swing: &Recording, run: &Recording, site: &Site, opts: &ChainOptions) -> Result<Chain, ComputeError> {
     let mut backstep_opts = BackstepOptions::new(RunReference::Igrf(*site));
     backstep_opts.method = opts.method;
+    backstep_opts.joint = opts.joint;
     if opts.method == BackstepMethod::Joint {
         backstep_opts.swing = Some(SwingMagnitudes::from_recording(swing, site.field()?.total_nt()));
     }
     let (backstepped, backstep) = backstep_recording(run, &step1, &backstep_opts)?;
-    let (final_doc, _, delay_s) = swing_recording(run, &backstepped, opts.delay)?;
+    let (final_doc, _, delay_s) = swing_recording_with(run, &backstepped, opts.delay, opts.current)?;
     Ok(Chain { step1, backstepped, backstep, final_doc, delay_s })
 }
 
