@@ -19,22 +19,24 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         _ => Variant::ALL.to_vec(),
     };
     let effects = effects_scenarios().into_iter().find(|(n, _)| *n == scenario).ok_or("unknown scenario")?.1;
-    println!("| scenario | variant | seed | heading RMS ° | |F| err true nT | |F| err IGRF nT | current vec err % | gain err %/°C | predicted ° | obs/pred | delay s |");
-    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("| scenario | variant | seed | heading RMS ° | noise ° | systematic ° | |F| err true nT | |F| err IGRF nT | current vec err % | gain err %/°C | predicted ° (cal, run noise) | obs/pred | delay s |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let f = |v: Option<f64>, p: usize| v.map_or("–".to_string(), |x| format!("{x:.p$}"));
     for &seed in &seeds {
         let data = effects_data(&SensorModel::paper_like(), seed, &effects)?;
         for &v in &variants {
             match evaluate_variant(&data, v) {
                 Ok(o) => println!(
-                    "| {scenario} | {} | {seed} | {:.3} | {} | {:.1} | {} | {} | {} | {} | {:.2} |",
+                    "| {scenario} | {} | {seed} | {:.3} | {:.3} | {:.3} | {} | {:.1} | {} | {} | {} | {} | {:.2} |",
                     v.label(),
                     o.heading_rms_deg,
+                    o.heading_noise_deg,
+                    o.heading_systematic_deg,
                     f(o.field_error_true_nt, 1),
                     o.field_error_igrf_nt,
                     f(o.current_vector_error_pct, 1),
                     f(o.gain_error_pct_per_c, 4),
-                    f(o.predicted_heading_rms_deg, 3),
+                    format!("{} ({}, {})", f(o.predicted_heading_rms_deg, 3), f(o.predicted_calibration_deg, 3), f(o.run_heading_noise_deg, 3)),
                     f(o.observed_over_predicted, 2),
                     o.gps_delay_s
                 ),

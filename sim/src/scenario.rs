@@ -29,6 +29,28 @@ pub fn heading_rms_deg(doc: &CalDoc, sim: &Simulation) -> f64 {
     truth::heading_rms_deg(headings.into_iter().zip(sim.true_heading_deg.iter().copied())).rms
 }
 
+/// The white-noise part of a calibration's true-heading error on a
+/// simulated run, °: `RMS(e_i − e_{i−1})/√2` over consecutive rows.
+pub fn heading_noise_deg(doc: &CalDoc, sim: &Simulation) -> f64 {
+    let errors: Vec<f64> = truth::true_headings_rad(doc, &sim.recording)
+        .into_iter()
+        .zip(sim.true_heading_deg.iter())
+        .map(|(h, t)| calib_core::heading::wrap_pi(h - t.to_radians()))
+        .collect();
+    let (mut ss, mut n) = (0.0, 0usize);
+    for w in errors.windows(2) {
+        let d = calib_core::heading::wrap_pi(w[1] - w[0]);
+        if d.is_finite() {
+            ss += d * d;
+            n += 1;
+        }
+    }
+    if n == 0 {
+        return f64::NAN;
+    }
+    (ss / n as f64 / 2.0).sqrt().to_degrees()
+}
+
 /// RMS of |h| − IGRF over a simulated run (every tenth row), nT; the
 /// document's current and temperature terms applied.
 pub fn field_error_nt(doc: &CalDoc, sim: &Simulation) -> f64 {
@@ -265,6 +287,14 @@ impl Variant {
 pub struct EffectsOutcome {
     /// Validation true-heading RMS, °.
     pub heading_rms_deg: f64,
+    /// The validation heading error's white-noise part, °: from the
+    /// differences of consecutive errors (`RMS(e_i − e_{i−1})/√2`), what no
+    /// calibration removes (sensor and AHRS noise sample by sample).
+    pub heading_noise_deg: f64,
+    /// The rest of the heading RMS, `√(RMS² − noise²)`, °: what a
+    /// calibration's error (and the local field) leaves, the part the
+    /// covariance predicts.
+    pub heading_systematic_deg: f64,
     /// Validation |F| error against the true local field (RMS), nT; `None`
     /// without the anomaly effect (the true field is then IGRF's, see
     /// `field_error_igrf_nt`).
@@ -277,8 +307,13 @@ pub struct EffectsOutcome {
     /// Largest per-axis |estimated − true gain change|, %/°C (`None`
     /// without the temperature effect or when no gains were estimated).
     pub gain_error_pct_per_c: Option<f64>,
-    /// The heading RMS the joint back-stepping's covariance predicts, °.
+    /// The heading RMS the chain predicts ([`host_tools::compute::Chain::predicted_heading_rms_deg`]:
+    /// the back-stepping's covariance and the run's white heading noise), °.
     pub predicted_heading_rms_deg: Option<f64>,
+    /// The back-stepping's covariance alone, °.
+    pub predicted_calibration_deg: Option<f64>,
+    /// The run's white heading noise as the chain measured it, °.
+    pub run_heading_noise_deg: Option<f64>,
     /// Observed (validation) over predicted heading RMS.
     pub observed_over_predicted: Option<f64>,
     /// The GPS delay used, s (truth 2 s).
@@ -313,6 +348,7 @@ pub fn evaluate_variant(data: &EffectsData, variant: Variant) -> Result<EffectsO
     let site = paper_site();
     let chain = compute::calibrate(&data.swing.recording, &data.run.recording, &site, &variant.options())?;
     let heading_rms_deg = heading_rms_deg(&chain.final_doc, &data.validation);
+    let heading_noise_deg = heading_noise_deg(&chain.final_doc, &data.validation);
     let truth = data.run.truth.effects.as_ref();
     let joint = chain.backstep.joint.as_ref();
     let current_vector_error_pct = match (truth.and_then(|t| t.thrusters.as_ref()), joint) {
@@ -330,14 +366,18 @@ pub fn evaluate_variant(data: &EffectsData, variant: Variant) -> Result<EffectsO
         }
         _ => None,
     };
-    let predicted_heading_rms_deg = chain.backstepped.quality.predicted_heading_rms_deg.filter(|p| p.is_finite() && *p > 0.0);
+    let predicted_heading_rms_deg = chain.predicted_heading_rms_deg.filter(|p| p.is_finite() && *p > 0.0);
     Ok(EffectsOutcome {
         heading_rms_deg,
+        heading_noise_deg,
+        heading_systematic_deg: (heading_rms_deg.powi(2) - heading_noise_deg.powi(2)).max(0.0).sqrt(),
         field_error_true_nt: field_error_true_nt(&chain.backstepped, &data.validation),
         field_error_igrf_nt: field_error_nt(&chain.backstepped, &data.validation),
         current_vector_error_pct,
         gain_error_pct_per_c,
         predicted_heading_rms_deg,
+        predicted_calibration_deg: chain.backstepped.quality.predicted_heading_rms_deg,
+        run_heading_noise_deg: chain.heading_noise_deg,
         observed_over_predicted: predicted_heading_rms_deg.map(|p| heading_rms_deg / p),
         gps_delay_s: chain.delay_s,
     })

@@ -523,7 +523,7 @@ fn effects() -> (serde_json::Value, String) {
     let opt = |v: Option<f64>, digits: usize| v.map_or("–".to_string(), |x| format!("{x:.digits$}"));
     let mut rows = Vec::new();
     let mut md = String::from(
-        "| effects | chain | seed | heading RMS (°) | \\|F\\| error vs true field (nT) | \\|F\\| − IGRF (nT) | current vector error (%) | gain error (%/°C) | predicted heading RMS (°) | observed / predicted | GPS delay (s) |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
+        "| effects | chain | seed | heading RMS (°) | of which white noise (°) | \\|F\\| error vs true field (nT) | \\|F\\| − IGRF (nT) | current vector error (%) | gain error (%/°C) | predicted heading RMS (°) (covariance, run's noise) | observed / predicted | GPS delay (s) |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     let mut full_all: Vec<EffectsOutcome> = Vec::new();
     let scenarios = effects_scenarios();
@@ -543,14 +543,17 @@ fn effects() -> (serde_json::Value, String) {
                     Ok(o) => {
                         let _ = writeln!(
                             md,
-                            "| {name} | {} | {seed} | {:.3} | {} | {:.0} | {} | {} | {} | {} | {:.2} |",
+                            "| {name} | {} | {seed} | {:.3} | {:.3} | {} | {:.0} | {} | {} | {} ({}, {}) | {} | {:.2} |",
                             v.label(),
                             o.heading_rms_deg,
+                            o.heading_noise_deg,
                             opt(o.field_error_true_nt, 0),
                             o.field_error_igrf_nt,
                             opt(o.current_vector_error_pct, 1),
                             opt(o.gain_error_pct_per_c, 4),
                             opt(o.predicted_heading_rms_deg, 3),
+                            opt(o.predicted_calibration_deg, 3),
+                            opt(o.run_heading_noise_deg, 3),
                             opt(o.observed_over_predicted, 2),
                             o.gps_delay_s
                         );
@@ -702,7 +705,7 @@ pub fn run(out_dir: &Path) -> Result<()> {
     }
     std::fs::write(out_dir.join("results.json"), serde_json::to_string_pretty(&results)?)?;
     let md = format!(
-        "# Benchmarks (`cargo xtask bench`)\n\n## MCU cost (Cortex-M4F instructions, QEMU -icount; load at 168 MHz assuming 1 instruction per cycle)\n\n```\n{}\n```\n\n## Paper 000: simulated field tests\n\nTurnaround step on the calibration run; true-heading RMS and |F| − IGRF RMS on a separate validation run (other courses, other current), each chain finished by a swing fit against the delayed GPS course.\n\n{p0_md}\n## Paper 001: J (eq 16) vs N pairs and noise σ\n\nMean over {SEEDS} seeds; field norm 2; σ per axis.\n\n{p1_md}\n![J, paper's solver](fig_paper001_j_pairwise.svg)\n![J, linear solver](fig_paper001_j_linear.svg)\n\n## A vehicle that cannot tumble (issue 15)\n\n{limited_md}\n## Logs on two clocks: `magcal merge` (issue 14)\n\nSwing tests at 50 Hz (board) and 10 Hz (navigation) cut into two logs whose clocks differ by ±60 s and ±100 ppm; the offset searched within ±120 s. Then the chain on merged logs vs on the single-clock recordings, heading RMS on a separate validation run.\n\n{merge_md}\n## Real-vehicle effects (issue 12)\n\nThe simulator with thruster interference, temperature drift, a crustal anomaly, an AHRS misalignment and a water current (`magcal_sim::effects`); a survey AUV at 0.9–1.3 m/s. With all five on: our chain with every model, the same chain with each effect's model switched off in turn, and the paper's method (its back-stepping, the swing fit against raw GPS course); then each effect alone with the full chain. True-heading RMS and \\|F\\| errors on a separate validation run; the per-ampere vector and the temperature gains against the simulator's truth; the predicted heading RMS is the joint back-stepping's covariance (GPS delay truth: 2 s).\n\n{effects_md}\n## f32 recursive full fit vs f64 batch\n\n`{f32_check}`\n\n## Host throughput\n\n```\n{}\n```\n",
+        "# Benchmarks (`cargo xtask bench`)\n\n## MCU cost (Cortex-M4F instructions, QEMU -icount; load at 168 MHz assuming 1 instruction per cycle)\n\n```\n{}\n```\n\n## Paper 000: simulated field tests\n\nTurnaround step on the calibration run; true-heading RMS and |F| − IGRF RMS on a separate validation run (other courses, other current), each chain finished by a swing fit against the delayed GPS course.\n\n{p0_md}\n## Paper 001: J (eq 16) vs N pairs and noise σ\n\nMean over {SEEDS} seeds; field norm 2; σ per axis.\n\n{p1_md}\n![J, paper's solver](fig_paper001_j_pairwise.svg)\n![J, linear solver](fig_paper001_j_linear.svg)\n\n## A vehicle that cannot tumble (issue 15)\n\n{limited_md}\n## Logs on two clocks: `magcal merge` (issue 14)\n\nSwing tests at 50 Hz (board) and 10 Hz (navigation) cut into two logs whose clocks differ by ±60 s and ±100 ppm; the offset searched within ±120 s. Then the chain on merged logs vs on the single-clock recordings, heading RMS on a separate validation run.\n\n{merge_md}\n## Real-vehicle effects (issue 12)\n\nThe simulator with thruster interference, temperature drift, a crustal anomaly, an AHRS misalignment and a water current (`magcal_sim::effects`); a survey AUV at 0.9–1.3 m/s. With all five on: our chain with every model, the same chain with each effect's model switched off in turn, and the paper's method (its back-stepping, the swing fit against raw GPS course); then each effect alone with the full chain. True-heading RMS and \\|F\\| errors on a separate validation run; the per-ampere vector and the temperature gains against the simulator's truth; the predicted heading RMS is the joint back-stepping's covariance and the calibration run's white heading noise (second differences) in quadrature; the white-noise column is the validation error's own (from truth), for scale (GPS delay truth: 2 s).\n\n{effects_md}\n## f32 recursive full fit vs f64 batch\n\n`{f32_check}`\n\n## Host throughput\n\n```\n{}\n```\n",
         serde_json::to_string_pretty(&mcu)?,
         serde_json::to_string_pretty(&results["host_throughput"])?
     );
