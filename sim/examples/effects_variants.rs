@@ -4,7 +4,8 @@
 //! the true local field, current-vector and gain errors, predicted heading
 //! RMS and the observed/predicted ratio.
 //!
-//! `cargo run --release -p magcal-sim --example effects_variants [scenario] [seeds…]`
+//! `cargo run --release -p magcal-sim --example effects_variants [scenario|effect+effect…] [seeds…]`
+//! (`VARIANTS=full`: the full chain only)
 
 use magcal_sim::scenario::{effects_data, effects_scenarios, evaluate_variant, Variant};
 use magcal_sim::SensorModel;
@@ -18,7 +19,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Some("full") => vec![Variant::Full],
         _ => Variant::ALL.to_vec(),
     };
-    let effects = effects_scenarios().into_iter().find(|(n, _)| *n == scenario).ok_or("unknown scenario")?.1;
+    // A scenario's name, or effects joined by `+` (`thrusters+temperature`).
+    let effects = match effects_scenarios().into_iter().find(|(n, _)| *n == scenario) {
+        Some((_, e)) => e,
+        None => {
+            let list: Vec<magcal_sim::Effect> = scenario
+                .split('+')
+                .map(|n| magcal_sim::Effect::ALL.iter().copied().find(|e| e.name() == n).ok_or(format!("unknown effect {n}")))
+                .collect::<Result<_, _>>()?;
+            magcal_sim::Effects::of(&list)
+        }
+    };
     println!("| scenario | variant | seed | heading RMS ° | noise ° | systematic ° | |F| err true nT | |F| err IGRF nT | current vec err % | gain err %/°C | predicted ° (cal, run noise) | obs/pred | delay s |");
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let f = |v: Option<f64>, p: usize| v.map_or("–".to_string(), |x| format!("{x:.p$}"));
