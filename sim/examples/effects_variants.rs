@@ -37,7 +37,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let data = effects_data(&SensorModel::paper_like(), seed, &effects)?;
         for &v in &variants {
             match evaluate_variant(&data, v) {
-                Ok(o) => println!(
+                Ok(o) => {
+                    let predicted = format!("{} ({}, {})", f(o.predicted_heading_rms_deg, 3), f(o.predicted_calibration_deg, 3), f(o.run_heading_noise_deg, 3));
+                    println!(
                     "| {scenario} | {} | {seed} | {:.3} | {:.3} | {:.3} | {} | {:.1} | {} | {} | {} | {} | {:.2} |",
                     v.label(),
                     o.heading_rms_deg,
@@ -47,10 +49,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     o.field_error_igrf_nt,
                     f(o.current_vector_error_pct, 1),
                     f(o.gain_error_pct_per_c, 4),
-                    format!("{} ({}, {})", f(o.predicted_heading_rms_deg, 3), f(o.predicted_calibration_deg, 3), f(o.run_heading_noise_deg, 3)),
+                    predicted,
                     f(o.observed_over_predicted, 2),
                     o.gps_delay_s
-                ),
+                    )
+                }
                 Err(e) => println!("| {scenario} | {} | {seed} | refused: {e} |", v.label()),
             }
         }

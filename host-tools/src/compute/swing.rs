@@ -427,8 +427,8 @@ mod tests {
         // (magcal-sim's scenario test `the_gps_delay_is_found_in_a_current`).
         assert!((delay_s - 2.0).abs() < 0.1, "{delay_s}");
         let c = out.quality.swing.as_ref().unwrap().current.expect("current estimated");
-        for k in 0..2 {
-            assert!((c.current_ne_mps[k] - CURRENT_NE_MPS[k]).abs() < 0.01, "{c:?}");
+        for (got, want) in c.current_ne_mps.iter().zip(CURRENT_NE_MPS) {
+            assert!((got - want).abs() < 0.01, "{c:?}");
         }
         assert!(largest_term_error(&fit.swing) < 0.01, "{:?}", fit.swing);
         // Course as heading: the delay search fits the crab angle.
