@@ -376,7 +376,7 @@ pub fn joint_refine<T: Real>(
 }
 
 pub mod joint;
-pub use joint::{joint_refine_env, JointConfig, JointNote, JointSolution, SwingSample};
+pub use joint::{joint_refine_env, JointConfig, JointNote, JointSolution, JointTerms, SwingSample};
 
 #[cfg(test)]
 mod tests;

@@ -6,7 +6,7 @@
 //! are [`host_tools::compute::truth`]'s. Used by the acceptance tests and by
 //! `cargo xtask bench`.
 
-use host_tools::compute::{self, truth, BackstepMethod, ChainOptions, ComputeError, Delay, FirstStep};
+use host_tools::compute::{self, truth, BackstepMethod, ChainOptions, ComputeError, CurrentMode, Delay, FirstStep};
 use host_tools::data::CalDoc;
 
 use crate::effects::{Effect, Effects};
@@ -27,6 +27,28 @@ pub enum ScenarioError {
 pub fn heading_rms_deg(doc: &CalDoc, sim: &Simulation) -> f64 {
     let headings = truth::true_headings_rad(doc, &sim.recording);
     truth::heading_rms_deg(headings.into_iter().zip(sim.true_heading_deg.iter().copied())).rms
+}
+
+/// The white-noise part of a calibration's true-heading error on a
+/// simulated run, °: `RMS(e_i − e_{i−1})/√2` over consecutive rows.
+pub fn heading_noise_deg(doc: &CalDoc, sim: &Simulation) -> f64 {
+    let errors: Vec<f64> = truth::true_headings_rad(doc, &sim.recording)
+        .into_iter()
+        .zip(sim.true_heading_deg.iter())
+        .map(|(h, t)| calib_core::heading::wrap_pi(h - t.to_radians()))
+        .collect();
+    let (mut ss, mut n) = (0.0, 0usize);
+    for w in errors.windows(2) {
+        let d = calib_core::heading::wrap_pi(w[1] - w[0]);
+        if d.is_finite() {
+            ss += d * d;
+            n += 1;
+        }
+    }
+    if n == 0 {
+        return f64::NAN;
+    }
+    (ss / n as f64 / 2.0).sqrt().to_degrees()
 }
 
 /// RMS of |h| − IGRF over a simulated run (every tenth row), nT; the
@@ -200,4 +222,163 @@ pub fn evaluate_limited(sensor: SensorModel, seed: u64, swing_kind: LimitedSwing
         }
     );
     Ok(outcome)
+}
+
+/// One chain compared on the effects scenarios: ours with every new model,
+/// ours with one model switched off, or the paper's method.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub enum Variant {
+    /// Our chain with every model (the default [`ChainOptions`]).
+    Full,
+    /// The thrusters' per-ampere vector off (a constant running bias instead).
+    NoCurrentTerm,
+    /// The temperature gains off.
+    NoTemperatureTerm,
+    /// The local field's inclination held at IGRF's.
+    NoLocalField,
+    /// The AHRS misalignment held at zero.
+    NoMisalignment,
+    /// GPS course used as heading (the water current not removed).
+    NoWaterCurrent,
+    /// The paper's back-stepping (and the swing fit against raw course, as
+    /// the paper does).
+    Paper,
+}
+
+impl Variant {
+    /// Every variant, the full chain first.
+    pub const ALL: [Variant; 7] =
+        [Variant::Full, Variant::NoCurrentTerm, Variant::NoTemperatureTerm, Variant::NoLocalField, Variant::NoMisalignment, Variant::NoWaterCurrent, Variant::Paper];
+
+    /// A short label for tables.
+    pub fn label(self) -> &'static str {
+        match self {
+            Variant::Full => "ours, all models",
+            Variant::NoCurrentTerm => "ours, current term off",
+            Variant::NoTemperatureTerm => "ours, temperature term off",
+            Variant::NoLocalField => "ours, local field off",
+            Variant::NoMisalignment => "ours, misalignment off",
+            Variant::NoWaterCurrent => "ours, water current off",
+            Variant::Paper => "paper's method",
+        }
+    }
+
+    /// The chain's options for this variant.
+    pub fn options(self) -> ChainOptions {
+        let mut o = ChainOptions::default();
+        match self {
+            Variant::Full => {}
+            Variant::NoCurrentTerm => o.joint.terms.current = false,
+            Variant::NoTemperatureTerm => o.joint.terms.temperature = false,
+            Variant::NoLocalField => o.joint.terms.local_field = false,
+            Variant::NoMisalignment => o.joint.terms.misalignment = false,
+            Variant::NoWaterCurrent => o.current = CurrentMode::Off,
+            Variant::Paper => {
+                o.method = BackstepMethod::Paper;
+                o.current = CurrentMode::Off;
+            }
+        }
+        o
+    }
+}
+
+/// What one chain achieved on one effects scenario, against the truth.
+#[derive(Debug, Clone, Copy, serde::Serialize)]
+pub struct EffectsOutcome {
+    /// Validation true-heading RMS, °.
+    pub heading_rms_deg: f64,
+    /// The validation heading error's white-noise part, °: from the
+    /// differences of consecutive errors (`RMS(e_i − e_{i−1})/√2`), what no
+    /// calibration removes (sensor and AHRS noise sample by sample).
+    pub heading_noise_deg: f64,
+    /// The rest of the heading RMS, `√(RMS² − noise²)`, °: what a
+    /// calibration's error (and the local field) leaves, the part the
+    /// covariance predicts.
+    pub heading_systematic_deg: f64,
+    /// Validation |F| error against the true local field (RMS), nT; `None`
+    /// without the anomaly effect (the true field is then IGRF's, see
+    /// `field_error_igrf_nt`).
+    pub field_error_true_nt: Option<f64>,
+    /// Validation |F| − IGRF RMS, nT.
+    pub field_error_igrf_nt: f64,
+    /// |estimated − true per-ampere vector| / |true|, % (`None` without the
+    /// thruster effect or when the chain estimated no per-ampere vector).
+    pub current_vector_error_pct: Option<f64>,
+    /// Largest per-axis |estimated − true gain change|, %/°C (`None`
+    /// without the temperature effect or when no gains were estimated).
+    pub gain_error_pct_per_c: Option<f64>,
+    /// The heading RMS the chain predicts ([`host_tools::compute::Chain::predicted_heading_rms_deg`]:
+    /// the back-stepping's covariance and the run's white heading noise), °.
+    pub predicted_heading_rms_deg: Option<f64>,
+    /// The back-stepping's covariance alone, °.
+    pub predicted_calibration_deg: Option<f64>,
+    /// The run's white heading noise as the chain measured it, °.
+    pub run_heading_noise_deg: Option<f64>,
+    /// Observed (validation) over predicted heading RMS.
+    pub observed_over_predicted: Option<f64>,
+    /// The GPS delay used, s (truth 2 s).
+    pub gps_delay_s: f64,
+}
+
+/// The simulated data of one effects scenario: swing test, calibration
+/// run, validation run ([`effects_runs`]).
+pub struct EffectsData {
+    /// The swing test.
+    pub swing: Simulation,
+    /// The calibration (out-and-back) run.
+    pub run: Simulation,
+    /// The validation run.
+    pub validation: Simulation,
+}
+
+/// Simulates one effects scenario (the seeds as [`evaluate_effects`] uses them).
+pub fn effects_data(sensor: &SensorModel, seed: u64, effects: &Effects) -> Result<EffectsData, ScenarioError> {
+    let site = paper_site();
+    let (run, validation) = effects_runs();
+    Ok(EffectsData {
+        swing: field_test::swing_with(sensor, &site, seed, 5.0, 55.0, 10.0, effects)?,
+        run: field_test::run_with(sensor, &site, &run, seed + 100, 2.0, "run", effects)?,
+        validation: field_test::run_with(sensor, &site, &validation, seed + 200, 2.0, "validation", effects)?,
+    })
+}
+
+/// Runs one chain variant on simulated effects data and scores it against
+/// the truth.
+pub fn evaluate_variant(data: &EffectsData, variant: Variant) -> Result<EffectsOutcome, ComputeError> {
+    let site = paper_site();
+    let chain = compute::calibrate(&data.swing.recording, &data.run.recording, &site, &variant.options())?;
+    let heading_rms_deg = heading_rms_deg(&chain.final_doc, &data.validation);
+    let heading_noise_deg = heading_noise_deg(&chain.final_doc, &data.validation);
+    let truth = data.run.truth.effects.as_ref();
+    let joint = chain.backstep.joint.as_ref();
+    let current_vector_error_pct = match (truth.and_then(|t| t.thrusters.as_ref()), joint) {
+        (Some(t), Some(j)) if j.current_estimated => {
+            let (est, tru) = (j.env.bias_per_a, t.raw_per_a);
+            let diff = ((est[0] - tru[0]).powi(2) + (est[1] - tru[1]).powi(2) + (est[2] - tru[2]).powi(2)).sqrt();
+            let norm = (tru[0].powi(2) + tru[1].powi(2) + tru[2].powi(2)).sqrt();
+            Some(100.0 * diff / norm)
+        }
+        _ => None,
+    };
+    let gain_error_pct_per_c = match (truth.and_then(|t| t.temperature.as_ref()), joint) {
+        (Some(t), Some(j)) if j.temperature_estimated => {
+            Some(100.0 * (0..3).map(|k| (j.env.gain_per_c[k] - t.gain_per_c[k]).abs()).fold(0.0, f64::max))
+        }
+        _ => None,
+    };
+    let predicted_heading_rms_deg = chain.predicted_heading_rms_deg.filter(|p| p.is_finite() && *p > 0.0);
+    Ok(EffectsOutcome {
+        heading_rms_deg,
+        heading_noise_deg,
+        heading_systematic_deg: (heading_rms_deg.powi(2) - heading_noise_deg.powi(2)).max(0.0).sqrt(),
+        field_error_true_nt: field_error_true_nt(&chain.backstepped, &data.validation),
+        field_error_igrf_nt: field_error_nt(&chain.backstepped, &data.validation),
+        current_vector_error_pct,
+        gain_error_pct_per_c,
+        predicted_heading_rms_deg,
+        predicted_calibration_deg: chain.backstepped.quality.predicted_heading_rms_deg,
+        run_heading_noise_deg: chain.heading_noise_deg,
+        observed_over_predicted: predicted_heading_rms_deg.map(|p| heading_rms_deg / p),
+        gps_delay_s: chain.delay_s,
+    })
 }

@@ -156,6 +156,35 @@ pub struct JointConfig<T> {
     pub field_prior_h_nt: T,
     /// Prior 1σ of each misalignment angle, rad.
     pub misalignment_prior_rad: T,
+    /// Which environment terms may be estimated at all (all by default):
+    /// switching one off holds it at its neutral value, for comparisons.
+    pub terms: JointTerms,
+}
+
+/// Which of the joint refinement's environment terms may be estimated. A
+/// term switched on is still estimated only where the data allow (see
+/// [`JointConfig::min_current_spread_a`], [`JointConfig::min_temp_spread_c`],
+/// the misalignment's observability); a term switched off is held at its
+/// neutral value (no per-ampere vector but a running bias, zero gains, the
+/// reference's inclination, zero misalignment) without a note.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct JointTerms {
+    /// The thrusters' per-ampere vector.
+    pub current: bool,
+    /// The per-axis temperature gains.
+    pub temperature: bool,
+    /// The local field's inclination offset from the reference.
+    pub local_field: bool,
+    /// The AHRS roll/pitch misalignment.
+    pub misalignment: bool,
+}
+
+impl Default for JointTerms {
+    /// Every term switched on.
+    fn default() -> Self {
+        Self { current: true, temperature: true, local_field: true, misalignment: true }
+    }
 }
 
 impl<T: Real> Default for JointConfig<T> {
@@ -172,6 +201,7 @@ impl<T: Real> Default for JointConfig<T> {
             field_prior_z_nt: T::from_f64(IGRF_SIGMA_NED_NT[2]),
             field_prior_h_nt: T::from_f64(IGRF_SIGMA_NED_NT[0]),
             misalignment_prior_rad: T::from_f64(2.0f64.to_radians()),
+            terms: JointTerms::default(),
         }
     }
 }
@@ -533,7 +563,9 @@ pub fn joint_refine_env<T: Real>(
     let mut notes = [None; 3];
     // Current: observable when it varies.
     let (current_mean, current_sd, _, _, current_n) = spread(run.iter().map(|s| s.current_a).chain(swing.iter().map(|s| s.current_a)));
-    let use_current = if current_n == 0 {
+    let use_current = if !cfg.terms.current {
+        false
+    } else if current_n == 0 {
         notes[0] = Some(JointNote::NoCurrentColumn);
         false
     } else if !(current_sd >= cfg.min_current_spread_a) {
@@ -543,7 +575,9 @@ pub fn joint_refine_env<T: Real>(
         true
     };
     let (temp_mean, _, t_lo, t_hi, temp_n) = spread(run.iter().map(|s| s.temp_c).chain(swing.iter().map(|s| s.temp_c)));
-    let use_temp = if temp_n == 0 {
+    let use_temp = if !cfg.terms.temperature {
+        false
+    } else if temp_n == 0 {
         notes[1] = Some(JointNote::NoTemperatureColumn);
         false
     } else if !(t_hi - t_lo >= cfg.min_temp_spread_c) {
@@ -572,6 +606,9 @@ pub fn joint_refine_env<T: Real>(
         active[C0 + k] = use_current;
         active[K0 + k] = use_temp;
     }
+    active[DI] = cfg.terms.local_field;
+    active[MR] = cfg.terms.misalignment;
+    active[MP] = cfg.terms.misalignment;
     let mut model = Model {
         active,
         ref_c,
@@ -619,8 +656,8 @@ pub fn joint_refine_env<T: Real>(
     let first = spd_cov(&n, &model)?;
     // The misalignment: kept only where the data shrink its σ.
     let ratio = (first.0[MR][MR].max(first.0[MP][MP]) / first.1).sqrt() / cfg.misalignment_prior_rad;
-    let mut misalignment_estimated = true;
-    if !(ratio < T::from_f64(0.5)) {
+    let mut misalignment_estimated = cfg.terms.misalignment;
+    if cfg.terms.misalignment && !(ratio < T::from_f64(0.5)) {
         notes[2] = Some(JointNote::MisalignmentNotObservable { sigma_ratio: ratio });
         misalignment_estimated = false;
         model.active[MR] = false;

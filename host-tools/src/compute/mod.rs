@@ -26,10 +26,10 @@ pub mod truth;
 pub mod units;
 
 pub use backstep::{backstep_recording, coverage_guidance, find_turnaround, BackstepOptions, BackstepReport, RunReference, SwingMagnitudes};
-pub use chain::{axis_step, calibrate, gyro_step, refine, Chain, ChainOptions, FirstStep};
+pub use chain::{axis_step, calibrate, gyro_step, heading_noise_deg, refine, Chain, ChainOptions, FirstStep};
 pub use fit::{fit_recording, FitOptions};
 pub use ortho::{ortho_recording, OrthoSolver};
-pub use swing::{magnetic_headings, swing_recording, Delay};
+pub use swing::{magnetic_headings, swing_recording, swing_recording_with, CurrentMode, Delay};
 pub use units::{check_units, units_guess};
 pub use crate::data::results::BackstepMethod;
 

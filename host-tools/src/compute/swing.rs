@@ -2,7 +2,7 @@
 //! reference's delay given or estimated.
 
 use calib_core::heading::magnetic_heading_rad;
-use calib_core::swing::current::{fit_swing_in_current, local_north_east_m, CurrentSwingError, SurfaceTrack};
+use calib_core::swing::current::{fit_swing_in_current, heading_from_course, local_north_east_m, CurrentSwingError, SurfaceTrack};
 use calib_core::swing::{aligned_pairs, estimate_delay, fit_swing, SwingFit, SwingTerms};
 
 use super::units::check_units;
@@ -109,6 +109,63 @@ pub fn magnetic_headings(rec: &Recording, doc: &CalDoc) -> Result<Vec<f64>, Comp
         .collect())
 }
 
+/// Largest number of delay/current alternations.
+const MAX_DELAY_ROUNDS: usize = 6;
+
+/// The delay is settled when a round moves it by less than this, s.
+const DELAY_SETTLED_S: f64 = 0.02;
+
+/// The GPS delay re-estimated against course turned into heading with the
+/// current, alternating with the current (starting from `delay_s`, the
+/// estimate against raw course); `delay_s` unchanged when the current
+/// cannot be estimated.
+#[allow(clippy::too_many_arguments)]
+fn delay_in_current(
+    t: &[f64],
+    headings: &[f64],
+    reference: &[f64],
+    steady: &[f64],
+    speed: &[f64],
+    gps: &GpsColumns,
+    decl: f64,
+    gap: f64,
+    max_s: f64,
+    mut delay_s: f64,
+) -> f64 {
+    let course_true: Vec<f64> = steady.iter().map(|r| r + decl).collect();
+    for _ in 0..MAX_DELAY_ROUNDS {
+        let track = SurfaceTrack {
+            t_s: t,
+            mag_heading_rad: headings,
+            speed_mps: speed,
+            north_m: &gps.north_m,
+            east_m: &gps.east_m,
+            course_rad: &course_true,
+            declination_rad: decl,
+            delay_s,
+            max_gap_s: gap,
+            max_fix_gap_s: gps.max_fix_gap_s,
+        };
+        let Ok(fit) = fit_swing_in_current(&track) else { return delay_s };
+        let c = fit.current.current_ne_mps;
+        // Every reference sample (turns too: the delay shows there) turned
+        // into magnetic heading; the speed of the same row (it changes
+        // slowly against a delay of seconds).
+        let converted: Vec<f64> = reference
+            .iter()
+            .zip(speed)
+            .map(|(&r, &s)| heading_from_course(r + decl, s, c).map_or(f64::NAN, |h| h - decl))
+            .collect();
+        let Ok(next) = estimate_delay(t, headings, t, &converted, max_s, 0.1, gap) else { return delay_s };
+        let moved = (next.delay_s - delay_s).abs();
+        delay_s = next.delay_s;
+        if moved < DELAY_SETTLED_S {
+            break;
+        }
+    }
+    delay_s
+}
+
 /// Fits the swing correction and returns the document with it, removing
 /// the water current from GPS course when the data allow
 /// ([`CurrentMode::Auto`]).
@@ -130,7 +187,7 @@ pub fn swing_recording_with(rec: &Recording, doc: &CalDoc, delay: Delay, current
     // The delay shows only while turning, so it is estimated on everything;
     // the Fourier terms are fitted on steady headings only — in a turn the
     // course over ground lags and slips against the heading.
-    let delay_s = match delay {
+    let mut delay_s = match delay {
         Delay::Given(s) => s,
         Delay::Estimate { max_s } => estimate_delay(t, &headings, t, &reference, max_s, 0.1, gap)?.delay_s,
     };
@@ -139,6 +196,14 @@ pub fn swing_recording_with(rec: &Recording, doc: &CalDoc, delay: Delay, current
         .enumerate()
         .map(|(i, &r)| if turn_rate_deg_s(t, &headings, i) <= MAX_SWING_TURN_RATE_DEG_S { r } else { f64::NAN })
         .collect();
+    // In a current the course differs from the heading by the crab angle,
+    // which changes through every turn (with the heading and the speed):
+    // the delay search against raw course then fits the crab instead of the
+    // lag. So the delay and the current alternate: the current at the
+    // delay, course turned into heading with it, the delay again.
+    if let (Delay::Estimate { max_s }, CurrentMode::Auto, Some(speed), Ok(gps)) = (delay, current, rec.speed_mps.as_ref(), gps_columns(rec, t)) {
+        delay_s = delay_in_current(t, &headings, &reference, &steady, speed, &gps, decl, gap, max_s, delay_s);
+    }
     let turning = reference.iter().zip(&steady).filter(|(r, s)| r.is_finite() && !s.is_finite()).count();
     let mut fit = fit_swing(aligned_pairs(t, &headings, t, &steady, delay_s, gap))?;
     let mut warnings: Vec<String> = Vec::new();
@@ -240,6 +305,13 @@ mod tests {
     /// are integrated here from heading, speed and current (0.05 s steps)
     /// and turned into latitude/longitude on a sphere.
     fn surface_recording() -> Recording {
+        surface_recording_with(0.0, 0.0)
+    }
+
+    /// [`surface_recording`] with the heading weaving `weave_deg` about the
+    /// circle (period 60 s, so the turn rate changes) and the GPS (position
+    /// and course) reporting the state `delay_s` earlier (a multiple of 0.05 s).
+    fn surface_recording_with(delay_s: f64, weave_deg: f64) -> Recording {
         let field = 48_730.0;
         let dip = 55.7f64.to_radians();
         let distorted = |psi: f64| {
@@ -249,7 +321,7 @@ mod tests {
             }
             wrap_two_pi(h)
         };
-        let heading = |t: f64| 1.0 + 0.5f64.to_radians() * t;
+        let heading = move |t: f64| 1.0 + 0.5f64.to_radians() * t + weave_deg.to_radians() * (std::f64::consts::TAU * t / 60.0).sin();
         let speed = |t: f64| 1.0 + 0.2 * (t / 83.0).sin();
         let ground = |t: f64| [speed(t) * heading(t).cos() + CURRENT_NE_MPS[0], speed(t) * heading(t).sin() + CURRENT_NE_MPS[1]];
         let (lat0, lon0) = (43.2f64, 5.3f64);
@@ -264,7 +336,16 @@ mod tests {
             speed_mps: Some(vec![]),
             ..Recording::default()
         };
-        let mut p = [0.0f64; 2];
+        // Positions every 0.05 s from t = −delay (trapezoids).
+        let h = 0.05;
+        let lead = (delay_s / h).round() as usize;
+        let mut pos = vec![[0.0f64; 2]];
+        for j in 0..(1440.0 / h) as usize + lead + 2 {
+            let (ta, tb) = (-delay_s + j as f64 * h, -delay_s + (j + 1) as f64 * h);
+            let (a, b) = (ground(ta), ground(tb));
+            let p = pos[j];
+            pos.push([p[0] + 0.5 * h * (a[0] + b[0]), p[1] + 0.5 * h * (a[1] + b[1])]);
+        }
         for k in 0..2880 {
             let t = k as f64 * 0.5;
             rec.mag.push(ned_to_body(ned_field(field, dip, 0.0), 0.0, 0.0, distorted(heading(t))));
@@ -273,15 +354,12 @@ mod tests {
             rec.pitch_deg.as_mut().unwrap().push(0.0);
             rec.speed_mps.as_mut().unwrap().push(speed(t));
             let fix = k % 2 == 0;
-            let g = ground(t);
+            let g = ground(t - delay_s);
+            let p = pos[(t / h).round() as usize];
             let nan = f64::NAN;
             rec.ref_heading_deg.as_mut().unwrap().push(if fix { wrap_two_pi(g[1].atan2(g[0])).to_degrees() } else { nan });
             rec.lat_deg.as_mut().unwrap().push(if fix { lat0 + p[0] / m_per_deg } else { nan });
             rec.lon_deg.as_mut().unwrap().push(if fix { lon0 + p[1] / (m_per_deg * lat0.to_radians().cos()) } else { nan });
-            for j in 0..10 {
-                let (a, b) = (ground(t + j as f64 * 0.05), ground(t + (j + 1) as f64 * 0.05));
-                p = [p[0] + 0.025 * (a[0] + b[0]), p[1] + 0.025 * (a[1] + b[1])];
-            }
         }
         rec
     }
@@ -333,5 +411,28 @@ mod tests {
         let q = out.quality.swing.as_ref().unwrap();
         assert!(q.current.is_none());
         assert!(q.warnings.iter().any(|w| w.contains("no circle at the surface")), "{:?}", q.warnings);
+    }
+
+    #[test]
+    fn the_delay_is_estimated_against_course_turned_into_heading() {
+        // GPS 2 s late, heading weaving ±20° (turn rate −1.6…+2.6 °/s) in
+        // a 0.27 m/s current.
+        let rec = surface_recording_with(2.0, 20.0);
+        let doc = CalDoc::new(ModelKind::Full, &FieldCal::identity(), 48_730.0, Default::default());
+        let (out, fit, delay_s) = swing_recording(&rec, &doc, Delay::Estimate { max_s: 5.0 }).unwrap();
+        // Measured: 2.000 s. Against raw course also 2.001 s here: one
+        // steady current and a slowly varying speed make the crab angle a
+        // function of heading, which the Fourier terms absorb. Legs at two
+        // speeds are what pushed the raw-course search to its 5 s limit
+        // (magcal-sim's scenario test `the_gps_delay_is_found_in_a_current`).
+        assert!((delay_s - 2.0).abs() < 0.1, "{delay_s}");
+        let c = out.quality.swing.as_ref().unwrap().current.expect("current estimated");
+        for (got, want) in c.current_ne_mps.iter().zip(CURRENT_NE_MPS) {
+            assert!((got - want).abs() < 0.01, "{c:?}");
+        }
+        assert!(largest_term_error(&fit.swing) < 0.01, "{:?}", fit.swing);
+        // Course as heading: the delay search fits the crab angle.
+        let (_, _, raw_delay_s) = swing_recording_with(&rec, &doc, Delay::Estimate { max_s: 5.0 }, CurrentMode::Off).unwrap();
+        eprintln!("delay in current {delay_s:.3} s, against raw course {raw_delay_s:.3} s");
     }
 }

@@ -1,0 +1,62 @@
+//! Issue 12's comparison on the effects scenarios: each chain variant
+//! ([`magcal_sim::scenario::Variant`]) on the given scenario (`all`,
+//! `none` or one effect's name) and seeds; heading RMS, |F| error against
+//! the true local field, current-vector and gain errors, predicted heading
+//! RMS and the observed/predicted ratio.
+//!
+//! `cargo run --release -p magcal-sim --example effects_variants [scenario|effect+effect…] [seeds…]`
+//! (`VARIANTS=full`: the full chain only)
+
+use magcal_sim::scenario::{effects_data, effects_scenarios, evaluate_variant, Variant};
+use magcal_sim::SensorModel;
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let mut args = std::env::args().skip(1);
+    let scenario = args.next().unwrap_or_else(|| "all".into());
+    let seeds: Vec<u64> = args.map(|a| a.parse()).collect::<Result<_, _>>()?;
+    let seeds = if seeds.is_empty() { vec![1, 2, 3, 4, 5] } else { seeds };
+    let variants: Vec<Variant> = match std::env::var("VARIANTS").ok().as_deref() {
+        Some("full") => vec![Variant::Full],
+        _ => Variant::ALL.to_vec(),
+    };
+    // A scenario's name, or effects joined by `+` (`thrusters+temperature`).
+    let effects = match effects_scenarios().into_iter().find(|(n, _)| *n == scenario) {
+        Some((_, e)) => e,
+        None => {
+            let list: Vec<magcal_sim::Effect> = scenario
+                .split('+')
+                .map(|n| magcal_sim::Effect::ALL.iter().copied().find(|e| e.name() == n).ok_or(format!("unknown effect {n}")))
+                .collect::<Result<_, _>>()?;
+            magcal_sim::Effects::of(&list)
+        }
+    };
+    println!("| scenario | variant | seed | heading RMS ° | noise ° | systematic ° | |F| err true nT | |F| err IGRF nT | current vec err % | gain err %/°C | predicted ° (cal, run noise) | obs/pred | delay s |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let f = |v: Option<f64>, p: usize| v.map_or("–".to_string(), |x| format!("{x:.p$}"));
+    for &seed in &seeds {
+        let data = effects_data(&SensorModel::paper_like(), seed, &effects)?;
+        for &v in &variants {
+            match evaluate_variant(&data, v) {
+                Ok(o) => {
+                    let predicted = format!("{} ({}, {})", f(o.predicted_heading_rms_deg, 3), f(o.predicted_calibration_deg, 3), f(o.run_heading_noise_deg, 3));
+                    println!(
+                    "| {scenario} | {} | {seed} | {:.3} | {:.3} | {:.3} | {} | {:.1} | {} | {} | {} | {} | {:.2} |",
+                    v.label(),
+                    o.heading_rms_deg,
+                    o.heading_noise_deg,
+                    o.heading_systematic_deg,
+                    f(o.field_error_true_nt, 1),
+                    o.field_error_igrf_nt,
+                    f(o.current_vector_error_pct, 1),
+                    f(o.gain_error_pct_per_c, 4),
+                    predicted,
+                    f(o.observed_over_predicted, 2),
+                    o.gps_delay_s
+                    )
+                }
+                Err(e) => println!("| {scenario} | {} | {seed} | refused: {e} |", v.label()),
+            }
+        }
+    }
+    Ok(())
+}
