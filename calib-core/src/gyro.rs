@@ -122,6 +122,10 @@ pub fn body_step_rotation<T: Real>(theta_rad: Vec3<T>) -> Mat3<T> {
     r
 }
 
+/// What [`Chain::push`] yields: the raw field `K` steps back, this sample's
+/// raw field, and the rotation integrated between them.
+type ChainStep<T> = (Vec3<T>, Vec3<T>, Mat3<T>);
+
 /// The last `K + 1` samples of an unbroken chain and the step rotations
 /// between them: yields, for every new sample, the pair (sample `K` steps
 /// back, this sample) with the integrated rotation between them.
@@ -142,7 +146,7 @@ impl<T: Real> Chain<T> {
 
     /// Adds a sample (normalised raw); returns `(raw_i, raw_j, R)` once the
     /// chain spans `window` steps.
-    fn push(&mut self, s: &GyroSample<T>, raw: Vec3<T>, cfg: &GyroConfig<T>) -> Option<(Vec3<T>, Vec3<T>, Mat3<T>)> {
+    fn push(&mut self, s: &GyroSample<T>, raw: Vec3<T>, cfg: &GyroConfig<T>) -> Option<ChainStep<T>> {
         let cap = MAX_WINDOW_STEPS + 1;
         let continues = match self.previous {
             Some((t0, _)) => {
@@ -559,7 +563,7 @@ fn gyro_bias_step<T: Real>(samples: &[GyroSample<T>], norm: &Normalization<T>, c
             continue;
         }
         let r = norm.apply(s.raw);
-        let out: [Option<(Vec3<T>, Vec3<T>, Mat3<T>)>; 4] = core::array::from_fn(|k| chains[k].push(s, r, &cfgs[k]));
+        let out: [Option<ChainStep<T>>; 4] = core::array::from_fn(|k| chains[k].push(s, r, &cfgs[k]));
         let [Some((ri, rj, r0)), Some((_, _, r1)), Some((_, _, r2)), Some((_, _, r3))] = out else { continue };
         let (hi, hj) = (field(ri), field(rj));
         let pred = |rot: &Mat3<T>| mul_mat_vec(rot, hi);

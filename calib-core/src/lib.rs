@@ -18,6 +18,12 @@
 // this crate is a loop counter bounded by a const array size, and data
 // slices from outside are walked with iterators.
 #![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
+// `!(x > 0)` is deliberate throughout: it rejects NaN together with the
+// out-of-range values, which `x <= 0` would let through.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+// The linear algebra indexes several fixed-size arrays with one counter, as
+// the formulas do; iterator zips would hide the indices the comments cite.
+#![allow(clippy::needless_range_loop)]
 
 pub mod backstep;
 pub mod cal;

@@ -357,7 +357,7 @@ pub fn heading_at<T: Real>(times_s: &[T], headings_rad: &[T], at_s: T, max_gap_s
     }
     let t0 = *times.get(i.checked_sub(1)?)?;
     let h0 = *headings_rad.get(i - 1)?;
-    if !(t1 - t0 <= max_gap_s) || !(h0.is_finite() && h1.is_finite()) {
+    if !(t1 - t0 <= max_gap_s && h0.is_finite() && h1.is_finite()) {
         return None;
     }
     let f = (at_s - t0) / (t1 - t0);

@@ -126,7 +126,7 @@ impl<S: OutputPin, R: OutputPin> SetResetStrap<S, R> {
     }
 
     /// One pulse of [`STRAP_PULSE_US`].
-    pub fn pulse<D: DelayNs>(&mut self, polarity: Polarity, delay: &mut D) -> Result<(), ()> {
+    pub fn pulse<D: DelayNs>(&mut self, polarity: Polarity, delay: &mut D) -> Result<(), StrapPinError> {
         match polarity {
             Polarity::Set => pulse_pin(&mut self.set, delay),
             Polarity::Reset => pulse_pin(&mut self.reset, delay),
@@ -134,10 +134,14 @@ impl<S: OutputPin, R: OutputPin> SetResetStrap<S, R> {
     }
 }
 
-fn pulse_pin<P: OutputPin, D: DelayNs>(pin: &mut P, delay: &mut D) -> Result<(), ()> {
-    pin.set_high().map_err(|_| ())?;
+/// A set/reset strap pin refused to change level.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct StrapPinError;
+
+fn pulse_pin<P: OutputPin, D: DelayNs>(pin: &mut P, delay: &mut D) -> Result<(), StrapPinError> {
+    pin.set_high().map_err(|_| StrapPinError)?;
     delay.delay_us(STRAP_PULSE_US);
-    pin.set_low().map_err(|_| ())
+    pin.set_low().map_err(|_| StrapPinError)
 }
 
 /// One set/reset pair.
@@ -214,7 +218,7 @@ impl<SPI: SpiDevice, S: OutputPin, R: OutputPin, DRDY: InputPin + Wait> Acquisit
     /// the first settled conversion.
     async fn phase<D: DelayNs>(&mut self, polarity: Polarity, delay: &mut D) -> Result<[i32; 4], AcqError<SPI::Error>> {
         self.drain()?;
-        self.strap.pulse(polarity, delay).map_err(|()| AcqError::Strap)?;
+        self.strap.pulse(polarity, delay).map_err(|StrapPinError| AcqError::Strap)?;
         // A conversion waiting now ended before or during the pulse.
         self.drain()?;
         let mut last = None;

@@ -10,7 +10,7 @@ use embedded_hal_async::digital::Wait;
 use embedded_hal::spi::{Error as SpiErrorTrait, ErrorKind, ErrorType, Operation, SpiDevice};
 use embedded_storage::nor_flash::NorFlash;
 
-use crate::device::CoefficientStore;
+use crate::device::{CoefficientStore, SaveFailed};
 use crate::ads131m04_model::{Ads131m04Model, DrdyPinModel, StrapPinModel};
 use crate::store::{RamFlash, Record, Store};
 
@@ -153,10 +153,10 @@ impl<F: NorFlash> BoardStore<F> {
 }
 
 impl<F: NorFlash> CoefficientStore for BoardStore<F> {
-    fn save(&mut self, bytes: &[u8]) -> Result<u32, ()> {
+    fn save(&mut self, bytes: &[u8]) -> Result<u32, SaveFailed> {
         match self {
-            BoardStore::Flash(s) => s.save(bytes).map_err(|_| ()),
-            BoardStore::Ram(s) => s.save(bytes).map_err(|_| ()),
+            BoardStore::Flash(s) => s.save(bytes).map_err(|_| SaveFailed),
+            BoardStore::Ram(s) => s.save(bytes).map_err(|_| SaveFailed),
         }
     }
 }

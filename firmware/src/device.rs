@@ -43,8 +43,12 @@ use crate::adc::FULL_SCALE_COUNTS;
 /// Where committed coefficients go.
 pub trait CoefficientStore {
     /// Stores an encoded set; returns its sequence number.
-    fn save(&mut self, bytes: &[u8]) -> Result<u32, ()>;
+    fn save(&mut self, bytes: &[u8]) -> Result<u32, SaveFailed>;
 }
+
+/// The store could not write a set; the previous one stays in force.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SaveFailed;
 
 /// Largest encoded coefficient set.
 const PENDING_BYTES: usize = 128;
@@ -511,7 +515,7 @@ impl Device {
 
     /// Ends a commit after the store: the set is used only once stored; a
     /// failed save keeps the old set in use and says so.
-    pub fn finish_commit(&mut self, pending: PendingCommit, saved: Result<u32, ()>) -> ResponseBody {
+    pub fn finish_commit(&mut self, pending: PendingCommit, saved: Result<u32, SaveFailed>) -> ResponseBody {
         match saved {
             Ok(seq) => {
                 self.coefficients = pending.staged;
@@ -523,7 +527,7 @@ impl Device {
                 self.last_error = None;
                 ResponseBody::Committed { seq }
             }
-            Err(()) => self.refuse(DeviceError::Storage),
+            Err(SaveFailed) => self.refuse(DeviceError::Storage),
         }
     }
 

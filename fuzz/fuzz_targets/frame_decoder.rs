@@ -23,7 +23,7 @@ struct Store {
     saved: Vec<Vec<u8>>,
 }
 impl CoefficientStore for Store {
-    fn save(&mut self, bytes: &[u8]) -> Result<u32, ()> {
+    fn save(&mut self, bytes: &[u8]) -> Result<u32, firmware::device::SaveFailed> {
         self.saved.push(bytes.to_vec());
         Ok(self.saved.len() as u32)
     }

@@ -213,6 +213,8 @@ fn coefficients_at(year: f64) -> Result<Coeffs, GeomagError> {
     }
     let i = t.epochs.iter().rposition(|&e| e <= year).unwrap_or(0);
     let f = (year - t.epochs[i]) / (t.epochs[i + 1] - t.epochs[i]);
+    // n and m are the degree and order of the formula, not just positions.
+    #[allow(clippy::needless_range_loop)]
     for n in 0..=MAX_DEGREE {
         for m in 0..=n {
             let (a, b) = (t.sets[i][n][m], t.sets[i + 1][n][m]);

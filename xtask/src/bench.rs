@@ -35,10 +35,8 @@ fn paper001() -> (serde_json::Value, String) {
                 for seed in 0..SEEDS {
                     let mut rng = SplitMix64::new(1000 * seed + n as u64);
                     let data: Vec<[f64; 3]> = (0..2 * n).map(|_| paper001_sample(&mut rng, sigma)).collect();
-                    if let Ok(a) = solver(&data, [0.0; 3]).map(|t| t.angles()) {
-                        if let Some(a) = a {
-                            js.push(j_index(&PAPER001_TRUTH, &a));
-                        }
+                    if let Ok(Some(a)) = solver(&data, [0.0; 3]).map(|t| t.angles()) {
+                        js.push(j_index(&PAPER001_TRUTH, &a));
                     }
                 }
                 let mean = js.iter().sum::<f64>() / js.len().max(1) as f64;

@@ -44,7 +44,8 @@ fn both_solvers_are_exact_without_noise() {
 #[test]
 fn j_falls_as_n_grows_under_strong_noise() {
     // σ = 10⁻² of a field of norm 2 (paper Fig 3–4): mean J over seeds.
-    let mean_j = |n: usize, solver: fn(&[Vec3<f64>], Vec3<f64>) -> Result<Triangular<f64>, OrthoError>| {
+    type Solver = fn(&[Vec3<f64>], Vec3<f64>) -> Result<Triangular<f64>, OrthoError>;
+    let mean_j = |n: usize, solver: Solver| {
         let js: Vec<f64> = (0..20).map(|seed| {
             let data = simulate(n, 1e-2, 100 + seed);
             j_index(&TRUTH, &solver(&data, [0.0; 3]).unwrap().angles().unwrap())

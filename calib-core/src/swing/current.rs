@@ -314,7 +314,7 @@ fn value_at<T: Real>(times_s: &[T], values: &[T], at_s: T, max_gap_s: T) -> Opti
         return v1.is_finite().then_some(v1);
     }
     let (t0, v0) = (*times.get(i.checked_sub(1)?)?, *values.get(i - 1)?);
-    if !(t1 - t0 <= max_gap_s) || !(v0.is_finite() && v1.is_finite()) {
+    if !(t1 - t0 <= max_gap_s && v0.is_finite() && v1.is_finite()) {
         return None;
     }
     Some(v0 + (at_s - t0) / (t1 - t0) * (v1 - v0))

@@ -88,7 +88,7 @@ fn unread_conversions_are_buffered_two_deep() {
     S.advance_ns(40 * 32_000);
     // The field steps by 4 000 nT just before the next conversion ends, so
     // the newest conversion differs from the one before it.
-    let to_edge = 32_000 - (S.now_ns() - 0) % 32_000;
+    let to_edge = 32_000 - S.now_ns() % 32_000;
     S.advance_ns(to_edge - 1_000);
     S.set_truth([5_000.0, 0.0, 0.0], [0.0; 3]);
     S.advance_ns(1_000);

@@ -161,7 +161,9 @@ mod bench {
     fn main() -> ! {
         let Some(mut cp) = cortex_m::Peripherals::take() else {
             debug::exit(debug::EXIT_FAILURE);
-            loop {}
+            loop {
+                cortex_m::asm::wfi();
+            }
         };
         cp.SYST.set_clock_source(SystClkSource::Core);
         cp.SYST.set_reload(RELOAD);
@@ -241,7 +243,9 @@ mod bench {
         let strap = SetResetStrap::new(StrapPinModel::set(&SENSOR), StrapPinModel::reset(&SENSOR));
         let Ok(mut acq) = Acquisition::new(FixedSpi::new(), strap, ReadyDrdy) else {
             debug::exit(debug::EXIT_FAILURE);
-            loop {}
+            loop {
+                cortex_m::asm::wfi();
+            }
         };
         let pair_reps = 16;
         let s0 = t.start();
@@ -272,12 +276,16 @@ mod bench {
         hprintln!("acquisition_cycle_instructions {}", pair);
         hprintln!("scale_check_20000_instructions {}", check);
         debug::exit(debug::EXIT_SUCCESS);
-        loop {}
+        loop {
+            cortex_m::asm::wfi();
+        }
     }
 
     #[panic_handler]
     fn panic(_: &core::panic::PanicInfo) -> ! {
         debug::exit(debug::EXIT_FAILURE);
-        loop {}
+        loop {
+            cortex_m::asm::wfi();
+        }
     }
 }

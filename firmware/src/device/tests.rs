@@ -7,9 +7,9 @@ struct MemStore {
     fail: bool,
 }
 impl CoefficientStore for MemStore {
-    fn save(&mut self, bytes: &[u8]) -> Result<u32, ()> {
+    fn save(&mut self, bytes: &[u8]) -> Result<u32, SaveFailed> {
         if self.fail {
-            return Err(());
+            return Err(SaveFailed);
         }
         self.saved.push(bytes.to_vec());
         Ok(self.saved.len() as u32)

@@ -377,8 +377,8 @@ mod tests {
         let c = q.current.expect("current estimated");
         // Measured (noise-free GPS): current within 1e-5 m/s, terms within
         // 1e-5 rad; against raw course the largest term error is 0.25 rad.
-        for k in 0..2 {
-            assert!((c.current_ne_mps[k] - CURRENT_NE_MPS[k]).abs() < 1e-3, "{c:?}");
+        for (got, want) in c.current_ne_mps.iter().zip(CURRENT_NE_MPS) {
+            assert!((got - want).abs() < 1e-3, "{c:?}");
         }
         assert!(c.fixes == 1440 && c.heading_resultant < 0.1, "{c:?}");
         assert_eq!(fit.terms, SwingTerms::Full);

@@ -49,7 +49,7 @@ struct MemStore {
     saves: u32,
 }
 impl CoefficientStore for MemStore {
-    fn save(&mut self, _: &[u8]) -> Result<u32, ()> {
+    fn save(&mut self, _: &[u8]) -> Result<u32, firmware::device::SaveFailed> {
         self.saves += 1;
         Ok(self.saves)
     }

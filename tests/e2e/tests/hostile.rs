@@ -51,11 +51,8 @@ fn damaged_frames(bytes: &[u8]) -> u32 {
     let mut bad = 0;
     for &b in bytes {
         match decoder.push(b) {
-            Some(Ok(body)) => {
-                if proto::decode_body::<Request>(body).is_err() {
-                    bad += 1;
-                }
-            }
+            Some(Ok(body)) if proto::decode_body::<Request>(body).is_err() => bad += 1,
+            Some(Ok(_)) => {}
             Some(Err(_)) => bad += 1,
             None => {}
         }
