@@ -723,6 +723,18 @@ mod tests {
         assert!(v["worst_offset_error_ms"].as_f64().is_some_and(|w| w < 20.0), "{v}");
     }
 
+    /// Only the MCU section (instruction counts under QEMU, the CPU budget):
+    /// `cargo test -p xtask bench::tests::mcu_section -- --ignored --nocapture`.
+    #[test]
+    #[ignore = "a benchmark: prints its numbers"]
+    fn mcu_section() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        let mcu = super::mcu_costs(&root).expect("mcu-bench under QEMU");
+        let budget = super::cpu_budget(&mcu);
+        eprintln!("{}\n{}", serde_json::to_string_pretty(&mcu).unwrap_or_default(), serde_json::to_string_pretty(&budget).unwrap_or_default());
+        assert!(budget["cpu_busy_pct_at_pair_rate"].as_f64().is_some_and(|p| p > 0.0 && p < 100.0), "{budget}");
+    }
+
     /// Only the effects section (issue 12): `cargo test -p xtask bench::tests::effects_section -- --ignored --nocapture`.
     /// Prints the table; asserts only that every seed of the full chain ran
     /// (the targets are reported, met or not, in the summary line).
