@@ -47,6 +47,35 @@ struct GpsColumns {
     max_fix_gap_s: f64,
 }
 
+/// What the track needs besides the GPS: the headings, the speed through
+/// water, the true course, the declination and the gap limit.
+struct TrackInputs<'a> {
+    t: &'a [f64],
+    headings: &'a [f64],
+    speed: &'a [f64],
+    course_true: &'a [f64],
+    decl: f64,
+    gap: f64,
+}
+
+impl GpsColumns {
+    /// The surface track for the current fit at a GPS delay.
+    fn track<'a>(&'a self, i: &TrackInputs<'a>, delay_s: f64) -> SurfaceTrack<'a, f64> {
+        SurfaceTrack {
+            t_s: i.t,
+            mag_heading_rad: i.headings,
+            speed_mps: i.speed,
+            north_m: &self.north_m,
+            east_m: &self.east_m,
+            course_rad: i.course_true,
+            declination_rad: i.decl,
+            delay_s,
+            max_gap_s: i.gap,
+            max_fix_gap_s: self.max_fix_gap_s,
+        }
+    }
+}
+
 fn gps_columns(rec: &Recording, t: &[f64]) -> Result<GpsColumns, String> {
     let (Some(lat), Some(lon)) = (rec.lat_deg.as_ref(), rec.lon_deg.as_ref()) else {
         return Err("no lat_deg/lon_deg columns".into());
@@ -134,18 +163,7 @@ fn delay_in_current(
 ) -> f64 {
     let course_true: Vec<f64> = steady.iter().map(|r| r + decl).collect();
     for _ in 0..MAX_DELAY_ROUNDS {
-        let track = SurfaceTrack {
-            t_s: t,
-            mag_heading_rad: headings,
-            speed_mps: speed,
-            north_m: &gps.north_m,
-            east_m: &gps.east_m,
-            course_rad: &course_true,
-            declination_rad: decl,
-            delay_s,
-            max_gap_s: gap,
-            max_fix_gap_s: gps.max_fix_gap_s,
-        };
+        let track = gps.track(&TrackInputs { t, headings, speed, course_true: &course_true, decl, gap }, delay_s);
         let Ok(fit) = fit_swing_in_current(&track) else { return delay_s };
         let c = fit.current.current_ne_mps;
         // Every reference sample (turns too: the delay shows there) turned
@@ -215,18 +233,7 @@ pub fn swing_recording_with(rec: &Recording, doc: &CalDoc, delay: Delay, current
             (Some(_), Err(why)) => warnings.push(format!("{why}, so the water current cannot be estimated: {FALLBACK}")),
             (Some(speed), Ok(gps)) => {
                 let course_true: Vec<f64> = steady.iter().map(|r| r + decl).collect();
-                let track = SurfaceTrack {
-                    t_s: t,
-                    mag_heading_rad: &headings,
-                    speed_mps: speed,
-                    north_m: &gps.north_m,
-                    east_m: &gps.east_m,
-                    course_rad: &course_true,
-                    declination_rad: decl,
-                    delay_s,
-                    max_gap_s: gap,
-                    max_fix_gap_s: gps.max_fix_gap_s,
-                };
+                let track = gps.track(&TrackInputs { t, headings: &headings, speed, course_true: &course_true, decl, gap }, delay_s);
                 match fit_swing_in_current(&track) {
                     Ok(r) => {
                         if !r.converged {

@@ -47,6 +47,18 @@ pub fn color(i: usize) -> RGBColor {
     COLORS[i % COLORS.len()]
 }
 
+/// The legend box every chart uses: upper right, on a light background.
+fn legend<'a, 'b: 'a>(chart: &mut ChartContext<'a, SVGBackend<'b>, Cartesian2d<Axis, Axis>>, title: &str) -> Result<(), PlotError> {
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(RGBColor(0x88, 0x88, 0x88))
+        .label_font(("sans-serif", 13))
+        .draw()
+        .map_err(|e| err(title, e))
+}
+
 fn err(figure: &str, e: impl std::fmt::Display) -> PlotError {
     PlotError { figure: figure.into(), message: e.to_string() }
 }
@@ -221,14 +233,7 @@ pub fn try_line_plot_ticks(title: &str, x_label: &str, y_label: &str, series: &[
             }
         }
         if !series.is_empty() {
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::UpperRight)
-                .background_style(WHITE.mix(0.85))
-                .border_style(RGBColor(0x88, 0x88, 0x88))
-                .label_font(("sans-serif", 13))
-                .draw()
-                .map_err(|e| err(title, e))?;
+            legend(&mut chart, title)?;
         }
         Ok(())
     })
@@ -287,14 +292,7 @@ pub fn try_histogram(title: &str, x_label: &str, samples: &[(String, Vec<f64>)],
                 .label(label.as_str())
                 .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 14, y + 5)], c.mix(0.5).filled()));
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.85))
-            .border_style(RGBColor(0x88, 0x88, 0x88))
-            .label_font(("sans-serif", 13))
-            .draw()
-            .map_err(|e| err(title, e))?;
+        legend(&mut chart, title)?;
         Ok(())
     })
 }
