@@ -137,7 +137,7 @@ mod tests {
     #[test]
     fn sampling_correction_and_output_on_the_mcu() {
         use firmware::acquisition::{run_ready, Acquisition, Decimator, SetResetStrap, COUNTS_PER_NT};
-        use firmware::device::{BoardCounters, Boot, CoefficientStore, Device};
+        use firmware::device::{BoardCounters, Boot, CoefficientStore, Device, SaveFailed};
         use firmware::ads131m04_model::{Ads131m04Model, BridgeModel, DrdyPinModel, StrapPinModel};
         use calib_core::cal::Environment;
         use calib_core::heading::Tilt;
@@ -145,8 +145,8 @@ mod tests {
 
         struct NoStore;
         impl CoefficientStore for NoStore {
-            fn save(&mut self, _: &[u8]) -> Result<u32, ()> {
-                Err(())
+            fn save(&mut self, _: &[u8]) -> Result<u32, SaveFailed> {
+                Err(SaveFailed)
             }
         }
         struct NoDelay;
