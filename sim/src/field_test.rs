@@ -30,7 +30,7 @@
 use std::path::Path;
 
 use calib_core::conformance::SplitMix64;
-use calib_core::heading::{ned_to_body, wrap_two_pi};
+use calib_core::heading::wrap_two_pi;
 use calib_core::linalg::{mul_mat, mul_mat_vec, Mat3};
 use calib_core::ortho::{gamma, OrthoAngles};
 use serde::{Deserialize, Serialize};
@@ -38,7 +38,7 @@ use serde::{Deserialize, Serialize};
 use host_tools::data::recording::{Recording, RecordingError};
 use host_tools::geomag::{self, GeomagError, Site};
 
-use crate::effects::{Effect, Effects, Thruster, M_PER_DEG_LAT};
+use crate::effects::{euler_dcm, Effect, Effects, Thruster, M_PER_DEG_LAT};
 
 /// Why a simulation could not be written.
 #[derive(Debug, thiserror::Error)]
@@ -451,7 +451,9 @@ impl<'a> Builder<'a> {
             self.column("true_field_e_nt", field_ned[1]);
             self.column("true_field_d_nt", field_ned[2]);
         }
-        let h = ned_to_body(field_ned, roll.to_radians(), pitch.to_radians(), yaw.to_radians());
+        // The body frame by the simulator's own direction-cosine matrices, not
+        // calib-core's rotation: a convention error there would show here.
+        let h = mul_mat_vec(&euler_dcm(roll, pitch, yaw), field_ned);
         let mut thruster_nt = [0.0; 3];
         let mut bus_a = 0.0;
         let mut running_bias = running;

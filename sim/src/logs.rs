@@ -5,7 +5,6 @@
 
 use calib_core::conformance::SplitMix64;
 use host_tools::data::merge::{BoardLog, NavLog};
-use host_tools::data::pairing::ClockMap;
 
 use crate::field_test::Simulation;
 
@@ -44,9 +43,15 @@ pub fn split(sim: &Simulation, s: &LogSplit) -> (BoardLog, NavLog) {
     let (Some(&first), Some(&end)) = (t.first(), t.last()) else {
         return (BoardLog::default(), NavLog::default());
     };
-    let map = ClockMap { offset_s: s.offset_s, drift_ppm: s.drift_ppm, board_ref_s: NAV_T0_S + first - s.offset_s };
+    // The board clock from the formula above, written here rather than
+    // taken from `merge`'s own clock model: t_board solved from
+    // t_nav = t_board + offset + d·(t_board − t_board0), t_board0 the board
+    // time of the first row.
+    let d = s.drift_ppm * 1e-6;
+    let t_board0 = NAV_T0_S + first - s.offset_s;
+    let board_t = |t_nav: f64| (t_nav - s.offset_s + d * t_board0) / (1.0 + d);
     let board = BoardLog {
-        t_s: t.iter().map(|&ts| (map.to_board(NAV_T0_S + ts) * 1000.0).round() / 1000.0).collect(),
+        t_s: t.iter().map(|&ts| (board_t(NAV_T0_S + ts) * 1000.0).round() / 1000.0).collect(),
         mag: rec.mag.clone(),
         temp_c: None,
         health: None,

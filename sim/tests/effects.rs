@@ -288,13 +288,26 @@ fn effects_are_parsed_by_name() {
 }
 
 /// With no effect the recording has none of the new columns and no
-/// effects truth (today's files, number for number).
+/// effects truth, and its readings are the ones the simulator gave before
+/// the effects existed.
 #[test]
 fn no_effect_leaves_the_recording_as_it_was() {
     let p = RunParams { leg_m: 1000.0, ..RunParams::paper_like() };
     let a = field_test::run(&SensorModel::paper_like(), &paper_site(), &p, 9, 1.0, "run").unwrap();
-    let b = field_test::run_with(&SensorModel::paper_like(), &paper_site(), &p, 9, 1.0, "run", &Effects::none()).unwrap();
-    assert_eq!(a.recording.mag, b.recording.mag);
+    // Printed by the simulator at commit 84ec09c (before issue 12), the same
+    // run and seed: rows and raw counts.
+    const BEFORE: [(usize, [f64; 3]); 6] = [
+        (0, [1326.0, -656.0, 5698.0]),
+        (1, [1117.0, -434.0, 5967.0]),
+        (100, [1316.0, -617.0, 5738.0]),
+        (500, [1222.0, -432.0, 5938.0]),
+        (545, [3044.0, 2451.0, 5716.0]),
+        (1089, [-4201.0, 3523.0, 5575.0]),
+    ];
+    assert_eq!(a.recording.mag.len(), 1090);
+    for (i, m) in BEFORE {
+        assert_eq!(a.recording.mag[i], m, "row {i}");
+    }
     assert!(a.recording.temp_c.is_none() && a.recording.motor_current_a.is_none() && a.recording.speed_mps.is_none());
     assert!(a.truth.effects.is_none() && a.effect_columns.is_empty());
     // The AHRS effect alone changes the attitude columns only.
