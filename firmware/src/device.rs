@@ -727,22 +727,21 @@ impl Device {
         let tilt = self.attitude.filter(|&(_, t)| fresh(t)).map(|(tilt, _)| tilt);
         // The document's formula, as calib-core applies it (~260
         // instructions a sample with the heading: `cargo xtask bench`).
-        let (corrected, field, heading_rad) = match tilt {
+        // (`apply_tilt_env` is `correct_raw` then `apply_tilt`: the corrected
+        // sample is kept for the fit.)
+        let corrected = terms.correct_raw(raw.field_counts, &env);
+        let (field, heading_rad) = match tilt {
             Some(tilt) => {
-                let out = self.calibration.apply_tilt_env(raw.field_counts, &tilt, &env);
-                (None, out.field_nt, current_ok.then_some(out.true_heading_rad))
+                let out = self.calibration.apply_tilt(corrected, &tilt);
+                (out.field_nt, current_ok.then_some(out.true_heading_rad))
             }
-            None => {
-                let c = terms.correct_raw(raw.field_counts, &env);
-                (Some(c), self.calibration.field.apply(c), None)
-            }
+            None => (self.calibration.field.apply(corrected), None),
         };
         if let Some(f) = &mut self.fit {
             if f.running && !raw.saturated {
                 // The fit estimates the field calibration of the corrected
                 // sample (the terms stay as stored).
-                let c = corrected.unwrap_or_else(|| self.calibration.env.correct_raw(raw.field_counts, &env));
-                f.push(c, self.motion, now_ms);
+                f.push(corrected, self.motion, now_ms);
             }
         }
         let (raw_out, cal_out) = match self.stream {
