@@ -125,13 +125,6 @@ pub struct SwingSample<T> {
     pub temp_c: T,
 }
 
-impl<T: Real> SwingSample<T> {
-    /// A swing sample without current or temperature.
-    pub fn raw_only(raw: Vec3<T>) -> Self {
-        Self { raw, current_a: T::NAN, temp_c: T::NAN }
-    }
-}
-
 /// How the joint refinement runs.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -335,7 +328,6 @@ pub struct JointSolution<T> {
     params: [T; NP],
     model: Model<T>,
     information: [[T; NP]; NP],
-    scale2: T,
 }
 
 /// Which terms are in, and the conditions.
@@ -469,7 +461,6 @@ struct Normal<T> {
     jtr: [T; NP],
     data_cost: T,
     prior_cost: T,
-    residuals: u32,
     /// Σ unweighted r² and count of the run's residuals, and of the swing's.
     run_ss: (T, u32),
     swing_ss: (T, u32),
@@ -477,14 +468,13 @@ struct Normal<T> {
 
 impl<T: Real> Normal<T> {
     fn new(jtj: [[T; NP]; NP]) -> Self {
-        Self { jtj, jtr: [T::ZERO; NP], data_cost: T::ZERO, prior_cost: T::ZERO, residuals: 0, run_ss: (T::ZERO, 0), swing_ss: (T::ZERO, 0) }
+        Self { jtj, jtr: [T::ZERO; NP], data_cost: T::ZERO, prior_cost: T::ZERO, run_ss: (T::ZERO, 0), swing_ss: (T::ZERO, 0) }
     }
 }
 
 fn add_row<T: Real>(n: &mut Normal<T>, active: &[bool; NP], r: T, w: T, j: &[T; NP]) {
     let (r, w2) = (r * w, w * w);
     n.data_cost += r * r;
-    n.residuals += 1;
     for a in 0..NP {
         if j[a] == T::ZERO || !active[a] {
             continue;
@@ -655,7 +645,7 @@ pub fn joint_refine_env<T: Real>(
     let mut n = normal_equations(&model, &p, &prior, &prior_w, run, swing);
     let first = spd_cov(&n, &model)?;
     // The misalignment: kept only where the data shrink its σ.
-    let ratio = (first.0[MR][MR].max(first.0[MP][MP]) / first.1).sqrt() / cfg.misalignment_prior_rad;
+    let ratio = first[MR][MR].max(first[MP][MP]).sqrt() / cfg.misalignment_prior_rad;
     let mut misalignment_estimated = cfg.terms.misalignment;
     if cfg.terms.misalignment && !(ratio < T::from_f64(0.5)) {
         notes[2] = Some(JointNote::MisalignmentNotObservable { sigma_ratio: ratio });
@@ -688,9 +678,9 @@ pub fn joint_refine_env<T: Real>(
             }
         }
     }
-    let (cov_unscaled, scale2) = spd_cov(&n, &model)?;
+    let cov = spd_cov(&n, &model)?;
     let residual_rms_nt = ((n.run_ss.0 + n.swing_ss.0) / T::from_f64(f64::from((n.run_ss.1 + n.swing_ss.1).max(1)))).sqrt();
-    let sd = |a: usize| (cov_unscaled[a][a] * scale2).max(T::ZERO).sqrt();
+    let sd = |a: usize| cov[a][a].max(T::ZERO).sqrt();
     let sigma = JointSigmas {
         matrix: core::array::from_fn(|a| sd(M0 + a)),
         bias: core::array::from_fn(|k| sd(B0 + k)),
@@ -736,9 +726,8 @@ pub fn joint_refine_env<T: Real>(
         model,
         information: n.jtj,
         correlation_inflation: inflation,
-        scale2,
     };
-    let (per, rms) = sol.heading_sigmas(&cov_unscaled);
+    let (per, rms) = sol.heading_sigmas(&cov);
     sol.heading_sigma_rad = per;
     sol.predicted_heading_rms_rad = rms;
     Ok(sol)
@@ -747,7 +736,7 @@ pub fn joint_refine_env<T: Real>(
 /// The covariance (inverse of the normal matrix with the priors, fixed terms
 /// zeroed) and its scale factor (1: the residual weights were set from the
 /// residuals' scatter before).
-fn spd_cov<T: Real>(n: &Normal<T>, model: &Model<T>) -> Result<([[T; NP]; NP], T), BackstepError> {
+fn spd_cov<T: Real>(n: &Normal<T>, model: &Model<T>) -> Result<[[T; NP]; NP], BackstepError> {
     let mut cov = crate::uncertainty::spd_inverse(&n.jtj).ok_or(BackstepError::Singular)?;
     for a in 0..NP {
         if !model.active[a] {
@@ -757,8 +746,8 @@ fn spd_cov<T: Real>(n: &Normal<T>, model: &Model<T>) -> Result<([[T; NP]; NP], T
             }
         }
     }
-    // The weights are the residuals' own scatter: the factor is 1.
-    Ok((cov, T::ONE))
+    // The weights are the residuals' own scatter: no further scale.
+    Ok(cov)
 }
 
 /// Levenberg–Marquardt from `p0` with Jacobi scaling.
@@ -863,19 +852,13 @@ impl<T: Real> JointSolution<T> {
         (-l[1]).atan2(l[0])
     }
 
-    fn heading_sigmas(&self, cov_unscaled: &[[T; NP]; NP]) -> ([T; HEADING_STEPS], T) {
-        let mut cov = *cov_unscaled;
-        for row in cov.iter_mut() {
-            for v in row.iter_mut() {
-                *v *= self.scale2;
-            }
-        }
+    fn heading_sigmas(&self, cov: &[[T; NP]; NP]) -> ([T; HEADING_STEPS], T) {
         let mut per = [T::NAN; HEADING_STEPS];
         let mut total = T::ZERO;
         for (i, out) in per.iter_mut().enumerate() {
             let psi = T::from_f64((i as f64 * 15.0).to_radians());
             let Some(raw) = self.raw_at(psi) else { return ([T::NAN; HEADING_STEPS], T::NAN) };
-            *out = crate::uncertainty::angle_sigma(&self.params, &cov, |p| self.heading_of(p, raw));
+            *out = crate::uncertainty::angle_sigma(&self.params, cov, |p| self.heading_of(p, raw));
             total += *out * *out;
         }
         (per, (total / T::from_f64(HEADING_STEPS as f64)).sqrt())
@@ -891,8 +874,7 @@ impl<T: Real> JointSolution<T> {
             let k = self.correlation_inflation.sqrt();
             self.model.run_residuals(&self.params, &s, &mut |r, w, j| add_row(&mut n, &active, r, w / k, j));
         }
-        n.data_cost = T::ZERO;
-        let (cov, _) = spd_cov(&n, &self.model).ok()?;
+        let cov = spd_cov(&n, &self.model).ok()?;
         Some(self.heading_sigmas(&cov))
     }
 
