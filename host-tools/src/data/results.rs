@@ -407,10 +407,11 @@ pub struct SessionSummary {
     pub backstep: BackstepQuality,
     /// The swing fit's report.
     pub swing: SwingQuality,
-    /// The true-heading error the final calibration predicts for itself,
-    /// ° RMS (its `quality.predicted_heading_rms_deg`: the back-stepping's
-    /// estimate from its parameters' covariance), to set beside the
-    /// validation's observed `heading_rms_deg_after`.
+    /// The true-heading error the calibration predicts for itself, ° RMS:
+    /// the back-stepping's estimate from its parameters' covariance
+    /// (`quality.predicted_heading_rms_deg`) and the run's white heading
+    /// noise in quadrature, to set beside the validation's observed
+    /// `heading_rms_deg_after`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub predicted_heading_rms_deg: Option<f64>,
     /// Observed over predicted: `heading_rms_deg_after /

@@ -23,11 +23,12 @@ pub mod plot;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use calib_core::heading::{magnetic_heading_rad, wrap_pi};
+use calib_core::heading::wrap_pi;
 use serde::{Deserialize, Serialize};
 
 use crate::compute::card::{deviation_card, CardError, DeviationCard};
-use crate::compute::truth::{heading_rms_deg, true_headings_rad};
+use crate::compute::magnetic_headings;
+use crate::compute::truth::{calibrated_fields_nt, heading_rms_deg, true_headings_rad};
 use crate::data::caldoc::CalDoc;
 use crate::data::recording::Recording;
 use crate::data::results::{SessionSettings, SessionSummary};
@@ -235,7 +236,9 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs<'_>) -> Result<WrittenRepo
         (None, Some((b, a))) => (b.as_deref().map(rms), Some(rms(a)), "the final calibration applied to the validation recording"),
         (None, None) => (None, None, ""),
     };
-    let predicted = inputs.cals.iter().rev().find_map(|(_, d)| d.quality.predicted_heading_rms_deg);
+    // The session's prediction (the fit's covariance and the run's white
+    // heading noise) when there is one, else the final document's own.
+    let predicted = inputs.summary.and_then(|s| s.predicted_heading_rms_deg).or_else(|| inputs.cals.iter().rev().find_map(|(_, d)| d.quality.predicted_heading_rms_deg));
     let verified = match inputs.summary {
         Some(s) if s.coefficients_verified => format!("<span class=\"ok\">yes</span> (board set #{})", s.coefficient_seq),
         Some(_) => "<span class=\"bad\">NO</span>".into(),
@@ -246,7 +249,7 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs<'_>) -> Result<WrittenRepo
         let _ = writeln!(page.body, "<tr><th class=\"l\">{k}</th><td class=\"l big\">{v}</td></tr>");
     };
     row("True-heading RMS on validation, before → after", format!("{} → {}", fmt_opt(before_rms, 2, "°"), fmt_opt(after_rms, 2, "°")));
-    row("Predicted heading error (from the fit's uncertainty)", fmt_opt(predicted, 2, "° RMS"));
+    row("Predicted heading error (the fit's uncertainty and the heading noise)", fmt_opt(predicted, 2, "° RMS"));
     if let (Some(p), Some(after)) = (predicted, after_rms) {
         if p > 0.0 {
             row("Observed ÷ predicted heading error", format!("{:.2} (near 1: the prediction is honest)", after / p));
@@ -309,8 +312,9 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs<'_>) -> Result<WrittenRepo
         (Some(swing), _) if swing.roll_deg.is_none() || swing.pitch_deg.is_none() => page.missing("coverage", "the swing test has no roll_deg/pitch_deg columns"),
         (Some(swing), Some(doc)) => {
             let (roll, pitch) = (swing.roll_deg.as_deref().unwrap_or(&[]), swing.pitch_deg.as_deref().unwrap_or(&[]));
-            let cal = doc.field_cal();
-            let heading: Vec<f64> = (0..swing.len()).map(|i| magnetic_heading_rad(cal.apply(swing.mag[i]), roll[i].to_radians(), pitch[i].to_radians()).to_degrees()).collect();
+            // With the document's current and temperature terms, as everywhere
+            // (roll and pitch are there: checked above).
+            let heading: Vec<f64> = magnetic_headings(swing, doc).unwrap_or_default().iter().map(|h| h.to_degrees()).collect();
             let by_roll = CoverageGrid::new(heading.iter().copied().zip(roll.iter().copied()), 30.0, 60.0, 10.0, ROLL_GATE_DEG);
             let by_pitch = CoverageGrid::new(heading.iter().copied().zip(pitch.iter().copied()), 30.0, 15.0, 2.5, PITCH_GATE_DEG);
             page.p(&format!(
@@ -335,11 +339,7 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs<'_>) -> Result<WrittenRepo
         (Some(run), Some(t)) if !inputs.cals.is_empty() => {
             let mut series = Vec::new();
             for (label, doc) in &inputs.cals {
-                let cal = doc.field_cal();
-                let f: Vec<f64> = run.mag.iter().map(|m| {
-                    let h = cal.apply(*m);
-                    (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt()
-                }).collect();
+                let f: Vec<f64> = calibrated_fields_nt(doc, run).iter().map(|h| (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt()).collect();
                 series.push(Series { name: label.clone(), points: thin(run.len(), LINE_POINTS).map(|i| (t[i], f[i])).collect(), dots: false });
                 if let Some(r) = field_nt {
                     field_errors.push((label.clone(), f.iter().map(|v| v - r).collect()));

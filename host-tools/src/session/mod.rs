@@ -189,7 +189,9 @@ pub fn run<P: Read + Write>(
     };
     save_json(&cfg.out_dir, "settings.json", &settings)?;
     let validation_summary = validation.as_ref().map(|(_, m)| *m).filter(|v| v.validation_samples > 0);
-    let predicted_heading_rms_deg = chain.final_doc.quality.predicted_heading_rms_deg.or(chain.backstepped.quality.predicted_heading_rms_deg);
+    // The chain's prediction: the fit's covariance and the run's white
+    // heading noise together, the same number the bench holds to 0.5–2×.
+    let predicted_heading_rms_deg = chain.predicted_heading_rms_deg;
     let heading_rms_observed_over_predicted = match (validation_summary, predicted_heading_rms_deg) {
         (Some(v), Some(p)) if p > 0.0 && v.heading_rms_deg_after.is_finite() => Some(v.heading_rms_deg_after / p),
         _ => None,
@@ -284,7 +286,7 @@ pub fn validation_metrics(val: &Recorded, before: &CalDoc, site: &Site) -> Valid
     // Against the true local field where the vehicle knows it, else IGRF.
     let field_against_truth = val.true_field_nt.iter().any(|f| f.is_finite());
     let field = if field_against_truth {
-        field_rms_against_nt(fields().map(|(f, i)| (f, val.true_field_nt.get(i).copied().unwrap_or(f64::NAN))))
+        truth::field_rms_against_nt(fields().map(|(f, i)| (f, val.true_field_nt.get(i).copied().unwrap_or(f64::NAN))))
     } else {
         truth::field_rms_nt(fields(), rec, site)
     };
@@ -295,20 +297,6 @@ pub fn validation_metrics(val: &Recorded, before: &CalDoc, site: &Site) -> Valid
         field_against_truth,
         validation_samples: after_rms.samples,
     }
-}
-
-/// RMS of `|field| − reference` over `(field_nt, reference_nt)` pairs, nT;
-/// pairs with a non-finite side are left out.
-fn field_rms_against_nt(pairs: impl IntoIterator<Item = ([f64; 3], f64)>) -> truth::Rms {
-    let (mut ss, mut n) = (0.0, 0usize);
-    for (h, reference_nt) in pairs {
-        let e = (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt() - reference_nt;
-        if e.is_finite() {
-            ss += e * e;
-            n += 1;
-        }
-    }
-    truth::Rms { rms: if n == 0 { f64::NAN } else { (ss / n as f64).sqrt() }, samples: n }
 }
 
 /// The session's report (`report/index.html`) and the deviation card of
