@@ -66,15 +66,8 @@ pub fn field_error_nt(doc: &CalDoc, sim: &Simulation) -> f64 {
 pub fn field_error_true_nt(doc: &CalDoc, sim: &Simulation) -> Option<f64> {
     let (n, e, d) = (sim.effect_column("true_field_n_nt")?, sim.effect_column("true_field_e_nt")?, sim.effect_column("true_field_d_nt")?);
     let h = truth::calibrated_fields_nt(doc, &sim.recording);
-    let (mut ss, mut count) = (0.0, 0usize);
-    for i in (0..h.len()).step_by(10) {
-        let err = (h[i][0].powi(2) + h[i][1].powi(2) + h[i][2].powi(2)).sqrt() - (n[i].powi(2) + e[i].powi(2) + d[i].powi(2)).sqrt();
-        if err.is_finite() {
-            ss += err * err;
-            count += 1;
-        }
-    }
-    (count > 0).then(|| (ss / count as f64).sqrt())
+    let r = truth::field_rms_against_nt((0..h.len()).step_by(10).map(|i| (h[i], (n[i].powi(2) + e[i].powi(2) + d[i].powi(2)).sqrt())));
+    (r.samples > 0).then_some(r.rms)
 }
 
 /// What the chain achieved on one simulated field test.

@@ -186,6 +186,8 @@ pub fn backstep_recording(rec: &Recording, doc: &CalDoc, opts: &BackstepOptions)
     let before = run_stats(&doc.field_cal(), &samples).map_err(bs)?;
     let mut trace = Vec::new();
     let mut joint: Option<JointSolution<f64>> = None;
+    // The joint refinement's run statistics, computed once for its trace.
+    let mut joint_after = None;
     let (kind, cal, extra) = match opts.method {
         BackstepMethod::Paper => {
             let start = AxisCoefficients::from_field_cal(&doc.field_cal()).ok_or_else(|| {
@@ -214,15 +216,16 @@ pub fn backstep_recording(rec: &Recording, doc: &CalDoc, opts: &BackstepOptions)
                 stats: RunStatsDoc::from(&s),
             });
             let details = JointDetails { running_bias_raw: r.running_bias, resting_bias_raw: r.resting.bias, swing_samples: swing.len() };
+            let running = r.running;
             joint = Some(r);
-            (ModelKind::Full, joint.as_ref().map_or(doc.field_cal(), |r| r.running), Some(details))
+            joint_after = Some(s);
+            (ModelKind::Full, running, Some(details))
         }
     };
-    let after = match &joint {
-        Some(r) => run_stats(&cal, &corrected(&samples, r)),
-        None => run_stats(&cal, &samples),
-    }
-    .map_err(bs)?;
+    let after = match joint_after {
+        Some(s) => s,
+        None => run_stats(&cal, &samples).map_err(bs)?,
+    };
     let (_, f_ref) = calib_core::backstep::reference_means(&samples);
     let mut out = CalDoc::new(kind, &cal, f_ref, doc.quality.clone());
     out.declination_deg = doc.declination_deg;

@@ -49,6 +49,7 @@ struct GpsColumns {
 
 /// What the track needs besides the GPS: the headings, the speed through
 /// water, the true course, the declination and the gap limit.
+#[derive(Clone, Copy)]
 struct TrackInputs<'a> {
     t: &'a [f64],
     headings: &'a [f64],
@@ -148,22 +149,10 @@ const DELAY_SETTLED_S: f64 = 0.02;
 /// current, alternating with the current (starting from `delay_s`, the
 /// estimate against raw course); `delay_s` unchanged when the current
 /// cannot be estimated.
-#[allow(clippy::too_many_arguments)]
-fn delay_in_current(
-    t: &[f64],
-    headings: &[f64],
-    reference: &[f64],
-    steady: &[f64],
-    speed: &[f64],
-    gps: &GpsColumns,
-    decl: f64,
-    gap: f64,
-    max_s: f64,
-    mut delay_s: f64,
-) -> f64 {
-    let course_true: Vec<f64> = steady.iter().map(|r| r + decl).collect();
+fn delay_in_current(i: &TrackInputs<'_>, gps: &GpsColumns, reference: &[f64], max_s: f64, mut delay_s: f64) -> f64 {
+    let TrackInputs { t, headings, speed, decl, gap, .. } = *i;
     for _ in 0..MAX_DELAY_ROUNDS {
-        let track = gps.track(&TrackInputs { t, headings, speed, course_true: &course_true, decl, gap }, delay_s);
+        let track = gps.track(i, delay_s);
         let Ok(fit) = fit_swing_in_current(&track) else { return delay_s };
         let c = fit.current.current_ne_mps;
         // Every reference sample (turns too: the delay shows there) turned
@@ -219,8 +208,11 @@ pub fn swing_recording_with(rec: &Recording, doc: &CalDoc, delay: Delay, current
     // the delay search against raw course then fits the crab instead of the
     // lag. So the delay and the current alternate: the current at the
     // delay, course turned into heading with it, the delay again.
-    if let (Delay::Estimate { max_s }, CurrentMode::Auto, Some(speed), Ok(gps)) = (delay, current, rec.speed_mps.as_ref(), gps_columns(rec, t)) {
-        delay_s = delay_in_current(t, &headings, &reference, &steady, speed, &gps, decl, gap, max_s, delay_s);
+    let gps = gps_columns(rec, t);
+    let course_true: Vec<f64> = steady.iter().map(|r| r + decl).collect();
+    let inputs = |speed| TrackInputs { t, headings: &headings, speed, course_true: &course_true, decl, gap };
+    if let (Delay::Estimate { max_s }, CurrentMode::Auto, Some(speed), Ok(gps)) = (delay, current, rec.speed_mps.as_ref(), &gps) {
+        delay_s = delay_in_current(&inputs(speed), gps, &reference, max_s, delay_s);
     }
     let turning = reference.iter().zip(&steady).filter(|(r, s)| r.is_finite() && !s.is_finite()).count();
     let mut fit = fit_swing(aligned_pairs(t, &headings, t, &steady, delay_s, gap))?;
@@ -228,12 +220,11 @@ pub fn swing_recording_with(rec: &Recording, doc: &CalDoc, delay: Delay, current
     let mut current_report = None;
     if current == CurrentMode::Auto {
         const FALLBACK: &str = "GPS course used as heading (in a current the crab angle goes into B and C)";
-        match (rec.speed_mps.as_ref(), gps_columns(rec, t)) {
+        match (rec.speed_mps.as_ref(), &gps) {
             (None, _) => warnings.push(format!("no speed_mps column (speed through water), so the water current cannot be estimated: {FALLBACK}")),
             (Some(_), Err(why)) => warnings.push(format!("{why}, so the water current cannot be estimated: {FALLBACK}")),
             (Some(speed), Ok(gps)) => {
-                let course_true: Vec<f64> = steady.iter().map(|r| r + decl).collect();
-                let track = gps.track(&TrackInputs { t, headings: &headings, speed, course_true: &course_true, decl, gap }, delay_s);
+                let track = gps.track(&inputs(speed), delay_s);
                 match fit_swing_in_current(&track) {
                     Ok(r) => {
                         if !r.converged {

@@ -101,11 +101,18 @@ pub fn environments(doc: &CalDoc, rec: &Recording) -> Vec<Environment<f64>> {
 /// RMS of |h| − IGRF (nT) over `(h_nt, row)` pairs, IGRF taken at the row's
 /// `lat_deg`/`lon_deg` at the site's date; rows without a position are left out.
 pub fn field_rms_nt(fields: impl IntoIterator<Item = ([f64; 3], usize)>, rec: &Recording, site: &Site) -> Rms {
+    field_rms_against_nt(fields.into_iter().filter_map(|(h, i)| {
+        let (lat, lon) = (rec.lat_deg.as_ref()?.get(i)?, rec.lon_deg.as_ref()?.get(i)?);
+        Some((h, site.field_at(*lat, *lon).ok()?.total_nt()))
+    }))
+}
+
+/// RMS of `|field| − reference` over `(field_nt, reference_nt)` pairs, nT;
+/// pairs with a non-finite side are left out.
+pub fn field_rms_against_nt(pairs: impl IntoIterator<Item = ([f64; 3], f64)>) -> Rms {
     let (mut ss, mut n) = (0.0, 0);
-    for (h, i) in fields {
-        let (Some(lat), Some(lon)) = (rec.lat_deg.as_ref().and_then(|c| c.get(i)), rec.lon_deg.as_ref().and_then(|c| c.get(i))) else { continue };
-        let Ok(f) = site.field_at(*lat, *lon) else { continue };
-        let e = (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt() - f.total_nt();
+    for (h, reference_nt) in pairs {
+        let e = (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt() - reference_nt;
         if e.is_finite() {
             ss += e * e;
             n += 1;
