@@ -8,12 +8,17 @@ use e2e_tests::{boot, magcal_bin};
 use host_tools::board::log::{LogEnd, LogSummary};
 use host_tools::data::merge::BoardLog;
 
+/// The two tests time the board's stream: one QEMU at a time, so that they
+/// do not share the two cores with each other.
+static ONE_BOARD: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 fn steps_ms(log: &BoardLog) -> Vec<i64> {
     log.t_s.windows(2).map(|w| ((w[1] - w[0]) * 1000.0).round() as i64).collect()
 }
 
 #[test]
 fn the_board_stream_is_logged_on_its_clock_and_ctrl_c_ends_it_cleanly() {
+    let _one = ONE_BOARD.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let board = boot("log");
     let dir = std::env::temp_dir().join(format!("magcal-e2e-log-{}", std::process::id()));
     let _ = std::fs::create_dir_all(&dir);
@@ -142,6 +147,7 @@ impl Drop for Relay {
 
 #[test]
 fn a_pulled_cable_is_a_reported_gap_and_logging_goes_on_with_the_real_board() {
+    let _one = ONE_BOARD.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let board = boot("log-drop");
     let dir = std::env::temp_dir().join(format!("magcal-e2e-log-drop-{}", std::process::id()));
     let _ = std::fs::create_dir_all(&dir);
