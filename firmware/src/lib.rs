@@ -18,6 +18,7 @@
 pub mod acquisition;
 pub mod adc;
 pub mod board;
+pub mod clocks;
 pub mod device;
 pub mod layout;
 pub mod link;

@@ -63,7 +63,8 @@ mod app {
     use super::Mono;
     use core::sync::atomic::{AtomicU32, Ordering};
     use embedded_hal_bus::spi::{ExclusiveDevice, NoDelay};
-    use firmware::acquisition::{AcqCounters, Acquisition, Decimator, SetResetStrap, ADC_CLKIN_HZ, PAIR_RATE_HZ, SPI_SCLK_HZ};
+    use firmware::acquisition::{AcqCounters, Acquisition, Decimator, SetResetStrap, PAIR_RATE_HZ};
+    use firmware::clocks::{self, ADC_CLKIN_HZ, SPI_SCLK_HZ};
     use firmware::board::{BoardDrdy, BoardPin, BoardSpi, BoardStore, QemuFlash};
     use firmware::board_hw::{boot_challenge, BoardFlash, CycleDelay, ExtiDrdy, Stopwatch};
     use firmware::device::{decode_coefficients, BoardCounters, Boot, CoefficientStore, Device, Handled};
@@ -142,9 +143,9 @@ mod app {
         let challenge = boot_challenge(platform);
 
         let (mut rcc, sysclk_hz) = match platform {
-            Platform::Qemu => (cx.device.RCC.freeze(Config::hsi()), platform::QEMU_SYSCLK_HZ),
+            Platform::Qemu => (cx.device.RCC.freeze(Config::hsi()), clocks::QEMU_SYSCLK_HZ),
             Platform::Silicon => {
-                let rcc = cx.device.RCC.freeze(Config::hse(platform::BOARD_HSE_HZ.Hz()).sysclk(platform::BOARD_SYSCLK_HZ.Hz()));
+                let rcc = cx.device.RCC.freeze(Config::hse(clocks::BOARD_HSE_HZ.Hz()).sysclk(clocks::BOARD_SYSCLK_HZ.Hz()));
                 let hz = rcc.clocks.sysclk().raw();
                 (rcc, hz)
             }
