@@ -44,8 +44,10 @@ pub const MAGIC: u32 = 0x4C41_434D; // "MCAL" little-endian
 pub const VERSION: u16 = 2;
 /// The oldest record version still read.
 pub const OLDEST_VERSION: u16 = 1;
-/// Largest payload stored.
-pub const MAX_PAYLOAD: usize = 224;
+/// Largest payload stored: an encoded coefficient set
+/// ([`magcal_protocol::Coefficients::MAX_ENCODED_LEN`], 104 bytes; a
+/// version-1 record's set is shorter).
+pub const MAX_PAYLOAD: usize = magcal_protocol::Coefficients::MAX_ENCODED_LEN;
 const HEADER: usize = 16;
 // Bit by bit, as the protocol's (no 1 KiB table in flash for a rare save).
 const CRC32: crc::Crc<u32, crc::NoTable> = crc::Crc::<u32, crc::NoTable>::new(&crc::CRC_32_ISO_HDLC);
