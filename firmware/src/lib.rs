@@ -15,6 +15,9 @@
 // and each enum lives once, in a task's state.
 #![allow(clippy::large_enum_variant)]
 
+#[cfg(all(feature = "mock-flash", not(test)))]
+extern crate std;
+
 pub mod acquisition;
 pub mod adc;
 pub mod board;

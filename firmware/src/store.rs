@@ -27,7 +27,9 @@
 //! blocking), it needs more flash pages for its own bookkeeping, and one
 //! fixed-size record written rarely does not need wear levelling. The A/B
 //! store is under 200 lines with its power-cut tests (`store/tests.rs`) on
-//! a datasheet model of the F405's flash (`store/f405_flash.rs`).
+//! a datasheet model of the F405's flash (`store/f405_flash.rs`, a test
+//! double shared with the fuzz target through the `mock-flash` feature, as
+//! sequential-storage shares its mock flash with its fuzzers).
 
 // Indexing below is into fixed-size header/body buffers at fixed offsets;
 // lengths read from flash are bounded before use.
@@ -265,7 +267,7 @@ impl<const N: usize, const SECTOR: usize> NorFlash for RamFlash<N, SECTOR> {
     }
 }
 
-#[cfg(test)]
-pub(crate) mod f405_flash;
+#[cfg(any(test, feature = "mock-flash"))]
+pub mod f405_flash;
 #[cfg(test)]
 pub(crate) mod tests;
