@@ -117,12 +117,10 @@ fn the_validation_run_passes_the_pier_at_a_few_metres() {
     assert!(checked > 100, "{checked}");
     // Away from the pier (> 500 m) the counts are the effect-free run's.
     let mut far = 0;
-    for i in 0..sim.recording.len() {
+    for (i, (got, want)) in sim.recording.mag.iter().zip(&plain.recording.mag).enumerate() {
         if distance[i] > 500.0 {
             far += 1;
-            for k in 0..3 {
-                assert!((sim.recording.mag[i][k] - plain.recording.mag[i][k]).abs() <= 1.0, "row {i}");
-            }
+            assert!((0..3).all(|k| (got[k] - want[k]).abs() <= 1.0), "row {i}");
         }
     }
     assert!(far > sim.recording.len() / 2);
@@ -169,9 +167,9 @@ fn a_payload_switched_on_moves_the_hard_iron_from_that_moment() {
         let after = t[i] >= 1800.0;
         assert_eq!(on[i] == 1.0, after);
         assert!((disturbance[i] - if after { want_nt } else { 0.0 }).abs() < 1e-6, "row {i}");
-        for k in 0..3 {
+        for (k, shift_k) in shift.iter().enumerate() {
             let moved = sim.recording.mag[i][k] - plain.recording.mag[i][k];
-            let want = if after { shift[k] } else { 0.0 };
+            let want = if after { *shift_k } else { 0.0 };
             // Rounding to whole counts: within one count.
             assert!((moved - want).abs() <= 1.0, "row {i} axis {k}: {moved} vs {want}");
         }
