@@ -85,8 +85,8 @@ fn the_validation_run_passes_the_pier_at_a_few_metres() {
     let truth = sim.truth.effects.as_ref().unwrap().structure.clone().unwrap();
     eprintln!("closest {:.2} m at {:.0} s, peak {:.0} nT", truth.closest_m, truth.closest_t_s, truth.peak_disturbance_nt);
     assert!((2.0..=10.0).contains(&truth.closest_m), "{truth:?}");
-    // Measured: 3.11 m, 1 661 nT.
-    assert!((800.0..=4000.0).contains(&truth.peak_disturbance_nt), "{truth:?}");
+    // Measured: 2.62 m, 3 270 nT.
+    assert!((1500.0..=8000.0).contains(&truth.peak_disturbance_nt), "{truth:?}");
     let distance = sim.effect_column("structure_distance_m").unwrap();
     let disturbance = sim.effect_column("truth_disturbance_nt").unwrap();
     // Far field: the sum of the segments' moments at the pier's centre.

@@ -94,7 +94,7 @@ pub struct Args {
     /// wrong by 100–300 nT), `ahrs` (AHRS misaligned by tenths of a degree),
     /// `current` (water current, speed log, kinematically consistent GPS);
     /// `all` is these five. Two disturbances for integrity checks, not in
-    /// `all`: `structure` (a steel pier passed at ~3 m on the validation
+    /// `all`: `structure` (a steel pier passed at ~2.6 m on the validation
     /// run), `payload` (a motor switched on 1 800 s into the validation
     /// run). Their true values go into the truth JSON.
     #[arg(long, default_value = "none", value_parser = parse_effects)]
