@@ -120,7 +120,13 @@ impl<'a> Profile<'a> {
         if params.speed_mps > MAX_SPEED_MPS || speed_back_mps > MAX_SPEED_MPS {
             return Err(SimError::Parameter(format!("speeds {} / {speed_back_mps} m/s: the simulator's limit is {MAX_SPEED_MPS} m/s", params.speed_mps)));
         }
+        if !(params.course_out_deg.is_finite() && params.course_back_deg.is_finite()) {
+            return Err(SimError::Parameter(format!("courses {} / {} degrees must be finite", params.course_out_deg, params.course_back_deg)));
+        }
         let current = effects.current.as_ref().map_or((params.current_mps, params.current_to_deg), |w| (w.current_mps, w.current_to_deg));
+        if !current.1.is_finite() {
+            return Err(SimError::Parameter(format!("the current's direction {} degrees must be finite", current.1)));
+        }
         if !(current.0 >= 0.0 && current.0 < params.speed_mps.min(speed_back_mps) && params.gps_delay_s >= 0.0 && params.gps_delay_s < 60.0) {
             return Err(SimError::Parameter("the current must be slower than the vehicle and the GPS delay within 0…60 s".into()));
         }
