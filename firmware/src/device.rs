@@ -51,7 +51,9 @@ mod pipeline;
 mod unlock;
 
 use calib_core::cal::Calibration;
-use magcal_protocol::{CoefficientSource, Coefficients, DeviceError, RequestBody, ResponseBody};
+use magcal_protocol::{CoefficientSource, Coefficients, DeviceError, RequestBody, ResponseBody, Sample, StreamMode};
+
+use crate::acquisition::RawSample;
 #[cfg(doc)]
 use magcal_protocol::{ATTITUDE_TIMEOUT_MS, UNLOCK_XOR};
 
@@ -128,6 +130,25 @@ impl Device {
         &self.calibration
     }
 
+    /// The output rate asked for, Hz.
+    pub fn output_rate_hz(&self) -> u8 {
+        self.pipeline.output_rate_hz
+    }
+
+    /// What is streamed.
+    pub fn stream(&self) -> StreamMode {
+        self.pipeline.stream
+    }
+
+    /// Processes one decimated raw sample through the [`pipeline`]: the
+    /// current and temperature terms (see the module doc for stale or
+    /// missing inputs), the on-board fit, the coefficients and the heading
+    /// (with a fresh attitude, and a fresh current when the current term
+    /// needs one); returns the sample to stream, if streaming.
+    pub fn on_raw_sample(&mut self, raw: &RawSample, now_ms: u32) -> Option<Sample> {
+        self.pipeline.process(raw, now_ms, &self.calibration, &self.inputs, self.fit.as_mut())
+    }
+
     fn refuse(&mut self, e: DeviceError) -> ResponseBody {
         self.last_error = Some(e);
         ResponseBody::Error(e)
@@ -155,7 +176,10 @@ impl Device {
             RequestBody::Ping { nonce } => ResponseBody::Pong { nonce },
             RequestBody::Identify => ResponseBody::Error(DeviceError::Unsupported),
             RequestBody::Status => ResponseBody::Status(self.health(now_ms, board)),
-            RequestBody::SetStream(_) | RequestBody::SetOutputRate { .. } => self.handle_output(req),
+            RequestBody::SetStream(_) | RequestBody::SetOutputRate { .. } => match self.pipeline.set_output(req) {
+                Ok(()) => ResponseBody::Ack,
+                Err(e) => self.refuse(e),
+            },
             RequestBody::Attitude { .. } | RequestBody::Motion { .. } | RequestBody::AttitudeEnv { .. } => match self.inputs.accept(req, now_ms) {
                 Ok(()) => ResponseBody::Ack,
                 Err(e) => self.refuse(e),
