@@ -119,7 +119,7 @@ pub struct Tuning<T> {
     pub bias_sigma_rad_s: T,
     /// Longest step the gyro is integrated over, s; a longer gap re-anchors.
     pub max_gap_s: T,
-    /// Passing time that ends a disturbance, s.
+    /// Passing time that ends a disturbance (strictly more than this), s.
     pub exit_s: T,
     /// Field passing but the gyro disagreeing this long re-anchors, s.
     pub reanchor_s: T,
@@ -395,7 +395,7 @@ impl<T: Real> Monitor<T> {
         }
         if pass {
             self.pass_s += dt;
-            if self.pass_s >= self.tuning.exit_s {
+            if self.pass_s > self.tuning.exit_s {
                 self.disturbed = false;
             }
         } else {

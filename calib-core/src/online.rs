@@ -128,7 +128,15 @@ impl<T: Real> OnlineIntegrity<T> {
             }
             None => (cal.field.apply(used_raw), None),
         };
+        let was_invalid = self.monitor.cal_invalid();
         let mut verdict = self.monitor.step(field_nt, heading_rad.unwrap_or(T::ZERO), tilt, rate_rad_s, dt_s);
+        if !was_invalid && self.monitor.cal_invalid() && !self.applied {
+            // The misfit's onset: what the estimator saw before belongs to
+            // the old vehicle.
+            self.estimator.reset();
+            self.shadow_misfit = T::ZERO;
+            self.shadow_seen_s = T::ZERO;
+        }
         if self.applied {
             verdict.heading_sigma_rad = (verdict.heading_sigma_rad * verdict.heading_sigma_rad + self.applied_sigma_rad * self.applied_sigma_rad).sqrt();
         }
