@@ -309,3 +309,50 @@ pub fn write_applied(path: &Path, input: &Path, t_s: Option<&[f64]>, applied: &A
     }
     std::fs::write(path, text).map_err(io)
 }
+
+/// How well the integrity separates good headings from bad against a
+/// reference heading (the rule of the bench and the real-data tests): the
+/// heading error with one constant offset removed (as a declination
+/// would), the rows off by more than `bad_deg`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct IntegrityScore {
+    /// Rows with a heading and a reference.
+    pub rows: usize,
+    /// Fraction of them judged ok.
+    pub ok_fraction: f64,
+    /// Rows off by more than `bad_deg`.
+    pub bad_rows: usize,
+    /// Fraction of those not judged ok (NaN without any).
+    pub bad_not_ok_fraction: f64,
+    /// Heading RMS error over the ok rows, degrees (NaN without any).
+    pub ok_rms_deg: f64,
+    /// RMS of the predicted σ over the ok rows, degrees (NaN without any).
+    pub ok_predicted_deg: f64,
+}
+
+impl IntegrityScore {
+    /// Observed over predicted heading RMS on the ok rows (1 is honest).
+    pub fn sigma_ratio(&self) -> f64 {
+        self.ok_rms_deg / self.ok_predicted_deg
+    }
+}
+
+/// Scores `applied` against `reference_deg`, rows off by more than `bad_deg` counting as bad.
+pub fn score(applied: &Applied, reference_deg: &[f64], bad_deg: f64) -> IntegrityScore {
+    let errors = heading_errors_deg(applied, reference_deg);
+    let all: Vec<f64> = errors.iter().flatten().copied().collect();
+    let offset = constant_offset_deg(&all);
+    let rows: Vec<(f64, &AppliedRow)> = errors.iter().zip(&applied.rows).filter_map(|(e, r)| e.map(|e| (wrap_pi((e - offset).to_radians()).to_degrees(), r))).collect();
+    let is_ok = |r: &AppliedRow| r.integrity == IntegrityState::Ok;
+    let ok: Vec<&(f64, &AppliedRow)> = rows.iter().filter(|(_, r)| is_ok(r)).collect();
+    let bad: Vec<&(f64, &AppliedRow)> = rows.iter().filter(|(e, _)| e.abs() > bad_deg).collect();
+    let frac = |n: usize, d: usize| if d == 0 { f64::NAN } else { n as f64 / d as f64 };
+    IntegrityScore {
+        rows: rows.len(),
+        ok_fraction: frac(ok.len(), rows.len()),
+        bad_rows: bad.len(),
+        bad_not_ok_fraction: frac(bad.iter().filter(|(_, r)| !is_ok(r)).count(), bad.len()),
+        ok_rms_deg: rms(ok.iter().map(|(e, _)| *e)).unwrap_or(f64::NAN),
+        ok_predicted_deg: rms(ok.iter().filter_map(|(_, r)| r.heading_sigma_deg)).unwrap_or(f64::NAN),
+    }
+}
