@@ -165,7 +165,7 @@ impl<T: Real> HardIronEstimator<T> {
     /// does not determine all three components.
     pub fn estimate(&self) -> Option<HardIron<T>> {
         let inv = inverse3(&self.info_matrix())?;
-        if !(inv[0][0] > T::ZERO && inv[1][1] > T::ZERO && inv[2][2] > T::ZERO) || !(self.weight > T::from_f64(3.0)) {
+        if !(inv[0][0] > T::ZERO && inv[1][1] > T::ZERO && inv[2][2] > T::ZERO && self.weight > T::from_f64(3.0)) {
             return None;
         }
         let scale = (self.chi2 / self.weight).max(T::ONE);

@@ -262,7 +262,7 @@ impl<T: Real> Monitor<T> {
     pub fn new(reference: Reference<T>, tuning: Tuning<T>) -> Result<Self, IntegrityError> {
         let pos = |v: T| v.is_finite() && v > T::ZERO;
         let r = &reference;
-        let incl_ok = r.inclination_rad.map_or(true, |i| i.is_finite() && i.abs() < T::PI / T::from_f64(2.0));
+        let incl_ok = r.inclination_rad.is_none_or(|i| i.is_finite() && i.abs() < T::PI / T::from_f64(2.0));
         if !(pos(r.field_nt) && pos(r.field_sigma_nt) && r.field_sigma_nt < r.field_nt && incl_ok && r.heading_sigma_rad.is_finite() && r.heading_sigma_rad >= T::ZERO) {
             return Err(IntegrityError::BadReference);
         }

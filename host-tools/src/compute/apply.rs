@@ -54,6 +54,9 @@ pub struct ApplyOptions {
     /// The field's expected scatter, nT (otherwise the document's fit
     /// residual, or [`DEFAULT_FIELD_SIGMA_REL`] of `F`).
     pub field_sigma_nt: Option<f64>,
+    /// The monitor's constants (otherwise [`Tuning::standard`], the
+    /// board's); for studies such as the bench's leave-one-out choice.
+    pub tuning: Option<Tuning<f64>>,
 }
 
 /// One row's result.
@@ -110,9 +113,9 @@ pub fn reference_of(doc: &CalDoc, opts: &ApplyOptions) -> Result<Reference<f64>,
     };
     let heading_sigma_rad = q.predicted_heading_rms_deg.unwrap_or(0.0).to_radians();
     let r = Reference { field_nt: f, field_sigma_nt: scatter, inclination_rad, heading_sigma_rad };
-    calib_core::integrity::Monitor::new(r, Tuning::standard()).map_err(|e| match e {
+    calib_core::integrity::Monitor::new(r, opts.tuning.unwrap_or_else(Tuning::standard)).map_err(|e| match e {
         IntegrityError::BadReference => ApplyError::Reference("the field's scatter must be positive and below field_nt, the inclination within ±90°"),
-        IntegrityError::BadTuning => ApplyError::Reference("bad tuning"),
+        IntegrityError::BadTuning => ApplyError::Reference("a tuning constant is not positive, or the misfit thresholds not 0 < exit < enter < 1"),
     })?;
     Ok(r)
 }
@@ -123,7 +126,7 @@ pub fn apply_recording(rec: &Recording, doc: &CalDoc, opts: &ApplyOptions) -> Re
         return Err(ApplyError::Empty);
     }
     let reference = reference_of(doc, opts)?;
-    let mut online = OnlineIntegrity::new(reference, Tuning::standard()).map_err(|_| ApplyError::Reference("bad reference"))?;
+    let mut online = OnlineIntegrity::new(reference, opts.tuning.unwrap_or_else(Tuning::standard)).map_err(|_| ApplyError::Reference("bad reference"))?;
     let cal = doc.calibration();
     let col = |c: &Option<Vec<f64>>, i: usize| c.as_ref().and_then(|v| v.get(i).copied()).filter(|v| v.is_finite());
     let gyro = rec.gyro_rad_s();

@@ -53,7 +53,7 @@ pub fn run(a: Args) -> Result<()> {
     }
     let doc = CalDoc::load(&a.cal)?;
     let rec = Recording::read(&a.input)?;
-    let opts = ApplyOptions { inclination_deg: a.inclination_deg, field_sigma_nt: a.field_sigma_nt };
+    let opts = ApplyOptions { inclination_deg: a.inclination_deg, field_sigma_nt: a.field_sigma_nt, tuning: None };
     let applied = apply_recording(&rec, &doc, &opts).with_context(|| format!("{}", a.input.display()))?;
     write_applied(&a.out, &a.input, rec.t_s.as_deref(), &applied)?;
     eprintln!("wrote {}", a.out.display());
