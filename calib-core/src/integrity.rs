@@ -40,7 +40,7 @@
 //! (`size_of::<Monitor<f32>>()`, tested); a sample costs two square roots,
 //! three divisions and one angle wrap on top of the heading.
 
-use crate::heading::{wrap_pi, Tilt, Vec3};
+use crate::heading::{Tilt, Vec3};
 use crate::Real;
 
 /// The integrity of one sample's heading.
@@ -192,6 +192,23 @@ pub struct Verdict<T> {
     pub heading_z: T,
 }
 
+/// Wraps an angle within (−3π, 3π] to (−π, π] with compares instead of
+/// `floor` (libm's is software on the Cortex-M4F): every angle here is a
+/// heading in [0, 2π) or (−π, π] plus a small step, or a difference of two.
+#[inline(always)]
+fn wrap_near<T: Real>(mut a: T) -> T {
+    if a > T::PI {
+        a -= T::TAU;
+    }
+    if a <= -T::PI {
+        a += T::TAU;
+    }
+    if a <= -T::PI {
+        a += T::TAU;
+    }
+    a
+}
+
 /// The gyro-propagated heading: a two-state Kalman filter.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -207,7 +224,7 @@ struct GyroHeading<T> {
 impl<T: Real> GyroHeading<T> {
     #[inline(always)]
     fn predict(&mut self, yaw_rate_rad_s: T, dt_s: T, tuning: &Tuning<T>) {
-        self.heading_rad = wrap_pi(self.heading_rad + (yaw_rate_rad_s - self.bias_rad_s) * dt_s);
+        self.heading_rad = wrap_near(self.heading_rad + (yaw_rate_rad_s - self.bias_rad_s) * dt_s);
         self.p00 += dt_s * (dt_s * self.p11 - T::from_f64(2.0) * self.p01) + tuning.heading_walk_rad2_s * dt_s + tuning.scale_var_per_rad * (yaw_rate_rad_s * dt_s).abs();
         self.p01 -= dt_s * self.p11;
         self.p11 += tuning.bias_walk_rad2_s3 * dt_s;
@@ -216,7 +233,7 @@ impl<T: Real> GyroHeading<T> {
     #[inline(always)]
     fn update(&mut self, innovation_rad: T, s: T) {
         let (k0, k1) = (self.p00 / s, self.p01 / s);
-        self.heading_rad = wrap_pi(self.heading_rad + k0 * innovation_rad);
+        self.heading_rad = wrap_near(self.heading_rad + k0 * innovation_rad);
         self.bias_rad_s += k1 * innovation_rad;
         let (p00, p01) = (self.p00, self.p01);
         self.p00 = p00 - k0 * p00;
@@ -225,7 +242,7 @@ impl<T: Real> GyroHeading<T> {
     }
 
     fn anchor(&mut self, heading_rad: T, var_rad2: T) {
-        self.heading_rad = wrap_pi(heading_rad);
+        self.heading_rad = wrap_near(heading_rad);
         self.p00 = var_rad2;
         self.p01 = T::ZERO;
         self.anchored = true;
@@ -380,7 +397,7 @@ impl<T: Real> Monitor<T> {
             _ => self.gyro.anchored = false,
         }
         let anchored = self.gyro.anchored;
-        let (innovation, s) = if anchored { (wrap_pi(heading_rad - self.gyro.heading_rad), self.gyro.p00 + var_m) } else { (T::ZERO, var_m) };
+        let (innovation, s) = if anchored { (wrap_near(heading_rad - self.gyro.heading_rad), self.gyro.p00 + var_m) } else { (T::ZERO, var_m) };
         let heading_z = innovation / s.sqrt();
         let field_ok = field_z.abs() < g && dip_z.abs() < g;
         let pass = field_ok && heading_z.abs() < g;
@@ -446,7 +463,7 @@ impl<T: Real> Monitor<T> {
     #[inline(always)]
     fn track_gyro(&mut self, has_rate: bool, field_ok: bool, pass: bool, heading_rad: T, var_m: T, dt: T) {
         if !self.gyro.anchored {
-            if has_rate && field_ok {
+            if has_rate && field_ok && heading_rad.is_finite() {
                 self.gyro.anchor(heading_rad, var_m);
             }
             self.gyro_fail_s = T::ZERO;
@@ -454,7 +471,7 @@ impl<T: Real> Monitor<T> {
             self.gyro_fail_s = T::ZERO;
         } else if field_ok {
             self.gyro_fail_s += dt;
-            if self.gyro_fail_s > self.tuning.reanchor_s {
+            if self.gyro_fail_s > self.tuning.reanchor_s && heading_rad.is_finite() {
                 self.gyro.anchor(heading_rad, var_m);
                 self.gyro_fail_s = T::ZERO;
             }

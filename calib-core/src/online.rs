@@ -72,6 +72,11 @@ pub struct OnlineIntegrity<T> {
     /// alone when applied), and how long it has been tracked, s.
     shadow_misfit: T,
     shadow_seen_s: T,
+    /// The estimator and shadow run every `alt_every`-th sample (the
+    /// board's CPU budget), over the time accumulated since.
+    alt_every: u8,
+    alt_count: u8,
+    alt_dt_s: T,
     health: Health<T>,
 }
 
@@ -90,8 +95,21 @@ impl<T: Real> OnlineIntegrity<T> {
             applied: false,
             shadow_misfit: T::ZERO,
             shadow_seen_s: T::ZERO,
+            alt_every: 1,
+            alt_count: 0,
+            alt_dt_s: T::ZERO,
             health: Health { samples_per_state: [0; 4], longest_disturbance_s: T::ZERO, current_disturbance_s: T::ZERO, hard_iron_applied: 0 },
         })
+    }
+
+    /// Runs the hard-iron estimator and its shadow check only every `n`-th
+    /// sample (1, the default, every sample; 0 is taken as 1), over the time
+    /// accumulated since: the board's way to fit its CPU budget. The gyro
+    /// rows need the samples they join at most `Tuning::max_gap_s` apart.
+    /// `magcal apply` must use the board's `n` to give the board's bits.
+    pub fn with_estimator_every(mut self, n: u8) -> Self {
+        self.alt_every = n.max(1);
+        self
     }
 
     /// The monitor.
@@ -141,7 +159,16 @@ impl<T: Real> OnlineIntegrity<T> {
             verdict.heading_sigma_rad = (verdict.heading_sigma_rad * verdict.heading_sigma_rad + self.applied_sigma_rad * self.applied_sigma_rad).sqrt();
         }
         let applied_here = self.applied;
-        self.track_alternative(stored_nt, tilt, rate_rad_s, dt_s, cal);
+        if dt_s.is_finite() && dt_s > T::ZERO {
+            self.alt_dt_s += dt_s;
+        }
+        self.alt_count = self.alt_count.saturating_add(1);
+        if self.alt_count >= self.alt_every {
+            let dt = self.alt_dt_s;
+            self.alt_count = 0;
+            self.alt_dt_s = T::ZERO;
+            self.track_alternative(stored_nt, tilt, rate_rad_s, dt, cal);
+        }
         self.count(verdict.state, dt_s);
         Judged { field_nt, heading_rad, verdict, hard_iron_applied: applied_here }
     }

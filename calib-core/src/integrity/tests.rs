@@ -6,7 +6,7 @@
 use super::*;
 use crate::cal::{Calibration, EnvTerms, FieldCal, Swing};
 use crate::hardiron::HardIronEstimator;
-use crate::heading::{heading_of_levelled, ned_field, ned_to_body, wrap_two_pi};
+use crate::heading::{heading_of_levelled, ned_field, ned_to_body, wrap_pi, wrap_two_pi};
 use crate::linalg::identity3;
 use crate::online::OnlineIntegrity;
 
@@ -196,9 +196,22 @@ fn the_state_is_small_and_f32_judges_as_f64() {
 /// calibration (identity: raw in nT), the monitor, the estimator, the guard.
 #[test]
 fn the_on_line_hard_iron_is_estimated_applied_under_the_guard_and_honest() {
+    hard_iron_case(1);
+}
+
+/// The board may run the estimator every other sample (its CPU budget),
+/// the gyro rows then 0.2 s apart: applied too (measured at 37 s, 17 s
+/// after the payload; within 15, 19, 16 nT; 0.85° RMS against 0.98°
+/// predicted).
+#[test]
+fn the_on_line_hard_iron_every_other_sample() {
+    hard_iron_case(2);
+}
+
+fn hard_iron_case(every: u8) {
     let offset = [6000.0, -3000.0, 2000.0];
     let cal = Calibration { field: FieldCal { bias: [0.0; 3], matrix: identity3() }, swing: Swing::zero(), declination_rad: 0.0, env: EnvTerms::none() };
-    let mut online = OnlineIntegrity::new(reference(Some(DIP_RAD)), Tuning::standard()).unwrap();
+    let mut online = OnlineIntegrity::new(reference(Some(DIP_RAD)), Tuning::standard()).unwrap().with_estimator_every(every);
     let mut noise = Noise(11);
     let ned = ned_field(F_NT, DIP_RAD, 0.0);
     let mut applied_at = None;
@@ -238,7 +251,7 @@ fn the_on_line_hard_iron_is_estimated_applied_under_the_guard_and_honest() {
     assert!(n > 1000.0, "{n}");
     let rms = (ok_errors.iter().map(|(e, _)| e * e).sum::<f64>() / n).sqrt();
     let pred = (ok_errors.iter().map(|(_, s)| s * s).sum::<f64>() / n).sqrt();
-    std::println!("applied at {at} s, estimate {:?} σ {:?}, ok rows {n}, RMS {:.3}° predicted {:.3}°", e.offset_nt, e.sigma_nt, rms.to_degrees(), pred.to_degrees());
+    std::println!("every {every}: applied at {at} s, estimate {:?} σ {:?}, ok rows {n}, RMS {:.3}° predicted {:.3}°", e.offset_nt, e.sigma_nt, rms.to_degrees(), pred.to_degrees());
     assert!(rms.to_degrees() < 2.0, "{}", rms.to_degrees());
     assert!(rms / pred > 0.5 && rms / pred < 2.0, "observed {} predicted {}", rms.to_degrees(), pred.to_degrees());
     let h = online.health();
