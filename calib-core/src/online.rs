@@ -84,10 +84,13 @@ pub struct OnlineIntegrity<T> {
 pub const HARD_IRON_TAU_S: f64 = 60.0;
 
 /// The board runs the hard-iron estimator and its shadow check every this
-/// many output samples ([`OnlineIntegrity::with_estimator_every`]) to fit
-/// its CPU budget; `magcal apply` uses the same, so it gives the board's
-/// bits.
-pub const BOARD_ESTIMATOR_EVERY: u8 = 4;
+/// many output samples ([`OnlineIntegrity::with_estimator_every`]);
+/// `magcal apply` uses the same, so it gives the board's bits. Every
+/// sample: at the board's default 10 Hz a larger `n` would join gyro rows
+/// more than `Tuning::max_gap_s` (0.2 s) apart, and the estimator would
+/// never see a rotation (its cost, ~1 300 Cortex-M4 instructions a run,
+/// is reported by `cargo xtask bench`).
+pub const BOARD_ESTIMATOR_EVERY: u8 = 1;
 
 impl<T: Real> OnlineIntegrity<T> {
     /// Integrity for a calibration with this reference.
