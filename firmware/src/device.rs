@@ -215,7 +215,7 @@ impl OnboardFit {
                 cfg.window_steps = ((GYRO_WINDOW_S / period_s + 0.5) as usize).clamp(1, MAX_WINDOW_STEPS);
                 Rls::Gyro(GyroFit::new(norm, cfg), now_ms)
             }
-            ModelKind::Triangular => return None,
+            ModelKind::Triangular | ModelKind::Attitude => return None,
         };
         Some(Self { model, field_nt, rls, coverage: CoverageMask::new(), running: true, recent: heapless::Deque::new(), rejected: 0 })
     }
