@@ -69,4 +69,42 @@ fn the_attitude_fit_calibrates_a_glider_from_its_dives() {
     let peer = peer();
     let (peer_dip, peer_mag) = judge(&peer);
     eprintln!("attitude fit: dip {dip:.3}°, magnitude {mag:.3} %; peer {peer_dip:.3}°, {peer_mag:.3} %; warnings {:?}; predicted {:?}", doc.quality.fit.as_ref().map(|f| &f.warnings), doc.quality.predicted_heading_rms_deg);
+    // The evaluation reproduces the README's numbers for the glider's own
+    // calibration: 0.78° and 1.72 %.
+    assert!((peer_dip - 0.78).abs() < 0.01 && (peer_mag - 1.72).abs() < 0.01, "{peer_dip} {peer_mag}");
+    // Measured: dip 0.609°, magnitude 1.669 % (the peer: 0.784°, 1.722 %;
+    // issue 22's target: dip ≤ the peer's with the magnitude ≤ 1.1 × its
+    // 1.72 % = 1.89 %). The bounds sit between what the fit gives and the
+    // target.
+    assert!(dip < 0.70, "dip scatter {dip}°");
+    assert!(mag < 1.85, "magnitude scatter {mag} %");
+    assert_eq!(doc.model, ModelKind::Attitude);
+    // The covariance predicts 0.15° of heading error (not checkable here:
+    // no heading reference); it must be there and small.
+    let predicted = doc.quality.predicted_heading_rms_deg.unwrap();
+    assert!(predicted > 0.03 && predicted < 0.6, "{predicted}");
+}
+
+#[test]
+fn the_ellipsoid_fits_refuse_the_glider_and_name_the_attitude_model() {
+    // The glider has roll and pitch and no gyro: the refusal names the
+    // model it can use, and not the one it cannot.
+    let rec = Recording::read(&data("sg236_calib.csv")).unwrap();
+    let e = fit_recording(&rec, &opts(ModelKind::Full)).unwrap_err();
+    let text = e.to_string();
+    assert!(text.contains("of field directions were visited") && text.contains("--model attitude") && !text.contains("--model gyro"), "{text}");
+}
+
+#[test]
+fn the_attitude_fit_without_roll_and_pitch_says_so() {
+    let rec = Recording::read(&data("sg236_calib.csv")).unwrap();
+    let e = fit_recording(&Recording { pitch_deg: None, ..rec.clone() }, &opts(ModelKind::Attitude)).unwrap_err();
+    assert_eq!(e.to_string(), "the recording has no `pitch_deg` column, which this command needs");
+    let e = fit_recording(&Recording { roll_deg: None, ..rec.clone() }, &opts(ModelKind::Attitude)).unwrap_err();
+    assert_eq!(e.to_string(), "the recording has no `roll_deg` column, which this command needs");
+    // Radians where degrees belong is caught only when out of range; a
+    // roll column in hundredths of a degree is.
+    let centi = Recording { roll_deg: rec.roll_deg.as_ref().map(|v| v.iter().map(|r| r * 100.0).collect()), ..rec };
+    let e = fit_recording(&centi, &opts(ModelKind::Attitude)).unwrap_err();
+    assert!(e.to_string().contains("must be in degrees"), "{e}");
 }
