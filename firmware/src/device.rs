@@ -200,7 +200,8 @@ const RECENT: usize = 32;
 
 impl OnboardFit {
     /// `None` for a model the board does not fit (triangular: fit `full`,
-    /// the same calibration, and factor it on the host). The gyro-aided fit
+    /// the same calibration, and factor it on the host; attitude: a batch
+    /// fit on the host's recording). The gyro-aided fit
     /// integrates the rates of [`RequestBody::Motion`] between output
     /// samples (`output_rate_hz`).
     fn new(model: ModelKind, field_nt: f32, centre: [f32; 3], output_rate_hz: u8, now_ms: u32) -> Option<Self> {

@@ -37,7 +37,7 @@ fn judge(cal: &FieldCal<f64>) -> (f64, f64) {
     let (roll, pitch) = (rec.roll_deg.as_ref().unwrap(), rec.pitch_deg.as_ref().unwrap());
     let (mut dip, mut mag) = (vec![], vec![]);
     for i in 0..rec.len() {
-        if !(depth[i] > 3.0) {
+        if depth[i].is_nan() || depth[i] <= 3.0 {
             continue;
         }
         let h = cal.apply(rec.mag[i]);

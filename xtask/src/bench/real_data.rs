@@ -48,13 +48,17 @@ fn read_json(path: &Path) -> Option<serde_json::Value> {
     serde_json::from_str(&std::fs::read_to_string(path).ok()?).ok()
 }
 
+/// How a calibration is judged on a validation part: a score (lower is
+/// better) and the text for the table.
+type Judge = Box<dyn Fn(&FieldCal<f64>) -> (f64, String)>;
+
 /// A dataset: its calibration part, how a calibration is judged on its
 /// validation part (lower is better; the text for the table), the floor.
 struct Dataset {
     name: String,
     calib: Recording,
     field_nt: f64,
-    judge: Box<dyn Fn(&FieldCal<f64>) -> (f64, String)>,
+    judge: Judge,
     floor: FieldCal<f64>,
 }
 
