@@ -25,6 +25,7 @@
 // the formulas do; iterator zips would hide the indices the comments cite.
 #![allow(clippy::needless_range_loop)]
 
+pub mod attitude_fit;
 pub mod backstep;
 pub mod cal;
 pub mod conformance;
