@@ -37,7 +37,8 @@
 use crate::cal::FieldCal;
 use crate::fit::{FitError, Normalization};
 use crate::heading::{Tilt, Vec3};
-use crate::linalg::{cholesky_solve, det3, identity3, inverse3, mul_mat, mul_mat_vec, Mat3};
+use crate::linalg::{det3, identity3, inverse3, mul_mat, mul_mat_vec, Mat3};
+use crate::lsq::lm::{self, Acceptance, LmOptions, LmProblem, Linearisation};
 use crate::lsq::QrRls;
 use crate::Real;
 
@@ -484,7 +485,7 @@ fn predicted_heading_rms<T: Real>(x: &[T; UNKNOWNS], n: &Normalised<T>, rms: T, 
 }
 
 /// Most Gauss–Newton passes for the gyro bias per alternation.
-const BIAS_PASSES: usize = 2;
+const BIAS_PASSES: u32 = 2;
 /// Most alternations between the linear field solve and the gyro-bias step.
 const MAX_ALTERNATIONS: usize = 40;
 /// The alternation stops when the gyro bias moves less than this, rad/s.
@@ -500,22 +501,19 @@ pub fn fit_gyro_batch<T: Real>(samples: &[GyroSample<T>], cfg: &GyroConfig<T>, f
     // The linear solve absorbs part of a gyro bias into A and c, so the
     // alternation converges linearly: on the unit tests' data 3 rounds left
     // 6e-4 rad/s and 0.18° of heading, 12 rounds 2e-5 rad/s.
+    // The bias steps: Gauss–Newton (undamped, every step taken) for
+    // BIAS_PASSES iterations with the field fixed.
+    let mut opts = LmOptions::marquardt(T::ZERO);
+    opts.acceptance = Acceptance::Always;
+    opts.max_iterations = BIAS_PASSES;
+    opts.max_tries = 1;
     for _ in 0..MAX_ALTERNATIONS {
         let (_, n) = fit.solve_normalised()?;
-        let mut largest = T::ZERO;
-        for _ in 0..BIAS_PASSES {
-            match gyro_bias_step(samples, &norm, &cfg, &n) {
-                Some(step) => {
-                    for k in 0..3 {
-                        cfg.gyro_bias_rad_s[k] += step[k];
-                        largest = largest.max(step[k].abs());
-                    }
-                }
-                None => break,
-            }
-        }
+        let mut problem = GyroBiasProblem { samples, norm: &norm, cfg: &cfg, n: &n };
+        let out = lm::solve(&mut problem, &cfg.gyro_bias_rad_s, &opts);
+        cfg.gyro_bias_rad_s = out.params;
         fit = run(samples, norm, &cfg);
-        if largest < T::from_f64(BIAS_TOLERANCE_RAD_S) {
+        if out.largest_step < T::from_f64(BIAS_TOLERANCE_RAD_S) {
             break;
         }
     }
@@ -539,58 +537,69 @@ fn normalization_of<T: Real>(samples: &[GyroSample<T>]) -> Option<Normalization<
     Normalization::from_raw_iter(finite)
 }
 
-/// One Gauss–Newton step for the gyro bias with the field fixed: minimises
-/// `Σ |h_j − R(b)·h_i|²` over the windows, derivatives by differences.
-fn gyro_bias_step<T: Real>(samples: &[GyroSample<T>], norm: &Normalization<T>, cfg: &GyroConfig<T>, n: &Normalised<T>) -> Option<Vec3<T>> {
-    let eps = T::from_f64(1e-4);
-    let cfgs: [GyroConfig<T>; 4] = core::array::from_fn(|k| {
-        let mut c = *cfg;
-        if k > 0 {
-            c.gyro_bias_rad_s[k - 1] += eps;
-        }
-        c
-    });
-    let mut chains: [Chain<T>; 4] = core::array::from_fn(|_| Chain::new());
-    let field = |r: Vec3<T>| {
-        let h = mul_mat_vec(&n.a, r);
-        [h[0] - n.c[0], h[1] - n.c[1], h[2] - n.c[2]]
-    };
-    let (mut jtj, mut jte) = ([[T::ZERO; 3]; 3], [T::ZERO; 3]);
-    let mut windows = 0u32;
-    for s in samples {
-        if !(s.t_s.is_finite() && s.raw.iter().chain(s.rate_rad_s.iter()).all(|v| v.is_finite())) {
-            chains = core::array::from_fn(|_| Chain::new());
-            continue;
-        }
-        let r = norm.apply(s.raw);
-        let out: [Option<ChainStep<T>>; 4] = core::array::from_fn(|k| chains[k].push(s, r, &cfgs[k]));
-        let [Some((ri, rj, r0)), Some((_, _, r1)), Some((_, _, r2)), Some((_, _, r3))] = out else { continue };
-        let (hi, hj) = (field(ri), field(rj));
-        let pred = |rot: &Mat3<T>| mul_mat_vec(rot, hi);
-        let p0 = pred(&r0);
-        let e = [hj[0] - p0[0], hj[1] - p0[1], hj[2] - p0[2]];
-        // Column k of the Jacobian of e: −∂(R h_i)/∂b_k.
-        let cols = [&r1, &r2, &r3].map(|rot| {
-            let p = pred(rot);
-            [-(p[0] - p0[0]) / eps, -(p[1] - p0[1]) / eps, -(p[2] - p0[2]) / eps]
+/// The gyro bias with the field fixed, as a problem for the crate's
+/// Levenberg–Marquardt: minimises `Σ |h_j − R(b)·h_i|²` over the windows,
+/// derivatives by differences.
+struct GyroBiasProblem<'a, T> {
+    samples: &'a [GyroSample<T>],
+    norm: &'a Normalization<T>,
+    cfg: &'a GyroConfig<T>,
+    n: &'a Normalised<T>,
+}
+
+impl<T: Real> LmProblem<T, 3> for GyroBiasProblem<'_, T> {
+    fn linearise(&mut self, bias: &Vec3<T>) -> Option<Linearisation<T, 3>> {
+        let eps = T::from_f64(1e-4);
+        let cfgs: [GyroConfig<T>; 4] = core::array::from_fn(|k| {
+            let mut c = *self.cfg;
+            c.gyro_bias_rad_s = *bias;
+            if k > 0 {
+                c.gyro_bias_rad_s[k - 1] += eps;
+            }
+            c
         });
-        for m in 0..3 {
-            for a in 0..3 {
-                jte[a] += cols[a][m] * e[m];
-                for b in 0..3 {
-                    jtj[a][b] += cols[a][m] * cols[b][m];
+        let mut chains: [Chain<T>; 4] = core::array::from_fn(|_| Chain::new());
+        let n = self.n;
+        let field = |r: Vec3<T>| {
+            let h = mul_mat_vec(&n.a, r);
+            [h[0] - n.c[0], h[1] - n.c[1], h[2] - n.c[2]]
+        };
+        let mut lin = Linearisation { jtj: [[T::ZERO; 3]; 3], jtr: [T::ZERO; 3], cost: T::ZERO };
+        let mut windows = 0u32;
+        for s in self.samples {
+            if !(s.t_s.is_finite() && s.raw.iter().chain(s.rate_rad_s.iter()).all(|v| v.is_finite())) {
+                chains = core::array::from_fn(|_| Chain::new());
+                continue;
+            }
+            let r = self.norm.apply(s.raw);
+            let out: [Option<ChainStep<T>>; 4] = core::array::from_fn(|k| chains[k].push(s, r, &cfgs[k]));
+            let [Some((ri, rj, r0)), Some((_, _, r1)), Some((_, _, r2)), Some((_, _, r3))] = out else { continue };
+            let (hi, hj) = (field(ri), field(rj));
+            let pred = |rot: &Mat3<T>| mul_mat_vec(rot, hi);
+            let p0 = pred(&r0);
+            let e = [hj[0] - p0[0], hj[1] - p0[1], hj[2] - p0[2]];
+            // Column k of the Jacobian of e: −∂(R h_i)/∂b_k.
+            let cols = [&r1, &r2, &r3].map(|rot| {
+                let p = pred(rot);
+                [-(p[0] - p0[0]) / eps, -(p[1] - p0[1]) / eps, -(p[2] - p0[2]) / eps]
+            });
+            for m in 0..3 {
+                lin.cost += e[m] * e[m];
+                for a in 0..3 {
+                    lin.jtr[a] += cols[a][m] * e[m];
+                    for b in 0..3 {
+                        lin.jtj[a][b] += cols[a][m] * cols[b][m];
+                    }
                 }
             }
+            windows += 1;
         }
-        windows += 1;
+        (windows >= 4).then_some(lin)
     }
-    if windows < 4 {
-        return None;
+
+    fn cost(&mut self, bias: &Vec3<T>) -> Option<T> {
+        self.linearise(bias).map(|l| l.cost)
     }
-    let step = cholesky_solve(&jtj, &jte).ok()?;
-    // Gauss–Newton: J·δ ≈ −e.
-    let step = step.map(|v| -v);
-    step.iter().all(|v| v.is_finite()).then_some(step)
 }
 
 #[cfg(test)]
