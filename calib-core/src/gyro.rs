@@ -340,7 +340,7 @@ impl<T: Real> GyroFit<T> {
         let w = self.cfg.attitude_weight;
         if s.roll_rad.is_finite() && s.pitch_rad.is_finite() && w > T::ZERO {
             let t = Tilt::new(s.roll_rad, s.pitch_rad);
-            let l = [-t.sin_pitch, t.cos_pitch * t.sin_roll, t.cos_pitch * t.cos_roll];
+            let [_, _, l] = t.matrix();
             let dot = |v: Vec3<T>| l[0] * v[0] + l[1] * v[1] + l[2] * v[2];
             let mut phi = [T::ZERO; UNKNOWNS];
             for k in 1..9 {

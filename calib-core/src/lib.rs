@@ -35,6 +35,7 @@ pub mod linalg;
 pub mod lsq;
 pub mod ortho;
 pub mod quality;
+pub mod series;
 pub mod swing;
 pub mod uncertainty;
 pub mod real;
