@@ -626,7 +626,7 @@ impl<T: Real> LmProblem<T, TIMING> for GyroTimingProblem<'_, T> {
             // Column k of the Jacobian of e: −∂(R h_i)/∂p_k.
             let mut cols = [[T::ZERO; 3]; TIMING];
             for (k, col) in cols.iter_mut().enumerate() {
-                let Some((_, _, rot)) = out[k + 1] else { return None };
+                let (_, _, rot) = out[k + 1]?;
                 let p = mul_mat_vec(&rot, hi);
                 *col = [-(p[0] - p0[0]) / eps, -(p[1] - p0[1]) / eps, -(p[2] - p0[2]) / eps];
             }
