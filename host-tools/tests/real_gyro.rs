@@ -59,36 +59,37 @@ fn trial(name: &str, id: &str) -> (f64, f64) {
 /// The goal of issue 22: within 0.5° of the floor on every trial.
 const MARGIN_DEG: f64 = 0.5;
 
+/// Runs one trial: its floor must be the one its true calibration gives
+/// (`floor_deg`, checks this file's evaluation), and the fit within
+/// [`MARGIN_DEG`] of it.
+fn check(name: &str, id: &str, floor_deg: f64) {
+    let (rms, floor) = trial(name, id);
+    assert!((floor - floor_deg).abs() < 0.01, "{floor}");
+    assert!(rms <= floor + MARGIN_DEG, "{rms} vs floor {floor}");
+}
+
 #[test]
 fn broad_02_limited() {
-    let (rms, floor) = trial("broad-02-limited", "02");
-    // Floor 1.70° (the true calibration); measured 1.67° (issue 22, before the
-    // ring fix and the leave-one-out defaults: 2.07°).
-    assert!((floor - 1.699).abs() < 0.01, "{floor}");
-    assert!(rms <= floor + MARGIN_DEG, "{rms} vs floor {floor}");
+    // Floor 1.70°; measured 1.67° (issue 22, before the ring fix and the
+    // leave-one-out defaults: 2.07°).
+    check("broad-02-limited", "02", 1.699);
 }
 
 #[test]
 fn broad_03() {
-    let (rms, floor) = trial("broad-03", "03");
     // Floor 2.46°; measured 1.59° (issue 22, before: 1.67°).
-    assert!((floor - 2.457).abs() < 0.01, "{floor}");
-    assert!(rms <= floor + MARGIN_DEG, "{rms} vs floor {floor}");
+    check("broad-03", "03", 2.457);
 }
 
 #[test]
 fn broad_05() {
-    let (rms, floor) = trial("broad-05", "05");
     // Floor 2.22° (as its README publishes); measured 1.69° (before: 1.67°).
-    assert!((floor - 2.217).abs() < 0.01, "{floor}");
-    assert!(rms <= floor + MARGIN_DEG, "{rms} vs floor {floor}");
+    check("broad-05", "05", 2.217);
 }
 
 #[test]
 fn broad_09_fast_rotation_with_breaks() {
-    let (rms, floor) = trial("broad-09", "09");
-    // Floor 2.05°; measured 1.60° (issue 22, before: 2.8°; windows across the
-    // chain's ring wrap used one gyro step twice).
-    assert!((floor - 2.050).abs() < 0.01, "{floor}");
-    assert!(rms <= floor + MARGIN_DEG, "{rms} vs floor {floor}");
+    // Floor 2.05°; measured 1.60° (issue 22, before: 2.8°; windows across
+    // the chain's ring wrap used one gyro step twice).
+    check("broad-09", "09", 2.050);
 }
