@@ -30,9 +30,10 @@
 //! time by the square-root RLS of [`crate::lsq`], so the same [`GyroFit`]
 //! runs on the MCU in `f32` and as the batch reference in `f64`. The scale
 //! is set at the end from the reference intensity (or any nominal one: a
-//! heading does not depend on it). [`fit_gyro_batch`] adds the gyro's bias,
-//! estimated from the same windows by Gauss–Newton with the field fixed,
-//! alternated with the linear solve.
+//! heading does not depend on it). [`fit_gyro_batch`] adds the gyro's bias
+//! and the magnetometer's sub-sample lag behind the gyro, estimated from
+//! the same windows by Gauss–Newton (the crate's [`crate::lsq::lm`]) with
+//! the field fixed, alternated with the linear solve.
 
 use crate::cal::FieldCal;
 use crate::fit::{FitError, Normalization};
