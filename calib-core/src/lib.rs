@@ -39,6 +39,7 @@ pub mod lsq;
 pub mod online;
 pub mod ortho;
 pub mod quality;
+pub mod series;
 pub mod swing;
 pub mod uncertainty;
 pub mod real;
