@@ -42,6 +42,7 @@ pub mod quality;
 pub mod series;
 pub mod swing;
 pub mod uncertainty;
+pub mod water_current;
 pub mod real;
 pub mod trigf;
 

@@ -12,7 +12,6 @@
 //! magnetometer heading `delay` seconds earlier, and [`estimate_delay`]
 //! finds the delay that best explains the data.
 
-pub mod current;
 
 use crate::cal::Swing;
 use crate::heading::{wrap_pi, wrap_two_pi};

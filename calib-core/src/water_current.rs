@@ -31,7 +31,7 @@
 //! `δ`, so each round halves what is left of it; the loop stops when the
 //! current moves by less than [`CONVERGED_MPS`].
 
-use super::{fit_swing, heading_at, SwingError, SwingFit};
+use crate::swing::{fit_swing, heading_at, SwingError, SwingFit};
 use crate::cal::Swing;
 use crate::heading::{wrap_pi, wrap_two_pi};
 use crate::Real;
