@@ -11,6 +11,7 @@ use calib_core::ortho::{identify_all_samples, identify_linear, identify_ml, iden
 use serde_json::json;
 
 mod integrity;
+mod real_data;
 
 const PAIRS: [usize; 7] = [30, 60, 120, 240, 480, 720, 1440];
 const SIGMAS: [f64; 5] = [0.0, 1e-4, 1e-3, 1e-2, 3e-2];
@@ -680,6 +681,8 @@ pub fn run(out_dir: &Path) -> Result<()> {
             json!(null)
         }
     };
+    let (real_data, real_data_md) = real_data::real_data(&root);
+    eprintln!("== real recordings, every model (issue 22){real_data_md}");
     eprintln!("== merge: clocks ±60 s and ±100 ppm apart, {} seeds", 3);
     let (merge_numbers, merge_md) = merge_clocks();
     eprintln!("{merge_md}");
@@ -697,6 +700,7 @@ pub fn run(out_dir: &Path) -> Result<()> {
         "f32_rls_vs_f64_batch": f32_check,
         "limited_tilt": limited,
         "merge": merge_numbers,
+        "real_data": real_data,
         "effects": effects_numbers,
     });
     results["integrity"] = integrity::section(&root);

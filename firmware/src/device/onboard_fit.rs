@@ -134,7 +134,7 @@ impl OnboardFit {
                 cfg.window_steps = ((GYRO_WINDOW_S / period_s + 0.5) as usize).clamp(1, MAX_WINDOW_STEPS);
                 Rls::Gyro(GyroRun { fit: GyroFit::new(norm, cfg), start_ms: now_ms })
             }
-            ModelKind::Triangular => return None,
+            ModelKind::Triangular | ModelKind::Attitude => return None,
         };
         Some(Self { model, field_nt, centre, rls, coverage: CoverageMask::new(), running: true, recent: heapless::Deque::new(), rejected: 0 })
     }
