@@ -280,11 +280,14 @@ pub struct Sample {
     /// when the thermistor reads out of range: open or shorted; the sample
     /// was then corrected at the reference temperature).
     pub temp_c: Option<f32>,
-    /// The heading's 1σ, degrees (`None` without a heading), as the
-    /// calibration and the integrity checks see it.
+    /// The heading's 1σ, degrees, as the calibration and the integrity
+    /// checks see it (`None` when the board had no heading: no fresh
+    /// attitude). Sent in every stream mode with [`Sample::integrity`], so a
+    /// raw log records the board's judgement too.
     pub heading_sigma_deg: Option<f32>,
-    /// The heading's integrity: a heading that is not [`Integrity::Ok`] is
-    /// still sent (for plots) but must not be used as a good heading.
+    /// The heading's integrity (in every stream mode): a heading that is
+    /// not [`Integrity::Ok`] is still sent (for plots) but must not be used
+    /// as a good heading.
     pub integrity: Integrity,
 }
 

@@ -163,7 +163,7 @@ impl Pipeline {
             saturated: raw.saturated,
             feed_seq: raw.tag,
             temp_c: raw.temp_c,
-            heading_sigma_deg: judged.heading_sigma_deg.filter(|_| cal_out.is_some()),
+            heading_sigma_deg: judged.heading_sigma_deg,
             integrity: judged.integrity,
         })
     }

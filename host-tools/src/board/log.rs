@@ -29,7 +29,7 @@ use crate::session::record::{reconnect_at, Resume};
 const BATCH: usize = 64;
 
 /// The board log's header (`docs/INTERFACES.md`, "Board log").
-pub const LOG_HEADER: &str = "t,mx,my,mz,temp_c,health";
+pub const LOG_HEADER: &str = "t,mx,my,mz,temp_c,health,heading_sigma_deg,integrity";
 
 /// Why logging could not start or could not go on.
 #[derive(Debug, thiserror::Error)]
@@ -339,12 +339,15 @@ pub fn log_board<P: Read + Write, W: Write>(
                             let flags = health_flags(&sample, after_gap);
                             writeln!(
                                 out,
-                                "{:.3},{},{},{},{},{flags}",
+                                "{:.3},{},{},{},{},{flags},{},{}",
                                 t_s,
                                 fmt_cell(raw.map(|r| r[0])),
                                 fmt_cell(raw.map(|r| r[1])),
                                 fmt_cell(raw.map(|r| r[2])),
-                                fmt_cell(temp)
+                                fmt_cell(temp),
+                                // σ to 0.001° (the f32's digits beyond are noise).
+                                fmt_cell(sample.heading_sigma_deg.map(|d| (f64::from(d) * 1000.0).round() / 1000.0)),
+                                sample.integrity.name()
                             )
                             .map_err(io_err)?;
                             s.samples += 1;

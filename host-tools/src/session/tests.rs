@@ -111,7 +111,7 @@ impl Read for Conn {
             let mut board = self.board.borrow_mut();
             if board.streaming {
                 board.clock_ms += 10;
-                let s = magcal_protocol::Sample { t_ms: board.clock_ms, raw: Some([board.roll_rad * 1000.0, 2.0 + board.current_a * 100.0, 3.0]), field_nt: None, heading_rad: None, saturated: false, feed_seq: None, temp_c: Some(21.5), heading_sigma_deg: None, integrity: magcal_protocol::Integrity::NoAttitude };
+                let s = magcal_protocol::Sample { t_ms: board.clock_ms, raw: Some([board.roll_rad * 1000.0, 2.0 + board.current_a * 100.0, 3.0]), field_nt: None, heading_rad: None, saturated: false, feed_seq: None, temp_c: Some(21.5), heading_sigma_deg: Some(1.25), integrity: magcal_protocol::Integrity::Disturbed };
                 if let Some(f) = board.link.reply(None, magcal_protocol::ResponseBody::Sample(s)) {
                     self.out.extend(f);
                 }
