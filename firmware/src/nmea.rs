@@ -107,16 +107,16 @@ fn push_fixed(line: &mut Line, value: Option<f32>, decimals: u32) {
 
 /// `v · 10^decimals`, rounded, when `0 ≤ v < 10⁶`.
 fn scaled(v: f32, decimals: u32) -> Option<u32> {
-    let scale = 10u32.pow(decimals.min(2)) as f32;
-    // `as` saturates; the range check keeps it exact enough.
-    (v.is_finite() && (0.0..1.0e6).contains(&v)).then(|| (v * scale + 0.5) as u32)
+    let scale = pow10(decimals) as f32;
+    // Within the range checked, `as` is exact to the rounding.
+    (v.is_finite() && (0.0..1.0e6).contains(&v)).then_some((v * scale + 0.5) as u32)
 }
 
 /// Writes `n / 10^decimals` with exactly `decimals` decimals.
 fn push_scaled(line: &mut Line, n: Option<u32>, decimals: u32) {
     let Some(n) = n else { return };
     let d = decimals.min(2);
-    let scale = 10u32.pow(d);
+    let scale = pow10(d);
     push_uint(line, n / scale);
     if d > 0 {
         let _ = line.push(b'.');
@@ -125,6 +125,15 @@ fn push_scaled(line: &mut Line, n: Option<u32>, decimals: u32) {
             let _ = line.push(b'0');
         }
         push_uint(line, frac);
+    }
+}
+
+/// 10^`decimals`, `decimals` ≤ 2 (more is taken as 2): never zero.
+fn pow10(decimals: u32) -> u32 {
+    match decimals {
+        0 => 1,
+        1 => 10,
+        _ => 100,
     }
 }
 
