@@ -21,9 +21,9 @@ use std::time::{Duration, Instant};
 use magcal_protocol::{Health, Sample, StreamMode};
 use serde::{Deserialize, Serialize};
 
-use super::{BoardClient, ClientError};
+use super::client::{BoardClient, ClientError};
+use super::reconnect::{reconnect_at, Resume};
 use crate::data::merge::{HEALTH_AFTER_GAP, HEALTH_SATURATED};
-use crate::session::record::{reconnect_at, Resume};
 
 /// Samples written between flushes and progress updates, at most.
 const BATCH: usize = 64;
@@ -35,7 +35,7 @@ pub const LOG_HEADER: &str = "t,mx,my,mz,temp_c,health";
 #[derive(Debug, thiserror::Error)]
 pub enum LogError {
     /// The output file exists (and overwriting was not asked for).
-    #[error("{0} exists: give another --out, or --force to overwrite it")]
+    #[error("{} exists (and overwriting it was not asked for)", .0.display())]
     Exists(PathBuf),
     /// The output file could not be created or written.
     #[error("{path}: {source}")]
@@ -55,9 +55,9 @@ pub enum LogError {
     /// The board refused to stream (at the start).
     #[error("the board would not stream raw samples: {0}")]
     Stream(ClientError),
-    /// An option is out of range.
-    #[error("{0}")]
-    Option(String),
+    /// The output rate asked for is not 1 to 100 Hz.
+    #[error("the output rate must be 1 to 100 Hz, not {0}")]
+    RateOutOfRange(u8),
 }
 
 /// How long to log and how to treat the link.
@@ -266,7 +266,7 @@ pub fn log_board<P: Read + Write, W: Write>(
     mut on_progress: impl FnMut(&LogProgress),
 ) -> Result<LogSummary, LogError> {
     if !(1..=100).contains(&opts.rate_hz) {
-        return Err(LogError::Option(format!("--rate-hz must be 1 to 100, not {}", opts.rate_hz)));
+        return Err(LogError::RateOutOfRange(opts.rate_hz));
     }
     let io_err = |source| LogError::Io { path: out_path.clone(), source };
     let mut out = io::LineWriter::new(out);
@@ -453,7 +453,7 @@ mod tests {
         let p = dir.path().join("board.csv");
         std::fs::write(&p, "keep me").unwrap();
         let e = create_log_file(&p, false).unwrap_err();
-        assert!(matches!(e, LogError::Exists(_)) && e.to_string().contains("--force"), "{e}");
+        assert!(matches!(&e, LogError::Exists(p) if p == &dir.path().join("board.csv")) && e.to_string().contains("exists"), "{e}");
         assert_eq!(std::fs::read_to_string(&p).unwrap(), "keep me");
         drop(create_log_file(&p, true).unwrap());
         assert_eq!(std::fs::read_to_string(&p).unwrap(), "");

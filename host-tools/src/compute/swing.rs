@@ -6,7 +6,7 @@ use calib_core::swing::current::{fit_swing_in_current, heading_from_course, loca
 use calib_core::swing::{aligned_pairs, estimate_delay, fit_swing, SwingFit, SwingTerms};
 
 use super::units::check_units;
-use super::ComputeError;
+use super::error::ComputeError;
 use crate::data::results::{SwingCurrent, SwingQuality};
 use crate::data::{CalDoc, Recording};
 

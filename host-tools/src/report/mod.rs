@@ -33,7 +33,7 @@ use crate::data::caldoc::CalDoc;
 use crate::data::recording::Recording;
 use crate::data::results::{SessionSettings, SessionSummary};
 use crate::geomag::Site;
-use crate::session::{PITCH_GATE_DEG, ROLL_GATE_DEG};
+use crate::procedure::{PITCH_GATE_DEG, ROLL_GATE_DEG};
 
 pub use plot::{line_plot, Series};
 use plot::{try_coverage_map, try_histogram, try_line_plot, CoverageGrid, PlotError};

@@ -3,6 +3,8 @@
 
 use magcal_protocol::FitReport;
 
+pub use crate::procedure::{PITCH_GATE_DEG, ROLL_GATE_DEG};
+
 /// What the swing test has covered.
 #[derive(Debug, Clone, Default)]
 pub struct SwingCoverage {
@@ -13,10 +15,6 @@ pub struct SwingCoverage {
     pub fit: Option<FitReport>,
 }
 
-/// Roll the paper's swing test reaches (±55°); the gate asks for ±40°.
-pub const ROLL_GATE_DEG: f64 = 40.0;
-/// Pitch the swing test reaches (±10°); the gate asks for ±7°.
-pub const PITCH_GATE_DEG: f64 = 7.0;
 const COMPASS: [&str; 12] = ["north", "north-north-east", "east-north-east", "east", "east-south-east", "south-south-east", "south", "south-south-west", "west-south-west", "west", "west-north-west", "north-north-west"];
 
 impl SwingCoverage {

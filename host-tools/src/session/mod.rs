@@ -33,44 +33,19 @@ use crate::data::CalDoc;
 use crate::geomag::Site;
 
 pub mod coverage;
+pub mod error;
 pub mod progress;
 pub mod record;
 pub mod upload;
 pub mod vehicle;
 
+pub use error::SessionError;
 pub use coverage::{SwingCoverage, SwingTracker, PITCH_GATE_DEG, ROLL_GATE_DEG};
 pub use progress::Progress;
-pub use record::{record, Recorded, Resume};
+pub use record::{record, Recorded};
+pub use crate::board::reconnect::Resume;
 pub use upload::upload_verified;
 pub use vehicle::{NavStream, NavVehicle, Phase, Step, Vehicle};
-
-/// Why a session stopped.
-#[derive(Debug, thiserror::Error)]
-pub enum SessionError {
-    /// The link failed.
-    #[error("link: {0}")]
-    Link(#[from] ClientError),
-    /// A computation refused the data.
-    #[error("{0}")]
-    Compute(#[from] ComputeError),
-    /// The board stopped answering a step.
-    #[error("no sample from the board for step {step} within {timeout_ms} ms")]
-    NoSample {
-        /// Step index.
-        step: usize,
-        /// Timeout.
-        timeout_ms: u64,
-    },
-    /// The swing test did not cover enough attitudes.
-    #[error("swing test incomplete: {0}")]
-    Coverage(String),
-    /// Files could not be read or written, or a stream is malformed.
-    #[error("{0}")]
-    Io(String),
-    /// The coefficients could not be verified on the board.
-    #[error("coefficients not verified after {0} attempts")]
-    NotVerified(u32),
-}
 
 /// The site and options of a session.
 #[derive(Debug, Clone)]
@@ -88,10 +63,6 @@ const RECONNECT_ATTEMPTS: u32 = 5;
 /// Upload attempts (each on a fresh connection).
 const UPLOAD_ATTEMPTS: u32 = 3;
 
-fn io_error(e: impl std::fmt::Display) -> SessionError {
-    SessionError::Io(e.to_string())
-}
-
 /// The whole session with `vehicle`, over links opened by `connect`:
 /// swing test, out-and-back run, computation, verified upload and (when the
 /// vehicle has one) a validation run. Writes everything into `cfg.out_dir`
@@ -101,7 +72,7 @@ pub fn run<P: Read + Write>(
     connect: &mut dyn FnMut() -> Result<BoardClient<P>, ClientError>,
     cfg: &SessionConfig,
 ) -> Result<SessionSummary, SessionError> {
-    std::fs::create_dir_all(&cfg.out_dir).map_err(|e| io_error(format!("{}: {e}", cfg.out_dir.display())))?;
+    std::fs::create_dir_all(&cfg.out_dir).map_err(|source| SessionError::File { path: cfg.out_dir.clone(), source })?;
     let field = cfg.site.field().map_err(ComputeError::from)?;
     let mut link = connect()?;
     let id = link.identify()?;
@@ -127,7 +98,7 @@ pub fn run<P: Read + Write>(
     let fit = link.fit_stop()?;
     let guidance = tracker.coverage.guidance();
     if !guidance.is_empty() {
-        return Err(SessionError::Coverage(guidance.join("; ")));
+        return Err(SessionError::Coverage(guidance));
     }
     eprintln!(
         "  swing test complete: {} heading sectors, on-board fit {} samples, {}% of directions, {:.0} nT RMS",
@@ -150,7 +121,7 @@ pub fn run<P: Read + Write>(
     let first_step = if swing.recording.gyro_rad_s().is_some_and(|g| g.iter().any(|w| w.iter().all(|v| v.is_finite()))) { FirstStep::Gyro } else { FirstStep::Axis };
     let chain = compute::calibrate(&swing.recording, &run.recording, &cfg.site, &ChainOptions { first_step, ..ChainOptions::default() })?;
     for (name, doc) in [("cal_step1.json", &chain.step1), ("cal_backstep.json", &chain.backstepped), ("cal_final.json", &chain.final_doc)] {
-        doc.save(&cfg.out_dir.join(name)).map_err(io_error)?;
+        doc.save(&cfg.out_dir.join(name))?;
     }
     let (b0, b1) = (&chain.backstep.before, &chain.backstep.after);
     eprintln!("  turnaround step {:.1} → {:.1} nT; |F| − IGRF {:.1} → {:.1} nT RMS", b0.step_nt, b1.step_nt, b0.f_error_rms_nt, b1.f_error_rms_nt);
@@ -201,8 +172,8 @@ pub fn run<P: Read + Write>(
         coefficients_verified: true,
         coefficient_seq: seq,
         onboard_fit: OnboardFitSummary { samples: fit.samples, coverage_pct: fit.coverage_pct, residual_rms_nt: fit.residual_rms_nt },
-        backstep: chain.backstepped.quality.backstep.clone().ok_or_else(|| io_error("the back-stepping left no report"))?,
-        swing: chain.final_doc.quality.swing.clone().ok_or_else(|| io_error("the swing fit left no report"))?,
+        backstep: chain.backstepped.quality.backstep.clone().ok_or(SessionError::NoReport("back-stepping"))?,
+        swing: chain.final_doc.quality.swing.clone().ok_or(SessionError::NoReport("swing fit"))?,
         predicted_heading_rms_deg,
         heading_rms_observed_over_predicted,
         session_dir: cfg.out_dir.clone(),
@@ -220,7 +191,7 @@ fn begin(vehicle: &mut dyn Vehicle, phase: Phase) -> Result<(), SessionError> {
     if vehicle.begin(phase)? {
         Ok(())
     } else {
-        Err(SessionError::Io(format!("the vehicle has no {} manoeuvre", phase.label())))
+        Err(SessionError::NoManoeuvre(phase.label()))
     }
 }
 
@@ -247,7 +218,7 @@ fn record_phase<P: Read + Write>(
     })?;
     progress.finish();
     let path = cfg.out_dir.join(format!("{label}.csv"));
-    recorded.recording.write(&path).map_err(io_error)?;
+    recorded.recording.write(&path)?;
     Ok(recorded)
 }
 
@@ -310,7 +281,7 @@ fn write_report(chain: &Chain, swing: &Recorded, run: &Recorded, validation: Opt
     // calibration; `magcal report --session` then leaves it out).
     save_json(&cfg.out_dir, "cal_before.json", before)?;
     if let Some(v) = validation {
-        v.recording.write_with_extra(&cfg.out_dir.join("validation_truth.csv"), &[("true_heading_deg", &v.true_heading_deg)]).map_err(io_error)?;
+        v.recording.write_with_extra(&cfg.out_dir.join("validation_truth.csv"), &[("true_heading_deg", &v.true_heading_deg)])?;
     }
     let cals: Vec<(String, &CalDoc)> = vec![("step 1 (swing-test fit)".into(), &chain.step1), ("back-stepped".into(), &chain.backstepped), ("final".into(), &chain.final_doc)];
     let inputs = crate::report::ReportInputs {
@@ -324,14 +295,14 @@ fn write_report(chain: &Chain, swing: &Recorded, run: &Recorded, validation: Opt
         summary: Some(summary),
         settings: Some(settings),
     };
-    crate::report::write_report(&cfg.out_dir.join("report"), &inputs).map_err(io_error)
+    Ok(crate::report::write_report(&cfg.out_dir.join("report"), &inputs)?)
 }
 
 /// Writes a JSON file in the session directory.
 fn save_json<T: serde::Serialize>(dir: &Path, name: &str, value: &T) -> Result<PathBuf, SessionError> {
     let p = dir.join(name);
-    let text = serde_json::to_string_pretty(value).map_err(io_error)?;
-    std::fs::write(&p, text).map_err(|e| SessionError::Io(format!("{}: {e}", p.display())))?;
+    let text = serde_json::to_string_pretty(value)?;
+    std::fs::write(&p, text).map_err(|source| SessionError::File { path: p.clone(), source })?;
     Ok(p)
 }
 
