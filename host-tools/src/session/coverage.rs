@@ -83,10 +83,10 @@ impl SwingTracker {
     pub fn step<P: std::io::Read + std::io::Write>(
         &mut self,
         i: usize,
-        step: &super::Step,
+        step: &super::vehicle::Step,
         sample: &magcal_protocol::Sample,
         link: &mut crate::board::BoardClient<P>,
-    ) -> Result<String, super::SessionError> {
+    ) -> Result<String, super::error::SessionError> {
         if let Some(raw) = sample.raw {
             let h = self.cal.apply(raw.map(f64::from));
             let psi = calib_core::heading::magnetic_heading_rad(h, step.roll_deg.to_radians(), step.pitch_deg.to_radians()).to_degrees();
