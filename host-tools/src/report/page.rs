@@ -4,7 +4,7 @@
 use std::fmt::Write as _;
 
 use super::plot::PlotError;
-use super::ReportError;
+use super::error::ReportError;
 
 /// HTML-escapes text.
 pub(crate) fn escape(s: &str) -> String {

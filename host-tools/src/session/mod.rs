@@ -23,7 +23,7 @@
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 
-use magcal_protocol::{Sample, StreamMode};
+use magcal_protocol::{FitReport, Sample, StreamMode};
 
 use crate::board::coefficients::{doc_from_coefficients, to_coefficients};
 use crate::board::{BoardClient, ClientError};
@@ -87,14 +87,51 @@ pub fn run<P: Read + Write>(
     );
     let (board_coefficients, _, _) = link.read_coefficients()?;
     let before = doc_from_coefficients(&board_coefficients);
-    let attitude = vehicle.sends_attitude();
 
-    // 1. Swing test.
+    let (swing, fit) = swing_test(&mut link, vehicle, connect, cfg, field.total_nt(), &before)?;
+    eprintln!("2/5 out-and-back run: dolphin profile, GPS at the surface");
+    begin(vehicle, Phase::Run)?;
+    prepare_board(&mut link, StreamMode::Raw, None)?;
+    let attitude = vehicle.sends_attitude();
+    let run = record_phase(&mut link, vehicle, Phase::Run, attitude, connect, cfg, |_, _, _, _| Ok("recording".into()))?;
+    let chain = compute_chain(&swing, &run, cfg)?;
+
+    // 4. Verified upload on fresh connections.
+    eprintln!("4/5 uploading: unlock, stage, commit, read back");
+    drop(link);
+    let seq = upload_verified(&mut *connect, &to_coefficients(&chain.final_doc), UPLOAD_ATTEMPTS)?;
+    eprintln!("  coefficients #{seq} stored and verified");
+
+    let validation = validation_run(vehicle, connect, cfg, &before)?;
+    let settings = session_settings(vehicle, cfg, &id.firmware_version.to_string());
+    save_json(&cfg.out_dir, "settings.json", &settings)?;
+    let onboard_fit = OnboardFitSummary { samples: fit.samples, coverage_pct: fit.coverage_pct, residual_rms_nt: fit.residual_rms_nt };
+    let summary = session_summary(&chain, validation.as_ref().map(|(_, m)| *m), seq, onboard_fit, cfg)?;
+    save_json(&cfg.out_dir, "summary.json", &summary)?;
+    // The report comes after the summary: a report that cannot be drawn is
+    // said, and does not undo a verified session.
+    if let Err(e) = write_report(&chain, &swing, &run, validation.as_ref().map(|(v, _)| v), &before, &summary, &settings, cfg) {
+        eprintln!("session: the report was not written: {e}");
+    }
+    Ok(summary)
+}
+
+/// 1. The swing test, with the on-board fit of the paper's axis model and
+/// the coverage guidance; refused when the coverage is incomplete.
+fn swing_test<P: Read + Write>(
+    link: &mut BoardClient<P>,
+    vehicle: &mut dyn Vehicle,
+    connect: &mut dyn FnMut() -> Result<BoardClient<P>, ClientError>,
+    cfg: &SessionConfig,
+    field_nt: f64,
+    before: &CalDoc,
+) -> Result<(Recorded, FitReport), SessionError> {
     eprintln!("1/5 swing test: turn the vehicle through every heading, roll ±55°, pitch ±10° (thrusters off)");
     begin(vehicle, Phase::Swing)?;
-    prepare_board(&mut link, StreamMode::Raw, Some(field.total_nt() as f32))?;
-    let mut tracker = SwingTracker::new(&before);
-    let swing = record_phase(&mut link, vehicle, Phase::Swing, attitude, connect, cfg, |i, step, sample, link| tracker.step(i, step, sample, link))?;
+    prepare_board(link, StreamMode::Raw, Some(field_nt as f32))?;
+    let mut tracker = SwingTracker::new(before);
+    let attitude = vehicle.sends_attitude();
+    let swing = record_phase(link, vehicle, Phase::Swing, attitude, connect, cfg, |i, step, sample, link| tracker.step(i, step, sample, link))?;
     let fit = link.fit_stop()?;
     let guidance = tracker.coverage.guidance();
     if !guidance.is_empty() {
@@ -107,14 +144,12 @@ pub fn run<P: Read + Write>(
         fit.coverage_pct,
         fit.residual_rms_nt
     );
+    Ok((swing, fit))
+}
 
-    // 2. Out-and-back run.
-    eprintln!("2/5 out-and-back run: dolphin profile, GPS at the surface");
-    begin(vehicle, Phase::Run)?;
-    prepare_board(&mut link, StreamMode::Raw, None)?;
-    let run = record_phase(&mut link, vehicle, Phase::Run, attitude, connect, cfg, |_, _, _, _| Ok("recording".into()))?;
-
-    // 3. Computation, saved beside the recordings.
+/// 3. The calibration chain on the swing test and the run, its documents
+/// saved beside the recordings.
+fn compute_chain(swing: &Recorded, run: &Recorded, cfg: &SessionConfig) -> Result<Chain, SessionError> {
     eprintln!("3/5 computing: axis fit against IGRF, back-stepping, swing fit against the GPS course");
     // A swing test with a gyro starts with the gyro-aided fit, which needs
     // no full tumble; without, the paper's axis fit.
@@ -125,66 +160,68 @@ pub fn run<P: Read + Write>(
     }
     let (b0, b1) = (&chain.backstep.before, &chain.backstep.after);
     eprintln!("  turnaround step {:.1} → {:.1} nT; |F| − IGRF {:.1} → {:.1} nT RMS", b0.step_nt, b1.step_nt, b0.f_error_rms_nt, b1.f_error_rms_nt);
+    Ok(chain)
+}
 
-    // 4. Verified upload on fresh connections.
-    eprintln!("4/5 uploading: unlock, stage, commit, read back");
-    drop(link);
-    let seq = upload_verified(&mut *connect, &to_coefficients(&chain.final_doc), UPLOAD_ATTEMPTS)?;
-    eprintln!("  coefficients #{seq} stored and verified");
-
-    // 5. Validation with the board's own output.
-    let validation = if vehicle.begin(Phase::Validation)? {
-        eprintln!("5/5 validation run on other courses, headings from the board");
-        let mut link = connect()?;
-        prepare_board(&mut link, StreamMode::Both, None)?;
-        let val = record_phase(&mut link, vehicle, Phase::Validation, true, connect, cfg, |_, _, _, _| Ok("recording".into()))?;
-        link.set_stream(StreamMode::Off)?;
-        let metrics = validation_metrics(&val, &before, &cfg.site);
-        Some((val, metrics))
-    } else {
+/// 5. The validation run with the board's own output, when the vehicle
+/// knows its true heading.
+fn validation_run<P: Read + Write>(
+    vehicle: &mut dyn Vehicle,
+    connect: &mut dyn FnMut() -> Result<BoardClient<P>, ClientError>,
+    cfg: &SessionConfig,
+    before: &CalDoc,
+) -> Result<Option<(Recorded, ValidationMetrics)>, SessionError> {
+    if !vehicle.begin(Phase::Validation)? {
         eprintln!("5/5 no validation run: the vehicle does not know its true heading");
-        None
-    };
+        return Ok(None);
+    }
+    eprintln!("5/5 validation run on other courses, headings from the board");
+    let mut link = connect()?;
+    prepare_board(&mut link, StreamMode::Both, None)?;
+    let val = record_phase(&mut link, vehicle, Phase::Validation, true, connect, cfg, |_, _, _, _| Ok("recording".into()))?;
+    link.set_stream(StreamMode::Off)?;
+    let metrics = validation_metrics(&val, before, &cfg.site);
+    Ok(Some((val, metrics)))
+}
 
-    let settings = SessionSettings {
+/// The session's settings, with the commands that reproduce its numbers.
+fn session_settings(vehicle: &dyn Vehicle, cfg: &SessionConfig, firmware: &str) -> SessionSettings {
+    SessionSettings {
         lat_deg: cfg.site.lat_deg,
         lon_deg: cfg.site.lon_deg,
         decimal_year: cfg.site.decimal_year,
         vehicle: vehicle.describe(),
-        firmware: id.firmware_version.to_string(),
+        firmware: firmware.to_string(),
         reproduce: vec![
             "magcal fit --input swing.csv --model axis --lat LAT --lon LON --date YEAR --out cal_step1.json".into(),
             "magcal backstep --input run.csv --cal cal_step1.json --swing-input swing.csv --lat LAT --lon LON --date YEAR --out cal_backstep.json".into(),
             "magcal swing --input run.csv --cal cal_backstep.json --estimate-delay --out cal_final.json".into(),
         ],
-    };
-    save_json(&cfg.out_dir, "settings.json", &settings)?;
-    let validation_summary = validation.as_ref().map(|(_, m)| *m).filter(|v| v.validation_samples > 0);
+    }
+}
+
+/// The session's summary: the chain's reports, the upload, the validation
+/// and how its heading error compares with the prediction.
+fn session_summary(chain: &Chain, validation: Option<ValidationMetrics>, seq: u32, onboard_fit: OnboardFitSummary, cfg: &SessionConfig) -> Result<SessionSummary, SessionError> {
+    let validation = validation.filter(|v| v.validation_samples > 0);
     // The chain's prediction: the fit's covariance and the run's white
     // heading noise together, the same number the bench holds to 0.5–2×.
     let predicted_heading_rms_deg = chain.predicted_heading_rms_deg;
-    let heading_rms_observed_over_predicted = match (validation_summary, predicted_heading_rms_deg) {
+    let heading_rms_observed_over_predicted = match (validation, predicted_heading_rms_deg) {
         (Some(v), Some(p)) if p > 0.0 && v.heading_rms_deg_after.is_finite() => Some(v.heading_rms_deg_after / p),
         _ => None,
     };
-    let summary = SessionSummary {
-        validation: validation_summary,
+    Ok(SessionSummary {
+        validation,
         coefficients_verified: true,
         coefficient_seq: seq,
-        onboard_fit: OnboardFitSummary { samples: fit.samples, coverage_pct: fit.coverage_pct, residual_rms_nt: fit.residual_rms_nt },
+        onboard_fit,
         backstep: chain.backstepped.quality.backstep.clone().ok_or(SessionError::NoReport("back-stepping"))?,
         swing: chain.final_doc.quality.swing.clone().ok_or(SessionError::NoReport("swing fit"))?,
         predicted_heading_rms_deg,
         heading_rms_observed_over_predicted,
         session_dir: cfg.out_dir.clone(),
-    };
-    save_json(&cfg.out_dir, "summary.json", &summary)?;
-    // The report comes after the summary: a report that cannot be drawn is
-    // said, and does not undo a verified session.
-    if let Err(e) = write_report(&chain, &swing, &run, validation.as_ref().map(|(v, _)| v), &before, &summary, &settings, cfg) {
-        eprintln!("session: the report was not written: {e}");
-    }
-    Ok(summary)
+    })
 }
 
 fn begin(vehicle: &mut dyn Vehicle, phase: Phase) -> Result<(), SessionError> {
