@@ -241,7 +241,7 @@ pub struct ExportWarning {
 #[derive(Debug, thiserror::Error)]
 pub enum ExportError {
     /// The raw units could not be inferred and were not given.
-    #[error("the calibration's mean gain is {gain_nt_per_unit:.4} nT per raw unit, which is none of nT, µT, mGauss or Gauss (within {tol:.0} %): give the raw units (--raw-unit or --raw-nt-per-unit)", tol = UNIT_INFERENCE_TOLERANCE * 100.0)]
+    #[error("the calibration's mean gain is {gain_nt_per_unit:.4} nT per raw unit, which is none of nT, µT, mGauss or Gauss (within {tol:.0} %): the raw units must be given", tol = UNIT_INFERENCE_TOLERANCE * 100.0)]
     UnknownUnits {
         /// cbrt(det M), nT per raw unit.
         gain_nt_per_unit: f64,
@@ -250,7 +250,7 @@ pub enum ExportError {
     #[error("nT per raw unit must be a positive number, not {0}")]
     BadUnit(f64),
     /// The rotation part is beyond what may be dropped.
-    #[error("the matrix's rotation part is {angle_deg:.2}°, more than {max_deg}° that {stack} could not express (it holds only a symmetric matrix); raise --max-rotation-deg to export the symmetric part anyway")]
+    #[error("the matrix's rotation part is {angle_deg:.2}°, more than {max_deg}° that {stack} could not express (it holds only a symmetric matrix)")]
     Rotation {
         /// The rotation's angle, degrees.
         angle_deg: f64,
@@ -260,7 +260,7 @@ pub enum ExportError {
         stack: &'static str,
     },
     /// ArduPilot would ignore the scale factor.
-    #[error("the calibration's gain in ArduPilot's milligauss is {scale:.3}, outside the {:.3}..{:.3} in which ArduPilot applies COMPASS_SCALE: check the raw units (--raw-unit)", ARDUPILOT_SCALE_RANGE.0, ARDUPILOT_SCALE_RANGE.1)]
+    #[error("the calibration's gain in ArduPilot's milligauss is {scale:.3}, outside the {:.3}..{:.3} in which ArduPilot applies COMPASS_SCALE: the raw units look wrong", ARDUPILOT_SCALE_RANGE.0, ARDUPILOT_SCALE_RANGE.1)]
     Gain {
         /// cbrt(det P).
         scale: f64,
@@ -510,7 +510,7 @@ mod tests {
         assert_eq!(infer_raw_unit(&[[1.0e5, 0.0, 0.0], [0.0, 1.0e5, 0.0], [0.0, 0.0, 1.0e5]]).unwrap().0, "Gauss");
         // 150 nT per count: a raw sensor's counts, no unit.
         let e = infer_raw_unit(&[[150.0, 0.0, 0.0], [0.0, 150.0, 0.0], [0.0, 0.0, 150.0]]).unwrap_err();
-        assert!(e.to_string().contains("--raw-unit"), "{e}");
+        assert!(matches!(e, ExportError::UnknownUnits { gain_nt_per_unit } if (gain_nt_per_unit - 150.0).abs() < 1e-9) && e.to_string().contains("raw units must be given"), "{e}");
         let doc = CalDoc::new(ModelKind::Sphere, &FieldCal { bias: [0.0; 3], matrix: [[150.0, 0.0, 0.0], [0.0, 150.0, 0.0], [0.0, 0.0, 150.0]] }, 50_000.0, Default::default());
         let opts = ExportOptions { stack: Stack::ArduPilot, raw_nt_per_unit: Some(-1.0), max_rotation_deg: 2.0 };
         assert!(matches!(export(&doc, &opts), Err(ExportError::BadUnit(_))));
