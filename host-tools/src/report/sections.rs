@@ -95,7 +95,7 @@ pub fn date_of_decimal_year(year: f64) -> String {
     format!("{y:04}-{:02}-{:02}", m + 1, day + 1)
 }
 
-/// 1. The headline: heading RMS before → after, the prediction, the
+/// Section 1, the headline: heading RMS before → after, the prediction, the
 /// verified upload, date, site, IGRF.
 pub(crate) fn headline(page: &mut Page, cx: &Context<'_>) {
     let inputs = cx.inputs;
@@ -153,7 +153,7 @@ pub(crate) fn headline(page: &mut Page, cx: &Context<'_>) {
     page.end();
 }
 
-/// 2. The deviation card of the validation run (against truth), else of
+/// Section 2, the deviation card of the validation run (against truth), else of
 /// the run (against its GPS reference); its files are written into `dir`.
 pub(crate) fn card(page: &mut Page, cx: &Context<'_>, dir: &Path) -> Result<Option<CardFiles>, ReportError> {
     page.h2("card", "Deviation card");
@@ -239,7 +239,7 @@ fn card_table(out: &mut String, card: &DeviationCard) {
     );
 }
 
-/// 3. The swing test's coverage: heading × roll and heading × pitch maps
+/// Section 3, the swing test's coverage: heading × roll and heading × pitch maps
 /// with the gaps marked (paper 000 Fig 6).
 pub(crate) fn coverage(page: &mut Page, cx: &Context<'_>) -> Result<(), ReportError> {
     page.h2("coverage", "Swing test coverage (paper 000 Fig 6)");
@@ -268,7 +268,7 @@ pub(crate) fn coverage(page: &mut Page, cx: &Context<'_>) -> Result<(), ReportEr
     Ok(())
 }
 
-/// 4. The field magnitude along the run for each calibration (paper 000
+/// Section 4, the field magnitude along the run for each calibration (paper 000
 /// Figs 7–12); returns each calibration's |H| − reference for the residuals.
 pub(crate) fn field(page: &mut Page, cx: &Context<'_>) -> Result<Errors, ReportError> {
     let inputs = cx.inputs;
@@ -297,7 +297,7 @@ pub(crate) fn field(page: &mut Page, cx: &Context<'_>) -> Result<Errors, ReportE
     Ok(field_errors)
 }
 
-/// 5. Heading against the reference at the surface (paper 000 Fig 13) and
+/// Section 5, heading against the reference at the surface (paper 000 Fig 13) and
 /// against the truth in validation; returns the heading errors for the
 /// residuals.
 pub(crate) fn heading(page: &mut Page, cx: &Context<'_>) -> Result<Errors, ReportError> {
@@ -335,7 +335,7 @@ pub(crate) fn heading(page: &mut Page, cx: &Context<'_>) -> Result<Errors, Repor
     Ok(heading_errors)
 }
 
-/// 6. The back-stepping trace of the last document that carries one: its
+/// Section 6, the back-stepping trace of the last document that carries one: its
 /// table and what each correction leaves.
 pub(crate) fn backstep(page: &mut Page, cx: &Context<'_>) -> Result<(), ReportError> {
     page.h2("backstep", "Back-stepping trace");
@@ -375,7 +375,7 @@ fn trace_table(out: &mut String, trace: &[TraceEntry]) {
     out.push_str("</table>\n");
 }
 
-/// 7. Residual distributions: |F| − reference on the run, heading errors.
+/// Section 7, the residual distributions: |F| − reference on the run, heading errors.
 pub(crate) fn residuals(page: &mut Page, cx: &Context<'_>, field_errors: &Errors, heading_errors: &Errors) -> Result<(), ReportError> {
     page.h2("residuals", "Residual distributions");
     if field_errors.is_empty() {
@@ -406,7 +406,7 @@ fn percentile_abs(e: &[f64], q: f64) -> f64 {
     a[((a.len() - 1) as f64 * q).round() as usize]
 }
 
-/// 8. The calibrations' coefficients side by side.
+/// Section 8, the calibrations' coefficients side by side.
 pub(crate) fn coefficients(page: &mut Page, cx: &Context<'_>) {
     page.h2("coefficients", "Calibrations");
     if cx.inputs.cals.is_empty() {

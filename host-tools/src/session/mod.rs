@@ -103,7 +103,7 @@ pub fn run<P: Read + Write>(
     eprintln!("  coefficients #{seq} stored and verified");
 
     let validation = validation_run(vehicle, connect, cfg, &before)?;
-    let settings = session_settings(vehicle, cfg, &id.firmware_version.to_string());
+    let settings = session_settings(vehicle, cfg, &id.firmware_version);
     save_json(&cfg.out_dir, "settings.json", &settings)?;
     let onboard_fit = OnboardFitSummary { samples: fit.samples, coverage_pct: fit.coverage_pct, residual_rms_nt: fit.residual_rms_nt };
     let summary = session_summary(&chain, validation.as_ref().map(|(_, m)| *m), seq, onboard_fit, cfg)?;
@@ -116,7 +116,7 @@ pub fn run<P: Read + Write>(
     Ok(summary)
 }
 
-/// 1. The swing test, with the on-board fit of the paper's axis model and
+/// Step 1, the swing test, with the on-board fit of the paper's axis model and
 /// the coverage guidance; refused when the coverage is incomplete.
 fn swing_test<P: Read + Write>(
     link: &mut BoardClient<P>,
@@ -147,7 +147,7 @@ fn swing_test<P: Read + Write>(
     Ok((swing, fit))
 }
 
-/// 3. The calibration chain on the swing test and the run, its documents
+/// Step 3, the calibration chain on the swing test and the run, its documents
 /// saved beside the recordings.
 fn compute_chain(swing: &Recorded, run: &Recorded, cfg: &SessionConfig) -> Result<Chain, SessionError> {
     eprintln!("3/5 computing: axis fit against IGRF, back-stepping, swing fit against the GPS course");
@@ -163,7 +163,7 @@ fn compute_chain(swing: &Recorded, run: &Recorded, cfg: &SessionConfig) -> Resul
     Ok(chain)
 }
 
-/// 5. The validation run with the board's own output, when the vehicle
+/// Step 5, the validation run with the board's own output, when the vehicle
 /// knows its true heading.
 fn validation_run<P: Read + Write>(
     vehicle: &mut dyn Vehicle,
