@@ -10,6 +10,8 @@ use calib_core::fit::{fit_batch, Full, FullRls, Normalization};
 use calib_core::ortho::{identify_all_samples, identify_linear, identify_ml, identify_pairwise, j_index};
 use serde_json::json;
 
+mod integrity;
+
 const PAIRS: [usize; 7] = [30, 60, 120, 240, 480, 720, 1440];
 const SIGMAS: [f64; 5] = [0.0, 1e-4, 1e-3, 1e-2, 3e-2];
 const SEEDS: u64 = 20;
@@ -696,6 +698,7 @@ pub fn run(out_dir: &Path) -> Result<()> {
         "merge": merge_numbers,
         "effects": effects_numbers,
     });
+    results["integrity"] = integrity::section(&root);
     if let Some(obj) = mcu.as_object() {
         for (k, v) in obj {
             results[k] = v.clone();

@@ -12,6 +12,7 @@
 //! * [`card`]: the deviation card, heading error by heading before and after;
 //! * [`error`]: [`ComputeError`], why a computation refused a recording.
 
+pub mod apply;
 pub mod backstep;
 pub mod card;
 pub mod chain;
