@@ -61,6 +61,18 @@ pub enum ComputeError {
     /// The gyro-aided fit cannot use the recording.
     #[error(transparent)]
     Gyro(#[from] GyroError),
+    /// Too little of the sphere of field directions for the model; `advice`
+    /// names the models the recording's columns allow.
+    #[error("only {covered_pct}% of field directions were visited: too little of the sphere for this model (a vehicle that cannot tumble: {advice})")]
+    Coverage {
+        /// Percent of the direction bins visited.
+        covered_pct: u8,
+        /// What to do with this recording.
+        advice: String,
+    },
+    /// The attitude-aided fit cannot use the recording.
+    #[error("{0}")]
+    Attitude(String),
     /// The reference field could not be computed.
     #[error("{0}")]
     Geomag(#[from] crate::geomag::GeomagError),
