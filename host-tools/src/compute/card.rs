@@ -22,7 +22,7 @@ use serde::{Deserialize, Serialize};
 
 use super::truth::true_headings_rad;
 use super::units::check_units;
-use super::ComputeError;
+use super::error::ComputeError;
 use crate::data::recording::parse_cell;
 use crate::data::{CalDoc, Recording};
 
@@ -60,7 +60,7 @@ pub enum CardError {
     #[error("no row has both a reference heading (`ref_heading_deg`) and the magnetometer, roll and pitch: nothing to put on the card")]
     NoUsableRows,
     /// The sector width does not divide the circle.
-    #[error("--step-deg {0} must divide 360° into whole sectors (e.g. 5, 10, 15, 22.5, 30, 45)")]
+    #[error("sectors of {0}° must divide 360° into whole sectors (e.g. 5, 10, 15, 22.5, 30, 45)")]
     BadStep(f64),
     /// The number of compass points is not 8 or 16.
     #[error("compass points must be 8 or 16, not {0}")]

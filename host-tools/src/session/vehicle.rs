@@ -6,7 +6,7 @@
 
 use std::io::BufRead;
 
-use super::SessionError;
+use super::error::SessionError;
 use crate::board::ClientError;
 
 /// A manoeuvre of the session.
