@@ -26,6 +26,10 @@ use super::{median_interval, no_overlap, MergeError};
 
 /// The least overlap to align on, s.
 const MIN_OVERLAP_S: f64 = 20.0;
+/// … and at least this share of the shorter log.
+const MIN_OVERLAP_SHARE: f64 = 0.5;
+/// The most the two clocks may drift apart, ppm (crystals: ±100).
+const MAX_DRIFT_PPM: f64 = 1000.0;
 /// Lag step of the coarse search, s (refined by a parabola).
 const COARSE_STEP_S: f64 = 0.25;
 /// Work budget of the coarse search: lags × rows.
@@ -37,6 +41,8 @@ const WINDOWS: (usize, usize) = (4, 24);
 /// The best lag must leave at most this fraction of the median lag's
 /// unexplained spread, or the logs do not see the same motion.
 const MAX_CONTRAST: f64 = 0.3;
+/// … and at most this fraction of the next best local minimum's.
+const MAX_SECOND_RATIO: f64 = 0.5;
 
 /// Below this RMS change of attitude (about 1°, in rotation entries),
 /// nothing turned.
@@ -86,7 +92,8 @@ impl Alignment {
 }
 
 /// The lags (`t_nav − t_board`) to search: the window `center ± max`
-/// where the logs would share at least [`MIN_OVERLAP_S`].
+/// where the logs would share at least [`MIN_OVERLAP_S`] and half the
+/// shorter log (a short overlap is explained by any attitude).
 fn search_range(board: &BoardLog, nav: &NavLog, center_s: f64, max_offset_s: f64) -> Result<(f64, f64), MergeError> {
     if !(max_offset_s.is_finite() && max_offset_s >= 0.0 && center_s.is_finite()) {
         return Err(MergeError::Option(format!("the offset search {center_s} ± {max_offset_s} s is not a range")));
@@ -99,8 +106,9 @@ fn search_range(board: &BoardLog, nav: &NavLog, center_s: f64, max_offset_s: f64
     }
     let (b0, b1) = (board.t_s[0], *board.t_s.last().unwrap_or(&board.t_s[0]));
     let (n0, n1) = (nav.t_s[0], *nav.t_s.last().unwrap_or(&nav.t_s[0]));
-    let lo = (center_s - max_offset_s).max(n0 - b1 + MIN_OVERLAP_S);
-    let hi = (center_s + max_offset_s).min(n1 - b0 - MIN_OVERLAP_S);
+    let overlap = MIN_OVERLAP_S.max(MIN_OVERLAP_SHARE * (b1 - b0).min(n1 - n0));
+    let lo = (center_s - max_offset_s).max(n0 - b1 + overlap);
+    let hi = (center_s + max_offset_s).min(n1 - b0 - overlap);
     if !(hi >= lo) {
         return Err(no_overlap(
             board,
@@ -172,9 +180,16 @@ fn coarse_lag(rows: &[(f64, [f64; 3])], series: &AttitudeSeries, range: (f64, f6
     let mut sorted: Vec<f64> = misfit.iter().copied().filter(|m| m.is_finite()).collect();
     sorted.sort_by(f64::total_cmp);
     let median = sorted[sorted.len() / 2];
-    if !(best <= MAX_CONTRAST * median) {
+    // Another local minimum nearly as good: a motion that repeats.
+    let second = (1..steps - 1).filter(|&j| j.abs_diff(k) > 1 && misfit[j] <= misfit[j - 1] && misfit[j] <= misfit[j + 1]).map(|j| misfit[j]).fold(f64::INFINITY, f64::min);
+    if !(best <= MAX_CONTRAST * median && best <= MAX_SECOND_RATIO * second) {
         let (center_s, max_offset_s) = (0.5 * (window.0 + window.1), 0.5 * (window.1 - window.0));
-        return Err(MergeError::NoAgreement { best_s: lag, best_pct: 100.0 * best, median_pct: 100.0 * median, center_s, max_offset_s });
+        let detail = format!(
+            "at the best clock offset searched ({lag:.2} s) the attitude leaves {:.1} % of the field's spread unexplained, against {:.1} % at other offsets",
+            100.0 * best,
+            100.0 * median.min(second)
+        );
+        return Err(MergeError::NoAgreement { detail, center_s, max_offset_s });
     }
     let (a, c) = (misfit[k - 1], misfit[k + 1]);
     let vertex = if a.is_finite() && c.is_finite() { parabolic_vertex(-a, -best, -c) } else { 0.0 };
@@ -315,7 +330,12 @@ fn estimate_by_attitude(board: &BoardLog, nav: &NavLog, heading: &[f64], range: 
             break;
         }
     }
-    last.ok_or_else(|| MergeError::NoRotation("no window converged".into()))
+    let found = last.ok_or_else(|| MergeError::NoRotation("no window converged".into()))?;
+    if !(found.clock.drift_ppm.abs() <= MAX_DRIFT_PPM) {
+        let detail = format!("the windows' offsets drift by {:.0} ppm, more than clocks do ({MAX_DRIFT_PPM} ppm)", found.clock.drift_ppm);
+        return Err(MergeError::NoAgreement { detail, center_s: 0.5 * (window.0 + window.1), max_offset_s: 0.5 * (window.1 - window.0) });
+    }
+    Ok(found)
 }
 
 /// Below this RMS rate of turn, nothing turned (about 0.3°/s).
