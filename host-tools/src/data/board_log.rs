@@ -7,16 +7,17 @@
 
 use std::path::Path;
 
-use super::recording::{read_table, RecordingError};
+use super::recording::RecordingError;
+use super::table::{col, read_table, write_table};
 
 /// `t`: seconds on the board's clock.
-pub const T: &str = "t";
+pub const T: &str = col::T;
 /// `mx`, `my`, `mz`: the raw field, sensor units.
-pub const MAG: [&str; 3] = ["mx", "my", "mz"];
+pub const MAG: [&str; 3] = col::MAG;
 /// `temp_c`: the sensor's temperature, °C (optional).
-pub const TEMP_C: &str = "temp_c";
+pub const TEMP_C: &str = col::TEMP_C;
 /// `health`: the sample's health bits (optional; see [`HEALTH_SATURATED`]).
-pub const HEALTH: &str = "health";
+pub const HEALTH: &str = col::HEALTH;
 /// Every column in the order the board writes them.
 pub const COLUMNS: [&str; 6] = [T, MAG[0], MAG[1], MAG[2], TEMP_C, HEALTH];
 /// The header line the board writes ([`COLUMNS`] joined by commas).
@@ -56,25 +57,10 @@ impl BoardLog {
 
     /// Writes the log in the columns [`BoardLog::read`] reads.
     pub fn write(&self, path: &Path) -> Result<(), RecordingError> {
-        let csv_err = |source| RecordingError::Csv { path: path.into(), source };
-        let mut w = csv::Writer::from_path(path).map_err(csv_err)?;
         let mut header = vec![T, MAG[0], MAG[1], MAG[2]];
-        if self.temp_c.is_some() {
-            header.push(TEMP_C);
-        }
-        if self.health.is_some() {
-            header.push(HEALTH);
-        }
-        w.write_record(&header).map_err(csv_err)?;
-        let cell = |v: f64| if v.is_finite() { format!("{v}") } else { String::new() };
-        for (i, (t, m)) in self.t_s.iter().zip(&self.mag).enumerate() {
-            let mut row = vec![format!("{t}"), cell(m[0]), cell(m[1]), cell(m[2])];
-            for c in [&self.temp_c, &self.health].into_iter().flatten() {
-                row.push(cell(c.get(i).copied().unwrap_or(f64::NAN)));
-            }
-            w.write_record(&row).map_err(csv_err)?;
-        }
-        w.flush().map_err(|source| RecordingError::Io { path: path.into(), source })
+        let optional: Vec<&Vec<f64>> = [(TEMP_C, &self.temp_c), (HEALTH, &self.health)].into_iter().filter_map(|(n, c)| c.as_ref().inspect(|_| header.push(n))).collect();
+        let rows = self.t_s.iter().zip(&self.mag).enumerate().map(|(i, (t, m))| [*t].into_iter().chain(*m).chain(optional.iter().map(|c| c.get(i).copied().unwrap_or(f64::NAN))).collect());
+        write_table(path, &header, rows)
     }
 
     /// Whether sample `i` is flagged saturated (its field is not usable).

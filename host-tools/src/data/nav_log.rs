@@ -4,28 +4,29 @@
 
 use std::path::Path;
 
-use super::recording::{read_table, RecordingError};
+use super::recording::RecordingError;
+use super::table::{col, read_table, write_table};
 
 /// `t`: seconds on the navigation clock.
-pub const T: &str = "t";
+pub const T: &str = col::T;
 /// `roll_deg`.
-pub const ROLL_DEG: &str = "roll_deg";
+pub const ROLL_DEG: &str = col::ROLL_DEG;
 /// `pitch_deg`.
-pub const PITCH_DEG: &str = "pitch_deg";
+pub const PITCH_DEG: &str = col::PITCH_DEG;
 /// `heading_deg`: the AHRS's heading.
-pub const HEADING_DEG: &str = "heading_deg";
+pub const HEADING_DEG: &str = col::HEADING_DEG;
 /// `ref_heading_deg`: GPS course or a reference heading.
-pub const REF_HEADING_DEG: &str = "ref_heading_deg";
+pub const REF_HEADING_DEG: &str = col::REF_HEADING_DEG;
 /// `lat_deg`.
-pub const LAT_DEG: &str = "lat_deg";
+pub const LAT_DEG: &str = col::LAT_DEG;
 /// `lon_deg`.
-pub const LON_DEG: &str = "lon_deg";
+pub const LON_DEG: &str = col::LON_DEG;
 /// `gx`, `gy`, `gz`: the body rate, rad/s.
-pub const GYRO: [&str; 3] = ["gx", "gy", "gz"];
+pub const GYRO: [&str; 3] = col::GYRO;
 /// `speed_mps`.
-pub const SPEED_MPS: &str = "speed_mps";
+pub const SPEED_MPS: &str = col::SPEED_MPS;
 /// `motor_current_a`.
-pub const MOTOR_CURRENT_A: &str = "motor_current_a";
+pub const MOTOR_CURRENT_A: &str = col::MOTOR_CURRENT_A;
 
 /// The navigation computer's log on its own clock.
 #[derive(Debug, Clone, Default)]
@@ -94,13 +95,8 @@ impl NavLog {
         if let Some([x, y, z]) = &self.gyro_rad_s {
             cols.extend([(GYRO[0], x), (GYRO[1], y), (GYRO[2], z)]);
         }
-        let csv_err = |source| RecordingError::Csv { path: path.into(), source };
-        let mut w = csv::Writer::from_path(path).map_err(csv_err)?;
-        w.write_record(cols.iter().map(|(n, _)| *n)).map_err(csv_err)?;
-        for i in 0..self.t_s.len() {
-            let row = cols.iter().map(|(_, c)| c.get(i).copied().filter(|v| v.is_finite()).map_or(String::new(), |v| format!("{v}")));
-            w.write_record(row).map_err(csv_err)?;
-        }
-        w.flush().map_err(|source| RecordingError::Io { path: path.into(), source })
+        let header: Vec<&str> = cols.iter().map(|(n, _)| *n).collect();
+        let rows = (0..self.t_s.len()).map(|i| cols.iter().map(|(_, c)| c.get(i).copied().unwrap_or(f64::NAN)).collect());
+        write_table(path, &header, rows)
     }
 }

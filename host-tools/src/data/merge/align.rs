@@ -113,7 +113,7 @@ fn search_range(board: &BoardLog, nav: &NavLog, center_s: f64, max_offset_s: f64
         return Err(no_overlap(
             board,
             nav,
-            format!("with clock offsets (navigation − board) within {center_s} ± {max_offset_s} s they share less than {MIN_OVERLAP_S} s (give the offset, or centre and widen the search)"),
+            format!("with clock offsets (navigation − board) within {center_s} ± {max_offset_s} s they share less than {overlap:.1} s (at least {MIN_OVERLAP_S} s and half the shorter log; give the offset, or centre and widen the search)"),
         ));
     }
     Ok((lo, hi))
@@ -129,10 +129,16 @@ const GRID_PER_INTERVAL: f64 = 5.0;
 /// at the board's samples, logs at the same rate would prefer a lag of
 /// half a sample wherever the motion is weaker than the noise).
 fn field_grid(board: &BoardLog, step_s: f64) -> Vec<(f64, [f64; 3])> {
-    let field = field_series(board, (5.0 * median_interval(&board.t_s)).max(0.5));
-    let (b0, b1) = (board.t_s[0], *board.t_s.last().unwrap_or(&board.t_s[0]));
-    let n = ((b1 - b0) / step_s).floor() as usize + 1;
-    (0..n).map(|i| b0 + i as f64 * step_s).filter_map(|t| field.at(t).map(|(y, _)| (t, y))).collect()
+    let gap_s = (5.0 * median_interval(&board.t_s)).max(0.5);
+    let field = field_series(board, gap_s);
+    let b0 = board.t_s[0];
+    let mut out = Vec::new();
+    // Interval by interval, so a long gap costs nothing.
+    for w in board.t_s.windows(2).filter(|w| w[1] - w[0] <= gap_s) {
+        let (k0, k1) = (((w[0] - b0) / step_s).ceil() as usize, ((w[1] - b0) / step_s).ceil() as usize);
+        out.extend((k0..k1).map(|k| b0 + k as f64 * step_s).filter_map(|t| field.at(t).map(|(y, _)| (t, y))));
+    }
+    out
 }
 
 /// The field model over `rows` with the navigation `lag` later.
