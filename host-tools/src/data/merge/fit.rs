@@ -27,28 +27,24 @@ impl FieldFit {
 
     /// Adds a row: the attitude's regressors `x` and the raw field `y`.
     pub(super) fn add(&mut self, x: &[f64; FEATURES], y: [f64; 3]) {
-        for a in 0..FEATURES {
-            for c in a..FEATURES {
-                self.xtx[a][c] += x[a] * x[c];
-            }
-            for k in 0..3 {
-                self.xty[k][a] += x[a] * y[k];
+        for (a, row) in self.xtx.iter_mut().enumerate() {
+            for (c, v) in row.iter_mut().enumerate().skip(a) {
+                *v += x[a] * x[c];
             }
         }
-        for k in 0..3 {
-            self.sy[k] += y[k];
+        for ((rhs, s), yk) in self.xty.iter_mut().zip(&mut self.sy).zip(y) {
+            for (r, xa) in rhs.iter_mut().zip(x) {
+                *r += xa * yk;
+            }
+            *s += yk;
         }
         self.yy += y[0] * y[0] + y[1] * y[1] + y[2] * y[2];
         self.n += 1;
     }
 
     fn matrix(&self) -> [[f64; FEATURES]; FEATURES] {
-        let mut m = self.xtx;
-        for a in 0..FEATURES {
-            for c in 0..a {
-                m[a][c] = m[c][a];
-            }
-        }
+        // The upper triangle, mirrored.
+        let mut m: [[f64; FEATURES]; FEATURES] = std::array::from_fn(|a| std::array::from_fn(|c| self.xtx[a.min(c)][a.max(c)]));
         // A little ridge: vec(R) has only three degrees of freedom.
         let trace: f64 = (0..FEATURES).map(|a| m[a][a]).sum();
         for (a, row) in m.iter_mut().enumerate() {
