@@ -10,6 +10,8 @@ use calib_core::fit::{fit_batch, Full, FullRls, Normalization};
 use calib_core::ortho::{identify_all_samples, identify_linear, identify_ml, identify_pairwise, j_index};
 use serde_json::json;
 
+mod integrity;
+
 const PAIRS: [usize; 7] = [30, 60, 120, 240, 480, 720, 1440];
 const SIGMAS: [f64; 5] = [0.0, 1e-4, 1e-3, 1e-2, 3e-2];
 const SEEDS: u64 = 20;
@@ -481,7 +483,7 @@ const MERGE_SEEDS: [u64; 3] = [11, 12, 13];
 fn merge_clocks() -> (serde_json::Value, String) {
     use host_tools::compute::{self, ChainOptions};
     use host_tools::data::merge::{merge, Clock};
-    use magcal_sim::field_test::{self, paper_site, RunParams, SensorModel};
+    use magcal_sim::field_test::{self, paper_site, RunKind, RunParams, SensorModel};
     use magcal_sim::logs::{split, LogSplit};
     use magcal_sim::scenario::heading_rms_deg;
     let estimate = Clock::Estimate { center_s: 0.0, max_offset_s: 120.0 };
@@ -505,8 +507,8 @@ fn merge_clocks() -> (serde_json::Value, String) {
         let opts = ChainOptions::default();
         let sims = (
             field_test::swing(&sensor, &site, seed + 100, 50.0),
-            field_test::run(&sensor, &site, &RunParams::paper_like(), seed + 200, 25.0, "run"),
-            field_test::run(&sensor, &site, &RunParams::validation(), seed + 300, 2.0, "validation"),
+            field_test::run(&sensor, &site, &RunParams::paper_like(), seed + 200, 25.0, RunKind::Run),
+            field_test::run(&sensor, &site, &RunParams::validation(), seed + 300, 2.0, RunKind::Validation),
         );
         let (Ok(swing), Ok(run), Ok(validation)) = sims else { continue };
         let (sb, sn) = split(&swing, &LogSplit { offset_s: 41.3, drift_ppm: 80.0, nav_every: 5, trim_s: (10.0, 10.0), seed });
@@ -723,6 +725,7 @@ pub fn run(out_dir: &Path) -> Result<()> {
         "merge": merge_numbers,
         "effects": effects_numbers,
     });
+    results["integrity"] = integrity::section(&root);
     if let Some(obj) = mcu.as_object() {
         for (k, v) in obj {
             results[k] = v.clone();

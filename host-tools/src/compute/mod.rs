@@ -15,6 +15,7 @@ use calib_core::fit::FitError;
 use calib_core::ortho::OrthoError;
 use calib_core::swing::SwingError;
 
+pub mod apply;
 pub mod backstep;
 pub mod card;
 pub mod chain;
