@@ -197,7 +197,7 @@ fn error_over_sigma(es: &[(f64, f64)]) -> f64 {
 #[test]
 fn a_1_hz_run_is_merged_within_50_ms_with_an_honest_sigma() {
     let (sensor, site) = (SensorModel::paper_like(), paper_site());
-    let sim = |seed| field_test::run(&sensor, &site, &RunParams::paper_like(), seed, 1.0, "run").unwrap();
+    let sim = |seed| field_test::run(&sensor, &site, &RunParams::paper_like(), seed, 1.0, RunKind::Run).unwrap();
     let cases = [(31u64, 60.0, 100.0), (32, -60.0, -100.0), (33, -12.6, -45.0), (34, 59.3, -100.0), (35, -58.1, 100.0), (36, 23.77, 10.0)];
     let es = errors_and_sigmas(&cases, sim, (20.0, 15.0));
     let worst = es.iter().map(|(e, _)| e.abs()).fold(0.0, f64::max);

@@ -492,7 +492,7 @@ fn merge_clocks() -> (serde_json::Value, String) {
     let rates = [
         merge_rate("swing, board 50 Hz, navigation 10 Hz", 20.0, &|seed| field_test::swing(&sensor, &site, seed, 50.0).ok(), 5, &mut md),
         merge_rate("swing, both 5 Hz", 20.0, &|seed| field_test::swing(&sensor, &site, seed, 5.0).ok(), 1, &mut md),
-        merge_rate("run, both 1 Hz", 50.0, &|seed| field_test::run(&sensor, &site, &RunParams::paper_like(), seed + 50, 1.0, "run").ok(), 1, &mut md),
+        merge_rate("run, both 1 Hz", 50.0, &|seed| field_test::run(&sensor, &site, &RunParams::paper_like(), seed + 50, 1.0, RunKind::Run).ok(), 1, &mut md),
     ];
     md.push_str("\n| logs | merged | refused | worst offset error (ms) | target (ms) | RMS error (ms) | RMS stated σ (ms) | RMS error / RMS σ (0.5–2 asked) |\n|---|---|---|---|---|---|---|---|\n");
     for r in &rates {
