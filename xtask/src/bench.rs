@@ -500,6 +500,8 @@ fn merge_clocks() -> (serde_json::Value, String) {
         let _ = writeln!(md, "| {} | {} | {} | {:.2} | {} | {:.2} | {:.2} | {:.2} |", r["rate"].as_str().unwrap_or(""), r["merged"], r["refused"], f("worst_offset_error_ms"), f("target_ms"), f("rms_offset_error_ms"), f("rms_offset_sigma_ms"), f("error_over_sigma"));
     }
     md.push('\n');
+    // The clocks' tables now: the chain below takes minutes.
+    eprintln!("{md}");
 
     md.push_str("| seed | validation heading RMS, single clock (°) | from merged logs (°) | difference (°) |\n|---|---|---|---|\n");
     let mut headings = Vec::new();
