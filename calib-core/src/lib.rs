@@ -25,6 +25,7 @@
 // the formulas do; iterator zips would hide the indices the comments cite.
 #![allow(clippy::needless_range_loop)]
 
+pub mod attitude_fit;
 pub mod backstep;
 pub mod cal;
 pub mod conformance;
@@ -38,8 +39,10 @@ pub mod lsq;
 pub mod online;
 pub mod ortho;
 pub mod quality;
+pub mod series;
 pub mod swing;
 pub mod uncertainty;
+pub mod water_current;
 pub mod real;
 pub mod trigf;
 
