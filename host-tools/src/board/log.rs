@@ -1,5 +1,5 @@
 //! `magcal log`: the board's raw stream written to a board log (the CSV
-//! that [`crate::data::merge::BoardLog`] reads), on the board's own clock,
+//! that [`crate::data::board_log::BoardLog`] reads), on the board's own clock,
 //! for as long as asked.
 //!
 //! * `t` is the board's `t_ms` in seconds, unwrapped across the `u32`
@@ -23,13 +23,14 @@ use serde::{Deserialize, Serialize};
 
 use super::client::{BoardClient, ClientError};
 use super::reconnect::{reconnect_at, Resume};
-use crate::data::merge::{HEALTH_AFTER_GAP, HEALTH_SATURATED};
+use crate::data::board_log::{self, HEALTH_AFTER_GAP, HEALTH_SATURATED};
 
 /// Samples written between flushes and progress updates, at most.
 const BATCH: usize = 64;
 
-/// The board log's header (`docs/INTERFACES.md`, "Board log").
-pub const LOG_HEADER: &str = "t,mx,my,mz,temp_c,health";
+/// The board log's header (`docs/INTERFACES.md`, "Board log"; its one
+/// home is [`crate::data::board_log`]).
+pub const LOG_HEADER: &str = board_log::HEADER;
 
 /// Why logging could not start or could not go on.
 #[derive(Debug, thiserror::Error)]
