@@ -127,6 +127,33 @@ pub(crate) fn ensure_tools() -> Result<()> {
     Ok(())
 }
 
+/// Builds the firmware log decoder (`xtask/defmt-print`, its own workspace,
+/// into `target/tools`); says so and returns false when it fails (the QEMU
+/// board then writes its log raw).
+fn build_log_decoder() -> bool {
+    let dir = root().join("xtask").join("defmt-print");
+    let out = suite::capture(
+        "build: the firmware log decoder (defmt-print on the defmt-decoder library)",
+        cargo().current_dir(&dir).args(["build", "--locked", "--target-dir"]).arg(root().join("target").join("tools")),
+    );
+    out.is_ok_and(|o| o.success)
+}
+
+/// Puts the decoder built by [`build_log_decoder`] first on the PATH, where
+/// host-tools' QEMU board looks for `defmt-print`.
+fn use_log_decoder(built: bool) {
+    let dir = root().join("target").join("tools").join("debug");
+    if !built || !dir.join("defmt-print").is_file() {
+        return;
+    }
+    let path = std::env::var_os("PATH").unwrap_or_default();
+    let joined = std::env::join_paths(std::iter::once(dir).chain(std::env::split_paths(&path)));
+    if let Ok(p) = joined {
+        // Called while xtask is single-threaded, before the suites start.
+        std::env::set_var("PATH", p);
+    }
+}
+
 fn firmware_elf() -> PathBuf {
     root().join("target").join(TARGET).join("release").join("firmware")
 }
@@ -165,6 +192,7 @@ fn cmd_check_report(page: Option<PathBuf>) -> Result<()> {
 
 fn cmd_demo() -> Result<()> {
     ensure_tools()?;
+    use_log_decoder(build_log_decoder());
     let elf = build_firmware()?;
     let usage = size::measure(&elf)?;
     usage.print();

@@ -8,7 +8,8 @@
 //!    directories): the host (every host test binary, the `magcal` binary
 //!    the end-to-end suite and the demo run, and clippy); the thumb target
 //!    (the board release build, the on-target tests, clippy); the fuzz
-//!    targets. Each host crate is compiled once: the host tests are built in
+//!    targets; and the firmware log decoder (`xtask/defmt-print`, a
+//!    workspace of its own). Each host crate is compiled once: the host tests are built in
 //!    one `cargo test --no-run` over the workspace and their binaries are
 //!    run directly, so no later cargo command resolves other features and
 //!    rebuilds them.
@@ -49,6 +50,8 @@ struct Built {
     size: Suite,
     on_target_built: bool,
     fuzz: Option<String>,
+    /// The firmware log decoder (`defmt-print`) was built.
+    log_decoder: bool,
 }
 
 /// Runs every suite and prints the summary.
@@ -56,7 +59,9 @@ pub fn cmd_test() -> Result<()> {
     let started = Instant::now();
     let phases = Phases::default();
     phases.time("tools (rustup target, clippy, apt: QEMU, Chromium)", crate::ensure_tools)?;
-    let built = phases.time("build: host, thumb (firmware, on-target, clippy) and fuzz, side by side", build_all);
+    let built = phases.time("build: host, thumb (firmware, on-target, clippy), fuzz and the log decoder, side by side", build_all);
+    // Before the lanes start (no other thread reads the environment yet).
+    crate::use_log_decoder(built.log_decoder);
     let (qemu, cpu) = std::thread::scope(|s| {
         let qemu = s.spawn(|| qemu_lane(&phases, &built));
         let cpu = cpu_lane(&phases, &built);
@@ -90,6 +95,7 @@ fn build_all() -> Built {
                 None
             }
         });
+        let log_decoder = s.spawn(crate::build_log_decoder);
         let (host_failed, tests, magcal, host_lint) = build_host();
         let (size, on_target_built, thumb_lint) = thumb.join().unwrap_or_else(|_| (Suite::gate(SIZE, false), false, false));
         let lint_ok = host_lint && thumb_lint;
@@ -101,6 +107,7 @@ fn build_all() -> Built {
             size,
             on_target_built,
             fuzz: fuzz.join().ok().flatten(),
+            log_decoder: log_decoder.join().unwrap_or(false),
         }
     })
 }
