@@ -274,7 +274,7 @@ fn e2e_suite(built: &Built, elf: &Path) -> Suite {
     const NAME: &str = "end-to-end: firmware in QEMU, magcal over a pty";
     let Some(magcal) = &built.magcal else { return Suite::gate(NAME, false) };
     let mut suite = Suite { name: NAME, passed: 0, failed: 0, ok: true, failures: vec![], flaky: vec![] };
-    for t in built.tests.iter().filter(|t| t.package == "e2e-tests" && t.target != "lib") {
+    for t in built.tests.iter().filter(|t| t.package == "e2e-tests") {
         let run = |filter: Option<&str>| {
             let mut c = test_binary(t);
             c.env("MAGCAL_FIRMWARE_ELF", elf).env("MAGCAL_BIN", magcal);
