@@ -13,7 +13,7 @@ use std::process::{Command, Output};
 
 use host_tools::data::merge::MergeReport;
 use host_tools::data::CalDoc;
-use magcal_sim::field_test::{self, paper_site, RunParams, SensorModel};
+use magcal_sim::field_test::{self, paper_site, RunKind, RunParams, SensorModel};
 use magcal_sim::logs::{split, LogSplit};
 use magcal_sim::scenario::heading_rms_deg;
 
@@ -39,8 +39,8 @@ fn log_merge_fit_backstep_swing_card_export() {
     // would report it: the export infers the unit).
     let (sensor, site) = (SensorModel::board_like(), paper_site());
     let swing_sim = field_test::swing(&sensor, &site, 31, 50.0).unwrap();
-    let run_sim = field_test::run(&sensor, &site, &RunParams::paper_like(), 131, 25.0, "run").unwrap();
-    let validation = field_test::run(&sensor, &site, &RunParams::validation(), 231, 2.0, "validation").unwrap();
+    let run_sim = field_test::run(&sensor, &site, &RunParams::paper_like(), 131, 25.0, RunKind::Run).unwrap();
+    let validation = field_test::run(&sensor, &site, &RunParams::validation(), 231, 2.0, RunKind::Validation).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let p = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
     let cuts = [("swing", &swing_sim, 52.5, 90.0, 5), ("run", &run_sim, -17.25, -70.0, 5)];

@@ -9,7 +9,7 @@ use std::path::Path;
 use host_tools::compute::{self, ChainOptions};
 use host_tools::data::merge::{merge, BoardLog, Clock, MergeReport, NavLog};
 use host_tools::data::Recording;
-use magcal_sim::field_test::{self, paper_site, RunParams, SensorModel, Simulation};
+use magcal_sim::field_test::{self, paper_site, RunKind, RunParams, SensorModel, Simulation};
 use magcal_sim::logs::{self, LogSplit, NAV_T0_S};
 use magcal_sim::scenario::heading_rms_deg;
 
@@ -81,8 +81,8 @@ fn write_logs(dir: &Path, board: &BoardLog, nav: &NavLog) {
 fn a_calibration_from_merged_logs_matches_the_single_clock_one() {
     let (sensor, site) = (SensorModel::paper_like(), paper_site());
     let swing = field_test::swing(&sensor, &site, 21, 50.0).unwrap();
-    let run = field_test::run(&sensor, &site, &RunParams::paper_like(), 121, 25.0, "run").unwrap();
-    let validation = field_test::run(&sensor, &site, &RunParams::validation(), 221, 2.0, "validation").unwrap();
+    let run = field_test::run(&sensor, &site, &RunParams::paper_like(), 121, 25.0, RunKind::Run).unwrap();
+    let validation = field_test::run(&sensor, &site, &RunParams::validation(), 221, 2.0, RunKind::Validation).unwrap();
     let opts = ChainOptions::default();
     let single = compute::calibrate(&swing.recording, &run.recording, &site, &opts).unwrap();
 

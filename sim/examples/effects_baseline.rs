@@ -5,6 +5,7 @@
 //! `cargo run --release -p magcal-sim --example effects_baseline [seeds…]`
 
 use magcal_sim::scenario::{effects_runs, effects_scenarios, evaluate_effects};
+use magcal_sim::field_test::RunKind;
 use magcal_sim::{field_test, paper_site, SensorModel};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -13,7 +14,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // What each effect does to the validation run, from its truth.
     let (_, validation) = effects_runs();
     let all = magcal_sim::Effects::all();
-    let v = field_test::run_with(&SensorModel::paper_like(), &paper_site(), &validation, 201, 2.0, "validation", &all)?;
+    let v = field_test::run_with(&SensorModel::paper_like(), &paper_site(), &validation, 201, 2.0, RunKind::Validation, &all)?;
     if let Some(e) = &v.truth.effects {
         if let Some(t) = &e.thrusters {
             println!("thrusters: bus current {:.1}…{:.1} A, raw per A {:?}", t.bus_current_a_range[0], t.bus_current_a_range[1], t.raw_per_a);

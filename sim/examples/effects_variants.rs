@@ -22,13 +22,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // A scenario's name, or effects joined by `+` (`thrusters+temperature`).
     let effects = match effects_scenarios().into_iter().find(|(n, _)| *n == scenario) {
         Some((_, e)) => e,
-        None => {
-            let list: Vec<magcal_sim::Effect> = scenario
-                .split('+')
-                .map(|n| magcal_sim::Effect::ALL.iter().copied().find(|e| e.name() == n).ok_or(format!("unknown effect {n}")))
-                .collect::<Result<_, _>>()?;
-            magcal_sim::Effects::of(&list)
-        }
+        None => magcal_sim::Effects::parse(&scenario.replace('+', ","))?,
     };
     println!("| scenario | variant | seed | heading RMS ° | noise ° | systematic ° | |F| err true nT | |F| err IGRF nT | current vec err % | gain err %/°C | predicted ° (cal, run noise) | obs/pred | delay s |");
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");

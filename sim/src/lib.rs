@@ -4,7 +4,8 @@
 //!
 //! * [`effects`]: five real-vehicle effects the fit's model lacks
 //!   (thrusters, temperature, crustal anomaly, AHRS misalignment, water
-//!   current), each switchable;
+//!   current), each switchable, and two disturbances for integrity checks
+//!   (a steel pier passed at a few metres, a payload switched on mid-run);
 //! * [`field_test`]: paper 000's swing test and out-and-back runs
 //!   (`magcal simulate`);
 //! * [`logs`]: a field test as a board log and a navigation log on two

@@ -10,7 +10,7 @@ use host_tools::compute::{self, truth, BackstepMethod, ChainOptions, ComputeErro
 use host_tools::data::CalDoc;
 
 use crate::effects::{Effect, Effects};
-use crate::field_test::{self, paper_site, GyroModel, RunParams, SensorModel, SimError, Simulation};
+use crate::field_test::{self, paper_site, GyroModel, RunKind, RunParams, SensorModel, SimError, Simulation};
 
 /// Why a scenario could not be evaluated.
 #[derive(Debug, thiserror::Error)]
@@ -131,8 +131,8 @@ pub fn evaluate_effects(name: &str, sensor: SensorModel, seed: u64, effects: &Ef
 pub fn evaluate_with(name: &str, sensor: SensorModel, seed: u64, effects: &Effects, run: &RunParams, validation: &RunParams) -> Result<Outcome, ScenarioError> {
     let site = paper_site();
     let swing = field_test::swing_with(&sensor, &site, seed, 5.0, 55.0, 10.0, effects)?;
-    let run = field_test::run_with(&sensor, &site, run, seed + 100, 2.0, "run", effects)?;
-    let validation = field_test::run_with(&sensor, &site, validation, seed + 200, 2.0, "validation", effects)?;
+    let run = field_test::run_with(&sensor, &site, run, seed + 100, 2.0, RunKind::Run, effects)?;
+    let validation = field_test::run_with(&sensor, &site, validation, seed + 200, 2.0, RunKind::Validation, effects)?;
 
     let step1 = compute::axis_step(&swing.recording, &site)?;
     let delay = Delay::Estimate { max_s: 5.0 };
@@ -191,8 +191,8 @@ pub fn evaluate_limited(sensor: SensorModel, seed: u64, swing_kind: LimitedSwing
     if swing_kind.gyro {
         swing = swing.with_gyro(&GyroModel::mems(), seed);
     }
-    let run = field_test::run(&sensor, &site, &RunParams::paper_like(), seed + 100, 2.0, "run")?;
-    let validation = field_test::run(&sensor, &site, &RunParams::validation(), seed + 200, 2.0, "validation")?;
+    let run = field_test::run(&sensor, &site, &RunParams::paper_like(), seed + 100, 2.0, RunKind::Run)?;
+    let validation = field_test::run(&sensor, &site, &RunParams::validation(), seed + 200, 2.0, RunKind::Validation)?;
     let first_step = if swing_kind.gyro { FirstStep::Gyro } else { FirstStep::Axis };
     let outcome = match compute::calibrate(&swing.recording, &run.recording, &site, &ChainOptions { first_step, ..Default::default() }) {
         Ok(chain) => LimitedOutcome {
@@ -330,8 +330,8 @@ pub fn effects_data(sensor: &SensorModel, seed: u64, effects: &Effects) -> Resul
     let (run, validation) = effects_runs();
     Ok(EffectsData {
         swing: field_test::swing_with(sensor, &site, seed, 5.0, 55.0, 10.0, effects)?,
-        run: field_test::run_with(sensor, &site, &run, seed + 100, 2.0, "run", effects)?,
-        validation: field_test::run_with(sensor, &site, &validation, seed + 200, 2.0, "validation", effects)?,
+        run: field_test::run_with(sensor, &site, &run, seed + 100, 2.0, RunKind::Run, effects)?,
+        validation: field_test::run_with(sensor, &site, &validation, seed + 200, 2.0, RunKind::Validation, effects)?,
     })
 }
 

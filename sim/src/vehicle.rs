@@ -11,7 +11,7 @@ use host_tools::geomag::Site;
 use host_tools::session::{Phase, SessionError, Step, Vehicle};
 
 use crate::effects::Effects;
-use crate::field_test::{self, RunParams, SensorModel, Simulation};
+use crate::field_test::{self, RunKind, RunParams, SensorModel, Simulation};
 
 /// How long the simulated field tests are (the demo drives them through the
 /// QEMU board in lock-step, one feed frame per sample), and which
@@ -74,8 +74,8 @@ impl SimPlan {
         let e = &self.effects;
         let (run_params, validation_params) = self.run_params();
         let swing = field_test::swing_with(&sensor, site, self.seed, self.swing_rate_hz, 55.0, 10.0, e)?;
-        let run = field_test::run_with(&sensor, site, &run_params, self.seed + 1, self.run_rate_hz, "run", e)?;
-        let validation = field_test::run_with(&sensor, site, &validation_params, self.seed + 2, self.validation_rate_hz, "validation", e)?;
+        let run = field_test::run_with(&sensor, site, &run_params, self.seed + 1, self.run_rate_hz, RunKind::Run, e)?;
+        let validation = field_test::run_with(&sensor, site, &validation_params, self.seed + 2, self.validation_rate_hz, RunKind::Validation, e)?;
         Ok([swing, run, validation])
     }
 }

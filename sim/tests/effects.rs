@@ -2,7 +2,7 @@
 //! written here independently of the simulator's code.
 
 use magcal_sim::effects::{dipole_field_nt, AhrsMisalignment, AnomalyModel, CrustalBody, Effect, Effects, ThermalModel, ThrusterModel};
-use magcal_sim::field_test::{self, paper_site, RunParams, SensorModel};
+use magcal_sim::field_test::{self, paper_site, RunKind, RunParams, SensorModel};
 use magcal_sim::scenario::effects_runs;
 
 /// A sensor without noise, bias or quantisation-visible noise: raw = D·h + b.
@@ -179,7 +179,7 @@ fn the_local_field_departs_from_igrf_by_hundreds_of_nt() {
     let (run, validation) = effects_runs();
     let effects = Effects::of(&[Effect::Anomaly]);
     for (p, want_lo, want_hi) in [(run, -300.0, 100.0), (validation, -80.0, 250.0)] {
-        let sim = field_test::run_with(&quiet_sensor(), &paper_site(), &p, 1, 0.2, "run", &effects).unwrap();
+        let sim = field_test::run_with(&quiet_sensor(), &paper_site(), &p, 1, 0.2, RunKind::Run, &effects).unwrap();
         let a = sim.truth.effects.as_ref().unwrap().anomaly.as_ref().unwrap();
         let [lo, hi] = a.intensity_anomaly_nt_range;
         // Measured 2026-11-23: run −271…+111 nT, validation −54…+215 nT.
@@ -222,7 +222,7 @@ fn gps_and_crab_are_kinematically_consistent() {
     let (run, _) = effects_runs();
     let effects = Effects::of(&[Effect::Current]);
     let rate = 2.0;
-    let sim = field_test::run_with(&quiet_sensor(), &paper_site(), &run, 3, rate, "run", &effects).unwrap();
+    let sim = field_test::run_with(&quiet_sensor(), &paper_site(), &run, 3, rate, RunKind::Run, &effects).unwrap();
     let water = effects.current.unwrap();
     let c = water.current_ne_mps();
     let lat = sim.effect_column("true_lat_deg").unwrap();
@@ -293,7 +293,7 @@ fn effects_are_parsed_by_name() {
 #[test]
 fn no_effect_leaves_the_recording_as_it_was() {
     let p = RunParams { leg_m: 1000.0, ..RunParams::paper_like() };
-    let a = field_test::run(&SensorModel::paper_like(), &paper_site(), &p, 9, 1.0, "run").unwrap();
+    let a = field_test::run(&SensorModel::paper_like(), &paper_site(), &p, 9, 1.0, RunKind::Run).unwrap();
     // Printed by the simulator at commit 84ec09c (before issue 12), the same
     // run and seed: rows and raw counts.
     const BEFORE: [(usize, [f64; 3]); 6] = [
@@ -311,7 +311,7 @@ fn no_effect_leaves_the_recording_as_it_was() {
     assert!(a.recording.temp_c.is_none() && a.recording.motor_current_a.is_none() && a.recording.speed_mps.is_none());
     assert!(a.truth.effects.is_none() && a.effect_columns.is_empty());
     // The AHRS effect alone changes the attitude columns only.
-    let c = field_test::run_with(&SensorModel::paper_like(), &paper_site(), &p, 9, 1.0, "run", &Effects::of(&[Effect::Ahrs])).unwrap();
+    let c = field_test::run_with(&SensorModel::paper_like(), &paper_site(), &p, 9, 1.0, RunKind::Run, &Effects::of(&[Effect::Ahrs])).unwrap();
     assert_eq!(a.recording.mag, c.recording.mag);
     assert_ne!(a.recording.roll_deg, c.recording.roll_deg);
 }
@@ -324,7 +324,7 @@ fn a_recording_with_all_effects_round_trips_with_its_truth() {
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("run.csv");
     let p = RunParams { leg_m: 800.0, ..RunParams::paper_like() };
-    let sim = field_test::run_with(&SensorModel::paper_like(), &paper_site(), &p, 2, 1.0, "run", &Effects::all()).unwrap();
+    let sim = field_test::run_with(&SensorModel::paper_like(), &paper_site(), &p, 2, 1.0, RunKind::Run, &Effects::all()).unwrap();
     sim.write(&path).unwrap();
     let rec = host_tools::data::recording::Recording::read(&path).unwrap();
     assert_eq!(rec.len(), sim.recording.len());

@@ -441,7 +441,7 @@ fn real_recordings(root: &Path) -> serde_json::Value {
 fn merge_clocks() -> (serde_json::Value, String) {
     use host_tools::compute::{self, ChainOptions};
     use host_tools::data::merge::{merge, Clock};
-    use magcal_sim::field_test::{self, paper_site, RunParams, SensorModel};
+    use magcal_sim::field_test::{self, paper_site, RunKind, RunParams, SensorModel};
     use magcal_sim::logs::{split, LogSplit};
     use magcal_sim::scenario::heading_rms_deg;
     const MERGE_SEEDS: [u64; 3] = [11, 12, 13];
@@ -478,8 +478,8 @@ fn merge_clocks() -> (serde_json::Value, String) {
         let opts = ChainOptions::default();
         let sims = (
             field_test::swing(&sensor, &site, seed + 100, 50.0),
-            field_test::run(&sensor, &site, &RunParams::paper_like(), seed + 200, 25.0, "run"),
-            field_test::run(&sensor, &site, &RunParams::validation(), seed + 300, 2.0, "validation"),
+            field_test::run(&sensor, &site, &RunParams::paper_like(), seed + 200, 25.0, RunKind::Run),
+            field_test::run(&sensor, &site, &RunParams::validation(), seed + 300, 2.0, RunKind::Validation),
         );
         let (Ok(swing), Ok(run), Ok(validation)) = sims else { continue };
         let (sb, sn) = split(&swing, &LogSplit { offset_s: 41.3, drift_ppm: 80.0, nav_every: 5, trim_s: (10.0, 10.0), seed });

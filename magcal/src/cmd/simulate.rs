@@ -5,7 +5,8 @@ use std::path::PathBuf;
 use anyhow::Result;
 use clap::ValueEnum;
 use magcal_sim::effects::Effects;
-use magcal_sim::field_test::{self, paper_site, truth_path, GyroModel, RunParams, SensorModel};
+use magcal_sim::field_test::{self, paper_site, truth_path, GyroModel, RunKind, RunParams, SensorModel, Simulation};
+use magcal_sim::scenario::effects_runs;
 use serde_json::json;
 
 /// Which field test.
@@ -26,6 +27,19 @@ pub enum Hull {
     PaperLike,
     /// The hull couples the vertical channel to the horizontal ones.
     HullCoupled,
+}
+
+/// The runs' base parameters, before the flags that change them.
+#[derive(Clone, Copy, ValueEnum)]
+pub enum Runs {
+    /// Paper 000's: 7 km (run) / 4 km (validation) legs at 2 m/s, a
+    /// 0.1 m/s current.
+    Paper,
+    /// The bench's effects runs (`cargo xtask bench`, the README's
+    /// five-effects table): run 5 km legs at 1.2 / 0.9 m/s, validation 4 km
+    /// at 1.0 / 1.3 m/s, no current of their own (the `current` effect
+    /// brings one).
+    Effects,
 }
 
 /// Arguments of `magcal simulate`.
@@ -55,9 +69,16 @@ pub struct Args {
     /// Runs: GPS course delay, seconds.
     #[arg(long)]
     gps_delay_s: Option<f64>,
-    /// Runs: length of each leg, metres.
+    /// Runs: the base parameters (`paper`, or `effects`: the bench's effects
+    /// runs); the flags below change them.
+    #[arg(long, value_enum, default_value = "paper")]
+    runs: Runs,
+    /// Runs: length of each leg, metres (at most 100 000).
     #[arg(long)]
     leg_m: Option<f64>,
+    /// Runs: speed through water on the outbound leg, m/s (at most 10).
+    #[arg(long)]
+    speed_mps: Option<f64>,
     /// Swing test: roll amplitude, degrees (paper: 55).
     #[arg(long, default_value_t = 55.0)]
     roll_amp_deg: f64,
@@ -71,8 +92,11 @@ pub struct Args {
     /// `thrusters` (dipoles scaling with motor current), `temperature`
     /// (thermal lag, bridge gain −0.3 %/°C), `anomaly` (crustal field, IGRF
     /// wrong by 100–300 nT), `ahrs` (AHRS misaligned by tenths of a degree),
-    /// `current` (water current, speed log, kinematically consistent GPS).
-    /// Their true values go into the truth JSON.
+    /// `current` (water current, speed log, kinematically consistent GPS);
+    /// `all` is these five. Two disturbances for integrity checks, not in
+    /// `all`: `structure` (a steel pier passed at ~2.6 m on the validation
+    /// run), `payload` (a motor switched on 1 800 s into the validation
+    /// run). Their true values go into the truth JSON.
     #[arg(long, default_value = "none", value_parser = parse_effects)]
     effects: Box<Effects>,
     /// Swing test with the thrusters effect: hold the heading after the
@@ -89,19 +113,49 @@ pub struct Args {
 
 /// Runs `magcal simulate`.
 pub fn run(a: Args) -> Result<()> {
+    let simulation = simulate(&a)?;
+    simulation.write(&a.out)?;
+    let truth = truth_path(&a.out);
+    eprintln!("wrote {} ({} rows) and {}", a.out.display(), simulation.recording.len(), truth.display());
+    if a.json {
+        println!("{}", json!({"csv": a.out, "truth": truth, "rows": simulation.recording.len(), "site": simulation.truth.site, "effects": a.effects.list()}));
+    }
+    Ok(())
+}
+
+/// The simulation the arguments ask for.
+fn simulate(a: &Args) -> Result<Simulation> {
     let sensor = match a.vehicle {
         Hull::PaperLike => SensorModel::paper_like(),
         Hull::HullCoupled => SensorModel::hull_coupled(),
     };
     let site = paper_site();
-    let tune = |mut p: RunParams| {
-        p.current_mps = a.current_mps.unwrap_or(p.current_mps);
-        p.current_to_deg = a.current_to_deg.unwrap_or(p.current_to_deg);
-        p.gps_delay_s = a.gps_delay_s.unwrap_or(p.gps_delay_s);
-        p.leg_m = a.leg_m.unwrap_or(p.leg_m);
-        p.speed_back_mps = a.speed_back_mps.or(p.speed_back_mps);
-        p
+    let effects = effects(a)?;
+    let (run, validation) = match a.runs {
+        Runs::Paper => (RunParams::paper_like(), RunParams::validation()),
+        Runs::Effects => effects_runs(),
     };
+    let simulation = match a.scenario {
+        Scenario::Swing => field_test::swing_with(&sensor, &site, a.seed, a.rate_hz, a.roll_amp_deg, a.pitch_amp_deg, &effects)?,
+        Scenario::Run => field_test::run_with(&sensor, &site, &tune(a, run), a.seed, a.rate_hz, RunKind::Run, &effects)?,
+        Scenario::Validation => field_test::run_with(&sensor, &site, &tune(a, validation), a.seed, a.rate_hz, RunKind::Validation, &effects)?,
+    };
+    Ok(if a.gyro { simulation.with_gyro(&GyroModel::mems(), a.seed) } else { simulation })
+}
+
+/// The run's parameters with the flags applied.
+fn tune(a: &Args, mut p: RunParams) -> RunParams {
+    p.current_mps = a.current_mps.unwrap_or(p.current_mps);
+    p.current_to_deg = a.current_to_deg.unwrap_or(p.current_to_deg);
+    p.gps_delay_s = a.gps_delay_s.unwrap_or(p.gps_delay_s);
+    p.leg_m = a.leg_m.unwrap_or(p.leg_m);
+    p.speed_mps = a.speed_mps.unwrap_or(p.speed_mps);
+    p.speed_back_mps = a.speed_back_mps.or(p.speed_back_mps);
+    p
+}
+
+/// The effects with the flags applied.
+fn effects(a: &Args) -> Result<Effects> {
     let mut effects = *a.effects.clone();
     // With the current effect, --current-mps/--current-to-deg set its current.
     if let Some(water) = effects.current.as_mut() {
@@ -112,19 +166,7 @@ pub fn run(a: Args) -> Result<()> {
         let thrusters = effects.thrusters.take().ok_or_else(|| anyhow::anyhow!("--thrust-test needs the thrusters effect (--effects thrusters,…)"))?;
         effects.thrusters = Some(thrusters.with_thrust_test());
     }
-    let simulation = match a.scenario {
-        Scenario::Swing => field_test::swing_with(&sensor, &site, a.seed, a.rate_hz, a.roll_amp_deg, a.pitch_amp_deg, &effects)?,
-        Scenario::Run => field_test::run_with(&sensor, &site, &tune(RunParams::paper_like()), a.seed, a.rate_hz, "run", &effects)?,
-        Scenario::Validation => field_test::run_with(&sensor, &site, &tune(RunParams::validation()), a.seed, a.rate_hz, "validation", &effects)?,
-    };
-    let simulation = if a.gyro { simulation.with_gyro(&GyroModel::mems(), a.seed) } else { simulation };
-    simulation.write(&a.out)?;
-    let truth = truth_path(&a.out);
-    eprintln!("wrote {} ({} rows) and {}", a.out.display(), simulation.recording.len(), truth.display());
-    if a.json {
-        println!("{}", json!({"csv": a.out, "truth": truth, "rows": simulation.recording.len(), "site": simulation.truth.site, "effects": effects.list()}));
-    }
-    Ok(())
+    Ok(effects)
 }
 
 fn parse_effects(text: &str) -> Result<Box<Effects>, String> {
