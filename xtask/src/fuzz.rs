@@ -2,7 +2,7 @@
 //!
 //! `cargo fuzz build --sanitizer none -O` is a plain `cargo build --release`
 //! of the fuzz crate for the host triple with SanitizerCoverage switched on
-//! through `RUSTFLAGS`, all stable flags (cargo-fuzz 0.12, `project.rs`);
+//! through `RUSTFLAGS`, all stable flags (cargo-fuzz 0.13.2, `project.rs`);
 //! `libfuzzer-sys` compiles libFuzzer itself and supplies `main`. So the
 //! same command is run here, and each target binary is then run with
 //! libFuzzer's own options, as `cargo fuzz run` does. The build lands where
@@ -23,9 +23,11 @@ pub const SECONDS_PER_TARGET: u32 = 10;
 
 /// cargo-fuzz's flags for `--sanitizer none` on Linux: SanitizerCoverage
 /// with 8-bit counters, the PC table, compare tracing and stack depth (what
-/// libFuzzer's feedback reads), no branch folding, `cfg(fuzzing)`, dead code
-/// kept, one codegen unit in release.
-const RUSTFLAGS: &str = "-Cpasses=sancov-module -Cllvm-args=-sanitizer-coverage-level=4 -Cllvm-args=-sanitizer-coverage-inline-8bit-counters -Cllvm-args=-sanitizer-coverage-pc-table -Cllvm-args=-sanitizer-coverage-trace-compares -Cllvm-args=-simplifycfg-branch-fold-threshold=0 --cfg fuzzing -Clink-dead-code -Cllvm-args=-sanitizer-coverage-stack-depth -Ccodegen-units=1";
+/// libFuzzer's feedback reads), no branch folding, `cfg(fuzzing)`, one
+/// codegen unit in release (cargo-fuzz 0.13.2, `project.rs`; dead code is
+/// stripped, as there: kept, the firmware's unused paths would need a
+/// critical-section implementation on the host).
+const RUSTFLAGS: &str = "-Cpasses=sancov-module -Cllvm-args=-sanitizer-coverage-level=4 -Cllvm-args=-sanitizer-coverage-inline-8bit-counters -Cllvm-args=-sanitizer-coverage-pc-table -Cllvm-args=-sanitizer-coverage-trace-compares -Cllvm-args=-simplifycfg-branch-fold-threshold=0 --cfg fuzzing -Cllvm-args=-sanitizer-coverage-stack-depth -Ccodegen-units=1";
 
 fn dir() -> PathBuf {
     super::root().join("fuzz")
@@ -46,7 +48,7 @@ pub fn host_triple() -> Result<String> {
 pub fn build_command(host: &str) -> Command {
     let mut c = super::cargo();
     c.current_dir(dir())
-        .args(["build", "--release", "--config", "profile.release.debug=true", "--bins", "--target", host])
+        .args(["build", "--release", "--config", "profile.release.debug=\"line-tables-only\"", "--bins", "--target", host])
         .env("RUSTFLAGS", RUSTFLAGS)
         .env("CARGO_FUZZ", "1");
     c
