@@ -59,7 +59,7 @@ pub fn cmd_test() -> Result<()> {
     let started = Instant::now();
     let phases = Phases::default();
     phases.time("tools (rustup target, clippy, apt: QEMU, Chromium)", crate::ensure_tools)?;
-    let built = phases.time("build: host, thumb (firmware, on-target, clippy), fuzz and the log decoder, side by side", build_all);
+    let built = phases.time("build (side by side): host, thumb, fuzz targets, log decoder", build_all);
     // Before the lanes start (no other thread reads the environment yet).
     crate::use_log_decoder(built.log_decoder);
     let (qemu, cpu) = std::thread::scope(|s| {
