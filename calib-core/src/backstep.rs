@@ -353,9 +353,7 @@ pub struct JointResult<T> {
 
 /// Levelling matrix `C2ᵀ(θ) C1ᵀ(φ)` rows.
 fn level_matrix<T: Real>(roll: T, pitch: T) -> Mat3<T> {
-    let (sr, cr) = (roll.sin(), roll.cos());
-    let (sp, cp) = (pitch.sin(), pitch.cos());
-    [[cp, sp * sr, sp * cr], [T::ZERO, cr, -sr], [-sp, cp * sr, cp * cr]]
+    crate::heading::Tilt::new(roll, pitch).matrix()
 }
 
 /// Ours: the joint refinement without current, temperature or misalignment

@@ -27,6 +27,10 @@ pub enum ModelKind {
     /// Bias and a symmetric soft-iron matrix from the gyro-aided fit
     /// ([`crate::gyro`]): for vehicles that cannot tumble.
     Gyro,
+    /// Bias and a general soft-iron matrix from the attitude-aided fit
+    /// ([`crate::attitude_fit`]): for vehicles with an AHRS but no gyro
+    /// that cannot tumble.
+    Attitude,
 }
 
 impl ModelKind {
@@ -38,6 +42,7 @@ impl ModelKind {
             ModelKind::Full => "full",
             ModelKind::Triangular => "triangular",
             ModelKind::Gyro => "gyro",
+            ModelKind::Attitude => "attitude",
         }
     }
 }

@@ -102,7 +102,7 @@ impl core::fmt::Display for FitError {
             FitError::NotAnEllipsoid => f.write_str("the fitted surface is not an ellipsoid: the data do not constrain a full calibration"),
             FitError::InsufficientCoverage { covered_pct } => write!(
                 f,
-                "only {covered_pct}% of field directions were visited: too little of the sphere for this model (a vehicle that cannot tumble: record the gyro, gx, gy, gz, and use the gyro-aided model)"
+                "only {covered_pct}% of field directions were visited: too little of the sphere for this model (a vehicle that cannot tumble: the attitude-aided model needs only roll and pitch, the gyro-aided model the gyro)"
             ),
             FitError::ResidualTooLarge { rms_per_mille } => write!(
                 f,

@@ -30,14 +30,16 @@
 //! time by the square-root RLS of [`crate::lsq`], so the same [`GyroFit`]
 //! runs on the MCU in `f32` and as the batch reference in `f64`. The scale
 //! is set at the end from the reference intensity (or any nominal one: a
-//! heading does not depend on it). [`fit_gyro_batch`] adds the gyro's bias,
-//! estimated from the same windows by Gauss–Newton with the field fixed,
-//! alternated with the linear solve.
+//! heading does not depend on it). [`fit_gyro_batch`] adds the gyro's bias
+//! and the magnetometer's sub-sample lag behind the gyro, estimated from
+//! the same windows by Gauss–Newton (the crate's [`crate::lsq::lm`]) with
+//! the field fixed, alternated with the linear solve.
 
 use crate::cal::FieldCal;
 use crate::fit::{FitError, Normalization};
 use crate::heading::{Tilt, Vec3};
-use crate::linalg::{cholesky_solve, det3, identity3, inverse3, mul_mat, mul_mat_vec, Mat3};
+use crate::linalg::{det3, identity3, inverse3, mul_mat, mul_mat_vec, Mat3};
+use crate::lsq::lm::{self, Acceptance, Damping, LmOptions, LmProblem, Linearisation};
 use crate::lsq::QrRls;
 use crate::Real;
 
@@ -78,23 +80,32 @@ pub struct GyroConfig<T> {
     /// Steps the gyro is integrated over for one kinematic equation (1 to
     /// [`MAX_WINDOW_STEPS`]). Longer windows see more rotation per unit of
     /// noise; on BROAD trial 05 at 28.6 Hz, 20 steps (0.7 s) gave 1.7° and
-    /// 1 step (differentiation) 2.5°.
+    /// 1 step (differentiation) 2.5°. (host-tools sets its own for real
+    /// recordings, chosen leave-one-trial-out on four real trials.)
     pub window_steps: usize,
     /// A step longer than this (or not forward in time) breaks the chain of
     /// integrated rotations, s.
     pub max_step_s: T,
     /// The gyro's bias, subtracted from its readings, rad/s.
     pub gyro_bias_rad_s: Vec3<T>,
+    /// The magnetometer's lag behind the gyro, s: each step's rotation is
+    /// integrated over the interval this much earlier, to first order
+    /// `∫ω dt − lag·(ω₁ − ω₀)` (exact for rates linear in time; meant for
+    /// lags up to about one sample, larger ones are shifted by the caller).
+    pub gyro_lag_s: T,
     /// Weight of the levelled-vertical equations against the kinematic ones
-    /// (both in normalised field units; 0 = gyro only).
+    /// (both in normalised field units; 0 = gyro only). 1 suits a uniform
+    /// field and an exact attitude (the simulations); a real room's field
+    /// varies along the path, and host-tools uses a weaker one chosen
+    /// leave-one-trial-out.
     pub attitude_weight: T,
 }
 
 impl<T: Real> GyroConfig<T> {
     /// 20-step windows, chains broken by steps over `max_step_s`, no gyro
-    /// bias, unit attitude weight.
+    /// bias, no lag, unit attitude weight.
     pub fn new(max_step_s: T) -> Self {
-        Self { window_steps: 20, max_step_s, gyro_bias_rad_s: [T::ZERO; 3], attitude_weight: T::ONE }
+        Self { window_steps: 20, max_step_s, gyro_bias_rad_s: [T::ZERO; 3], gyro_lag_s: T::ZERO, attitude_weight: T::ONE }
     }
 }
 
@@ -132,7 +143,8 @@ type ChainStep<T> = (Vec3<T>, Vec3<T>, Mat3<T>);
 #[derive(Debug, Clone)]
 struct Chain<T> {
     raw: [Vec3<T>; MAX_WINDOW_STEPS + 1],
-    step: [Mat3<T>; MAX_WINDOW_STEPS],
+    /// The step into each sample slot (same index as `raw`).
+    step: [Mat3<T>; MAX_WINDOW_STEPS + 1],
     /// Samples held (≤ MAX + 1); the newest is at `head`.
     len: usize,
     head: usize,
@@ -141,7 +153,7 @@ struct Chain<T> {
 
 impl<T: Real> Chain<T> {
     fn new() -> Self {
-        Self { raw: [[T::ZERO; 3]; MAX_WINDOW_STEPS + 1], step: [identity3(); MAX_WINDOW_STEPS], len: 0, head: 0, previous: None }
+        Self { raw: [[T::ZERO; 3]; MAX_WINDOW_STEPS + 1], step: [identity3(); MAX_WINDOW_STEPS + 1], len: 0, head: 0, previous: None }
     }
 
     /// Adds a sample (normalised raw); returns `(raw_i, raw_j, R)` once the
@@ -159,12 +171,14 @@ impl<T: Real> Chain<T> {
             if let Some((t0, w0)) = self.previous {
                 let dt = s.t_s - t0;
                 let half = T::from_f64(0.5);
-                let b = cfg.gyro_bias_rad_s;
-                let theta = [0, 1, 2].map(|k| ((w0[k] + s.rate_rad_s[k]) * half - b[k]) * dt);
-                // The step into slot `head + 1` is stored at the same index
-                // modulo the step ring (one shorter than the sample ring).
+                let (b, lag) = (cfg.gyro_bias_rad_s, cfg.gyro_lag_s);
+                let theta = [0, 1, 2].map(|k| ((w0[k] + s.rate_rad_s[k]) * half - b[k]) * dt - lag * (s.rate_rad_s[k] - w0[k]));
+                // The step into slot `head + 1` is stored at that slot: a
+                // ring one shorter would give the steps into slots 0 and
+                // MAX the same place, and a window across both would use
+                // one step twice and lose the other.
                 self.head = (self.head + 1) % cap;
-                self.step[self.head % MAX_WINDOW_STEPS] = body_step_rotation(theta);
+                self.step[self.head] = body_step_rotation(theta);
                 self.raw[self.head] = raw;
                 self.len = (self.len + 1).min(cap);
             }
@@ -182,7 +196,7 @@ impl<T: Real> Chain<T> {
         let mut r = identity3();
         for back in (0..k).rev() {
             let idx = (self.head + cap - back) % cap;
-            r = mul_mat(&self.step[idx % MAX_WINDOW_STEPS], &r);
+            r = mul_mat(&self.step[idx], &r);
         }
         let i = (self.head + cap - k) % cap;
         Some((self.raw[i], raw, r))
@@ -339,7 +353,7 @@ impl<T: Real> GyroFit<T> {
         let w = self.cfg.attitude_weight;
         if s.roll_rad.is_finite() && s.pitch_rad.is_finite() && w > T::ZERO {
             let t = Tilt::new(s.roll_rad, s.pitch_rad);
-            let l = [-t.sin_pitch, t.cos_pitch * t.sin_roll, t.cos_pitch * t.cos_roll];
+            let [_, _, l] = t.matrix();
             let dot = |v: Vec3<T>| l[0] * v[0] + l[1] * v[1] + l[2] * v[2];
             let mut phi = [T::ZERO; UNKNOWNS];
             for k in 1..9 {
@@ -483,43 +497,62 @@ fn predicted_heading_rms<T: Real>(x: &[T; UNKNOWNS], n: &Normalised<T>, rms: T, 
     (total / T::from_f64(f64::from(steps))).max(T::ZERO).sqrt()
 }
 
-/// Most Gauss–Newton passes for the gyro bias per alternation.
-const BIAS_PASSES: usize = 2;
+/// Most Gauss–Newton passes for the gyro bias and lag per alternation.
+const TIMING_PASSES: u32 = 2;
 /// Most alternations between the linear field solve and the gyro-bias step.
 const MAX_ALTERNATIONS: usize = 40;
 /// The alternation stops when the gyro bias moves less than this, rad/s.
 const BIAS_TOLERANCE_RAD_S: f64 = 1e-6;
+/// … and the lag less than this, s.
+const LAG_TOLERANCE_S: f64 = 1e-5;
+/// What the batch reference determined.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GyroBatch<T> {
+    /// The field calibration and its quality.
+    pub estimate: GyroEstimate<T>,
+    /// The gyro's bias, rad/s (the configuration's start plus the estimate).
+    pub gyro_bias_rad_s: Vec3<T>,
+    /// The magnetometer's lag behind the gyro, s (likewise).
+    pub gyro_lag_s: T,
+}
 
 /// The batch reference: normalises the samples, alternates the linear fit
-/// with a Gauss–Newton estimate of the gyro bias (field fixed, same
-/// windows), and returns the final estimate with the gyro bias (rad/s).
-pub fn fit_gyro_batch<T: Real>(samples: &[GyroSample<T>], cfg: &GyroConfig<T>, field_nt: T) -> Result<(GyroEstimate<T>, Vec3<T>), FitError> {
+/// with a Gauss–Newton estimate of the gyro's bias and of the
+/// magnetometer's lag behind it (field fixed, same windows), and returns
+/// the final estimate with the bias (rad/s) and the lag (s), both starting
+/// from the configuration's.
+pub fn fit_gyro_batch<T: Real>(samples: &[GyroSample<T>], cfg: &GyroConfig<T>, field_nt: T) -> Result<GyroBatch<T>, FitError> {
     let norm = normalization_of(samples).ok_or(FitError::TooFewSamples { have: samples.len() as u32, need: 2 })?;
     let mut cfg = *cfg;
     let mut fit = run(samples, norm, &cfg);
     // The linear solve absorbs part of a gyro bias into A and c, so the
     // alternation converges linearly: on the unit tests' data 3 rounds left
     // 6e-4 rad/s and 0.18° of heading, 12 rounds 2e-5 rad/s.
+    // The timing steps: Gauss–Newton (every step taken; Jacobi scaling
+    // with a negligible damping keeps a direction the windows do not see,
+    // e.g. the lag of a steady turn, at its value) for TIMING_PASSES
+    // iterations with the field fixed.
+    let mut opts = LmOptions::marquardt(T::from_f64(1e-9));
+    opts.damping = Damping::JacobiScaled;
+    opts.acceptance = Acceptance::Always;
+    opts.max_iterations = TIMING_PASSES;
+    opts.max_tries = 1;
     for _ in 0..MAX_ALTERNATIONS {
         let (_, n) = fit.solve_normalised()?;
-        let mut largest = T::ZERO;
-        for _ in 0..BIAS_PASSES {
-            match gyro_bias_step(samples, &norm, &cfg, &n) {
-                Some(step) => {
-                    for k in 0..3 {
-                        cfg.gyro_bias_rad_s[k] += step[k];
-                        largest = largest.max(step[k].abs());
-                    }
-                }
-                None => break,
-            }
-        }
+        let mut problem = GyroTimingProblem { samples, norm: &norm, cfg: &cfg, n: &n };
+        let b = cfg.gyro_bias_rad_s;
+        let out = lm::solve(&mut problem, &[b[0], b[1], b[2], cfg.gyro_lag_s], &opts);
+        let [bx, by, bz, lag] = out.params;
+        let moved = (0..3).fold(T::ZERO, |m, k| m.max((out.params[k] - b[k]).abs()));
+        let lag_moved = (lag - cfg.gyro_lag_s).abs();
+        cfg.gyro_bias_rad_s = [bx, by, bz];
+        cfg.gyro_lag_s = lag;
         fit = run(samples, norm, &cfg);
-        if largest < T::from_f64(BIAS_TOLERANCE_RAD_S) {
+        if moved < T::from_f64(BIAS_TOLERANCE_RAD_S) && lag_moved < T::from_f64(LAG_TOLERANCE_S) {
             break;
         }
     }
-    Ok((fit.estimate(field_nt)?, cfg.gyro_bias_rad_s))
+    Ok(GyroBatch { estimate: fit.estimate(field_nt)?, gyro_bias_rad_s: cfg.gyro_bias_rad_s, gyro_lag_s: cfg.gyro_lag_s })
 }
 
 fn run<T: Real>(samples: &[GyroSample<T>], norm: Normalization<T>, cfg: &GyroConfig<T>) -> GyroFit<T> {
@@ -539,58 +572,82 @@ fn normalization_of<T: Real>(samples: &[GyroSample<T>]) -> Option<Normalization<
     Normalization::from_raw_iter(finite)
 }
 
-/// One Gauss–Newton step for the gyro bias with the field fixed: minimises
-/// `Σ |h_j − R(b)·h_i|²` over the windows, derivatives by differences.
-fn gyro_bias_step<T: Real>(samples: &[GyroSample<T>], norm: &Normalization<T>, cfg: &GyroConfig<T>, n: &Normalised<T>) -> Option<Vec3<T>> {
-    let eps = T::from_f64(1e-4);
-    let cfgs: [GyroConfig<T>; 4] = core::array::from_fn(|k| {
-        let mut c = *cfg;
+/// Timing parameters the batch fit estimates: the gyro bias (rad/s, 3) and
+/// the magnetometer's lag behind the gyro (s).
+const TIMING: usize = 4;
+
+/// The gyro bias and lag with the field fixed, as a problem for the crate's
+/// Levenberg–Marquardt: minimises `Σ |h_j − R(b, lag)·h_i|²` over the
+/// windows, derivatives by differences.
+struct GyroTimingProblem<'a, T> {
+    samples: &'a [GyroSample<T>],
+    norm: &'a Normalization<T>,
+    cfg: &'a GyroConfig<T>,
+    n: &'a Normalised<T>,
+}
+
+impl<T: Real> GyroTimingProblem<'_, T> {
+    /// The configuration with the timing `p`, parameter `k − 1` moved by
+    /// `eps` (none for `k = 0`).
+    fn perturbed(&self, p: &[T; TIMING], k: usize, eps: T) -> GyroConfig<T> {
+        let mut c = *self.cfg;
+        let mut q = *p;
         if k > 0 {
-            c.gyro_bias_rad_s[k - 1] += eps;
+            q[k - 1] += eps;
         }
+        c.gyro_bias_rad_s = [q[0], q[1], q[2]];
+        c.gyro_lag_s = q[3];
         c
-    });
-    let mut chains: [Chain<T>; 4] = core::array::from_fn(|_| Chain::new());
-    let field = |r: Vec3<T>| {
-        let h = mul_mat_vec(&n.a, r);
-        [h[0] - n.c[0], h[1] - n.c[1], h[2] - n.c[2]]
-    };
-    let (mut jtj, mut jte) = ([[T::ZERO; 3]; 3], [T::ZERO; 3]);
-    let mut windows = 0u32;
-    for s in samples {
-        if !(s.t_s.is_finite() && s.raw.iter().chain(s.rate_rad_s.iter()).all(|v| v.is_finite())) {
-            chains = core::array::from_fn(|_| Chain::new());
-            continue;
-        }
-        let r = norm.apply(s.raw);
-        let out: [Option<ChainStep<T>>; 4] = core::array::from_fn(|k| chains[k].push(s, r, &cfgs[k]));
-        let [Some((ri, rj, r0)), Some((_, _, r1)), Some((_, _, r2)), Some((_, _, r3))] = out else { continue };
-        let (hi, hj) = (field(ri), field(rj));
-        let pred = |rot: &Mat3<T>| mul_mat_vec(rot, hi);
-        let p0 = pred(&r0);
-        let e = [hj[0] - p0[0], hj[1] - p0[1], hj[2] - p0[2]];
-        // Column k of the Jacobian of e: −∂(R h_i)/∂b_k.
-        let cols = [&r1, &r2, &r3].map(|rot| {
-            let p = pred(rot);
-            [-(p[0] - p0[0]) / eps, -(p[1] - p0[1]) / eps, -(p[2] - p0[2]) / eps]
-        });
-        for m in 0..3 {
-            for a in 0..3 {
-                jte[a] += cols[a][m] * e[m];
-                for b in 0..3 {
-                    jtj[a][b] += cols[a][m] * cols[b][m];
+    }
+}
+
+impl<T: Real> LmProblem<T, TIMING> for GyroTimingProblem<'_, T> {
+    fn linearise(&mut self, p: &[T; TIMING]) -> Option<Linearisation<T, TIMING>> {
+        let eps = T::from_f64(1e-4);
+        let cfgs: [GyroConfig<T>; TIMING + 1] = core::array::from_fn(|k| self.perturbed(p, k, eps));
+        let mut chains: [Chain<T>; TIMING + 1] = core::array::from_fn(|_| Chain::new());
+        let n = self.n;
+        let field = |r: Vec3<T>| {
+            let h = mul_mat_vec(&n.a, r);
+            [h[0] - n.c[0], h[1] - n.c[1], h[2] - n.c[2]]
+        };
+        let mut lin = Linearisation { jtj: [[T::ZERO; TIMING]; TIMING], jtr: [T::ZERO; TIMING], cost: T::ZERO };
+        let mut windows = 0u32;
+        for s in self.samples {
+            if !(s.t_s.is_finite() && s.raw.iter().chain(s.rate_rad_s.iter()).all(|v| v.is_finite())) {
+                chains = core::array::from_fn(|_| Chain::new());
+                continue;
+            }
+            let r = self.norm.apply(s.raw);
+            let out: [Option<ChainStep<T>>; TIMING + 1] = core::array::from_fn(|k| chains[k].push(s, r, &cfgs[k]));
+            let Some((ri, rj, r0)) = out[0] else { continue };
+            let (hi, hj) = (field(ri), field(rj));
+            let p0 = mul_mat_vec(&r0, hi);
+            let e = [hj[0] - p0[0], hj[1] - p0[1], hj[2] - p0[2]];
+            // Column k of the Jacobian of e: −∂(R h_i)/∂p_k.
+            let mut cols = [[T::ZERO; 3]; TIMING];
+            for (k, col) in cols.iter_mut().enumerate() {
+                let (_, _, rot) = out[k + 1]?;
+                let p = mul_mat_vec(&rot, hi);
+                *col = [-(p[0] - p0[0]) / eps, -(p[1] - p0[1]) / eps, -(p[2] - p0[2]) / eps];
+            }
+            for m in 0..3 {
+                lin.cost += e[m] * e[m];
+                for a in 0..TIMING {
+                    lin.jtr[a] += cols[a][m] * e[m];
+                    for b in 0..TIMING {
+                        lin.jtj[a][b] += cols[a][m] * cols[b][m];
+                    }
                 }
             }
+            windows += 1;
         }
-        windows += 1;
+        (windows >= 4).then_some(lin)
     }
-    if windows < 4 {
-        return None;
+
+    fn cost(&mut self, p: &[T; TIMING]) -> Option<T> {
+        self.linearise(p).map(|l| l.cost)
     }
-    let step = cholesky_solve(&jtj, &jte).ok()?;
-    // Gauss–Newton: J·δ ≈ −e.
-    let step = step.map(|v| -v);
-    step.iter().all(|v| v.is_finite()).then_some(step)
 }
 
 #[cfg(test)]

@@ -5,6 +5,7 @@
 //! Z-Y-X Euler angles: roll φ, pitch θ, yaw ψ, with
 //! `H_body = C1(φ) · C2(θ) · C3(ψ) · H_ned` (eqs 2–3).
 
+use crate::linalg::Mat3;
 use crate::Real;
 
 /// A 3-vector `[x, y, z]`.
@@ -45,6 +46,19 @@ pub fn ned_to_body<T: Real>(v_ned: Vec3<T>, roll_rad: T, pitch_rad: T, yaw_rad: 
     [x, y, z]
 }
 
+/// The NED → body rotation matrix `C1(φ) C2(θ) C3(ψ)` (eqs 2–3), the
+/// matrix form of [`ned_to_body`]; its transpose carries body to NED.
+pub fn ned_to_body_matrix<T: Real>(roll_rad: T, pitch_rad: T, yaw_rad: T) -> Mat3<T> {
+    let (sr, cr) = (roll_rad.sin(), roll_rad.cos());
+    let (sp, cp) = (pitch_rad.sin(), pitch_rad.cos());
+    let (sy, cy) = (yaw_rad.sin(), yaw_rad.cos());
+    [
+        [cp * cy, cp * sy, -sp],
+        [sr * sp * cy - cr * sy, sr * sp * sy + cr * cy, sr * cp],
+        [cr * sp * cy + sr * sy, cr * sp * sy - sr * cy, cr * cp],
+    ]
+}
+
 /// Sines and cosines of roll and pitch, computed once per attitude update
 /// so that levelling a sample needs no trigonometry (on the Cortex-M4F the
 /// `f32` sine costs more than everything else in a sample).
@@ -65,6 +79,13 @@ impl<T: Real> Tilt<T> {
     /// From roll and pitch in radians.
     pub fn new(roll_rad: T, pitch_rad: T) -> Self {
         Self { sin_roll: roll_rad.sin(), cos_roll: roll_rad.cos(), sin_pitch: pitch_rad.sin(), cos_pitch: pitch_rad.cos() }
+    }
+
+    /// The levelling matrix `C2ᵀ(θ) C1ᵀ(φ)` (eqs 6 and 23); its third row
+    /// is the body-frame direction of down.
+    pub fn matrix(&self) -> Mat3<T> {
+        let (sr, cr, sp, cp) = (self.sin_roll, self.cos_roll, self.sin_pitch, self.cos_pitch);
+        [[cp, sp * sr, sp * cr], [T::ZERO, cr, -sr], [-sp, cp * sr, cp * cr]]
     }
 
     /// Levels a body-frame vector, `C2ᵀ(θ) C1ᵀ(φ) v` (eqs 6 and 23).
@@ -133,6 +154,22 @@ mod tests {
             m
         };
         mul(mul(c1, c2), c3)
+    }
+
+    #[test]
+    fn the_rotation_matrices_match_the_explicit_products() {
+        let (roll, pitch, yaw) = (0.3, -0.7, 2.1);
+        let c = c_n_b(roll, pitch, yaw);
+        let m = ned_to_body_matrix(roll, pitch, yaw);
+        let l = Tilt::new(roll, pitch).matrix();
+        let c12 = c_n_b(roll, pitch, 0.0);
+        for i in 0..3 {
+            for j in 0..3 {
+                assert_abs_diff_eq!(m[i][j], c[i][j], epsilon = 1e-15);
+                // Levelling is (C1 C2)ᵀ.
+                assert_abs_diff_eq!(l[i][j], c12[j][i], epsilon = 1e-15);
+            }
+        }
     }
 
     #[test]

@@ -25,18 +25,24 @@
 // the formulas do; iterator zips would hide the indices the comments cite.
 #![allow(clippy::needless_range_loop)]
 
+pub mod attitude_fit;
 pub mod backstep;
 pub mod cal;
 pub mod conformance;
 pub mod fit;
 pub mod gyro;
+pub mod hardiron;
 pub mod heading;
+pub mod integrity;
 pub mod linalg;
 pub mod lsq;
+pub mod online;
 pub mod ortho;
 pub mod quality;
+pub mod series;
 pub mod swing;
 pub mod uncertainty;
+pub mod water_current;
 pub mod real;
 pub mod trigf;
 

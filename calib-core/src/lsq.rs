@@ -1,4 +1,4 @@
-//! Linear least squares, two ways.
+//! Linear least squares, two ways, and in [`lm`] the one non-linear solver.
 //!
 //! * [`NormalEquations`]: the batch reference, literally eq 16 of paper 000,
 //!   `x̂ = (ΦᵀΦ)⁻¹ Φᵀz`, accumulated sample by sample (no storage of Φ) and
@@ -15,6 +15,8 @@
 
 use crate::linalg::cholesky_solve;
 use crate::Real;
+
+pub mod lm;
 
 /// Why a least-squares solve failed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -39,7 +39,8 @@
 
 use crate::cal::FieldCal;
 use crate::heading::Vec3;
-use crate::linalg::{cholesky, cholesky_solve, inverse3, mul_mat, mul_mat_vec, symmetric_eigen, transpose, Mat3};
+use crate::lsq::lm::{self, Acceptance, LmOptions, LmProblem, LmStop, Linearisation};
+use crate::linalg::{cholesky, inverse3, mul_mat, mul_mat_vec, symmetric_eigen, transpose, Mat3};
 use crate::Real;
 
 /// The angles and relative gains of the skewed axes (paper 001 notation).
@@ -333,15 +334,16 @@ pub fn to_field_cal<T: Real>(tri: &Triangular<T>, gain: T, bias: Vec3<T>) -> Fie
     FieldCal { bias, matrix: m }
 }
 
-/// Paper 001's solver: Levenberg–Marquardt on the five q's, minimising
-/// `Φ(q) = s(q)ᵀ G s(q)` (eq 10), from the identity.
-pub fn identify_pairwise<T: Real>(samples: &[Vec3<T>], bias: Vec3<T>) -> Result<Triangular<T>, OrthoError> {
-    let g = pair_information(samples, bias)?;
-    let mut tri = Triangular::identity();
-    let mut cost = objective(&g, &tri.metric());
-    let mut mu = T::from_f64(1e-3);
-    for _ in 0..200 {
-        let [q1, q2, q3, q4, q5] = tri.q;
+/// Paper 001's objective `Φ(q) = s(q)ᵀ G s(q)` (eq 10) as a problem for
+/// the crate's Levenberg–Marquardt.
+struct PairwiseProblem<T> {
+    g: [[T; 6]; 6],
+}
+
+impl<T: Real> LmProblem<T, 5> for PairwiseProblem<T> {
+    fn linearise(&mut self, q: &[T; 5]) -> Option<Linearisation<T, 5>> {
+        let g = &self.g;
+        let [q1, q2, q3, q4, q5] = *q;
         let two = T::from_f64(2.0);
         let z = T::ZERO;
         // ∂s/∂q, 6×5.
@@ -353,7 +355,7 @@ pub fn identify_pairwise<T: Real>(samples: &[Vec3<T>], bias: Vec3<T>) -> Result<
             [z, q3, q2, q5, q4],
             [q3, z, q1, z, z],
         ];
-        let s = tri.metric();
+        let s = Triangular { q: *q }.metric();
         // Gradient Dᵀ G s and Gauss–Newton matrix Dᵀ G D.
         let mut gs = [T::ZERO; 6];
         for i in 0..6 {
@@ -377,41 +379,28 @@ pub fn identify_pairwise<T: Real>(samples: &[Vec3<T>], bias: Vec3<T>) -> Result<
                 h[a][b] = acc;
             }
         }
-        let mut improved = false;
-        for _ in 0..30 {
-            let mut hm = h;
-            for (k, row) in hm.iter_mut().enumerate() {
-                row[k] += mu * (h[k][k] + T::EPSILON);
-            }
-            let neg = grad.map(|v| -v);
-            let Ok(step) = cholesky_solve(&hm, &neg) else {
-                mu *= T::from_f64(10.0);
-                continue;
-            };
-            let mut cand = tri;
-            for k in 0..5 {
-                cand.q[k] += step[k];
-            }
-            let c = objective(&g, &cand.metric());
-            if c < cost {
-                let small = step.iter().fold(T::ZERO, |m, v| m.max(v.abs())) < T::EPSILON.sqrt() * T::from_f64(1e-3);
-                tri = cand;
-                cost = c;
-                mu = (mu / T::from_f64(10.0)).max(T::from_f64(1e-12));
-                improved = true;
-                if small {
-                    return finish(tri);
-                }
-                break;
-            }
-            mu *= T::from_f64(10.0);
-        }
-        if !improved {
-            // No step lowers Φ: a (local) minimum to working precision.
-            return finish(tri);
-        }
+        Some(Linearisation { jtj: h, jtr: grad, cost: objective(g, &s) })
     }
-    Err(OrthoError::NoConvergence)
+
+    fn cost(&mut self, q: &[T; 5]) -> Option<T> {
+        Some(objective(&self.g, &Triangular { q: *q }.metric()))
+    }
+}
+
+/// Paper 001's solver: Levenberg–Marquardt on the five q's, minimising
+/// `Φ(q) = s(q)ᵀ G s(q)` (eq 10), from the identity: damping 1e-3, strict
+/// decrease, at most 200 iterations, stopped by a step below √ε·1e-3.
+pub fn identify_pairwise<T: Real>(samples: &[Vec3<T>], bias: Vec3<T>) -> Result<Triangular<T>, OrthoError> {
+    let mut problem = PairwiseProblem { g: pair_information(samples, bias)? };
+    let mut opts = LmOptions::marquardt(T::from_f64(1e-3));
+    opts.max_iterations = 200;
+    opts.step_tolerance = T::EPSILON.sqrt() * T::from_f64(1e-3);
+    let out = lm::solve(&mut problem, &Triangular::identity().q, &opts);
+    match out.stop {
+        LmStop::MaxIterations => Err(OrthoError::NoConvergence),
+        // No step lowers Φ: a (local) minimum to working precision.
+        _ => finish(Triangular { q: out.params }),
+    }
 }
 
 /// A maximum-likelihood refinement's result.
@@ -460,82 +449,80 @@ fn ml_cost<T: Real>(tri: &Triangular<T>, r: T, samples: &[Vec3<T>], bias: Vec3<T
     Some(acc)
 }
 
+/// The distance objective of [`refine_ml`] over `q1…q5, r` as a problem
+/// for the crate's Levenberg–Marquardt.
+struct MlProblem<'a, T> {
+    samples: &'a [Vec3<T>],
+    bias: Vec3<T>,
+    scale: T,
+}
+
+impl<T: Real> MlProblem<'_, T> {
+    /// The normalised samples that carry a direction (a sample at the bias
+    /// carries no information).
+    fn normalised(&self) -> impl Iterator<Item = Vec3<T>> + '_ {
+        let (bias, scale) = (self.bias, self.scale);
+        self.samples
+            .iter()
+            .map(move |s| [(s[0] - bias[0]) / scale, (s[1] - bias[1]) / scale, (s[2] - bias[2]) / scale])
+            .filter(|b| *b != [T::ZERO; 3])
+    }
+}
+
+impl<T: Real> LmProblem<T, 6> for MlProblem<'_, T> {
+    fn linearise(&mut self, p: &[T; 6]) -> Option<Linearisation<T, 6>> {
+        let tri = Triangular { q: [p[0], p[1], p[2], p[3], p[4]] };
+        let mut lin = Linearisation { jtj: [[T::ZERO; 6]; 6], jtr: [T::ZERO; 6], cost: T::ZERO };
+        for b in self.normalised() {
+            let (e, d) = ml_residual(&tri, p[5], b)?;
+            lin.cost += e * e;
+            for i in 0..6 {
+                lin.jtr[i] += d[i] * e;
+                for j in 0..6 {
+                    lin.jtj[i][j] += d[i] * d[j];
+                }
+            }
+        }
+        Some(lin)
+    }
+
+    fn cost(&mut self, p: &[T; 6]) -> Option<T> {
+        ml_cost(&Triangular { q: [p[0], p[1], p[2], p[3], p[4]] }, p[5], self.samples, self.bias, self.scale)
+    }
+}
+
 /// Maximum-likelihood refinement for noise on the *measured* field
 /// (errors in variables): minimises the sum of squared distances of the
 /// samples to the fitted surface `‖Γ⁻¹(B′ − bias)‖ = r` over `q1…q5` and
 /// `r` (first-order distance, `(‖UB′‖ − r)/‖∇‖UB′‖‖`), by Levenberg–Marquardt
-/// from `start`. With independent Gaussian noise of equal σ on each axis
-/// this is the ML estimate; the algebraic objectives (the paper's Φ, its
-/// all-sample form) weight samples by their position on the ellipsoid
-/// instead.
+/// from `start` (damping 1e-4, cost not rising, at most 100 iterations,
+/// stopped by a step below √ε·1e-2 or a cost settled to 16ε). With
+/// independent Gaussian noise of equal σ on each axis this is the ML
+/// estimate; the algebraic objectives (the paper's Φ, its all-sample form)
+/// weight samples by their position on the ellipsoid instead.
 pub fn refine_ml<T: Real>(samples: &[Vec3<T>], bias: Vec3<T>, start: &Triangular<T>) -> Result<MlFit<T>, OrthoError> {
     let scale = normalising_scale(samples, bias)?;
-    let mut tri = *start;
     // Start r at the RMS corrected norm.
     let mut r2 = T::ZERO;
     for s in samples {
         let b = [(s[0] - bias[0]) / scale, (s[1] - bias[1]) / scale, (s[2] - bias[2]) / scale];
-        let ub = tri.apply(b);
+        let ub = start.apply(b);
         r2 += ub[0] * ub[0] + ub[1] * ub[1] + ub[2] * ub[2];
     }
-    let mut r = (r2 / T::from_f64(samples.len() as f64)).sqrt();
-    let mut cost = ml_cost(&tri, r, samples, bias, scale).ok_or(OrthoError::NotPositiveDefinite)?;
-    let mut mu = T::from_f64(1e-4);
-    let mut iterations = 0u32;
-    for _ in 0..100 {
-        iterations += 1;
-        let mut h = [[T::ZERO; 6]; 6];
-        let mut grad = [T::ZERO; 6];
-        for s in samples {
-            let b = [(s[0] - bias[0]) / scale, (s[1] - bias[1]) / scale, (s[2] - bias[2]) / scale];
-            if b == [T::ZERO; 3] {
-                continue;
-            }
-            let (e, d) = ml_residual(&tri, r, b).ok_or(OrthoError::NotPositiveDefinite)?;
-            for i in 0..6 {
-                grad[i] += d[i] * e;
-                for j in 0..6 {
-                    h[i][j] += d[i] * d[j];
-                }
-            }
-        }
-        let mut accepted = None;
-        for _ in 0..30 {
-            let mut hm = h;
-            for (k, row) in hm.iter_mut().enumerate() {
-                row[k] += mu * (h[k][k] + T::EPSILON);
-            }
-            let Ok(step) = cholesky_solve(&hm, &grad.map(|v| -v)) else {
-                mu *= T::from_f64(10.0);
-                continue;
-            };
-            let mut cand = tri;
-            for k in 0..5 {
-                cand.q[k] += step[k];
-            }
-            let cand_r = r + step[5];
-            match ml_cost(&cand, cand_r, samples, bias, scale) {
-                Some(c) if c <= cost => {
-                    accepted = Some((cand, cand_r, c, step));
-                    break;
-                }
-                _ => mu *= T::from_f64(10.0),
-            }
-        }
-        let Some((cand, cand_r, c, step)) = accepted else { break };
-        let small = step.iter().fold(T::ZERO, |m, v| m.max(v.abs())) < T::EPSILON.sqrt() * T::from_f64(1e-2);
-        let settled = cost - c <= T::EPSILON * T::from_f64(16.0) * cost;
-        tri = cand;
-        r = cand_r;
-        cost = c;
-        mu = (mu / T::from_f64(10.0)).max(T::from_f64(1e-12));
-        if small || settled {
-            break;
-        }
+    let r = (r2 / T::from_f64(samples.len() as f64)).sqrt();
+    let q = start.q;
+    let mut opts = LmOptions::marquardt(T::from_f64(1e-4));
+    opts.acceptance = Acceptance::NoIncrease;
+    opts.step_tolerance = T::EPSILON.sqrt() * T::from_f64(1e-2);
+    opts.cost_tolerance = Some(T::EPSILON * T::from_f64(16.0));
+    let out = lm::solve(&mut MlProblem { samples, bias, scale }, &[q[0], q[1], q[2], q[3], q[4], r], &opts);
+    if out.stop == LmStop::NotEvaluable {
+        return Err(OrthoError::NotPositiveDefinite);
     }
-    let tri = finish(tri)?;
-    let rms = (cost / T::from_f64(samples.len() as f64)).sqrt() * scale;
-    Ok(MlFit { tri, residual_rms: rms, iterations })
+    let p = out.params;
+    let tri = finish(Triangular { q: [p[0], p[1], p[2], p[3], p[4]] })?;
+    let rms = (out.cost / T::from_f64(samples.len() as f64)).sqrt() * scale;
+    Ok(MlFit { tri, residual_rms: rms, iterations: out.iterations })
 }
 
 /// Every sample, then the maximum-likelihood refinement: [`identify_all_samples`]

@@ -158,7 +158,7 @@ impl<T: Real> Gates<T> {
             ModelKind::Sphere => 30,
             ModelKind::Axis => 25,
             ModelKind::Full | ModelKind::Triangular => 40,
-            ModelKind::Gyro => 0,
+            ModelKind::Gyro | ModelKind::Attitude => 0,
         };
         Self { min_coverage_pct, max_residual_pct: T::from_f64(2.0) }
     }

@@ -12,7 +12,6 @@
 //! magnetometer heading `delay` seconds earlier, and [`estimate_delay`]
 //! finds the delay that best explains the data.
 
-pub mod current;
 
 use crate::cal::Swing;
 use crate::heading::{wrap_pi, wrap_two_pi};
@@ -347,21 +346,7 @@ where
 /// arc between the neighbouring samples. `times_s` must be non-decreasing.
 /// `None` outside the recording or across a gap longer than `max_gap_s`.
 pub fn heading_at<T: Real>(times_s: &[T], headings_rad: &[T], at_s: T, max_gap_s: T) -> Option<T> {
-    let n = times_s.len().min(headings_rad.len());
-    let times = times_s.get(..n)?;
-    let i = times.partition_point(|&t| t < at_s);
-    let t1 = *times.get(i)?;
-    let h1 = *headings_rad.get(i)?;
-    if t1 == at_s {
-        return h1.is_finite().then_some(h1);
-    }
-    let t0 = *times.get(i.checked_sub(1)?)?;
-    let h0 = *headings_rad.get(i - 1)?;
-    if !(t1 - t0 <= max_gap_s && h0.is_finite() && h1.is_finite()) {
-        return None;
-    }
-    let f = (at_s - t0) / (t1 - t0);
-    Some(wrap_two_pi(h0 + f * wrap_pi(h1 - h0)))
+    crate::series::interp_angle(times_s, headings_rad, at_s, max_gap_s)
 }
 
 /// Pairs each finite reference sample at `t` with the magnetometer heading

@@ -26,7 +26,7 @@
 //!    periods (§8.3.7.1.2), so the 1st–3rd conversions that end after the
 //!    flip mix both polarities and the 4th is the first settled one.
 //!
-//! At OSR 128 with the board's 8 MHz CLKIN ([`ADC_CLKIN_HZ`], f_MOD = 4 MHz) a conversion
+//! At OSR 128 with the board's 8 MHz CLKIN ([`crate::clocks::ADC_CLKIN_HZ`], f_MOD = 4 MHz) a conversion
 //! takes 32 µs: a phase is about 4 × 32 µs, a pair about 270 µs. The task
 //! awaits DRDY (an interrupt on the board), so the CPU is free meanwhile.
 
@@ -65,12 +65,6 @@ pub const SETTLE_CONVERSIONS: u8 = 3;
 pub const ADC_BUFFERED_CONVERSIONS: u8 = 2;
 /// Set/reset pairs per second on the board.
 pub const PAIR_RATE_HZ: u32 = 500;
-/// The ADC's SPI clock: APB2 (84 MHz) / 4, under the ADS131M04's 25 MHz
-/// (SBAS890 §6.6, t_c(SC) ≥ 40 ns).
-pub const SPI_SCLK_HZ: u32 = 21_000_000;
-/// The ADC's CLKIN: the 8 MHz HSE on MCO1, PA8 (RM0090 §6.2.10), inside the
-/// ADS131M04's high-resolution range (SBAS890 §6.3, 8.192 MHz nominal).
-pub const ADC_CLKIN_HZ: u32 = 8_000_000;
 /// SPI frames per pair in steady state: per phase, the settling
 /// conversions and the one kept (the drains find nothing buffered).
 pub const FRAMES_PER_PAIR: u32 = 2 * (SETTLE_CONVERSIONS as u32 + 1);

@@ -66,9 +66,12 @@ pub mod reg {
 pub const FULL_SCALE_COUNTS: i32 = 1 << 23;
 /// Internal reference: the input range is ±1.2 V / gain.
 pub const REFERENCE_V: f32 = 1.2;
-/// Modulator clock in high-resolution mode: f_CLKIN / 2 (SBAS890 §8.4.1),
-/// with the board's CLKIN.
-pub const MODULATOR_HZ: u32 = crate::acquisition::ADC_CLKIN_HZ / 2;
+/// Modulator clock in high-resolution mode for a CLKIN of `clkin_hz`:
+/// f_CLKIN / 2 (SBAS890 §8.4.1). The board's CLKIN is
+/// [`crate::clocks::ADC_CLKIN_HZ`]; the driver takes it as an argument.
+pub const fn modulator_hz(clkin_hz: u32) -> u32 {
+    clkin_hz / 2
+}
 
 /// Why a transaction failed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -97,7 +100,7 @@ pub enum Error<E> {
     },
 }
 
-/// Oversampling ratio (sets the data rate `MODULATOR_HZ / OSR`).
+/// Oversampling ratio (sets the data rate `f_MOD / OSR`, [`modulator_hz`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(target_os = "none", derive(defmt::Format))]
 pub enum Osr {
@@ -116,14 +119,14 @@ pub enum Osr {
 }
 
 impl Osr {
-    /// Output data rate, samples per second.
-    pub fn data_rate_hz(self) -> u32 {
-        MODULATOR_HZ / (128u32 << (self as u32))
+    /// Output data rate with a CLKIN of `clkin_hz`, samples per second.
+    pub fn data_rate_hz(self, clkin_hz: u32) -> u32 {
+        modulator_hz(clkin_hz) / (128u32 << (self as u32))
     }
 
-    /// One conversion period, ns.
-    pub fn conversion_period_ns(self) -> u32 {
-        ((128u64 << (self as u32)) * 1_000_000_000 / u64::from(MODULATOR_HZ)) as u32
+    /// One conversion period with a CLKIN of `clkin_hz`, ns.
+    pub fn conversion_period_ns(self, clkin_hz: u32) -> u32 {
+        ((128u64 << (self as u32)) * 1_000_000_000 / u64::from(modulator_hz(clkin_hz))) as u32
     }
 }
 
@@ -365,9 +368,11 @@ mod tests {
     #[test]
     fn data_rates_follow_the_osr() {
         // SBAS890 Table 8-2 scaled from 8.192 MHz to the board's 8 MHz CLKIN.
-        assert_eq!(Osr::X128.data_rate_hz(), 31_250);
-        assert_eq!(Osr::X1024.data_rate_hz(), 3_906);
-        assert_eq!(Osr::X128.conversion_period_ns(), 32_000);
+        assert_eq!(Osr::X128.data_rate_hz(8_000_000), 31_250);
+        assert_eq!(Osr::X1024.data_rate_hz(8_000_000), 3_906);
+        assert_eq!(Osr::X128.conversion_period_ns(8_000_000), 32_000);
+        // The table's own nominal CLKIN, 8.192 MHz: 32 kSPS at OSR 128.
+        assert_eq!(Osr::X128.data_rate_hz(8_192_000), 32_000);
         assert_eq!(Gain::X32.factor(), 32);
     }
 }

@@ -78,8 +78,8 @@ const ADS_FIFO_DEPTH: usize = 2;
 /// The board's clocks, unless [`BridgeModel::set_clocks`] says otherwise
 /// (0 in the state stands for these: an all-zero initial state puts the
 /// QEMU board's model in `.bss`, not in flash).
-const DEFAULT_CLKIN_HZ: u32 = 8_000_000;
-const DEFAULT_SCLK_HZ: u32 = 21_000_000;
+const DEFAULT_CLKIN_HZ: u32 = crate::clocks::ADC_CLKIN_HZ;
+const DEFAULT_SCLK_HZ: u32 = crate::clocks::SPI_SCLK_HZ;
 /// Polarity flips remembered (a pair has two; a window spans 3 periods).
 const FLIPS_KEPT: usize = 8;
 /// The thermistor divider: reference (V) and top resistor (Ω).

@@ -10,9 +10,11 @@ use embedded_hal_async::digital::Wait;
 use embedded_hal::spi::{Error as SpiErrorTrait, ErrorKind, ErrorType, Operation, SpiDevice};
 use embedded_storage::nor_flash::NorFlash;
 
-use crate::device::{CoefficientStore, SaveFailed};
+use magcal_protocol::Coefficients;
+
 use crate::ads131m04_model::{Ads131m04Model, DrdyPinModel, StrapPinModel};
-use crate::store::{RamFlash, Record, Store};
+use crate::device::{decode_coefficients, CoefficientStore, SaveFailed};
+use crate::store::{RamFlash, Record, Store, StoreError};
 
 /// The ADC's bus: the real SPI device, or the simulated ADC.
 pub enum BoardSpi<R> {
@@ -136,7 +138,7 @@ pub type QemuFlash = RamFlash<2048, 1024>;
 
 /// The coefficient store on either board.
 pub enum BoardStore<F> {
-    /// Flash sectors 10 and 11 (board).
+    /// Flash sectors 1 and 2 (board; see [`crate::layout`]).
     Flash(Store<F>),
     /// RAM (QEMU; lost at reset, like a board whose flash was never written).
     Ram(Store<QemuFlash>),
@@ -144,13 +146,25 @@ pub enum BoardStore<F> {
 
 impl<F: NorFlash> BoardStore<F> {
     /// The newest valid record (an error if the flash could not be read).
-    pub fn load(&mut self) -> Result<Option<Record>, crate::store::StoreError> {
+    pub fn load(&mut self) -> Result<Option<Record>, StoreError> {
         match self {
             BoardStore::Flash(s) => s.load(),
             BoardStore::Ram(s) => s.load(),
         }
     }
+
+    /// The set to boot with and its sequence number: a read error is tried
+    /// [`LOAD_ATTEMPTS`] times before it is reported (the board then runs on
+    /// the nominal gain and says why; the store refuses to save); a record
+    /// that does not decode or validate is no set.
+    pub fn load_coefficients(&mut self) -> Result<Option<(Coefficients, u32)>, StoreError> {
+        let loaded = (0..LOAD_ATTEMPTS).map(|_| self.load()).find(|r| r.is_ok()).unwrap_or(Err(StoreError::Flash))?;
+        Ok(loaded.and_then(|r| decode_coefficients(&r.payload, r.version).map(|(c, _)| (c, r.seq))))
+    }
 }
+
+/// Reads of the store at boot before a read error counts.
+pub const LOAD_ATTEMPTS: usize = 3;
 
 impl<F: NorFlash> CoefficientStore for BoardStore<F> {
     fn save(&mut self, bytes: &[u8]) -> Result<u32, SaveFailed> {
@@ -158,5 +172,28 @@ impl<F: NorFlash> CoefficientStore for BoardStore<F> {
             BoardStore::Flash(s) => s.save(bytes).map_err(|_| SaveFailed),
             BoardStore::Ram(s) => s.save(bytes).map_err(|_| SaveFailed),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::device::{default_coefficients, encode_coefficients};
+
+    #[test]
+    fn the_boot_load_finds_the_stored_set_and_refuses_a_bad_one() {
+        let mut store: BoardStore<QemuFlash> = BoardStore::Ram(Store::new(QemuFlash::new(), 0, 1024, 1024).unwrap());
+        assert_eq!(store.load_coefficients(), Ok(None));
+        let c = default_coefficients();
+        let mut buf = [0u8; Coefficients::MAX_ENCODED_LEN];
+        let n = encode_coefficients(&c, &mut buf).unwrap();
+        assert_eq!(store.save(&buf[..n]), Ok(1));
+        assert_eq!(store.load_coefficients(), Ok(Some((c, 1))));
+        // A record whose set fails validation (a mirrored axis) is no set.
+        let mut mirrored = c;
+        mirrored.matrix[0][0] = -mirrored.matrix[0][0];
+        let n = encode_coefficients(&mirrored, &mut buf).unwrap();
+        assert_eq!(store.save(&buf[..n]), Ok(2));
+        assert_eq!(store.load_coefficients(), Ok(None));
     }
 }

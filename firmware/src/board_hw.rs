@@ -71,7 +71,7 @@ impl Stopwatch {
 
     /// Milliseconds from `self` to `later`.
     pub fn elapsed_ms_to(&self, later: &Stopwatch) -> u32 {
-        let by_cycles = later.cycles.wrapping_sub(self.cycles) / (crate::platform::BOARD_SYSCLK_HZ / 1000);
+        let by_cycles = later.cycles.wrapping_sub(self.cycles) / (crate::clocks::BOARD_SYSCLK_HZ / 1000);
         by_cycles.max(later.ms.wrapping_sub(self.ms))
     }
 

@@ -17,10 +17,13 @@
 //!   table stays in sector 0, `.text` starts at sector 3);
 //! * feeds the watchdog just before a save and sets its timeout so that the
 //!   worst stall takes less than half of it even with the LSI at its fastest
-//!   (DS8626 §6.3.8, LSI oscillator: 17–47 kHz; the IWDG counts LSI).
+//!   (DS8626 §6.3.8, LSI oscillator: 17–47 kHz; the IWDG counts LSI; the
+//!   LSI figures are in [`crate::clocks`]).
 //!
 //! The stm32f4xx-hal erases and programs with ×8 parallelism (PSIZE = 0),
 //! valid at any supply voltage; the ×8 figures are used throughout.
+
+use crate::clocks;
 
 /// Start of the flash in the memory map.
 pub const FLASH_BASE: u32 = 0x0800_0000;
@@ -48,16 +51,11 @@ pub const fn worst_store_stall_ms() -> u32 {
 /// Independent watchdog timeout asked of the HAL, ms. The HAL computes the
 /// prescaler and reload for the LSI's typical 32 kHz.
 pub const WATCHDOG_TIMEOUT_MS: u32 = 2_500;
-/// LSI typical and fastest frequency, Hz (DS8626 §6.3.8, LSI oscillator
-/// characteristics: f_LSI 17 / 32 / 47 kHz min / typ / max).
-pub const LSI_TYP_HZ: u32 = 32_000;
-/// See [`LSI_TYP_HZ`].
-pub const LSI_MAX_HZ: u32 = 47_000;
 
 /// The shortest the watchdog can actually wait: the nominal timeout with
 /// the LSI at its fastest, ms.
 pub const fn watchdog_min_timeout_ms() -> u32 {
-    (WATCHDOG_TIMEOUT_MS as u64 * LSI_TYP_HZ as u64 / LSI_MAX_HZ as u64) as u32
+    (WATCHDOG_TIMEOUT_MS as u64 * clocks::LSI_TYP_HZ as u64 / clocks::LSI_MAX_HZ as u64) as u32
 }
 
 #[cfg(test)]
@@ -66,8 +64,11 @@ mod tests {
 
     #[test]
     fn the_worst_save_stall_fits_twice_in_the_shortest_watchdog() {
-        // 800 ms erase + 244 B × 100 µs = 825 ms; 2 500 ms × 32/47 = 1 702 ms.
-        assert_eq!(worst_store_stall_ms(), 825);
+        // 800 ms erase + (16 + 104 + 4) B × 100 µs = 812.4 → 813 ms (the
+        // record holds one encoded coefficient set, 26 f32); 2 500 ms × 32/47
+        // = 1 702 ms.
+        assert_eq!(RECORD_MAX_BYTES, 124);
+        assert_eq!(worst_store_stall_ms(), 813);
         assert_eq!(watchdog_min_timeout_ms(), 1_702);
         assert!(2 * worst_store_stall_ms() < watchdog_min_timeout_ms());
     }

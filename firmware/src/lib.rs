@@ -15,9 +15,13 @@
 // and each enum lives once, in a task's state.
 #![allow(clippy::large_enum_variant)]
 
+#[cfg(all(feature = "mock-flash", not(test)))]
+extern crate std;
+
 pub mod acquisition;
 pub mod adc;
 pub mod board;
+pub mod clocks;
 pub mod device;
 pub mod layout;
 pub mod link;
@@ -37,15 +41,31 @@ pub const FIRMWARE_NAME: &str = "magcal-fw";
 /// Firmware version reported by `Identify` (the crate's semver).
 pub const FIRMWARE_VERSION: &str = env!("CARGO_PKG_VERSION");
 
+/// Under QEMU, ends the emulation with a failure status (so a test sees
+/// it); on the board, returns. The one place that tells the two apart for
+/// a failure.
+#[cfg(target_os = "none")]
+pub fn exit_qemu_on_failure() {
+    if platform::detect_cached() == magcal_protocol::Platform::Qemu {
+        cortex_m_semihosting::debug::exit(cortex_m_semihosting::debug::EXIT_FAILURE);
+    }
+}
+
+/// After a firmware bug (panic, fault): exits QEMU with a failure status,
+/// else resets the board.
+#[cfg(target_os = "none")]
+pub fn fail_and_reset() -> ! {
+    exit_qemu_on_failure();
+    cortex_m::peripheral::SCB::sys_reset()
+}
+
 /// Stops the firmware after an unrecoverable start-up failure: logs the
 /// reason, then exits QEMU with a failure status or, on the board, waits for
 /// the watchdog/reset.
 #[cfg(target_os = "none")]
 pub fn halt(reason: &str) -> ! {
     defmt::error!("halt: {}", reason);
-    if platform::detect_cached() == magcal_protocol::Platform::Qemu {
-        cortex_m_semihosting::debug::exit(cortex_m_semihosting::debug::EXIT_FAILURE);
-    }
+    exit_qemu_on_failure();
     loop {
         cortex_m::asm::wfi();
     }

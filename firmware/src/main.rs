@@ -40,10 +40,7 @@ fn panic(info: &core::panic::PanicInfo) -> ! {
     let (file, line) = info.location().map_or(("?", 0), |l| (l.file(), l.line()));
     let message = info.message().as_str().unwrap_or("(formatted message)");
     defmt::error!("panic at {=str}:{=u32}: {=str}", file, line, message);
-    if firmware::platform::detect_cached() == magcal_protocol::Platform::Qemu {
-        cortex_m_semihosting::debug::exit(cortex_m_semihosting::debug::EXIT_FAILURE);
-    }
-    cortex_m::peripheral::SCB::sys_reset();
+    firmware::fail_and_reset()
 }
 
 /// A fault is a firmware bug: log it, then as for a panic.
@@ -51,10 +48,7 @@ fn panic(info: &core::panic::PanicInfo) -> ! {
 #[cortex_m_rt::exception]
 unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
     defmt::error!("hard fault at pc {=u32:#x}", frame.pc());
-    if firmware::platform::detect_cached() == magcal_protocol::Platform::Qemu {
-        cortex_m_semihosting::debug::exit(cortex_m_semihosting::debug::EXIT_FAILURE);
-    }
-    cortex_m::peripheral::SCB::sys_reset();
+    firmware::fail_and_reset()
 }
 
 #[cfg(target_os = "none")]
@@ -63,10 +57,11 @@ mod app {
     use super::Mono;
     use core::sync::atomic::{AtomicU32, Ordering};
     use embedded_hal_bus::spi::{ExclusiveDevice, NoDelay};
-    use firmware::acquisition::{AcqCounters, Acquisition, Decimator, SetResetStrap, ADC_CLKIN_HZ, PAIR_RATE_HZ, SPI_SCLK_HZ};
+    use firmware::acquisition::{AcqCounters, Acquisition, Decimator, SetResetStrap, PAIR_RATE_HZ};
+    use firmware::clocks::{self, ADC_CLKIN_HZ, SPI_SCLK_HZ};
     use firmware::board::{BoardDrdy, BoardPin, BoardSpi, BoardStore, QemuFlash};
     use firmware::board_hw::{boot_challenge, BoardFlash, CycleDelay, ExtiDrdy, Stopwatch};
-    use firmware::device::{decode_coefficients, BoardCounters, Boot, CoefficientStore, Device, Handled};
+    use firmware::device::{BoardCounters, Boot, CoefficientStore, Device, Handled};
     use firmware::layout;
     use firmware::link::{DeviceInfo, LinkEvent, LinkServer};
     use firmware::platform;
@@ -77,12 +72,13 @@ mod app {
     use rtic_monotonics::systick::prelude::*;
     use rtic_sync::channel::{Receiver, Sender};
     use rtic_sync::make_channel;
+    use rtic_sync::signal::SignalReader;
     use stm32f4xx_hal::{
         flash::LockedFlash,
-        gpio::{Edge, ExtiPin, Input, Output, PA4, PB0, PB1, PB10},
-        pac::{SPI1, USART1, USART2},
+        gpio::{Edge, ExtiPin, Input, Output, PA10, PA2, PA3, PA4, PA5, PA6, PA7, PA8, PA9, PB0, PB1, PB10},
+        pac::{EXTI, FLASH, IWDG, RCC, SPI1, SYSCFG, USART1, USART2},
         prelude::*,
-        rcc::Config,
+        rcc::{Config, Rcc},
         serial::{self, Rx, RxISR, RxListen, Tx},
         syscfg::SysCfgExt,
         spi::{Mode, Phase, Polarity, Spi},
@@ -93,7 +89,12 @@ mod app {
     const RX_QUEUE: usize = 255;
 
     type Spi1 = ExclusiveDevice<Spi<SPI1>, PA4<Output>, NoDelay>;
-    type FrontEnd = Acquisition<BoardSpi<Spi1>, BoardPin<PB0<Output>>, BoardPin<PB1<Output>>, BoardDrdy<ExtiDrdy<PB10<Input>>>>;
+    type SetPin = BoardPin<PB0<Output>>;
+    type ResetPin = BoardPin<PB1<Output>>;
+    type Drdy = BoardDrdy<ExtiDrdy<PB10<Input>>>;
+    type FrontEnd = Acquisition<BoardSpi<Spi1>, SetPin, ResetPin, Drdy>;
+    /// The ADC's bus, the strap's two pins and DRDY.
+    type AdcBus = (BoardSpi<Spi1>, SetPin, ResetPin, Drdy);
 
 
 
@@ -130,72 +131,116 @@ mod app {
         delay: CycleDelay,
     }
 
+    /// USART1/2 pins: PA9/PA10 (link), PA2/PA3 (feed).
+    type UartPins = (PA9, PA10, PA2, PA3);
+
+    /// What the ADC front end needs on the board: SPI1 on PA5–PA7 with chip
+    /// select PA4, CLKIN out on PA8 (MCO1), the strap on PB0/PB1, DRDY on
+    /// PB10 (EXTI line 10).
+    struct AdcHardware {
+        spi1: SPI1,
+        syscfg: SYSCFG,
+        exti: EXTI,
+        pa4: PA4,
+        pa5: PA5,
+        pa6: PA6,
+        pa7: PA7,
+        pa8: PA8,
+        pb0: PB0,
+        pb1: PB1,
+        pb10: PB10,
+    }
+
     #[init]
     fn init(cx: init::Context) -> (Shared, Local) {
-        // Before anything touches RCC: which hardware is this?
-        let (detection, rcc_cr, idcode) = platform::detect();
-        let platform = detection.platform;
-        firmware::logger::init(platform);
-        if detection.disagreement {
-            defmt::warn!("platform signals disagree: RCC_CR {=u32:#x}, DBGMCU_IDCODE {=u32:#x}; running as the board", rcc_cr, idcode);
-        }
+        let platform = identify_platform();
         let challenge = boot_challenge(platform);
-
-        let (mut rcc, sysclk_hz) = match platform {
-            Platform::Qemu => (cx.device.RCC.freeze(Config::hsi()), platform::QEMU_SYSCLK_HZ),
-            Platform::Silicon => {
-                let rcc = cx.device.RCC.freeze(Config::hse(platform::BOARD_HSE_HZ.Hz()).sysclk(platform::BOARD_SYSCLK_HZ.Hz()));
-                let hz = rcc.clocks.sysclk().raw();
-                (rcc, hz)
-            }
-        };
+        let (mut rcc, sysclk_hz) = start_clocks(cx.device.RCC, platform);
         Mono::start(cx.core.SYST, sysclk_hz);
         firmware::board_hw::enable_cycle_counter(cx.core.DCB, cx.core.DWT);
 
         let gpioa = cx.device.GPIOA.split(&mut rcc);
         let gpiob = cx.device.GPIOB.split(&mut rcc);
+        let (tx, rx, rx2) = start_uarts(cx.device.USART1, cx.device.USART2, (gpioa.pa9, gpioa.pa10, gpioa.pa2, gpioa.pa3), &mut rcc);
+        let (drdy_edge, drdy_reader) = rtic_sync::make_signal!(());
+        let adc = AdcHardware {
+            spi1: cx.device.SPI1,
+            syscfg: cx.device.SYSCFG,
+            exti: cx.device.EXTI,
+            pa4: gpioa.pa4,
+            pa5: gpioa.pa5,
+            pa6: gpioa.pa6,
+            pa7: gpioa.pa7,
+            pa8: gpioa.pa8,
+            pb0: gpiob.pb0,
+            pb1: gpiob.pb1,
+            pb10: gpiob.pb10,
+        };
+        let front = start_front_end(platform, adc, drdy_reader, &mut rcc);
+
+        let mut store = open_store(platform, cx.device.FLASH);
+        let device = Device::new(Boot { stored: boot_coefficients(&mut store), challenge });
+        let watchdog = start_watchdog(platform, cx.device.IWDG);
+
+        let (rx_sender, rx_receiver) = make_channel!(u8, RX_QUEUE);
+        let (feed_sender, feed_receiver) = make_channel!(u8, RX_QUEUE);
+        if link::spawn(rx_receiver).is_err() || acquire::spawn().is_err() || feed::spawn(feed_receiver).is_err() {
+            firmware::halt("task spawn");
+        }
+        defmt::info!("magcal-fw {} up on {}, sysclk {} Hz", firmware::FIRMWARE_VERSION, platform, sysclk_hz);
+        (
+            Shared { tx: TxQueue::new(tx), device, acq: AcqCounters::default(), watchdog },
+            Local { rx, drdy_edge, rx_sender, rx2, feed_sender, link: LinkServer::new(), front, store, delay: CycleDelay::new(sysclk_hz) },
+        )
+    }
+
+    /// Before anything touches RCC: which hardware is this? Starts the
+    /// logger for it.
+    fn identify_platform() -> Platform {
+        let (detection, rcc_cr, idcode) = platform::detect();
+        firmware::logger::init(detection.platform);
+        if detection.disagreement {
+            defmt::warn!("platform signals disagree: RCC_CR {=u32:#x}, DBGMCU_IDCODE {=u32:#x}; running as the board", rcc_cr, idcode);
+        }
+        detection.platform
+    }
+
+    /// The clock tree: the crystal and the PLL on the board, HSI under QEMU
+    /// (which ignores it); returns SysTick's clock, Hz.
+    fn start_clocks(rcc: RCC, platform: Platform) -> (Rcc, u32) {
+        match platform {
+            Platform::Qemu => (rcc.freeze(Config::hsi()), clocks::QEMU_SYSCLK_HZ),
+            Platform::Silicon => {
+                let rcc = rcc.freeze(Config::hse(clocks::BOARD_HSE_HZ.Hz()).sysclk(clocks::BOARD_SYSCLK_HZ.Hz()));
+                let hz = rcc.clocks.sysclk().raw();
+                (rcc, hz)
+            }
+        }
+    }
+
+    /// USART1 (the host link) and USART2 (the QEMU board's sensor feed) at
+    /// 115 200 Bd, receive interrupts on.
+    fn start_uarts(usart1: USART1, usart2: USART2, (pa9, pa10, pa2, pa3): UartPins, rcc: &mut Rcc) -> (Tx<USART1>, Rx<USART1>, Rx<USART2>) {
         let config = serial::Config::default().baudrate(115_200.bps());
-        let Ok(serial1) = cx.device.USART1.serial((gpioa.pa9, gpioa.pa10), config, &mut rcc) else {
+        let Ok(serial1) = usart1.serial((pa9, pa10), config, rcc) else {
             firmware::halt("USART1 configuration refused");
         };
         let (tx, mut rx) = serial1.split();
         rx.listen();
-        let Ok(serial2) = cx.device.USART2.serial((gpioa.pa2, gpioa.pa3), config, &mut rcc) else {
+        let Ok(serial2) = usart2.serial((pa2, pa3), config, rcc) else {
             firmware::halt("USART2 configuration refused");
         };
         let (_tx2, mut rx2) = serial2.split();
         rx2.listen();
+        (tx, rx, rx2)
+    }
 
-        // The ADC's bus, DRDY and the strap: real on the board, modelled
-        // under QEMU (no GPIO, EXTI or ADC there).
-        let (drdy_edge, drdy_reader) = rtic_sync::make_signal!(());
+    /// The ADC's bus, DRDY and the strap — real on the board, modelled
+    /// under QEMU (no GPIO, EXTI or ADC there) — and the ADC configured;
+    /// `None` (and logged) if the ADC refuses.
+    fn start_front_end(platform: Platform, hw: AdcHardware, drdy_reader: SignalReader<'static, ()>, rcc: &mut Rcc) -> Option<FrontEnd> {
         let (spi, set_pin, reset_pin, drdy) = match platform {
-            Platform::Silicon => {
-                // CLKIN for the ADC: HSE on MCO1 (PA8), undivided.
-                let _clkin = gpioa.pa8.into_alternate::<0>();
-                // SAFETY: one read-modify-write of RCC_CFGR's MCO1 fields in
-                // init, after the HAL has set the clock tree.
-                unsafe { (*stm32f4xx_hal::pac::RCC::ptr()).cfgr().modify(|_, w| w.mco1().hse().mco1pre().div1()) };
-                let mode = Mode { polarity: Polarity::IdleLow, phase: Phase::CaptureOnSecondTransition };
-                let bus = cx.device.SPI1.spi((Some(gpioa.pa5), Some(gpioa.pa6), Some(gpioa.pa7)), mode, SPI_SCLK_HZ.Hz(), &mut rcc);
-                let cs = gpioa.pa4.into_push_pull_output();
-                // DRDY on PB10, falling edge on EXTI line 10.
-                let mut drdy_pin = gpiob.pb10.into_pull_up_input();
-                let mut syscfg = cx.device.SYSCFG.constrain(&mut rcc);
-                let mut exti = cx.device.EXTI;
-                drdy_pin.make_interrupt_source(&mut syscfg);
-                drdy_pin.trigger_on_edge(&mut exti, Edge::Falling);
-                drdy_pin.enable_interrupt(&mut exti);
-                match ExclusiveDevice::new_no_delay(bus, cs) {
-                    Ok(dev) => (
-                        BoardSpi::Real(dev),
-                        BoardPin::Real(gpiob.pb0.into_push_pull_output()),
-                        BoardPin::Real(gpiob.pb1.into_push_pull_output()),
-                        BoardDrdy::Real(ExtiDrdy::new(drdy_pin, drdy_reader)),
-                    ),
-                    Err(_) => firmware::halt("SPI1 chip select refused"),
-                }
-            }
+            Platform::Silicon => board_adc_bus(hw, drdy_reader, rcc),
             Platform::Qemu => {
                 BRIDGES.set_clocks(ADC_CLKIN_HZ, SPI_SCLK_HZ);
                 (
@@ -206,65 +251,86 @@ mod app {
                 )
             }
         };
-        let mut delay = CycleDelay::new(sysclk_hz);
-        let front = match Acquisition::new(spi, SetResetStrap::new(set_pin, reset_pin), drdy) {
+        match Acquisition::new(spi, SetResetStrap::new(set_pin, reset_pin), drdy) {
             Ok(f) => Some(f),
             Err(e) => {
                 defmt::error!("ADC initialisation failed: {}", e);
                 None
             }
-        };
-        let _ = &mut delay;
+        }
+    }
 
-        // Coefficients: flash sectors 1/2 on the board (see `layout`), RAM under QEMU.
+    /// The board's ADC wiring: CLKIN on MCO1, SPI1 mode 1, the strap pins,
+    /// DRDY's falling edge on EXTI line 10.
+    fn board_adc_bus(
+        hw: AdcHardware,
+        drdy_reader: SignalReader<'static, ()>,
+        rcc: &mut Rcc,
+    ) -> AdcBus {
+        // CLKIN for the ADC: HSE on MCO1 (PA8), undivided.
+        let _clkin = hw.pa8.into_alternate::<0>();
+        // SAFETY: one read-modify-write of RCC_CFGR's MCO1 fields in
+        // init, after the HAL has set the clock tree.
+        unsafe { (*stm32f4xx_hal::pac::RCC::ptr()).cfgr().modify(|_, w| w.mco1().hse().mco1pre().div1()) };
+        let mode = Mode { polarity: Polarity::IdleLow, phase: Phase::CaptureOnSecondTransition };
+        let bus = hw.spi1.spi((Some(hw.pa5), Some(hw.pa6), Some(hw.pa7)), mode, SPI_SCLK_HZ.Hz(), rcc);
+        let cs = hw.pa4.into_push_pull_output();
+        // DRDY on PB10, falling edge on EXTI line 10.
+        let mut drdy_pin = hw.pb10.into_pull_up_input();
+        let mut syscfg = hw.syscfg.constrain(rcc);
+        let mut exti = hw.exti;
+        drdy_pin.make_interrupt_source(&mut syscfg);
+        drdy_pin.trigger_on_edge(&mut exti, Edge::Falling);
+        drdy_pin.enable_interrupt(&mut exti);
+        // The chip select's error type is `Infallible` on this HAL.
+        let Ok(dev) = ExclusiveDevice::new_no_delay(bus, cs);
+        (
+            BoardSpi::Real(dev),
+            BoardPin::Real(hw.pb0.into_push_pull_output()),
+            BoardPin::Real(hw.pb1.into_push_pull_output()),
+            BoardDrdy::Real(ExtiDrdy::new(drdy_pin, drdy_reader)),
+        )
+    }
+
+    /// Coefficients: flash sectors 1/2 on the board (see `layout`), RAM
+    /// under QEMU.
+    fn open_store(platform: Platform, flash: FLASH) -> BoardStore<BoardFlash> {
         let [a, b] = layout::STORE_OFFSETS;
-        let mut store = match platform {
-            Platform::Silicon => match Store::new(BoardFlash::new(LockedFlash::new(cx.device.FLASH)), a, b, layout::STORE_SECTOR_BYTES) {
-                Ok(s) => BoardStore::Flash(s),
-                Err(_) => firmware::halt("coefficient store layout"),
-            },
-            Platform::Qemu => match Store::new(QemuFlash::new(), 0, 1024, 1024) {
-                Ok(s) => BoardStore::Ram(s),
-                Err(_) => firmware::halt("coefficient store layout"),
-            },
+        let store = match platform {
+            Platform::Silicon => Store::new(BoardFlash::new(LockedFlash::new(flash)), a, b, layout::STORE_SECTOR_BYTES).map(BoardStore::Flash),
+            Platform::Qemu => Store::new(QemuFlash::new(), 0, 1024, 1024).map(BoardStore::Ram),
         };
-        // A read error is retried; if it persists the board runs on the
-        // nominal gain and says why (and refuses to save, see `store`).
-        let loaded = (0..3).map(|_| store.load()).find(|r| r.is_ok()).unwrap_or(Err(firmware::store::StoreError::Flash));
-        let stored = match loaded {
-            Ok(Some(r)) => decode_coefficients(&r.payload, r.version).map(|(c, _)| (c, r.seq)),
-            Ok(None) => None,
-            Err(_) => {
-                defmt::error!("coefficient store unreadable");
-                None
-            }
-        };
+        match store {
+            Ok(s) => s,
+            Err(_) => firmware::halt("coefficient store layout"),
+        }
+    }
+
+    /// The stored set to boot with, logged (see
+    /// [`BoardStore::load_coefficients`]).
+    fn boot_coefficients(store: &mut BoardStore<BoardFlash>) -> Option<(proto::Coefficients, u32)> {
+        let stored = store.load_coefficients().unwrap_or_else(|_| {
+            defmt::error!("coefficient store unreadable");
+            None
+        });
         match &stored {
             Some((_, seq)) => defmt::info!("coefficients #{} loaded", seq),
             None => defmt::warn!("no valid coefficients stored: using the nominal chain gain"),
         }
-        let device = Device::new(Boot { stored, challenge });
+        stored
+    }
 
-        let watchdog = match platform {
+    /// The independent watchdog on the board (QEMU does not model it):
+    /// long enough for the worst flash erase twice over (see `layout`).
+    fn start_watchdog(platform: Platform, iwdg: IWDG) -> Option<IndependentWatchdog> {
+        match platform {
             Platform::Silicon => {
-                let mut w = IndependentWatchdog::new(cx.device.IWDG);
-                // Long enough for the worst flash erase twice over (see `layout`).
+                let mut w = IndependentWatchdog::new(iwdg);
                 w.start(stm32f4xx_hal::prelude::_fugit_ExtU32::millis(layout::WATCHDOG_TIMEOUT_MS));
                 Some(w)
             }
             Platform::Qemu => None,
-        };
-
-        let (rx_sender, rx_receiver) = make_channel!(u8, RX_QUEUE);
-        let (feed_sender, feed_receiver) = make_channel!(u8, RX_QUEUE);
-        if link::spawn(rx_receiver).is_err() || acquire::spawn().is_err() || feed::spawn(feed_receiver).is_err() {
-            firmware::halt("task spawn");
         }
-        defmt::info!("magcal-fw {} up on {}, sysclk {} Hz", firmware::FIRMWARE_VERSION, platform, sysclk_hz);
-        (
-            Shared { tx: TxQueue::new(tx), device, acq: AcqCounters::default(), watchdog },
-            Local { rx, drdy_edge, rx_sender, rx2, feed_sender, link: LinkServer::new(), front, store, delay },
-        )
     }
 
     #[idle]

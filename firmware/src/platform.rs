@@ -85,16 +85,6 @@ mod target {
     }
 }
 
-/// SysTick's input clock under QEMU: the emulated core's 168 MHz, whatever
-/// RCC was asked for (QEMU does not model the clock tree).
-pub const QEMU_SYSCLK_HZ: u32 = 168_000_000;
-
-/// The board's high-speed external crystal.
-pub const BOARD_HSE_HZ: u32 = 8_000_000;
-
-/// System clock the board runs at (the STM32F405's maximum).
-pub const BOARD_SYSCLK_HZ: u32 = 168_000_000;
-
 #[cfg(test)]
 mod tests {
     use super::*;

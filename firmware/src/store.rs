@@ -27,7 +27,9 @@
 //! blocking), it needs more flash pages for its own bookkeeping, and one
 //! fixed-size record written rarely does not need wear levelling. The A/B
 //! store is under 200 lines with its power-cut tests (`store/tests.rs`) on
-//! a datasheet model of the F405's flash (`store/f405_flash.rs`).
+//! a datasheet model of the F405's flash (`store/f405_flash.rs`, a test
+//! double shared with the fuzz target through the `mock-flash` feature, as
+//! sequential-storage shares its mock flash with its fuzzers).
 
 // Indexing below is into fixed-size header/body buffers at fixed offsets;
 // lengths read from flash are bounded before use.
@@ -44,8 +46,10 @@ pub const MAGIC: u32 = 0x4C41_434D; // "MCAL" little-endian
 pub const VERSION: u16 = 2;
 /// The oldest record version still read.
 pub const OLDEST_VERSION: u16 = 1;
-/// Largest payload stored.
-pub const MAX_PAYLOAD: usize = 224;
+/// Largest payload stored: an encoded coefficient set
+/// ([`magcal_protocol::Coefficients::MAX_ENCODED_LEN`], 104 bytes; a
+/// version-1 record's set is shorter).
+pub const MAX_PAYLOAD: usize = magcal_protocol::Coefficients::MAX_ENCODED_LEN;
 const HEADER: usize = 16;
 // Bit by bit, as the protocol's (no 1 KiB table in flash for a rare save).
 const CRC32: crc::Crc<u32, crc::NoTable> = crc::Crc::<u32, crc::NoTable>::new(&crc::CRC_32_ISO_HDLC);
@@ -263,7 +267,7 @@ impl<const N: usize, const SECTOR: usize> NorFlash for RamFlash<N, SECTOR> {
     }
 }
 
-#[cfg(test)]
-pub(crate) mod f405_flash;
+#[cfg(any(test, feature = "mock-flash"))]
+pub mod f405_flash;
 #[cfg(test)]
 pub(crate) mod tests;

@@ -7,7 +7,7 @@
 use std::path::{Path, PathBuf};
 
 use calib_core::cal::{FieldCal, ModelKind};
-use calib_core::fit::{fit_batch, FitError, Full};
+use calib_core::fit::{fit_batch, Full};
 use calib_core::quality::assess;
 use host_tools::compute::{fit_recording, FitOptions, ComputeError};
 use host_tools::data::recording::Recording;
@@ -172,7 +172,7 @@ fn xio_partial_coverage_is_refused_with_its_reason() {
     let rec = Recording { mag: s.clone(), ..Recording::default() };
     let r = fit_recording(&rec, &FitOptions { model: ModelKind::Full, field_nt: 45_000.0 / 1000.0, saturation: None, allow_weak: false, gyro_lag_s: 0.0 });
     match r {
-        Err(ComputeError::Fit(FitError::InsufficientCoverage { covered_pct })) => {
+        Err(ComputeError::Coverage { covered_pct, .. }) => {
             eprintln!("xio-fusion: full fit refused, {covered_pct} % of directions covered");
             assert!(covered_pct < 40);
         }

@@ -32,6 +32,9 @@ enum Cmd {
     Session(cmd::session::Args),
     /// Figures (SVG) and an HTML page comparing calibrations on recordings.
     Report(cmd::report::Args),
+    /// A calibration applied to any recording: calibrated field, heading,
+    /// its 1σ and integrity per row, by the board's own per-sample code.
+    Apply(cmd::apply::Args),
     /// Back-stepping refinement on an out-and-back run.
     Backstep(cmd::backstep::Args),
     /// Reference field (IGRF-14 or WMM2025) at a place and date.
@@ -67,6 +70,7 @@ fn main() {
         Cmd::Simulate(a) => cmd::simulate::run(a),
         Cmd::Session(a) => cmd::session::run(a),
         Cmd::Report(a) => cmd::report::run(a),
+        Cmd::Apply(a) => cmd::apply::run(a),
         Cmd::Backstep(a) => cmd::backstep::run(a),
         Cmd::Igrf(a) => cmd::igrf::run(a),
         Cmd::Identify(a) => cmd::identify::run(a),

@@ -1,12 +1,12 @@
 //! Errors: damage found on the link ([`FrameError`]) and why the device
 //! refused a request ([`DeviceError`], sent back in
-//! [`crate::ResponseBody::Error`]).
+//! [`crate::ResponseBody::Error`]). A leaf: both are wire types the ICD
+//! carries, and neither needs the framing code (`FrameError`'s message,
+//! which quotes the frame limits, is written in [`crate::frame`]).
 
 use serde::{Deserialize, Serialize};
 
-use crate::frame::{MAX_FRAME_LEN, PROTOCOL_VERSION};
-
-/// Why a request was not served. Sent back in [`ResponseBody::Error`].
+/// Why a request was not served. Sent back in [`crate::ResponseBody::Error`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum DeviceError {
@@ -38,7 +38,7 @@ pub enum DeviceError {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum FrameError {
-    /// More than [`MAX_FRAME_LEN`] bytes arrived before a delimiter; they were
+    /// More than [`crate::MAX_FRAME_LEN`] bytes arrived before a delimiter; they were
     /// discarded up to the next delimiter.
     TooLong,
     /// The bytes between two delimiters are not valid COBS.
@@ -56,23 +56,6 @@ pub enum FrameError {
     Payload,
     /// The message does not fit in one frame (encoder side).
     Overflow,
-}
-
-impl core::fmt::Display for FrameError {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        match self {
-            FrameError::TooLong => write!(f, "frame longer than {MAX_FRAME_LEN} bytes"),
-            FrameError::Cobs => f.write_str("invalid COBS encoding"),
-            FrameError::TooShort => f.write_str("frame too short for version and CRC"),
-            FrameError::Crc => f.write_str("CRC mismatch"),
-            FrameError::UnsupportedVersion { got } => write!(
-                f,
-                "protocol version {got} is not supported (this side speaks {PROTOCOL_VERSION})"
-            ),
-            FrameError::Payload => f.write_str("payload is not a valid message"),
-            FrameError::Overflow => f.write_str("message does not fit in one frame"),
-        }
-    }
 }
 
 impl core::fmt::Display for DeviceError {

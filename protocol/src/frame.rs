@@ -4,6 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::crc::CRC32;
 use crate::error::FrameError;
 
 /// Version of this wire format. A frame carrying another version is refused
@@ -27,10 +28,25 @@ const CRC_LEN: usize = 4;
 /// Longest postcard payload that fits in one frame.
 pub const MAX_PAYLOAD_LEN: usize = MAX_DECODED_LEN - 1 - CRC_LEN;
 
-/// CRC-32 (ISO-HDLC), computed bit by bit: the 1 KiB table would cost the
-/// board's flash more than the ~40 instructions a byte cost its CPU (a
-/// 50-byte sample frame at 100 Hz: 0.1 % of the M4F).
-pub(crate) const CRC32: crc::Crc<u32, crc::NoTable> = crc::Crc::<u32, crc::NoTable>::new(&crc::CRC_32_ISO_HDLC);
+
+// The message of a [`FrameError`] quotes this module's limits, so it is
+// written here, next to them (`error` stays a leaf that knows no framing).
+impl core::fmt::Display for FrameError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            FrameError::TooLong => write!(f, "frame longer than {MAX_FRAME_LEN} bytes"),
+            FrameError::Cobs => f.write_str("invalid COBS encoding"),
+            FrameError::TooShort => f.write_str("frame too short for version and CRC"),
+            FrameError::Crc => f.write_str("CRC mismatch"),
+            FrameError::UnsupportedVersion { got } => write!(
+                f,
+                "protocol version {got} is not supported (this side speaks {PROTOCOL_VERSION})"
+            ),
+            FrameError::Payload => f.write_str("payload is not a valid message"),
+            FrameError::Overflow => f.write_str("message does not fit in one frame"),
+        }
+    }
+}
 
 /// Encodes `message` as one complete frame (including the trailing zero) into
 /// `out`, returning the number of bytes written.

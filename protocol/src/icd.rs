@@ -6,7 +6,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::error::DeviceError;
-use crate::frame::CRC32;
+use crate::crc::CRC32;
 
 /// Capacity of the short text fields (names, version strings).
 pub const NAME_LEN: usize = 24;
@@ -177,9 +177,18 @@ impl Coefficients {
         calib_core::cal::EnvTerms { bias_per_a: self.current_bias_per_a, ref_c: self.temp_ref_c, gain_per_c: self.temp_gain_per_c }
     }
 
+    /// Bytes of the postcard encoding of any set. postcard writes an `f32`
+    /// as its 4 little-endian bytes and a fixed-size array as its elements,
+    /// with no length (postcard wire format, "f32" and "array"), and every
+    /// field here is an `f32` or an array of them: the encoding is the
+    /// struct's size (26 × 4 = 104 bytes, no padding between `f32`s).
+    /// The firmware's commit buffer and the store's record capacity are this
+    /// constant; a test pins it against the encoding of the extreme sets.
+    pub const MAX_ENCODED_LEN: usize = core::mem::size_of::<Self>();
+
     /// CRC-32 of the postcard encoding: what `Commit` must quote.
     pub fn crc(&self) -> u32 {
-        let mut buf = [0u8; 128];
+        let mut buf = [0u8; Self::MAX_ENCODED_LEN];
         match postcard::to_slice(self, &mut buf) {
             Ok(b) => CRC32.checksum(b),
             Err(_) => 0,
@@ -357,7 +366,7 @@ pub struct Identity {
     pub name: Name,
     /// Firmware version (semver of the `firmware` crate).
     pub firmware_version: Name,
-    /// The wire format the firmware speaks ([`PROTOCOL_VERSION`] of its build).
+    /// The wire format the firmware speaks ([`crate::PROTOCOL_VERSION`] of its build).
     pub protocol_version: u8,
     /// Where it runs.
     pub platform: Platform,

@@ -34,10 +34,16 @@
 //!   health, coefficients, the sensor feed) — what is said;
 //! * [`frame`]: how it travels — versioned, CRC-checked, COBS-delimited
 //!   frames, encoder and incremental decoder;
-//! * [`error`]: damage on the link and the device's refusals.
+//! * [`error`]: damage on the link and the device's refusals (wire types;
+//!   the ICD carries them);
+//! * [`crc`]: the CRC-32 of the frames and of the coefficient commit.
+//!
+//! Imports go one way: `icd` → `error`, `crc`; `frame` → `error`, `crc`;
+//! the ICD knows nothing of framing.
 //!
 //! Everything is re-exported here, so `magcal_protocol::Request` etc. work.
 
+pub mod crc;
 pub mod error;
 pub mod frame;
 pub mod icd;

@@ -1,7 +1,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
 
 use super::*;
-use crate::frame::CRC32;
+use crate::crc::CRC32;
 use serde::Serialize;
 use proptest::prelude::*;
 
@@ -274,4 +274,49 @@ fn version_3_appends_to_the_version_2_layout() {
     assert_eq!(bytes.len(), 26 * 4);
     assert_eq!(&bytes[76..80], &0.5f32.to_le_bytes());
     assert_eq!(&bytes[88..92], &20.0f32.to_le_bytes());
+}
+
+/// Every coefficient set encodes within [`Coefficients::MAX_ENCODED_LEN`]:
+/// postcard writes each `f32` as 4 fixed bytes whatever its value (no
+/// varint for floats), so the extremes — largest, smallest, NaN, infinities,
+/// subnormals — all take the same 26 × 4 bytes (26 `f32` fields counted in
+/// the ICD: 3 + 9 + 5 + 1 + 1 + 3 + 1 + 3).
+#[test]
+fn the_largest_coefficient_set_encodes_within_max_encoded_len() {
+    assert_eq!(Coefficients::MAX_ENCODED_LEN, 26 * 4);
+    let set = |x: f32| Coefficients {
+        bias: [x; 3],
+        matrix: [[x; 3]; 3],
+        swing: [x; 5],
+        declination_rad: x,
+        field_nt: x,
+        current_bias_per_a: [x; 3],
+        temp_ref_c: x,
+        temp_gain_per_c: [x; 3],
+    };
+    for x in [f32::MAX, f32::MIN, f32::NAN, f32::INFINITY, f32::NEG_INFINITY, f32::MIN_POSITIVE / 2.0, -0.0, 0.0] {
+        let mut buf = [0u8; Coefficients::MAX_ENCODED_LEN];
+        let n = postcard::to_slice(&set(x), &mut buf).map(|b| b.len());
+        assert_eq!(n, Ok(Coefficients::MAX_ENCODED_LEN), "{x}");
+    }
+}
+
+proptest! {
+    #[test]
+    fn any_coefficient_set_encodes_in_max_encoded_len(bits in any::<[u32; 26]>()) {
+        let f = bits.map(f32::from_bits);
+        let c = Coefficients {
+            bias: [f[0], f[1], f[2]],
+            matrix: [[f[3], f[4], f[5]], [f[6], f[7], f[8]], [f[9], f[10], f[11]]],
+            swing: [f[12], f[13], f[14], f[15], f[16]],
+            declination_rad: f[17],
+            field_nt: f[18],
+            current_bias_per_a: [f[19], f[20], f[21]],
+            temp_ref_c: f[22],
+            temp_gain_per_c: [f[23], f[24], f[25]],
+        };
+        let mut buf = [0u8; Coefficients::MAX_ENCODED_LEN];
+        let bytes = postcard::to_slice(&c, &mut buf).unwrap();
+        prop_assert_eq!(bytes.len(), Coefficients::MAX_ENCODED_LEN);
+    }
 }

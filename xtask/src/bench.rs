@@ -10,6 +10,9 @@ use calib_core::fit::{fit_batch, Full, FullRls, Normalization};
 use calib_core::ortho::{identify_all_samples, identify_linear, identify_ml, identify_pairwise, j_index};
 use serde_json::json;
 
+mod integrity;
+mod real_data;
+
 const PAIRS: [usize; 7] = [30, 60, 120, 240, 480, 720, 1440];
 const SIGMAS: [f64; 5] = [0.0, 1e-4, 1e-3, 1e-2, 3e-2];
 const SEEDS: u64 = 20;
@@ -281,9 +284,10 @@ fn mcu_costs(root: &Path) -> Result<serde_json::Value> {
 /// costs are estimates: 12 cycles in and 12 out (Cortex-M4 TRM §3.9,
 /// exception latency) plus the handler and the async task's wake-up.
 fn cpu_budget(mcu: &serde_json::Value) -> serde_json::Value {
-    use firmware::acquisition::{FRAMES_PER_PAIR, PAIR_RATE_HZ, SPI_SCLK_HZ, STRAP_PULSE_US};
+    use firmware::acquisition::{FRAMES_PER_PAIR, PAIR_RATE_HZ, STRAP_PULSE_US};
+    use firmware::clocks::{ADC_CLKIN_HZ, SPI_SCLK_HZ};
     use firmware::layout;
-    const SYSCLK_HZ: f64 = 168e6;
+    const SYSCLK_HZ: f64 = firmware::clocks::BOARD_SYSCLK_HZ as f64;
     const FRAME_BYTES: f64 = firmware::adc::FRAME_BYTES as f64;
     // Polled SPI: per byte, wait TXE, write DR, wait RXNE, read DR.
     const INSTR_PER_SPI_BYTE: f64 = 12.0;
@@ -324,7 +328,7 @@ fn cpu_budget(mcu: &serde_json::Value) -> serde_json::Value {
         "spi_sclk_hz": SPI_SCLK_HZ,
         "per_pair_us": breakdown(&per_pair_us),
         "per_output_sample_us": breakdown(&per_sample_us),
-        "conversion_wait_per_pair_us_not_busy": 2.0 * f64::from(firmware::acquisition::SETTLE_CONVERSIONS as u32 + 1) * f64::from(firmware::adc::Osr::X128.conversion_period_ns()) / 1000.0,
+        "conversion_wait_per_pair_us_not_busy": 2.0 * f64::from(firmware::acquisition::SETTLE_CONVERSIONS as u32 + 1) * f64::from(firmware::adc::Osr::X128.conversion_period_ns(ADC_CLKIN_HZ)) / 1000.0,
         "worst_store_stall_ms": layout::worst_store_stall_ms(),
         "watchdog_timeout_ms": layout::watchdog_min_timeout_ms(),
         "watchdog_timeout_nominal_ms": layout::WATCHDOG_TIMEOUT_MS,
@@ -677,6 +681,8 @@ pub fn run(out_dir: &Path) -> Result<()> {
             json!(null)
         }
     };
+    let (real_data, real_data_md) = real_data::real_data(&root);
+    eprintln!("== real recordings, every model (issue 22){real_data_md}");
     eprintln!("== merge: clocks ±60 s and ±100 ppm apart, {} seeds", 3);
     let (merge_numbers, merge_md) = merge_clocks();
     eprintln!("{merge_md}");
@@ -694,8 +700,10 @@ pub fn run(out_dir: &Path) -> Result<()> {
         "f32_rls_vs_f64_batch": f32_check,
         "limited_tilt": limited,
         "merge": merge_numbers,
+        "real_data": real_data,
         "effects": effects_numbers,
     });
+    results["integrity"] = integrity::section(&root);
     if let Some(obj) = mcu.as_object() {
         for (k, v) in obj {
             results[k] = v.clone();

@@ -58,7 +58,8 @@
 use super::{level_matrix, BackstepError, JointWeights, RunSample};
 use crate::cal::{EnvTerms, FieldCal};
 use crate::heading::Vec3;
-use crate::linalg::{cholesky_solve, inverse3, mul_mat_vec, Mat3};
+use crate::linalg::{inverse3, mul_mat_vec, Mat3};
+use crate::lsq::lm::{self, Damping, LmOptions, LmProblem, LmStop, Linearisation, OnSingular};
 use crate::Real;
 
 /// Number of parameters of the joint problem.
@@ -456,6 +457,7 @@ impl<T: Real> Model<T> {
 
 /// Normal equations of the data (without priors) and their cost, and the
 /// number of residuals.
+#[derive(Clone)]
 struct Normal<T> {
     jtj: [[T; NP]; NP],
     jtr: [T; NP],
@@ -535,31 +537,37 @@ fn spread<T: Real>(values: impl Iterator<Item = T>) -> (T, T, T, T, u32) {
     (mean, (s2 / c - mean * mean).max(T::ZERO).sqrt(), lo, hi, n)
 }
 
-/// The joint refinement with the environment terms (see the module
-/// documentation). `start` is the step-1 calibration (the prior); `swing`
-/// optionally adds the swing test's samples with their reference intensity
-/// `swing_field_nt` (IGRF at the site).
-pub fn joint_refine_env<T: Real>(
-    start: &FieldCal<T>,
-    run: &[RunSample<T>],
-    swing: &[SwingSample<T>],
-    swing_field_nt: T,
-    cfg: &JointConfig<T>,
-) -> Result<JointSolution<T>, BackstepError> {
-    let gain = (start.matrix[0][0].abs() + start.matrix[1][1].abs() + start.matrix[2][2].abs()) / T::from_f64(3.0);
-    if !(gain > T::ZERO) || run.is_empty() {
-        return Err(BackstepError::Diverged);
-    }
+/// Where each kind of note stands in [`JointSolution::notes`].
+pub const NOTE_CURRENT: usize = 0;
+/// The temperature note's place in [`JointSolution::notes`].
+pub const NOTE_TEMPERATURE: usize = 1;
+/// The misalignment note's place in [`JointSolution::notes`].
+pub const NOTE_MISALIGNMENT: usize = 2;
+
+/// Which environment terms the data allow, and the run's typical values.
+struct TermChoice<T> {
+    use_current: bool,
+    use_temp: bool,
+    current_mean: T,
+    temp_mean: T,
+    temp_n: u32,
+    ref_c: T,
+    notes: [Option<JointNote<T>>; 3],
+}
+
+/// Decides the current and temperature terms from their spread over the
+/// run and the swing test (a note says why a term is not estimated).
+fn choose_terms<T: Real>(run: &[RunSample<T>], swing: &[SwingSample<T>], cfg: &JointConfig<T>) -> TermChoice<T> {
     let mut notes = [None; 3];
     // Current: observable when it varies.
     let (current_mean, current_sd, _, _, current_n) = spread(run.iter().map(|s| s.current_a).chain(swing.iter().map(|s| s.current_a)));
     let use_current = if !cfg.terms.current {
         false
     } else if current_n == 0 {
-        notes[0] = Some(JointNote::NoCurrentColumn);
+        notes[NOTE_CURRENT] = Some(JointNote::NoCurrentColumn);
         false
     } else if !(current_sd >= cfg.min_current_spread_a) {
-        notes[0] = Some(JointNote::CurrentNotVaried { spread_a: current_sd, min_a: cfg.min_current_spread_a });
+        notes[NOTE_CURRENT] = Some(JointNote::CurrentNotVaried { spread_a: current_sd, min_a: cfg.min_current_spread_a });
         false
     } else {
         true
@@ -568,10 +576,10 @@ pub fn joint_refine_env<T: Real>(
     let use_temp = if !cfg.terms.temperature {
         false
     } else if temp_n == 0 {
-        notes[1] = Some(JointNote::NoTemperatureColumn);
+        notes[NOTE_TEMPERATURE] = Some(JointNote::NoTemperatureColumn);
         false
     } else if !(t_hi - t_lo >= cfg.min_temp_spread_c) {
-        notes[1] = Some(JointNote::TemperatureConstant { spread_c: t_hi - t_lo, min_c: cfg.min_temp_spread_c });
+        notes[NOTE_TEMPERATURE] = Some(JointNote::TemperatureConstant { spread_c: t_hi - t_lo, min_c: cfg.min_temp_spread_c });
         false
     } else {
         true
@@ -581,6 +589,19 @@ pub fn joint_refine_env<T: Real>(
         _ if temp_n > 0 => (t_lo + t_hi) / T::from_f64(2.0),
         _ => EnvTerms::<T>::none().ref_c,
     };
+    TermChoice { use_current, use_temp, current_mean, temp_mean, temp_n, ref_c, notes }
+}
+
+/// The run's mean reference field and IGRF's σ along and across it.
+struct ReferenceField<T> {
+    h_nt: T,
+    z_nt: T,
+    f_nt: T,
+    sigma_along_nt: T,
+    sigma_across_nt: T,
+}
+
+fn reference_field<T: Real>(run: &[RunSample<T>], cfg: &JointConfig<T>) -> ReferenceField<T> {
     let (h_mean, z_mean) = {
         let c = T::from_f64(run.len() as f64);
         (run.iter().fold(T::ZERO, |a, s| a + s.h_ref_nt) / c, run.iter().fold(T::ZERO, |a, s| a + s.z_ref_nt) / c)
@@ -590,22 +611,32 @@ pub fn joint_refine_env<T: Real>(
     let (sh, sz) = (cfg.field_prior_h_nt, cfg.field_prior_z_nt);
     let sigma_along_nt = ((sh * h_mean / f_mean) * (sh * h_mean / f_mean) + (sz * z_mean / f_mean) * (sz * z_mean / f_mean)).sqrt();
     let sigma_across_nt = ((sh * z_mean / f_mean) * (sh * z_mean / f_mean) + (sz * h_mean / f_mean) * (sz * h_mean / f_mean)).sqrt();
+    ReferenceField { h_nt: h_mean, z_nt: z_mean, f_nt: f_mean, sigma_along_nt, sigma_across_nt }
+}
+
+/// The model with the chosen terms active and the assumed residual σ.
+fn initial_model<T: Real>(terms: &TermChoice<T>, swing_field_nt: T, cfg: &JointConfig<T>) -> Model<T> {
     let mut active = [true; NP];
     for k in 0..3 {
-        active[BR0 + k] = !use_current;
-        active[C0 + k] = use_current;
-        active[K0 + k] = use_temp;
+        active[BR0 + k] = !terms.use_current;
+        active[C0 + k] = terms.use_current;
+        active[K0 + k] = terms.use_temp;
     }
     active[DI] = cfg.terms.local_field;
     active[MR] = cfg.terms.misalignment;
     active[MP] = cfg.terms.misalignment;
-    let mut model = Model {
+    Model {
         active,
-        ref_c,
+        ref_c: terms.ref_c,
         w_run: T::ONE / cfg.weights.run_sigma_nt,
         w_swing: T::ONE / cfg.weights.swing_sigma_nt,
         swing_field_nt,
-    };
+    }
+}
+
+/// The prior (the step-1 calibration, neutral environment terms) and its
+/// weight per parameter.
+fn priors<T: Real>(start: &FieldCal<T>, gain: T, field: &ReferenceField<T>, cfg: &JointConfig<T>) -> ([T; NP], [T; NP]) {
     let mut prior = [T::ZERO; NP];
     for i in 0..3 {
         for k in 0..3 {
@@ -622,49 +653,86 @@ pub fn joint_refine_env<T: Real>(
             _ if a < C0 => gain / w.running_bias_prior_nt,
             _ if a < K0 => gain / cfg.current_prior_nt_per_a,
             _ if a < DI => T::ONE / cfg.gain_prior_per_c,
-            DI => f_mean / sigma_across_nt,
+            DI => field.f_nt / field.sigma_across_nt,
             _ => T::ONE / cfg.misalignment_prior_rad,
         };
     }
-    let (mut p, mut iterations) = solve(&model, &prior, &prior, &prior_w, run, swing)?;
-    // The residuals' own scatter replaces the assumed σ (so that the priors
-    // weigh what they should against the data), then a second solve.
-    let n0 = normal_equations(&model, &p, &prior, &prior_w, run, swing);
-    let floor = T::from_f64(MIN_RESIDUAL_SIGMA_NT);
-    let rms = |(ss, k): (T, u32)| if k > 0 { (ss / T::from_f64(f64::from(k))).sqrt() } else { T::NAN };
-    let (run_rms, swing_rms) = (rms(n0.run_ss), rms(n0.swing_ss));
-    if run_rms.is_finite() {
-        model.w_run = T::ONE / run_rms.max(floor);
+    (prior, prior_w)
+}
+
+/// The data and the prior of one joint problem.
+struct JointData<'a, T> {
+    prior: &'a [T; NP],
+    prior_w: &'a [T; NP],
+    run: &'a [RunSample<T>],
+    swing: &'a [SwingSample<T>],
+}
+
+impl<T: Real> JointData<'_, T> {
+    fn solve(&self, model: &Model<T>, p0: &[T; NP]) -> Result<([T; NP], u8), BackstepError> {
+        solve(model, p0, self.prior, self.prior_w, self.run, self.swing)
     }
-    if swing_rms.is_finite() {
-        model.w_swing = T::ONE / swing_rms.max(floor);
+
+    fn normal(&self, model: &Model<T>, p: &[T; NP]) -> Normal<T> {
+        normal_equations(model, p, self.prior, self.prior_w, self.run, self.swing)
     }
-    let (p1, it1) = solve(&model, &p, &prior, &prior_w, run, swing)?;
-    p = p1;
-    iterations = iterations.saturating_add(it1);
-    let mut n = normal_equations(&model, &p, &prior, &prior_w, run, swing);
-    let first = spd_cov(&n, &model)?;
-    // The misalignment: kept only where the data shrink its σ.
-    let ratio = first[MR][MR].max(first[MP][MP]).sqrt() / cfg.misalignment_prior_rad;
-    let mut misalignment_estimated = cfg.terms.misalignment;
-    if cfg.terms.misalignment && !(ratio < T::from_f64(0.5)) {
-        notes[2] = Some(JointNote::MisalignmentNotObservable { sigma_ratio: ratio });
-        misalignment_estimated = false;
+
+    /// Solves from the prior, replaces the assumed residual σ by the
+    /// residuals' own scatter (so that the priors weigh what they should
+    /// against the data), and solves again.
+    fn solve_reweighted(&self, model: &mut Model<T>) -> Result<([T; NP], u8), BackstepError> {
+        let (p, iterations) = self.solve(model, self.prior)?;
+        let n0 = self.normal(model, &p);
+        let floor = T::from_f64(MIN_RESIDUAL_SIGMA_NT);
+        let rms = |(ss, k): (T, u32)| if k > 0 { (ss / T::from_f64(f64::from(k))).sqrt() } else { T::NAN };
+        let (run_rms, swing_rms) = (rms(n0.run_ss), rms(n0.swing_ss));
+        if run_rms.is_finite() {
+            model.w_run = T::ONE / run_rms.max(floor);
+        }
+        if swing_rms.is_finite() {
+            model.w_swing = T::ONE / swing_rms.max(floor);
+        }
+        let (p1, it1) = self.solve(model, &p)?;
+        Ok((p1, iterations.saturating_add(it1)))
+    }
+
+    /// Keeps the misalignment only where the data shrink its σ below half
+    /// the prior's; otherwise holds it at zero, solves again and returns the
+    /// note. Returns the parameters, their normal equations, the added
+    /// iterations and whether the misalignment is estimated.
+    fn settle_misalignment(&self, model: &mut Model<T>, p: [T; NP], cfg: &JointConfig<T>) -> Result<Settled<T>, BackstepError> {
+        let n = self.normal(model, &p);
+        let first = spd_cov(&n, model)?;
+        let ratio = first[MR][MR].max(first[MP][MP]).sqrt() / cfg.misalignment_prior_rad;
+        if !cfg.terms.misalignment || ratio < T::from_f64(0.5) {
+            return Ok(Settled { p, n, iterations: 0, estimated: cfg.terms.misalignment, note: None });
+        }
         model.active[MR] = false;
         model.active[MP] = false;
         let mut start_p = p;
         start_p[MR] = T::ZERO;
         start_p[MP] = T::ZERO;
-        let (p2, it2) = solve(&model, &start_p, &prior, &prior_w, run, swing)?;
-        p = p2;
-        iterations = iterations.saturating_add(it2);
-        n = normal_equations(&model, &p, &prior, &prior_w, run, swing);
+        let (p2, it2) = self.solve(model, &start_p)?;
+        let n = self.normal(model, &p2);
+        Ok(Settled { p: p2, n, iterations: it2, estimated: false, note: Some(JointNote::MisalignmentNotObservable { sigma_ratio: ratio }) })
     }
-    // Residuals of neighbouring samples are not independent (slow AHRS
-    // errors, the field's gradient along the track): the information of
-    // the data is divided by the AR(1) variance inflation (1 + ρ)/(1 − ρ)
-    // of the run's residuals.
-    let rho = residual_autocorrelation(&model, &p, run);
+}
+
+/// The solution after the misalignment's decision.
+struct Settled<T> {
+    p: [T; NP],
+    n: Normal<T>,
+    iterations: u8,
+    estimated: bool,
+    note: Option<JointNote<T>>,
+}
+
+/// Divides the data's part of the information by the AR(1) variance
+/// inflation (1 + ρ)/(1 − ρ) of the run's residuals (neighbouring samples
+/// are not independent: slow AHRS errors, the field's gradient along the
+/// track); the priors' part stays. Returns the inflation.
+fn inflate_for_correlation<T: Real>(n: &mut Normal<T>, model: &Model<T>, p: &[T; NP], prior_w: &[T; NP], run: &[RunSample<T>]) -> T {
+    let rho = residual_autocorrelation(model, p, run);
     let inflation = ((T::ONE + rho) / (T::ONE - rho)).max(T::ONE).min(T::from_f64(MAX_INFLATION));
     for a in 0..NP {
         if !model.active[a] {
@@ -678,10 +746,13 @@ pub fn joint_refine_env<T: Real>(
             }
         }
     }
-    let cov = spd_cov(&n, &model)?;
-    let residual_rms_nt = ((n.run_ss.0 + n.swing_ss.0) / T::from_f64(f64::from((n.run_ss.1 + n.swing_ss.1).max(1)))).sqrt();
+    inflation
+}
+
+/// Each parameter's 1σ from the covariance.
+fn sigmas_of<T: Real>(cov: &[[T; NP]; NP]) -> JointSigmas<T> {
     let sd = |a: usize| cov[a][a].max(T::ZERO).sqrt();
-    let sigma = JointSigmas {
+    JointSigmas {
         matrix: core::array::from_fn(|a| sd(M0 + a)),
         bias: core::array::from_fn(|k| sd(B0 + k)),
         running_bias: core::array::from_fn(|k| sd(BR0 + k)),
@@ -689,22 +760,49 @@ pub fn joint_refine_env<T: Real>(
         gain_per_c: core::array::from_fn(|k| sd(K0 + k)),
         local_inclination_rad: sd(DI),
         misalignment_rad: [sd(MR), sd(MP)],
-    };
-    let m = Model::matrix(&p);
+    }
+}
+
+/// The joint refinement with the environment terms (see the module
+/// documentation). `start` is the step-1 calibration (the prior); `swing`
+/// optionally adds the swing test's samples with their reference intensity
+/// `swing_field_nt` (IGRF at the site).
+pub fn joint_refine_env<T: Real>(
+    start: &FieldCal<T>,
+    run: &[RunSample<T>],
+    swing: &[SwingSample<T>],
+    swing_field_nt: T,
+    cfg: &JointConfig<T>,
+) -> Result<JointSolution<T>, BackstepError> {
+    let gain = (start.matrix[0][0].abs() + start.matrix[1][1].abs() + start.matrix[2][2].abs()) / T::from_f64(3.0);
+    if !(gain > T::ZERO) || run.is_empty() {
+        return Err(BackstepError::Diverged);
+    }
+    let mut terms = choose_terms(run, swing, cfg);
+    let field = reference_field(run, cfg);
+    let mut model = initial_model(&terms, swing_field_nt, cfg);
+    let (prior, prior_w) = priors(start, gain, &field, cfg);
+    let data = JointData { prior: &prior, prior_w: &prior_w, run, swing };
+    let (p, iterations) = data.solve_reweighted(&mut model)?;
+    let Settled { p, mut n, iterations: it2, estimated: misalignment_estimated, note } = data.settle_misalignment(&mut model, p, cfg)?;
+    terms.notes[NOTE_MISALIGNMENT] = note;
+    let inflation = inflate_for_correlation(&mut n, &model, &p, &prior_w, run);
+    let cov = spd_cov(&n, &model)?;
     if !p.iter().all(|v| v.is_finite()) {
         return Err(BackstepError::Diverged);
     }
+    let residual_rms_nt = ((n.run_ss.0 + n.swing_ss.0) / T::from_f64(f64::from((n.run_ss.1 + n.swing_ss.1).max(1)))).sqrt();
+    let m = Model::matrix(&p);
     let b = [p[B0], p[B0 + 1], p[B0 + 2]];
     let br = [p[BR0], p[BR0 + 1], p[BR0 + 2]];
-    let typical_current_a = if use_current { current_mean } else { T::ZERO };
-    let typical_temp_c = if temp_n > 0 { temp_mean } else { ref_c };
+    let (h_mean, z_mean) = (field.h_nt, field.z_nt);
     let mut sol = JointSolution {
         running: FieldCal { bias: [b[0] + br[0], b[1] + br[1], b[2] + br[2]], matrix: m },
         resting: FieldCal { bias: b, matrix: m },
         running_bias: br,
-        env: EnvTerms { bias_per_a: [p[C0], p[C0 + 1], p[C0 + 2]], ref_c, gain_per_c: [p[K0], p[K0 + 1], p[K0 + 2]] },
-        current_estimated: use_current,
-        temperature_estimated: use_temp,
+        env: EnvTerms { bias_per_a: [p[C0], p[C0 + 1], p[C0 + 2]], ref_c: terms.ref_c, gain_per_c: [p[K0], p[K0 + 1], p[K0 + 2]] },
+        current_estimated: terms.use_current,
+        temperature_estimated: terms.use_temp,
         misalignment_estimated,
         misalignment_rad: [p[MR], p[MP]],
         reference_hz_nt: [h_mean, z_mean],
@@ -713,15 +811,15 @@ pub fn joint_refine_env<T: Real>(
             let (si, ci) = (p[DI].sin(), p[DI].cos());
             [h_mean * ci - z_mean * si - h_mean, z_mean * ci + h_mean * si - z_mean]
         },
-        intensity_sigma_nt: sigma_along_nt,
-        sigma,
+        intensity_sigma_nt: field.sigma_along_nt,
+        sigma: sigmas_of(&cov),
         heading_sigma_rad: [T::NAN; HEADING_STEPS],
         predicted_heading_rms_rad: T::NAN,
         residual_rms_nt,
-        iterations,
-        notes,
-        typical_current_a,
-        typical_temp_c,
+        iterations: iterations.saturating_add(it2),
+        notes: terms.notes,
+        typical_current_a: if terms.use_current { terms.current_mean } else { T::ZERO },
+        typical_temp_c: if terms.temp_n > 0 { terms.temp_mean } else { terms.ref_c },
         params: p,
         model,
         information: n.jtj,
@@ -750,7 +848,47 @@ fn spd_cov<T: Real>(n: &Normal<T>, model: &Model<T>) -> Result<[[T; NP]; NP], Ba
     Ok(cov)
 }
 
-/// Levenberg–Marquardt from `p0` with Jacobi scaling.
+/// The joint problem for the crate's Levenberg–Marquardt. A candidate's
+/// normal equations are kept, so that an accepted step is not linearised
+/// twice.
+struct JointProblem<'a, T> {
+    model: &'a Model<T>,
+    prior: &'a [T; NP],
+    prior_w: &'a [T; NP],
+    run: &'a [RunSample<T>],
+    swing: &'a [SwingSample<T>],
+    last: Option<([T; NP], Normal<T>)>,
+}
+
+impl<T: Real> JointProblem<'_, T> {
+    fn normal(&mut self, p: &[T; NP]) -> Normal<T> {
+        match &self.last {
+            Some((at, n)) if at == p => n.clone(),
+            _ => {
+                let n = normal_equations(self.model, p, self.prior, self.prior_w, self.run, self.swing);
+                self.last = Some((*p, n.clone()));
+                n
+            }
+        }
+    }
+}
+
+impl<T: Real> LmProblem<T, NP> for JointProblem<'_, T> {
+    fn linearise(&mut self, p: &[T; NP]) -> Option<Linearisation<T, NP>> {
+        let n = self.normal(p);
+        Some(Linearisation { jtj: n.jtj, jtr: n.jtr, cost: n.data_cost + n.prior_cost })
+    }
+
+    fn cost(&mut self, p: &[T; NP]) -> Option<T> {
+        let n = self.normal(p);
+        Some(n.data_cost + n.prior_cost)
+    }
+}
+
+/// Levenberg–Marquardt from `p0` with Jacobi scaling (matrix entries,
+/// counts-sized biases and their gradients differ by many orders of
+/// magnitude): damping 1e-4, strict decrease, at most 50 iterations of 20
+/// tries, stopped when the cost settles to 1e-10 of itself.
 fn solve<T: Real>(
     model: &Model<T>,
     p0: &[T; NP],
@@ -759,61 +897,21 @@ fn solve<T: Real>(
     run: &[RunSample<T>],
     swing: &[SwingSample<T>],
 ) -> Result<([T; NP], u8), BackstepError> {
-    let mut p = *p0;
-    let mut n = normal_equations(model, &p, prior, prior_w, run, swing);
-    let mut cost = n.data_cost + n.prior_cost;
-    let mut mu = T::from_f64(1e-4);
-    let mut iterations = 0u8;
-    for it in 1..=50u8 {
-        iterations = it;
-        let mut accepted = false;
-        for _ in 0..20 {
-            // Jacobi scaling: matrix entries, counts-sized biases and
-            // their gradients differ by many orders of magnitude.
-            let mut scale = [T::ONE; NP];
-            for (k, d) in scale.iter_mut().enumerate() {
-                let a = n.jtj[k][k];
-                *d = if a > T::ZERO { T::ONE / a.sqrt() } else { T::ONE };
-            }
-            let mut a = n.jtj;
-            for i in 0..NP {
-                for j in 0..NP {
-                    a[i][j] *= scale[i] * scale[j];
-                }
-                a[i][i] += mu;
-            }
-            let neg: [T; NP] = core::array::from_fn(|k| -n.jtr[k] * scale[k]);
-            let step = cholesky_solve(&a, &neg).map_err(|_| BackstepError::Singular)?;
-            let mut cand = p;
-            for k in 0..NP {
-                if model.active[k] {
-                    cand[k] += step[k] * scale[k];
-                }
-            }
-            let cn = normal_equations(model, &cand, prior, prior_w, run, swing);
-            let cc = cn.data_cost + cn.prior_cost;
-            if cc < cost {
-                let rel = (cost - cc) / cost;
-                p = cand;
-                n = cn;
-                cost = cc;
-                mu = (mu / T::from_f64(10.0)).max(T::from_f64(1e-12));
-                accepted = true;
-                if rel < T::from_f64(1e-10) {
-                    return Ok((p, iterations));
-                }
-                break;
-            }
-            mu *= T::from_f64(10.0);
-        }
-        if !accepted {
-            break;
-        }
+    let mut problem = JointProblem { model, prior, prior_w, run, swing, last: None };
+    let mut opts = LmOptions::marquardt(T::from_f64(1e-4));
+    opts.damping = Damping::JacobiScaled;
+    opts.on_singular = OnSingular::Stop;
+    opts.max_iterations = 50;
+    opts.max_tries = 20;
+    opts.cost_tolerance = Some(T::from_f64(1e-10));
+    let out = lm::solve(&mut problem, p0, &opts);
+    if out.stop == LmStop::Singular {
+        return Err(BackstepError::Singular);
     }
-    if !p.iter().all(|v| v.is_finite()) {
+    if !out.params.iter().all(|v| v.is_finite()) {
         return Err(BackstepError::Diverged);
     }
-    Ok((p, iterations))
+    Ok((out.params, out.iterations.min(u32::from(u8::MAX)) as u8))
 }
 
 impl<T: Real> JointSolution<T> {

@@ -109,7 +109,8 @@ fn limited_tilt_recovers_soft_and_hard_iron_and_the_gyro_bias() {
     let (cal_data, _) = record(&v, 240.0, 1, 0.0);
     let (val_data, val_truth) = record(&v, 120.0, 2, 1.3);
     let cfg = GyroConfig::new(0.1);
-    let (est, gyro_bias) = fit_gyro_batch(&cal_data, &cfg, F_NT).unwrap();
+    let batch = fit_gyro_batch(&cal_data, &cfg, F_NT).unwrap();
+    let (est, gyro_bias) = (batch.estimate, batch.gyro_bias_rad_s);
     let truth = true_cal();
     let bias_err: Vec<f64> = (0..3).map(|k| est.cal.bias[k] - truth.bias[k]).collect();
     let mut rel = 0.0f64;
@@ -149,7 +150,7 @@ fn without_the_gyro_bias_step_a_biased_gyro_costs_heading() {
         plain.push(s);
     }
     let plain_hdg = heading_rms_deg(&plain.estimate(F_NT).unwrap().cal, &val_data, &val_truth);
-    let (est, _) = fit_gyro_batch(&cal_data, &cfg, F_NT).unwrap();
+    let est = fit_gyro_batch(&cal_data, &cfg, F_NT).unwrap().estimate;
     let hdg = heading_rms_deg(&est.cal, &val_data, &val_truth);
     eprintln!("heading with the gyro bias left in {plain_hdg:.3}°, estimated {hdg:.3}°");
     // Measured: 6.7° left in, 0.028° estimated.
@@ -166,7 +167,7 @@ fn the_recursive_fit_in_f32_matches_the_f64_reference() {
     let norm = normalization_of(&data).unwrap();
     let mut f64_fit = GyroFit::new(norm, cfg);
     let n32 = Normalization { centre: norm.centre.map(|v| v as f32), scale: norm.scale as f32 };
-    let cfg32 = GyroConfig { window_steps: 20, max_step_s: 0.1f32, gyro_bias_rad_s: cfg.gyro_bias_rad_s.map(|v| v as f32), attitude_weight: 1.0 };
+    let cfg32 = GyroConfig { window_steps: 20, max_step_s: 0.1f32, gyro_bias_rad_s: cfg.gyro_bias_rad_s.map(|v| v as f32), gyro_lag_s: 0.0, attitude_weight: 1.0 };
     let mut f32_fit = GyroFit::new(n32, cfg32);
     for s in &data {
         f64_fit.push(s);
@@ -225,7 +226,7 @@ fn the_predicted_heading_error_is_calibrated_over_seeds() {
     for seed in 0..seeds {
         let (data, _) = record(&v, 180.0, 100 + seed, seed as f64);
         let (val, _) = record(&Vehicle { mag_noise_raw: 0.0, ..limited(15.0, 5.0) }, 60.0, 200 + seed, 0.5);
-        let (est, _) = fit_gyro_batch(&data, &GyroConfig::new(0.1), F_NT).unwrap();
+        let est = fit_gyro_batch(&data, &GyroConfig::new(0.1), F_NT).unwrap().estimate;
         let o = calibration_error_rms_deg(&est.cal, &true_cal(), &val);
         let p = est.predicted_heading_rms_rad.to_degrees();
         eprintln!("seed {seed}: observed {o:.4}°, predicted {p:.4}°");
@@ -236,4 +237,36 @@ fn the_predicted_heading_error_is_calibrated_over_seeds() {
     let ratio = (observed / predicted).sqrt();
     eprintln!("observed / predicted over {seeds} seeds: {ratio:.2}");
     assert!((0.5..2.0).contains(&ratio), "{ratio}");
+}
+
+/// Every window, also those across the ring's wrap, integrates the rotation
+/// of its own steps: at a constant yaw rate `ω` a window of `K` steps of
+/// `dt` is the rotation about z by `ω·K·dt` (exact: a rotation about one
+/// axis composes by adding angles). The step ring was once one slot
+/// shorter than the sample ring, and windows across slots 0 and
+/// `MAX_WINDOW_STEPS` used one step twice.
+#[test]
+fn windows_across_the_ring_wrap_integrate_their_own_steps() {
+    let (dt, k) = (0.05f64, 30usize);
+    let mut cfg = GyroConfig::new(0.1);
+    cfg.window_steps = k;
+    let mut chain = Chain::new();
+    // A yaw rate that changes every sample: a reused step shows.
+    let rate = |i: usize| 0.2 + 0.01 * (i % 7) as f64;
+    let mut checked = 0;
+    for i in 0..200 {
+        let s = GyroSample { t_s: i as f64 * dt, raw: [1.0, 0.0, 0.0], rate_rad_s: [0.0, 0.0, rate(i)], roll_rad: 0.0, pitch_rad: 0.0 };
+        if let Some((_, _, r)) = chain.push(&s, s.raw, &cfg) {
+            // Trapezoid steps from sample i − k to i.
+            let angle: f64 = (i - k + 1..=i).map(|j| 0.5 * (rate(j - 1) + rate(j)) * dt).sum();
+            let want = body_step_rotation([0.0, 0.0, angle]);
+            for a in 0..3 {
+                for b in 0..3 {
+                    assert!((r[a][b] - want[a][b]).abs() < 1e-12, "sample {i}: {r:?} vs {want:?}");
+                }
+            }
+            checked += 1;
+        }
+    }
+    assert_eq!(checked, 200 - k);
 }

@@ -1,4 +1,7 @@
 use super::*;
+use crate::acquisition::{RawSample, COUNTS_PER_NT};
+use calib_core::cal::EnvTerms;
+use magcal_protocol::{FitReport, ModelKind, StreamMode, ATTITUDE_TIMEOUT_MS, MAX_MOTOR_CURRENT_A, UNLOCK_TIMEOUT_MS, UNLOCK_XOR};
 use calib_core::conformance::SplitMix64;
 use calib_core::heading::{magnetic_heading_rad, ned_field, ned_to_body, wrap_pi};
 

@@ -21,6 +21,15 @@
 //!   random bits, and leaves the rest as they were; a program cut leaves the
 //!   byte with a random subset of the bits it was clearing cleared.
 //!   Afterwards every operation fails until [`F405Flash::powered_again`].
+//!
+//! A host-only test double (it allocates): the store's unit tests use it,
+//! and so does the fuzz target `coefficient_record` (feature `mock-flash`).
+
+// A test double: indexes its own cell vector at offsets it has checked.
+#![allow(clippy::indexing_slicing)]
+
+use std::vec;
+use std::vec::Vec;
 
 use embedded_storage::nor_flash::{ErrorType, NorFlash, NorFlashError, NorFlashErrorKind, ReadNorFlash};
 

@@ -2,6 +2,7 @@
 //! the full ellipsoid and paper 001's triangular form, with the quality
 //! gates that refuse a weak calibration.
 
+use calib_core::attitude_fit::AttitudeConfig;
 use calib_core::cal::ModelKind;
 use calib_core::fit::{fit_batch, Axis, FitError, Full, Sphere};
 use calib_core::ortho;
@@ -55,6 +56,7 @@ pub fn fit_recording(rec: &Recording, opts: &FitOptions) -> Result<CalDoc, Compu
     calib_core::fit::check_samples(&samples, 1, opts.saturation)?;
     let mut warnings = Vec::new();
     let mut gyro_quality = None;
+    let mut attitude_predicted_deg = None;
     let cal = match opts.model {
         ModelKind::Sphere => fit_batch::<Sphere, 4, f64>(&samples, opts.field_nt),
         ModelKind::Axis => fit_batch::<Axis, 6, f64>(&samples, opts.field_nt),
@@ -65,12 +67,19 @@ pub fn fit_recording(rec: &Recording, opts: &FitOptions) -> Result<CalDoc, Compu
             gyro_quality = Some(q);
             Ok(cal)
         }
+        ModelKind::Attitude => {
+            let est = super::attitude::fit_attitude_recording(rec, opts.field_nt, &AttitudeConfig::new())?;
+            warnings.extend(super::attitude::weakly_determined(&est, opts.field_nt));
+            attitude_predicted_deg = Some(est.predicted_heading_rms_rad.to_degrees());
+            Ok(est.cal)
+        }
     }
-    .map_err(|e| explain_failure(e, &samples, opts))?;
+    .map_err(|e| with_advice(explain_failure(e, &samples, opts), rec))?;
     let q = assess(&cal, &samples, opts.field_nt);
     if let Err(e) = Gates::for_model(opts.model).check(&q) {
+        let e = with_advice(e, rec);
         if !opts.allow_weak {
-            return Err(e.into());
+            return Err(e);
         }
         warnings.push(format!("quality gate failed but --allow-weak was given: {e}"));
     }
@@ -87,9 +96,25 @@ pub fn fit_recording(rec: &Recording, opts: &FitOptions) -> Result<CalDoc, Compu
     // Which units the raw data look like (the fit works in any).
     let radius = opts.field_nt / ((cal.matrix[0][0].abs() + cal.matrix[1][1].abs() + cal.matrix[2][2].abs()) / 3.0);
     let units = units_guess(radius, opts.field_nt);
-    let predicted_heading_rms_deg = gyro_quality.as_ref().map(|g| g.predicted_heading_rms_deg);
+    let predicted_heading_rms_deg = gyro_quality.as_ref().map(|g| g.predicted_heading_rms_deg).or(attitude_predicted_deg);
     let quality = ResultsQuality { fit: Some(fit_quality(&q, skipped, warnings, units)), gyro: gyro_quality, predicted_heading_rms_deg, ..Default::default() };
     Ok(CalDoc::new(kind, &cal, opts.field_nt, quality))
+}
+
+/// A coverage refusal names the models that do not rest on coverage and
+/// that the recording's columns allow: the attitude-aided one when it has
+/// roll and pitch, the gyro-aided one when it has the gyro.
+fn with_advice(e: FitError, rec: &Recording) -> ComputeError {
+    let FitError::InsufficientCoverage { covered_pct } = e else { return e.into() };
+    let attitude = rec.roll_deg.is_some() && rec.pitch_deg.is_some();
+    let gyro = rec.gyro_rad_s().is_some();
+    let advice = match (attitude, gyro) {
+        (true, true) => "use the attitude-aided model, `--model attitude` (roll_deg, pitch_deg), or the gyro-aided model, `--model gyro` (gx, gy, gz)",
+        (true, false) => "use the attitude-aided model, `--model attitude`, which needs only the roll_deg, pitch_deg this recording has",
+        (false, true) => "use the gyro-aided model, `--model gyro`, with the gx, gy, gz this recording has",
+        (false, false) => "record the AHRS roll and pitch (roll_deg, pitch_deg) and use the attitude-aided model, `--model attitude`",
+    };
+    ComputeError::Coverage { covered_pct, advice: advice.into() }
 }
 
 /// When a model cannot be fitted, the usual cause is data that visit too

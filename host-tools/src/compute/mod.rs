@@ -3,7 +3,7 @@
 //! step, and one [`chain`] (axis fit → back-stepping → swing fit) that the
 //! session, the simulator's scenario harness, the bench and the CLI all call.
 //!
-//! * [`fit`]: field (ellipsoid) fits; [`units`]: the recording's units;
+//! * [`fit`]: field (ellipsoid) fits; [`attitude`]: the attitude-aided fit (no gyro, no tumble); [`units`]: the recording's units;
 //! * [`backstep`]: the out-and-back refinement (the paper's and ours);
 //! * [`swing`]: the Fourier heading fit against a reference heading;
 //! * [`ortho`]: paper 001's non-orthogonality and gains;
@@ -15,6 +15,8 @@ use calib_core::fit::FitError;
 use calib_core::ortho::OrthoError;
 use calib_core::swing::SwingError;
 
+pub mod apply;
+pub mod attitude;
 pub mod backstep;
 pub mod card;
 pub mod chain;
@@ -63,6 +65,18 @@ pub enum ComputeError {
     /// The gyro-aided fit cannot use the recording.
     #[error("{0}")]
     Gyro(String),
+    /// Too little of the sphere of field directions for the model; `advice`
+    /// names the models the recording's columns allow.
+    #[error("only {covered_pct}% of field directions were visited: too little of the sphere for this model (a vehicle that cannot tumble: {advice})")]
+    Coverage {
+        /// Percent of the direction bins visited.
+        covered_pct: u8,
+        /// What to do with this recording.
+        advice: String,
+    },
+    /// The attitude-aided fit cannot use the recording.
+    #[error("{0}")]
+    Attitude(String),
     /// The reference field could not be computed.
     #[error("{0}")]
     Geomag(#[from] crate::geomag::GeomagError),

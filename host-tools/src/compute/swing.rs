@@ -2,7 +2,7 @@
 //! reference's delay given or estimated.
 
 use calib_core::heading::magnetic_heading_rad;
-use calib_core::swing::current::{fit_swing_in_current, heading_from_course, local_north_east_m, CurrentSwingError, SurfaceTrack};
+use calib_core::water_current::{fit_swing_in_current, heading_from_course, local_north_east_m, CurrentSwingError, SurfaceTrack};
 use calib_core::swing::{aligned_pairs, estimate_delay, fit_swing, SwingFit, SwingTerms};
 
 use super::units::check_units;

@@ -124,6 +124,7 @@ pub fn model_kind(name: &str) -> Option<ModelKind> {
         "full" => Some(ModelKind::Full),
         "triangular" => Some(ModelKind::Triangular),
         "gyro" => Some(ModelKind::Gyro),
+        "attitude" => Some(ModelKind::Attitude),
         _ => None,
     }
 }

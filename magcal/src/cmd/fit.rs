@@ -18,6 +18,7 @@ fn model_parser() -> impl clap::builder::TypedValueParser<Value = ModelKind> {
         PossibleValue::new("axis").help("Bias and three axis scales (paper 000, eqs 12–17)"),
         PossibleValue::new("full").help("Bias and a symmetric soft-iron matrix"),
         PossibleValue::new("triangular").help("Bias and paper 001's upper-triangular non-orthogonality and gains"),
+        PossibleValue::new("attitude").help("Attitude-aided: bias and soft-iron matrix from the levelled field's constant vertical and horizontal parts (needs roll_deg, pitch_deg; no gyro) — for gliders, AUVs and boats that cannot tumble"),
         PossibleValue::new("gyro").help("Gyro-aided: bias and symmetric soft iron from how the readings rotate (needs t, gx, gy, gz; roll_deg, pitch_deg help) — for vehicles that cannot tumble"),
     ])
     .try_map(|name| model_kind(&name).ok_or_else(|| format!("unknown model `{name}`")))

@@ -1,5 +1,6 @@
 //! One module per subcommand, and the arguments and output they share.
 
+pub mod apply;
 pub mod backstep;
 pub mod card;
 pub mod export;

@@ -31,7 +31,7 @@
 //! `δ`, so each round halves what is left of it; the loop stops when the
 //! current moves by less than [`CONVERGED_MPS`].
 
-use super::{fit_swing, heading_at, SwingError, SwingFit};
+use crate::swing::{fit_swing, heading_at, SwingError, SwingFit};
 use crate::cal::Swing;
 use crate::heading::{wrap_pi, wrap_two_pi};
 use crate::Real;
@@ -303,23 +303,6 @@ pub fn heading_from_course<T: Real>(course_rad: T, speed_mps: T, current_ne_mps:
     Some(wrap_two_pi((g * ue - ce).atan2(g * un - cn)))
 }
 
-/// Linear interpolation of `values` at `at_s`; `None` outside, across a gap
-/// longer than `max_gap_s`, or next to a non-finite value.
-fn value_at<T: Real>(times_s: &[T], values: &[T], at_s: T, max_gap_s: T) -> Option<T> {
-    let n = times_s.len().min(values.len());
-    let times = times_s.get(..n)?;
-    let i = times.partition_point(|&t| t < at_s);
-    let (t1, v1) = (*times.get(i)?, *values.get(i)?);
-    if t1 == at_s {
-        return v1.is_finite().then_some(v1);
-    }
-    let (t0, v0) = (*times.get(i.checked_sub(1)?)?, *values.get(i - 1)?);
-    if !(t1 - t0 <= max_gap_s && v0.is_finite() && v1.is_finite()) {
-        return None;
-    }
-    Some(v0 + (at_s - t0) / (t1 - t0) * (v1 - v0))
-}
-
 /// A recording's columns for the swing fit in a current. All slices are
 /// indexed by row; NaN marks a missing value.
 #[derive(Debug, Clone, Copy)]
@@ -451,7 +434,7 @@ pub fn heading_pairs<'a, T: Real>(track: &'a SurfaceTrack<'a, T>, current_ne_mps
         }
         let at = t - track.delay_s;
         let h = heading_at(track.t_s, track.mag_heading_rad, at, track.max_gap_s)?;
-        let s = value_at(track.t_s, track.speed_mps, at, track.max_gap_s)?;
+        let s = crate::series::interp_linear(track.t_s, track.speed_mps, at, track.max_gap_s)?;
         let psi = heading_from_course(course, s, current_ne_mps)?;
         Some((h, wrap_pi(psi - track.declination_rad)))
     })

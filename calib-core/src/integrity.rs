@@ -1,0 +1,492 @@
+//! Run-time integrity of the heading: is this sample's heading trustworthy,
+//! and how good is it?
+//!
+//! Per sample, three checks against the calibration's own reference, each a
+//! normalised residual compared with one gate (`Tuning::gate_sigma`, a
+//! Gaussian tail probability, not a tuned constant):
+//!
+//! - the calibrated field's **magnitude** against the reference intensity
+//!   `F`: `z_F = (|h| − F) / σ_F`, with `σ_F` the scatter of `|h|` the
+//!   calibration itself left (its fit residual);
+//! - the **dip**: `z_I = (sin I_meas − sin I_ref) / cos I_ref · F / σ_F`
+//!   (the field's noise perpendicular to it moves the dip by `σ_F / F`
+//!   radians); `I_ref` is the document's inclination, or learned from the
+//!   samples judged ok when there is none;
+//! - the field's **rotation against the gyro**: a two-state Kalman filter
+//!   (heading, gyro yaw-rate bias) propagated with the yaw rate
+//!   `ψ̇ = (sin φ ω_y + cos φ ω_z) / cos θ` and updated only with the samples
+//!   judged ok; the innovation `ν = ψ_mag − ψ_pred` over its predicted
+//!   `√(P + σ_ψ²)` is the third test. The magnitude and dip cannot see a
+//!   disturbance perpendicular to the magnetic meridian, the one that moves
+//!   the heading most; the gyro does.
+//!
+//! Time: a failing sample starts a disturbance, which ends after
+//! `Tuning::exit_s` of passing samples (hysteresis). When the field passes
+//! but the gyro prediction keeps disagreeing for `Tuning::reanchor_s`, the
+//! prediction, not the field, is taken as wrong (gyro scale error, a gap in
+//! the rates) and the filter is re-anchored on the field. A **sustained**
+//! misfit of the field (an exponentially weighted fraction of failing
+//! samples, time constant `Tuning::misfit_tau_s`, above
+//! `Tuning::misfit_enter`) means the stored calibration no longer fits the
+//! vehicle: [`IntegrityState::CalInvalid`], until the fraction falls below
+//! `Tuning::misfit_exit`.
+//!
+//! The heading's 1σ of a sample is `√(σ_cal² + (σ_F / H_h)²)` when ok (the
+//! calibration's own heading error and the field's noise across the
+//! measured horizontal intensity `H_h`); a sample not ok adds its innovation
+//! and the size of its field misfit across `H_h`.
+//!
+//! No allocation; the state is a few dozen bytes
+//! (`size_of::<Monitor<f32>>()`, tested); a sample costs two square roots,
+//! three divisions and one angle wrap on top of the heading.
+
+use crate::heading::{Tilt, Vec3};
+use crate::Real;
+
+/// The integrity of one sample's heading.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[repr(u8)]
+pub enum IntegrityState {
+    /// The field fits the calibration's reference and the gyro: the heading
+    /// may be used with its σ.
+    Ok = 0,
+    /// This sample's field does not fit (a nearby magnetic object, passing).
+    Disturbed = 1,
+    /// The field has not fitted for a sustained time: the stored
+    /// calibration no longer fits this vehicle (new hard iron, payload).
+    CalInvalid = 2,
+    /// No attitude: no heading.
+    NoAttitude = 3,
+}
+
+impl IntegrityState {
+    /// The word used in CSV and JSON (`docs/INTERFACES.md`).
+    pub fn name(self) -> &'static str {
+        match self {
+            IntegrityState::Ok => "ok",
+            IntegrityState::Disturbed => "disturbed",
+            IntegrityState::CalInvalid => "cal_invalid",
+            IntegrityState::NoAttitude => "no_attitude",
+        }
+    }
+
+    /// From the wire byte (`self as u8`).
+    pub fn from_u8(v: u8) -> Option<Self> {
+        match v {
+            0 => Some(IntegrityState::Ok),
+            1 => Some(IntegrityState::Disturbed),
+            2 => Some(IntegrityState::CalInvalid),
+            3 => Some(IntegrityState::NoAttitude),
+            _ => None,
+        }
+    }
+
+    /// Every state, in wire order.
+    pub const ALL: [IntegrityState; 4] = [IntegrityState::Ok, IntegrityState::Disturbed, IntegrityState::CalInvalid, IntegrityState::NoAttitude];
+}
+
+/// What the calibration says the field should look like.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Reference<T> {
+    /// Reference intensity `F` (the document's `field_nt`), nT.
+    pub field_nt: T,
+    /// Scatter of `|h|` about `F` the calibration left (its fit residual),
+    /// nT; also taken as each component's noise.
+    pub field_sigma_nt: T,
+    /// Inclination (dip, positive down), radians; `None`: learned from the
+    /// samples judged ok.
+    pub inclination_rad: Option<T>,
+    /// The calibration's own heading error, 1σ, radians (0 when unknown).
+    pub heading_sigma_rad: T,
+}
+
+/// The monitor's constants. [`Tuning::standard`] holds the values chosen on
+/// real data (leave-one-dataset-out, see `xtask/src/bench/integrity.rs`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Tuning<T> {
+    /// Gate on every normalised residual, in σ.
+    pub gate_sigma: T,
+    /// Random walk of the gyro-propagated heading, rad²/s.
+    pub heading_walk_rad2_s: T,
+    /// Gyro scale uncertainty: variance added per radian turned, rad² per rad.
+    pub scale_var_per_rad: T,
+    /// Random walk of the gyro yaw-rate bias, rad²/s³.
+    pub bias_walk_rad2_s3: T,
+    /// Initial 1σ of the gyro yaw-rate bias, rad/s.
+    pub bias_sigma_rad_s: T,
+    /// Longest step the gyro is integrated over, s; a longer gap re-anchors.
+    pub max_gap_s: T,
+    /// Passing time that ends a disturbance (strictly more than this), s.
+    pub exit_s: T,
+    /// Field passing but the gyro disagreeing this long re-anchors, s.
+    pub reanchor_s: T,
+    /// Time constant of the misfit fraction, s.
+    pub misfit_tau_s: T,
+    /// Misfit fraction above which the calibration is invalid.
+    pub misfit_enter: T,
+    /// Misfit fraction below which it is valid again.
+    pub misfit_exit: T,
+    /// Samples over which a learned inclination is averaged (its memory).
+    pub inclination_memory: T,
+}
+
+impl<T: Real> Tuning<T> {
+    /// The constants used on the board and by `magcal apply`.
+    ///
+    /// - gate 3.5σ (a two-sided Gaussian tail of 5·10⁻⁴ per test);
+    /// - the gyro model from the BROAD validation trials (undisturbed): the
+    ///   gyro's integrated yaw rate against the optical heading has a scale
+    ///   error of 0.3–2.8 % (`(0.05)²` rad² per rad turned covers it) and a
+    ///   walk of about 1°/√s;
+    /// - disturbances end after 0.1 s of passing samples; re-anchoring after
+    ///   1 s; the calibration is invalid when over half of a 2 s window
+    ///   fails ("within seconds") and valid again below a tenth.
+    pub fn standard() -> Self {
+        let deg = core::f64::consts::PI / 180.0;
+        Self {
+            gate_sigma: T::from_f64(3.5),
+            heading_walk_rad2_s: T::from_f64(deg * deg),
+            scale_var_per_rad: T::from_f64(0.05 * 0.05),
+            bias_walk_rad2_s3: T::from_f64((0.01 * deg) * (0.01 * deg)),
+            bias_sigma_rad_s: T::from_f64(0.5 * deg),
+            max_gap_s: T::from_f64(0.2),
+            exit_s: T::from_f64(0.1),
+            reanchor_s: T::from_f64(1.0),
+            misfit_tau_s: T::from_f64(2.0),
+            misfit_enter: T::from_f64(0.5),
+            misfit_exit: T::from_f64(0.1),
+            inclination_memory: T::from_f64(200.0),
+        }
+    }
+}
+
+/// Why a monitor could not be set up.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum IntegrityError {
+    /// The reference intensity or its scatter is not a positive finite
+    /// number, the scatter is not below the intensity, or the inclination is
+    /// not within ±90°, or the heading σ is negative.
+    BadReference,
+    /// A tuning constant is not positive and finite, or the misfit
+    /// thresholds are not `0 < exit < enter < 1`.
+    BadTuning,
+}
+
+/// The judgement of one sample.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Verdict<T> {
+    /// The integrity state.
+    pub state: IntegrityState,
+    /// The heading's 1σ, radians (NaN without attitude).
+    pub heading_sigma_rad: T,
+    /// Normalised magnitude residual `z_F`.
+    pub field_z: T,
+    /// Normalised dip residual `z_I` (0 before an inclination is known).
+    pub dip_z: T,
+    /// Normalised heading innovation against the gyro (0 when not anchored).
+    pub heading_z: T,
+}
+
+/// Wraps an angle within (−3π, 3π] to (−π, π] with compares instead of
+/// `floor` (libm's is software on the Cortex-M4F): every angle here is a
+/// heading in [0, 2π) or (−π, π] plus a small step, or a difference of two.
+#[inline(always)]
+fn wrap_near<T: Real>(mut a: T) -> T {
+    if a > T::PI {
+        a -= T::TAU;
+    }
+    if a <= -T::PI {
+        a += T::TAU;
+    }
+    if a <= -T::PI {
+        a += T::TAU;
+    }
+    a
+}
+
+/// The gyro-propagated heading: a two-state Kalman filter.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+struct GyroHeading<T> {
+    heading_rad: T,
+    bias_rad_s: T,
+    p00: T,
+    p01: T,
+    p11: T,
+    anchored: bool,
+}
+
+impl<T: Real> GyroHeading<T> {
+    #[inline(always)]
+    fn predict(&mut self, yaw_rate_rad_s: T, dt_s: T, tuning: &Tuning<T>) {
+        self.heading_rad = wrap_near(self.heading_rad + (yaw_rate_rad_s - self.bias_rad_s) * dt_s);
+        self.p00 += dt_s * (dt_s * self.p11 - T::from_f64(2.0) * self.p01) + tuning.heading_walk_rad2_s * dt_s + tuning.scale_var_per_rad * (yaw_rate_rad_s * dt_s).abs();
+        self.p01 -= dt_s * self.p11;
+        self.p11 += tuning.bias_walk_rad2_s3 * dt_s;
+    }
+
+    #[inline(always)]
+    fn update(&mut self, innovation_rad: T, s: T) {
+        let (k0, k1) = (self.p00 / s, self.p01 / s);
+        self.heading_rad = wrap_near(self.heading_rad + k0 * innovation_rad);
+        self.bias_rad_s += k1 * innovation_rad;
+        let (p00, p01) = (self.p00, self.p01);
+        self.p00 = p00 - k0 * p00;
+        self.p01 = p01 - k0 * p01;
+        self.p11 -= k1 * p01;
+    }
+
+    fn anchor(&mut self, heading_rad: T, var_rad2: T) {
+        self.heading_rad = wrap_near(heading_rad);
+        self.p00 = var_rad2;
+        self.p01 = T::ZERO;
+        self.anchored = true;
+    }
+}
+
+/// The per-sample integrity monitor: fixed state, no allocation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Monitor<T> {
+    reference: Reference<T>,
+    tuning: Tuning<T>,
+    /// sin and cos of the reference (or learned) inclination.
+    sin_incl: T,
+    cos_incl: T,
+    /// Samples averaged into a learned inclination (0: none yet).
+    incl_weight: T,
+    gyro: GyroHeading<T>,
+    /// Exponentially weighted fraction of samples whose field misfits, and
+    /// the same average of 1 (their ratio is the bias-corrected fraction:
+    /// right from the first samples, not only after a time constant).
+    misfit: T,
+    misfit_weight: T,
+    /// Field passing while the gyro disagrees, s.
+    gyro_fail_s: T,
+    /// Passing time since the last failure, s.
+    pass_s: T,
+    disturbed: bool,
+    cal_invalid: bool,
+}
+
+impl<T: Real> Monitor<T> {
+    /// A monitor for a calibration with this reference.
+    pub fn new(reference: Reference<T>, tuning: Tuning<T>) -> Result<Self, IntegrityError> {
+        let pos = |v: T| v.is_finite() && v > T::ZERO;
+        let r = &reference;
+        let incl_ok = r.inclination_rad.is_none_or(|i| i.is_finite() && i.abs() < T::PI / T::from_f64(2.0));
+        if !(pos(r.field_nt) && pos(r.field_sigma_nt) && r.field_sigma_nt < r.field_nt && incl_ok && r.heading_sigma_rad.is_finite() && r.heading_sigma_rad >= T::ZERO) {
+            return Err(IntegrityError::BadReference);
+        }
+        let t = &tuning;
+        let all_pos = [t.gate_sigma, t.heading_walk_rad2_s, t.scale_var_per_rad, t.bias_walk_rad2_s3, t.bias_sigma_rad_s, t.max_gap_s, t.exit_s, t.reanchor_s, t.misfit_tau_s, t.inclination_memory]
+            .iter()
+            .all(|&v| pos(v));
+        if !(all_pos && t.misfit_exit > T::ZERO && t.misfit_exit < t.misfit_enter && t.misfit_enter < T::ONE) {
+            return Err(IntegrityError::BadTuning);
+        }
+        let (sin_incl, cos_incl, incl_weight) = match r.inclination_rad {
+            Some(i) => (i.sin(), i.cos(), t.inclination_memory),
+            None => (T::ZERO, T::ONE, T::ZERO),
+        };
+        let bias_var = t.bias_sigma_rad_s * t.bias_sigma_rad_s;
+        Ok(Self {
+            reference,
+            tuning,
+            sin_incl,
+            cos_incl,
+            incl_weight,
+            gyro: GyroHeading { heading_rad: T::ZERO, bias_rad_s: T::ZERO, p00: T::ZERO, p01: T::ZERO, p11: bias_var, anchored: false },
+            misfit: T::ZERO,
+            misfit_weight: T::ZERO,
+            gyro_fail_s: T::ZERO,
+            pass_s: T::ZERO,
+            disturbed: false,
+            cal_invalid: false,
+        })
+    }
+
+    /// The reference the monitor checks against.
+    pub fn reference(&self) -> &Reference<T> {
+        &self.reference
+    }
+
+    /// The inclination in use, radians (`None` before one is learned).
+    pub fn inclination_rad(&self) -> Option<T> {
+        (self.incl_weight > T::ZERO).then(|| self.sin_incl.atan2(self.cos_incl))
+    }
+
+    /// sin of the inclination in use (`None` before one is learned).
+    pub fn sin_inclination(&self) -> Option<T> {
+        (self.incl_weight > T::ZERO).then_some(self.sin_incl)
+    }
+
+    /// The tuning in use.
+    pub fn tuning(&self) -> &Tuning<T> {
+        &self.tuning
+    }
+
+    /// Restarts the time logic on a new field (the on-line hard iron applied
+    /// or withdrawn): the misfit fraction becomes `misfit` (what the new
+    /// field's shadow check measured), the calibration's validity follows
+    /// it, and the gyro heading re-anchors. The learned inclination stays.
+    pub fn switch_field(&mut self, misfit: T) {
+        self.misfit = misfit * self.misfit_weight;
+        self.cal_invalid = misfit > self.tuning.misfit_enter;
+        self.gyro.anchored = false;
+        self.gyro_fail_s = T::ZERO;
+        self.pass_s = T::ZERO;
+        self.disturbed = true;
+    }
+
+    /// The misfit fraction (0…1) behind [`IntegrityState::CalInvalid`]
+    /// (0 before any sample).
+    pub fn misfit_fraction(&self) -> T {
+        if self.misfit_weight > T::ZERO { self.misfit / self.misfit_weight } else { T::ZERO }
+    }
+
+    /// The gyro yaw-rate bias the heading filter estimated, rad/s.
+    pub fn gyro_bias_rad_s(&self) -> T {
+        self.gyro.bias_rad_s
+    }
+
+    /// Whether the stored calibration is judged invalid.
+    pub fn cal_invalid(&self) -> bool {
+        self.cal_invalid
+    }
+
+    /// The heading variance of a sample with horizontal intensity `hh_nt`.
+    #[inline(always)]
+    fn sample_var(&self, hh_nt: T) -> T {
+        let s = self.reference.field_sigma_nt / hh_nt.max(self.reference.field_sigma_nt);
+        s * s + self.reference.heading_sigma_rad * self.reference.heading_sigma_rad
+    }
+
+    /// Judges one sample: the calibrated field (nT, body frame), the heading
+    /// computed from it (radians), the attitude (`None`: no attitude), the
+    /// body rates (rad/s; `None`: no gyro) and the time since the previous
+    /// sample (s).
+    pub fn step(&mut self, field_nt: Vec3<T>, heading_rad: T, tilt: Option<&Tilt<T>>, rate_rad_s: Option<Vec3<T>>, dt_s: T) -> Verdict<T> {
+        let g = self.tuning.gate_sigma;
+        let (f, sigma_f) = (self.reference.field_nt, self.reference.field_sigma_nt);
+        let mag = (field_nt[0] * field_nt[0] + field_nt[1] * field_nt[1] + field_nt[2] * field_nt[2]).sqrt();
+        let field_z = (mag - f) / sigma_f;
+        let dt = if dt_s.is_finite() && dt_s > T::ZERO { dt_s } else { T::ZERO };
+        let Some(tilt) = tilt else {
+            self.track_misfit(!(field_z.abs() < g), dt);
+            self.gyro.anchored = false;
+            return Verdict { state: IntegrityState::NoAttitude, heading_sigma_rad: T::NAN, field_z, dip_z: T::ZERO, heading_z: T::ZERO };
+        };
+        let l = tilt.level(field_nt);
+        let hh = (l[0] * l[0] + l[1] * l[1]).sqrt();
+        let sin_dip = l[2] / mag.max(sigma_f);
+        let dip_z = if self.incl_weight > T::ZERO { (sin_dip - self.sin_incl) / self.cos_incl * f / sigma_f } else { T::ZERO };
+        let var_m = self.sample_var(hh);
+        // The gyro prediction.
+        let gap = !(dt <= self.tuning.max_gap_s);
+        match rate_rad_s {
+            Some(w) if self.gyro.anchored && !gap => {
+                let yaw_rate = (tilt.sin_roll * w[1] + tilt.cos_roll * w[2]) / tilt.cos_pitch;
+                self.gyro.predict(yaw_rate, dt, &self.tuning);
+            }
+            _ => self.gyro.anchored = false,
+        }
+        let anchored = self.gyro.anchored;
+        let (innovation, s) = if anchored { (wrap_near(heading_rad - self.gyro.heading_rad), self.gyro.p00 + var_m) } else { (T::ZERO, var_m) };
+        let heading_z = innovation / s.sqrt();
+        let field_ok = field_z.abs() < g && dip_z.abs() < g;
+        let pass = field_ok && heading_z.abs() < g;
+        self.track_misfit(!field_ok, dt);
+        self.track_gyro(rate_rad_s.is_some(), field_ok, pass, heading_rad, var_m, dt);
+        if pass && anchored {
+            self.gyro.update(innovation, s);
+        }
+        let fraction = self.misfit_fraction();
+        if pass && !self.disturbed && fraction < self.tuning.misfit_exit && self.reference.inclination_rad.is_none() {
+            self.learn_inclination(sin_dip);
+        }
+        if pass {
+            self.pass_s += dt;
+            if self.pass_s > self.tuning.exit_s {
+                self.disturbed = false;
+            }
+        } else {
+            self.pass_s = T::ZERO;
+            self.disturbed = true;
+        }
+        let state = if self.cal_invalid {
+            IntegrityState::CalInvalid
+        } else if self.disturbed || !(fraction <= self.tuning.misfit_enter) {
+            IntegrityState::Disturbed
+        } else {
+            IntegrityState::Ok
+        };
+        let heading_sigma_rad = if state == IntegrityState::Ok {
+            var_m.sqrt()
+        } else {
+            // The misfit's size, as a field error across the horizontal field.
+            let hh = hh.max(sigma_f);
+            let dip_nt = dip_z * sigma_f;
+            let e_nt = (mag - f) * (mag - f) + dip_nt * dip_nt;
+            (var_m + innovation * innovation + e_nt / (hh * hh)).sqrt()
+        };
+        Verdict { state, heading_sigma_rad, field_z, dip_z, heading_z }
+    }
+
+    /// The sustained-misfit fraction and the calibration's validity.
+    #[inline(always)]
+    fn track_misfit(&mut self, misfit: bool, dt: T) {
+        let tau = self.tuning.misfit_tau_s;
+        let a = (dt / tau).min(T::ONE);
+        // At least one sample's weight, so the first samples count.
+        let a = a.max(T::from_f64(1e-3));
+        let x = if misfit { T::ONE } else { T::ZERO };
+        self.misfit += a * (x - self.misfit);
+        self.misfit_weight += a * (T::ONE - self.misfit_weight);
+        let fraction = self.misfit / self.misfit_weight;
+        // Judged only once a third of a time constant has been seen.
+        let seen = self.misfit_weight > T::from_f64(0.28);
+        if !self.cal_invalid && fraction > self.tuning.misfit_enter && seen {
+            self.cal_invalid = true;
+        } else if self.cal_invalid && fraction < self.tuning.misfit_exit {
+            self.cal_invalid = false;
+        }
+    }
+
+    /// Anchors the gyro heading when it is not, and re-anchors it when the
+    /// field passes but the prediction has disagreed for too long.
+    #[inline(always)]
+    fn track_gyro(&mut self, has_rate: bool, field_ok: bool, pass: bool, heading_rad: T, var_m: T, dt: T) {
+        if !self.gyro.anchored {
+            if has_rate && field_ok && heading_rad.is_finite() {
+                self.gyro.anchor(heading_rad, var_m);
+            }
+            self.gyro_fail_s = T::ZERO;
+        } else if pass {
+            self.gyro_fail_s = T::ZERO;
+        } else if field_ok {
+            self.gyro_fail_s += dt;
+            if self.gyro_fail_s > self.tuning.reanchor_s && heading_rad.is_finite() {
+                self.gyro.anchor(heading_rad, var_m);
+                self.gyro_fail_s = T::ZERO;
+            }
+        }
+    }
+
+    /// Running mean of the sine of the dip over the samples judged ok.
+    fn learn_inclination(&mut self, sin_dip: T) {
+        let w = (self.incl_weight + T::ONE).min(self.tuning.inclination_memory);
+        self.incl_weight = w;
+        self.sin_incl += (sin_dip - self.sin_incl) / w;
+        let s = self.sin_incl.max(-T::ONE).min(T::ONE);
+        self.cos_incl = (T::ONE - s * s).max(T::EPSILON).sqrt();
+    }
+}
+
+#[cfg(test)]
+mod tests;

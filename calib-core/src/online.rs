@@ -1,0 +1,263 @@
+//! The per-sample path with integrity, as the board runs it and `magcal
+//! apply` replays it: the stored calibration applied to the sample, the
+//! [`Monitor`]'s verdict, the on-line hard-iron estimate
+//! ([`HardIronEstimator`]) and the guard that decides whether to apply it,
+//! and the health counters.
+//!
+//! **The guard.** The estimate is applied only when all of these hold:
+//! the stored calibration is judged invalid (its headings are already not
+//! `ok`, so applying can only add `ok` samples where there were none); a
+//! shadow check of the field corrected by the estimate (the same magnitude
+//! and dip gates, the same misfit fraction) has passed below
+//! `Tuning::misfit_exit` over at least three misfit time constants; the
+//! offset model explains the misfit (normalised magnitude residual RMS ≤ 2);
+//! and the estimate's own uncertainty moves the heading by no more than the
+//! stored calibration's σ does (`max σ_δ / H_h ≤ σ_ψ,stored`). Applied, each
+//! sample's σ adds the estimate's, and the corrected field goes through the
+//! same monitor: if it misfits for a sustained time the estimate is
+//! withdrawn (and the stored calibration, shadow-checked meanwhile, judged
+//! again). So a heading called `ok` with the estimate has passed every test
+//! a heading with the stored calibration must pass, with a σ at least as
+//! large.
+
+use crate::cal::Calibration;
+use crate::hardiron::{HardIron, HardIronEstimator};
+use crate::heading::{Tilt, Vec3};
+use crate::integrity::{IntegrityError, IntegrityState, Monitor, Reference, Tuning, Verdict};
+use crate::linalg::{inverse3, mul_mat_vec};
+use crate::Real;
+
+/// Samples per state and the longest disturbance.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Health<T> {
+    /// Samples judged in each state, indexed by `IntegrityState as usize`.
+    pub samples_per_state: [u32; 4],
+    /// Longest run of samples not `ok` (disturbed or calibration invalid), s.
+    pub longest_disturbance_s: T,
+    /// The run in progress, s.
+    pub current_disturbance_s: T,
+    /// Times the on-line hard iron was applied.
+    pub hard_iron_applied: u32,
+}
+
+/// One calibrated, judged sample.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Judged<T> {
+    /// Calibrated field, body frame, nT (with the on-line hard iron when applied).
+    pub field_nt: Vec3<T>,
+    /// True heading in [0, 2π), `None` without attitude.
+    pub heading_rad: Option<T>,
+    /// The integrity verdict (its σ includes the on-line estimate's when applied).
+    pub verdict: Verdict<T>,
+    /// Whether the on-line hard iron was applied to this sample.
+    pub hard_iron_applied: bool,
+}
+
+/// The per-sample path with integrity: fixed state, no allocation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct OnlineIntegrity<T> {
+    monitor: Monitor<T>,
+    estimator: HardIronEstimator<T>,
+    /// The applied offset in raw units (`M⁻¹ δ`), its value in nT and its
+    /// heading σ, radians.
+    applied_raw: Vec3<T>,
+    applied_nt: Vec3<T>,
+    applied_sigma_rad: T,
+    applied: bool,
+    /// Misfit fraction of the alternative field (stored calibration
+    /// corrected by the estimate when not applied; the stored calibration
+    /// alone when applied), and how long it has been tracked, s.
+    shadow_misfit: T,
+    shadow_seen_s: T,
+    /// The estimator and shadow run every `alt_every`-th sample (the
+    /// board's CPU budget), over the time accumulated since.
+    alt_every: u8,
+    alt_count: u8,
+    alt_dt_s: T,
+    health: Health<T>,
+}
+
+/// The on-line hard iron's memory, s.
+pub const HARD_IRON_TAU_S: f64 = 60.0;
+
+impl<T: Real> OnlineIntegrity<T> {
+    /// Integrity for a calibration with this reference.
+    pub fn new(reference: Reference<T>, tuning: Tuning<T>) -> Result<Self, IntegrityError> {
+        Ok(Self {
+            monitor: Monitor::new(reference, tuning)?,
+            estimator: HardIronEstimator::new(T::from_f64(HARD_IRON_TAU_S)),
+            applied_raw: [T::ZERO; 3],
+            applied_nt: [T::ZERO; 3],
+            applied_sigma_rad: T::ZERO,
+            applied: false,
+            shadow_misfit: T::ZERO,
+            shadow_seen_s: T::ZERO,
+            alt_every: 1,
+            alt_count: 0,
+            alt_dt_s: T::ZERO,
+            health: Health { samples_per_state: [0; 4], longest_disturbance_s: T::ZERO, current_disturbance_s: T::ZERO, hard_iron_applied: 0 },
+        })
+    }
+
+    /// Runs the hard-iron estimator and its shadow check only every `n`-th
+    /// sample (1, the default, every sample; 0 is taken as 1), over the time
+    /// accumulated since: the board's way to fit its CPU budget. The gyro
+    /// rows need the samples they join at most `Tuning::max_gap_s` apart.
+    /// `magcal apply` must use the board's `n` to give the board's bits.
+    pub fn with_estimator_every(mut self, n: u8) -> Self {
+        self.alt_every = n.max(1);
+        self
+    }
+
+    /// The monitor.
+    pub fn monitor(&self) -> &Monitor<T> {
+        &self.monitor
+    }
+
+    /// The health counters.
+    pub fn health(&self) -> &Health<T> {
+        &self.health
+    }
+
+    /// The on-line hard-iron estimate (reported whether applied or not).
+    pub fn hard_iron(&self) -> Option<HardIron<T>> {
+        self.estimator.estimate()
+    }
+
+    /// The offset applied to the samples, nT (`None` when not applied).
+    pub fn applied_offset_nt(&self) -> Option<Vec3<T>> {
+        self.applied.then_some(self.applied_nt)
+    }
+
+    /// Calibrates and judges one sample: `raw` already corrected for the
+    /// current and temperature terms (`EnvTerms::correct_raw`), the
+    /// attitude and body rates when known, the time since the previous
+    /// sample, s.
+    pub fn process(&mut self, cal: &Calibration<T>, raw: Vec3<T>, tilt: Option<&Tilt<T>>, rate_rad_s: Option<Vec3<T>>, dt_s: T) -> Judged<T> {
+        let stored_nt = cal.field.apply(raw);
+        let used_raw = if self.applied { [raw[0] - self.applied_raw[0], raw[1] - self.applied_raw[1], raw[2] - self.applied_raw[2]] } else { raw };
+        let (field_nt, heading_rad) = match tilt {
+            Some(t) => {
+                let out = cal.apply_tilt(used_raw, t);
+                (out.field_nt, Some(out.true_heading_rad))
+            }
+            None => (cal.field.apply(used_raw), None),
+        };
+        let was_invalid = self.monitor.cal_invalid();
+        let mut verdict = self.monitor.step(field_nt, heading_rad.unwrap_or(T::ZERO), tilt, rate_rad_s, dt_s);
+        if !was_invalid && self.monitor.cal_invalid() && !self.applied {
+            // The misfit's onset: what the estimator saw before belongs to
+            // the old vehicle.
+            self.estimator.reset();
+            self.shadow_misfit = T::ZERO;
+            self.shadow_seen_s = T::ZERO;
+        }
+        if self.applied {
+            verdict.heading_sigma_rad = (verdict.heading_sigma_rad * verdict.heading_sigma_rad + self.applied_sigma_rad * self.applied_sigma_rad).sqrt();
+        }
+        let applied_here = self.applied;
+        if dt_s.is_finite() && dt_s > T::ZERO {
+            self.alt_dt_s += dt_s;
+        }
+        self.alt_count = self.alt_count.saturating_add(1);
+        if self.alt_count >= self.alt_every {
+            let dt = self.alt_dt_s;
+            self.alt_count = 0;
+            self.alt_dt_s = T::ZERO;
+            self.track_alternative(stored_nt, tilt, rate_rad_s, dt, cal);
+        }
+        self.count(verdict.state, dt_s);
+        Judged { field_nt, heading_rad, verdict, hard_iron_applied: applied_here }
+    }
+
+    /// Feeds the estimator, shadow-checks the alternative field, and applies
+    /// or withdraws the estimate.
+    fn track_alternative(&mut self, stored_nt: Vec3<T>, tilt: Option<&Tilt<T>>, rate_rad_s: Option<Vec3<T>>, dt_s: T, cal: &Calibration<T>) {
+        let r = *self.monitor.reference();
+        let tuning = *self.monitor.tuning();
+        let sin_incl = self.monitor.sin_inclination();
+        self.estimator.update(stored_nt, tilt, rate_rad_s, dt_s, r.field_nt, r.field_sigma_nt, sin_incl, tuning.max_gap_s);
+        let estimate = self.estimator.estimate();
+        let alt = match (self.applied, estimate) {
+            (true, _) => Some(stored_nt),
+            (false, Some(e)) => Some([stored_nt[0] - e.offset_nt[0], stored_nt[1] - e.offset_nt[1], stored_nt[2] - e.offset_nt[2]]),
+            (false, None) => None,
+        };
+        let dt = if dt_s.is_finite() && dt_s > T::ZERO { dt_s } else { T::ZERO };
+        let Some(alt) = alt else {
+            self.shadow_seen_s = T::ZERO;
+            return;
+        };
+        let mag = (alt[0] * alt[0] + alt[1] * alt[1] + alt[2] * alt[2]).sqrt();
+        let g = tuning.gate_sigma;
+        let mut misfit = !((mag - r.field_nt).abs() < g * r.field_sigma_nt);
+        if let (Some(t), Some(s)) = (tilt, sin_incl) {
+            let c = (T::ONE - s * s).max(T::EPSILON).sqrt();
+            let dip_z = (t.level(alt)[2] / mag.max(r.field_sigma_nt) - s) / c * r.field_nt / r.field_sigma_nt;
+            misfit |= !(dip_z.abs() < g);
+        }
+        let a = (dt / tuning.misfit_tau_s).min(T::ONE);
+        self.shadow_misfit += a * (if misfit { T::ONE } else { T::ZERO } - self.shadow_misfit);
+        self.shadow_seen_s += dt;
+        if self.applied {
+            if self.monitor.cal_invalid() {
+                self.swap(false, cal, None);
+            }
+        } else if let Some(e) = estimate {
+            if self.monitor.cal_invalid() && self.shadow_seen_s >= T::from_f64(3.0) * tuning.misfit_tau_s && self.shadow_misfit < tuning.misfit_exit {
+                self.try_apply(&e, cal, sin_incl);
+            }
+        }
+    }
+
+    /// Applies the estimate if its uncertainty passes the guard.
+    fn try_apply(&mut self, e: &HardIron<T>, cal: &Calibration<T>, sin_incl: Option<T>) {
+        let r = *self.monitor.reference();
+        let cos_incl = sin_incl.map_or(T::ONE, |s| (T::ONE - s * s).max(T::EPSILON).sqrt());
+        let hh = (r.field_nt * cos_incl).max(r.field_sigma_nt);
+        let sigma_max = e.sigma_nt[0].max(e.sigma_nt[1]).max(e.sigma_nt[2]);
+        let stored_sigma_rad = ((r.field_sigma_nt / hh) * (r.field_sigma_nt / hh) + r.heading_sigma_rad * r.heading_sigma_rad).sqrt();
+        let sigma_rad = sigma_max / hh;
+        if sigma_rad <= stored_sigma_rad && e.residual_rms_z <= T::from_f64(2.0) {
+            self.swap(true, cal, Some((e, sigma_rad)));
+        }
+    }
+
+    /// Applies (`on`) or withdraws the estimate; the monitor takes over the
+    /// shadow's misfit fraction and the shadow the monitor's.
+    fn swap(&mut self, on: bool, cal: &Calibration<T>, estimate: Option<(&HardIron<T>, T)>) {
+        if on {
+            let Some((e, sigma_rad)) = estimate else { return };
+            let Some(inv) = inverse3(&cal.field.matrix) else { return };
+            self.applied_raw = mul_mat_vec(&inv, e.offset_nt);
+            self.applied_nt = e.offset_nt;
+            self.applied_sigma_rad = sigma_rad;
+            self.health.hard_iron_applied = self.health.hard_iron_applied.wrapping_add(1);
+        }
+        self.applied = on;
+        let monitor_misfit = self.monitor.misfit_fraction();
+        self.monitor.switch_field(self.shadow_misfit);
+        self.shadow_misfit = monitor_misfit;
+        self.shadow_seen_s = T::ZERO;
+    }
+
+    fn count(&mut self, state: IntegrityState, dt_s: T) {
+        let h = &mut self.health;
+        let i = state as usize;
+        if let Some(c) = h.samples_per_state.get_mut(i) {
+            *c = c.saturating_add(1);
+        }
+        match state {
+            IntegrityState::Disturbed | IntegrityState::CalInvalid => {
+                if dt_s.is_finite() && dt_s > T::ZERO {
+                    h.current_disturbance_s += dt_s;
+                }
+                h.longest_disturbance_s = h.longest_disturbance_s.max(h.current_disturbance_s);
+            }
+            _ => h.current_disturbance_s = T::ZERO,
+        }
+    }
+}

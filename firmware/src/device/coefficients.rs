@@ -1,0 +1,162 @@
+//! The coefficient sets: the physical checks, the nominal set, the store's
+//! encoding (record versions 1 and 2), and the read / write / commit
+//! requests (the unlock they need is [`super::unlock`]'s).
+
+use calib_core::cal::{Calibration, EnvTerms, FieldCal, Swing};
+use magcal_protocol::{CoefficientSource, Coefficients, DeviceError, RequestBody, ResponseBody};
+
+use super::{Device, Handled};
+use crate::acquisition::COUNTS_PER_NT;
+use crate::adc::FULL_SCALE_COUNTS;
+
+/// Where committed coefficients go.
+pub trait CoefficientStore {
+    /// Stores an encoded set; returns its sequence number.
+    fn save(&mut self, bytes: &[u8]) -> Result<u32, SaveFailed>;
+}
+
+/// The store could not write a set; the previous one stays in force.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SaveFailed;
+
+/// A validated, encoded set waiting to be stored.
+#[derive(Debug, Clone)]
+pub struct PendingCommit {
+    staged: Coefficients,
+    calibration: Calibration<f32>,
+    bytes: [u8; Coefficients::MAX_ENCODED_LEN],
+    len: usize,
+}
+
+impl PendingCommit {
+    /// The record's payload for the store.
+    pub fn bytes(&self) -> &[u8] {
+        self.bytes.get(..self.len).unwrap_or(&[])
+    }
+}
+
+/// Field intensities accepted for coefficients and fits, nT.
+pub const FIELD_RANGE_NT: (f32, f32) = (10_000.0, 100_000.0);
+
+/// Largest current term accepted, counts per A: 100 A would move a channel
+/// through its whole range.
+pub const MAX_CURRENT_BIAS_PER_A: f32 = FULL_SCALE_COUNTS as f32 / 100.0;
+
+/// The nominal coefficients: the chain's gain, no bias, no swing, no
+/// current or temperature terms.
+pub fn default_coefficients() -> Coefficients {
+    let g = 1.0 / COUNTS_PER_NT;
+    let none = EnvTerms::<f32>::none();
+    Coefficients {
+        bias: [0.0; 3],
+        matrix: [[g, 0.0, 0.0], [0.0, g, 0.0], [0.0, 0.0, g]],
+        swing: [0.0; 5],
+        declination_rad: 0.0,
+        field_nt: 50_000.0,
+        current_bias_per_a: none.bias_per_a,
+        temp_ref_c: none.ref_c,
+        temp_gain_per_c: none.gain_per_c,
+    }
+}
+
+/// Checks a set against physical bounds and converts it.
+pub fn validate(c: &Coefficients) -> Result<Calibration<f32>, DeviceError> {
+    let field = FieldCal { bias: c.bias, matrix: c.matrix };
+    field.validate(FULL_SCALE_COUNTS as f32).map_err(|_| DeviceError::InvalidCoefficients)?;
+    let swing_ok = c.swing.iter().all(|v| v.is_finite() && v.abs() < 1.0);
+    let decl_ok = c.declination_rad.is_finite() && c.declination_rad.abs() <= core::f32::consts::PI;
+    let field_ok = c.field_nt >= FIELD_RANGE_NT.0 && c.field_nt <= FIELD_RANGE_NT.1;
+    // A gain far from the chain's means the set was made for another sensor.
+    let gain = (c.matrix[0][0].abs() + c.matrix[1][1].abs() + c.matrix[2][2].abs()) / 3.0 * COUNTS_PER_NT;
+    if !(swing_ok && decl_ok && field_ok && gain > 0.2 && gain < 5.0) {
+        return Err(DeviceError::InvalidCoefficients);
+    }
+    let env = c.env_terms();
+    env.validate(MAX_CURRENT_BIAS_PER_A).map_err(|_| DeviceError::InvalidCoefficients)?;
+    Ok(Calibration { field, swing: Swing::from_array(c.swing), declination_rad: c.declination_rad, env })
+}
+
+/// Postcard-encodes a set for the store (at most
+/// [`Coefficients::MAX_ENCODED_LEN`] bytes).
+pub fn encode_coefficients(c: &Coefficients, buf: &mut [u8]) -> Option<usize> {
+    postcard::to_slice(c, buf).ok().map(|b| b.len())
+}
+
+/// A set as store record version 1 held it (protocol 2, before the current
+/// and temperature terms): bias, matrix, swing, declination, field — the
+/// postcard encoding of a struct is that of the tuple of its fields.
+type CoefficientsV1 = ([f32; 3], [[f32; 3]; 3], [f32; 5], f32, f32);
+
+/// Decodes and validates a stored set of store record `version`
+/// ([`crate::store::VERSION`]; a version-1 record loads with no current or
+/// temperature terms).
+pub fn decode_coefficients(bytes: &[u8], version: u16) -> Option<(Coefficients, Calibration<f32>)> {
+    let c: Coefficients = match version {
+        1 => {
+            let (bias, matrix, swing, declination_rad, field_nt): CoefficientsV1 = postcard::from_bytes(bytes).ok()?;
+            let none = EnvTerms::<f32>::none();
+            Coefficients { bias, matrix, swing, declination_rad, field_nt, current_bias_per_a: none.bias_per_a, temp_ref_c: none.ref_c, temp_gain_per_c: none.gain_per_c }
+        }
+        crate::store::VERSION => postcard::from_bytes(bytes).ok()?,
+        _ => return None,
+    };
+    let cal = validate(&c).ok()?;
+    Some((c, cal))
+}
+
+impl Device {
+    /// The coefficients: read, unlock, stage, commit (validated, stored,
+    /// then used).
+    pub(super) fn handle_coefficients(&mut self, req: &RequestBody, now_ms: u32) -> Handled {
+        let reply = match *req {
+            RequestBody::ReadCoefficients => Ok(ResponseBody::Coefficients { coefficients: self.coefficients, source: self.source, seq: self.seq }),
+            RequestBody::Unlock { key } => self.lock.unlock(key, now_ms).map(|()| ResponseBody::Ack),
+            RequestBody::WriteCoefficients(c) => self.stage(c, now_ms).map(|()| ResponseBody::Ack),
+            RequestBody::Commit { crc } => match self.prepare_commit(crc, now_ms) {
+                Ok(pending) => return Handled::Save(pending),
+                Err(e) => Err(e),
+            },
+            _ => return Handled::Reply(ResponseBody::Error(DeviceError::Unsupported)),
+        };
+        Handled::Reply(reply.unwrap_or_else(|e| self.refuse(e)))
+    }
+
+    /// Stages a set: unlocked, outside mission mode, valid.
+    fn stage(&mut self, c: Coefficients, now_ms: u32) -> Result<(), DeviceError> {
+        self.lock.check_write(now_ms)?;
+        validate(&c)?;
+        self.staged = Some(c);
+        Ok(())
+    }
+
+    /// Checks a commit and encodes the staged set for the store.
+    fn prepare_commit(&mut self, crc: u32, now_ms: u32) -> Result<PendingCommit, DeviceError> {
+        self.lock.check_write(now_ms)?;
+        let staged = self.staged.ok_or(DeviceError::NothingStaged)?;
+        if staged.crc() != crc {
+            return Err(DeviceError::CommitMismatch);
+        }
+        let calibration = validate(&staged)?;
+        let mut bytes = [0u8; Coefficients::MAX_ENCODED_LEN];
+        let len = encode_coefficients(&staged, &mut bytes).ok_or(DeviceError::Storage)?;
+        Ok(PendingCommit { staged, calibration, bytes, len })
+    }
+
+    /// Ends a commit after the store: the set is used only once stored; a
+    /// failed save keeps the old set in use and says so.
+    pub fn finish_commit(&mut self, pending: PendingCommit, saved: Result<u32, SaveFailed>) -> ResponseBody {
+        match saved {
+            Ok(seq) => {
+                self.coefficients = pending.staged;
+                self.calibration = pending.calibration;
+                self.source = CoefficientSource::Stored;
+                self.seq = seq;
+                self.staged = None;
+                self.lock.relock();
+                self.last_error = None;
+                ResponseBody::Committed { seq }
+            }
+            Err(SaveFailed) => self.refuse(DeviceError::Storage),
+        }
+    }
+}

@@ -1,0 +1,361 @@
+//! `magcal apply` (`docs/INTERFACES.md`): a calibration document applied to
+//! any recording row by row, with the heading's integrity, by the board's
+//! own per-sample code (calib-core's [`OnlineIntegrity`]: the stored
+//! calibration, the integrity monitor, the on-line hard iron and its guard),
+//! so a mission's log is post-processed exactly as the board would have
+//! judged it.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use calib_core::cal::Environment;
+use calib_core::hardiron::HardIron;
+use calib_core::heading::{wrap_pi, Tilt};
+use calib_core::integrity::{IntegrityError, IntegrityState, Reference, Tuning};
+use calib_core::online::{Health, OnlineIntegrity};
+use serde::Serialize;
+
+use crate::data::{CalDoc, Recording};
+
+/// The field's scatter about `F` taken when the document reports none, as a
+/// fraction of `F`: the RMS of `|h| − F` with the true calibration on the
+/// four undisturbed BROAD validation trials (02, 03, 05, 09) is 476–638 nT on
+/// about 44 000 nT, 1.1–1.45 %.
+pub const DEFAULT_FIELD_SIGMA_REL: f64 = 0.012;
+
+/// Why a recording could not be applied.
+#[derive(Debug, thiserror::Error)]
+pub enum ApplyError {
+    /// The recording has no rows.
+    #[error("the recording has no rows")]
+    Empty,
+    /// The document's reference cannot be checked against.
+    #[error("the calibration's reference cannot be used for integrity: {0}")]
+    Reference(&'static str),
+    /// The output would overwrite the input.
+    #[error("--out {0} is the input recording; write the result to another file")]
+    OverwritesInput(PathBuf),
+    /// The output could not be written.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// What the OS said.
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+/// Options beyond the document.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct ApplyOptions {
+    /// The local inclination, degrees (otherwise the document's, or learned).
+    pub inclination_deg: Option<f64>,
+    /// The field's expected scatter, nT (otherwise the document's fit
+    /// residual, or [`DEFAULT_FIELD_SIGMA_REL`] of `F`).
+    pub field_sigma_nt: Option<f64>,
+    /// The monitor's constants (otherwise [`Tuning::standard`], the
+    /// board's); for studies such as the bench's leave-one-out choice.
+    pub tuning: Option<Tuning<f64>>,
+}
+
+/// One row's result.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AppliedRow {
+    /// Calibrated field, nT (NaN for a row without a complete sample).
+    pub field_nt: [f64; 3],
+    /// True heading, degrees in [0, 360) (`None` without attitude).
+    pub heading_deg: Option<f64>,
+    /// Its 1σ, degrees (`None` without attitude).
+    pub heading_sigma_deg: Option<f64>,
+    /// The integrity state.
+    pub integrity: IntegrityState,
+}
+
+/// The whole recording's result.
+#[derive(Debug, Clone)]
+pub struct Applied {
+    /// One per input row.
+    pub rows: Vec<AppliedRow>,
+    /// The reference the monitor checked against.
+    pub reference: Reference<f64>,
+    /// The inclination in use at the end (given or learned), degrees.
+    pub inclination_deg: Option<f64>,
+    /// The on-line hard-iron estimate at the end.
+    pub hard_iron: Option<HardIron<f64>>,
+    /// The hard iron applied at the end, nT.
+    pub applied_offset_nt: Option<[f64; 3]>,
+    /// The health counters.
+    pub health: Health<f64>,
+}
+
+/// The reference a document gives the monitor: `F`, the scatter (the fit's
+/// residual), the inclination (the joint back-stepping's local field or the
+/// gyro fit's vertical), the predicted heading error.
+pub fn reference_of(doc: &CalDoc, opts: &ApplyOptions) -> Result<Reference<f64>, ApplyError> {
+    let q = &doc.quality;
+    let f = doc.field_nt;
+    let scatter = opts
+        .field_sigma_nt
+        .or_else(|| q.fit.as_ref().map(|x| x.residual_rms_nt))
+        .or_else(|| q.gyro.as_ref().map(|g| g.residual_rms_nt))
+        .or_else(|| q.backstep.as_ref().and_then(|b| b.estimates.as_ref()).map(|e| e.residual_rms_nt))
+        .filter(|s| *s > 0.0)
+        .unwrap_or(DEFAULT_FIELD_SIGMA_REL * f);
+    let inclination_rad = match opts.inclination_deg {
+        Some(d) => Some(d.to_radians()),
+        None => q
+            .backstep
+            .as_ref()
+            .and_then(|b| b.estimates.as_ref())
+            .map(|e| e.local_hz_nt[1].atan2(e.local_hz_nt[0]))
+            .or_else(|| q.gyro.as_ref().map(|g| (g.vertical_nt / f).clamp(-1.0, 1.0).asin())),
+    };
+    let heading_sigma_rad = q.predicted_heading_rms_deg.unwrap_or(0.0).to_radians();
+    let r = Reference { field_nt: f, field_sigma_nt: scatter, inclination_rad, heading_sigma_rad };
+    calib_core::integrity::Monitor::new(r, opts.tuning.unwrap_or_else(Tuning::standard)).map_err(|e| match e {
+        IntegrityError::BadReference => ApplyError::Reference("the field's scatter must be positive and below field_nt, the inclination within ±90°"),
+        IntegrityError::BadTuning => ApplyError::Reference("a tuning constant is not positive, or the misfit thresholds not 0 < exit < enter < 1"),
+    })?;
+    Ok(r)
+}
+
+/// Applies the document to every row, as the board would.
+pub fn apply_recording(rec: &Recording, doc: &CalDoc, opts: &ApplyOptions) -> Result<Applied, ApplyError> {
+    if rec.is_empty() {
+        return Err(ApplyError::Empty);
+    }
+    let reference = reference_of(doc, opts)?;
+    let mut online = OnlineIntegrity::new(reference, opts.tuning.unwrap_or_else(Tuning::standard)).map_err(|_| ApplyError::Reference("bad reference"))?;
+    let cal = doc.calibration();
+    let col = |c: &Option<Vec<f64>>, i: usize| c.as_ref().and_then(|v| v.get(i).copied()).filter(|v| v.is_finite());
+    let gyro = rec.gyro_rad_s();
+    let mut prev_t: Option<f64> = None;
+    let mut rows = Vec::with_capacity(rec.len());
+    for (i, raw) in rec.mag.iter().enumerate() {
+        let t = col(&rec.t_s, i);
+        let dt = match (t, prev_t) {
+            (Some(t), Some(p)) => t - p,
+            _ => f64::NAN,
+        };
+        if t.is_some() {
+            prev_t = t;
+        }
+        if !raw.iter().all(|v| v.is_finite()) {
+            rows.push(AppliedRow { field_nt: [f64::NAN; 3], heading_deg: None, heading_sigma_deg: None, integrity: IntegrityState::NoAttitude });
+            continue;
+        }
+        let env = Environment { current_a: col(&rec.motor_current_a, i).unwrap_or(0.0), temp_c: col(&rec.temp_c, i).unwrap_or(cal.env.ref_c) };
+        let corrected = cal.env.correct_raw(*raw, &env);
+        let tilt = match (col(&rec.roll_deg, i), col(&rec.pitch_deg, i)) {
+            (Some(r), Some(p)) => Some(Tilt::new(r.to_radians(), p.to_radians())),
+            _ => None,
+        };
+        let rate = gyro.as_ref().and_then(|g| g.get(i).copied()).filter(|w| w.iter().all(|v| v.is_finite()) && dt.is_finite());
+        let out = online.process(&cal, corrected, tilt.as_ref(), rate, dt);
+        rows.push(AppliedRow {
+            field_nt: out.field_nt,
+            heading_deg: out.heading_rad.map(f64::to_degrees),
+            heading_sigma_deg: out.heading_rad.map(|_| out.verdict.heading_sigma_rad.to_degrees()),
+            integrity: out.verdict.state,
+        });
+    }
+    Ok(Applied {
+        rows,
+        reference,
+        inclination_deg: online.monitor().inclination_rad().map(f64::to_degrees),
+        hard_iron: online.hard_iron(),
+        applied_offset_nt: online.applied_offset_nt(),
+        health: *online.health(),
+    })
+}
+
+/// The heading error against a reference heading (degrees), per row
+/// (`None` where either is missing), wrapped to (−180, 180].
+pub fn heading_errors_deg(applied: &Applied, reference_deg: &[f64]) -> Vec<Option<f64>> {
+    applied
+        .rows
+        .iter()
+        .zip(reference_deg)
+        .map(|(r, &t)| r.heading_deg.filter(|_| t.is_finite()).map(|h| wrap_pi((h - t).to_radians()).to_degrees()))
+        .collect()
+}
+
+/// The best constant offset of a set of heading errors (their circular
+/// mean), degrees: what a declination would remove.
+pub fn constant_offset_deg(errors_deg: &[f64]) -> f64 {
+    let (s, c) = errors_deg.iter().fold((0.0, 0.0), |(s, c), e| (s + e.to_radians().sin(), c + e.to_radians().cos()));
+    s.atan2(c).to_degrees()
+}
+
+/// `magcal apply --json`: what the run found.
+#[derive(Debug, Clone, Serialize)]
+pub struct ApplySummary {
+    /// Rows in the recording.
+    pub rows: usize,
+    /// Rows per integrity state.
+    pub rows_per_state: BTreeMap<&'static str, usize>,
+    /// The reference intensity, its scatter and the inclination used (deg).
+    pub field_nt: f64,
+    /// The field's expected scatter, nT.
+    pub field_sigma_nt: f64,
+    /// The inclination in use at the end (given or learned), degrees.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub inclination_deg: Option<f64>,
+    /// Longest run not ok, s.
+    pub longest_disturbance_s: f64,
+    /// The on-line hard-iron estimate at the end, nT, with its 1σ.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hard_iron_nt: Option<[f64; 3]>,
+    /// Its 1σ, nT.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hard_iron_sigma_nt: Option<[f64; 3]>,
+    /// Whether the estimate was applied at the end of the recording.
+    pub hard_iron_applied: bool,
+    /// The reference heading column compared against, when present.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub heading_reference: Option<String>,
+    /// Heading RMS error over all rows with a heading and a reference, degrees.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub heading_rms_deg: Option<f64>,
+    /// The same over the rows judged ok.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub heading_rms_ok_deg: Option<f64>,
+    /// The constant offset (circular mean error) over all rows, degrees.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub constant_offset_deg: Option<f64>,
+    /// Heading RMS over the ok rows with that offset removed, degrees.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub heading_rms_ok_offset_removed_deg: Option<f64>,
+    /// RMS of the predicted 1σ over the ok rows, degrees (compare with the
+    /// observed RMS: their ratio is the σ's honesty).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub predicted_sigma_ok_deg: Option<f64>,
+}
+
+fn rms(v: impl Iterator<Item = f64>) -> Option<f64> {
+    let (s, n) = v.fold((0.0, 0usize), |(s, n), x| (s + x * x, n + 1));
+    (n > 0).then(|| (s / n as f64).sqrt())
+}
+
+/// The summary, with the heading compared against `reference` (column name
+/// and values) when given.
+pub fn summarize(applied: &Applied, reference: Option<(&str, &[f64])>) -> ApplySummary {
+    let mut per_state: BTreeMap<&'static str, usize> = IntegrityState::ALL.iter().map(|s| (s.name(), 0)).collect();
+    for r in &applied.rows {
+        *per_state.entry(r.integrity.name()).or_default() += 1;
+    }
+    let ok = |i: usize| applied.rows.get(i).is_some_and(|r| r.integrity == IntegrityState::Ok);
+    let predicted = rms(applied.rows.iter().filter(|r| r.integrity == IntegrityState::Ok).filter_map(|r| r.heading_sigma_deg));
+    let mut s = ApplySummary {
+        rows: applied.rows.len(),
+        rows_per_state: per_state,
+        field_nt: applied.reference.field_nt,
+        field_sigma_nt: applied.reference.field_sigma_nt,
+        inclination_deg: applied.inclination_deg,
+        longest_disturbance_s: applied.health.longest_disturbance_s,
+        hard_iron_nt: applied.hard_iron.map(|h| h.offset_nt),
+        hard_iron_sigma_nt: applied.hard_iron.map(|h| h.sigma_nt),
+        hard_iron_applied: applied.applied_offset_nt.is_some(),
+        heading_reference: None,
+        heading_rms_deg: None,
+        heading_rms_ok_deg: None,
+        constant_offset_deg: None,
+        heading_rms_ok_offset_removed_deg: None,
+        predicted_sigma_ok_deg: predicted,
+    };
+    if let Some((name, values)) = reference {
+        let errors = heading_errors_deg(applied, values);
+        let all: Vec<f64> = errors.iter().flatten().copied().collect();
+        if !all.is_empty() {
+            let offset = constant_offset_deg(&all);
+            let ok_errors = || errors.iter().enumerate().filter(|(i, _)| ok(*i)).filter_map(|(_, e)| *e);
+            s.heading_reference = Some(name.to_string());
+            s.heading_rms_deg = rms(all.iter().copied());
+            s.heading_rms_ok_deg = rms(ok_errors());
+            s.constant_offset_deg = Some(offset);
+            s.heading_rms_ok_offset_removed_deg = rms(ok_errors().map(|e| wrap_pi((e - offset).to_radians()).to_degrees()));
+        }
+    }
+    s
+}
+
+fn cell(v: Option<f64>, prec: usize) -> String {
+    v.filter(|v| v.is_finite()).map(|v| format!("{v:.prec$}")).unwrap_or_default()
+}
+
+/// Writes `OUT.csv`: the input's `t` (when it has one) and, per row, the
+/// calibrated field, heading, σ and integrity. Refuses to overwrite `input`.
+pub fn write_applied(path: &Path, input: &Path, t_s: Option<&[f64]>, applied: &Applied) -> Result<(), ApplyError> {
+    let same = match (std::fs::canonicalize(path), std::fs::canonicalize(input)) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => path == input,
+    };
+    if same {
+        return Err(ApplyError::OverwritesInput(path.into()));
+    }
+    let io = |source| ApplyError::Io { path: path.into(), source };
+    let mut text = String::with_capacity(applied.rows.len() * 64 + 100);
+    if t_s.is_some() {
+        text.push_str("t,");
+    }
+    text.push_str("field_x_nt,field_y_nt,field_z_nt,heading_deg,heading_sigma_deg,integrity\n");
+    for (i, r) in applied.rows.iter().enumerate() {
+        if let Some(t) = t_s {
+            if let Some(t) = t.get(i).filter(|t| t.is_finite()) {
+                text.push_str(&t.to_string());
+            }
+            text.push(',');
+        }
+        let f = r.field_nt.map(|v| cell(Some(v), 1));
+        text.push_str(&format!("{},{},{},{},{},{}\n", f[0], f[1], f[2], cell(r.heading_deg, 3), cell(r.heading_sigma_deg, 3), r.integrity.name()));
+    }
+    std::fs::write(path, text).map_err(io)
+}
+
+/// How well the integrity separates good headings from bad against a
+/// reference heading (the rule of the bench and the real-data tests): the
+/// heading error with one constant offset removed (as a declination
+/// would), the rows off by more than `bad_deg`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct IntegrityScore {
+    /// Rows with a heading and a reference.
+    pub rows: usize,
+    /// Fraction of them judged ok.
+    pub ok_fraction: f64,
+    /// Rows off by more than `bad_deg`.
+    pub bad_rows: usize,
+    /// Fraction of those not judged ok (NaN without any).
+    pub bad_not_ok_fraction: f64,
+    /// Heading RMS error over the ok rows, degrees (NaN without any).
+    pub ok_rms_deg: f64,
+    /// RMS of the predicted σ over the ok rows, degrees (NaN without any).
+    pub ok_predicted_deg: f64,
+}
+
+impl IntegrityScore {
+    /// Observed over predicted heading RMS on the ok rows (1 is honest).
+    pub fn sigma_ratio(&self) -> f64 {
+        self.ok_rms_deg / self.ok_predicted_deg
+    }
+}
+
+/// Scores `applied` against `reference_deg`, rows off by more than `bad_deg` counting as bad.
+pub fn score(applied: &Applied, reference_deg: &[f64], bad_deg: f64) -> IntegrityScore {
+    let errors = heading_errors_deg(applied, reference_deg);
+    let all: Vec<f64> = errors.iter().flatten().copied().collect();
+    let offset = constant_offset_deg(&all);
+    let rows: Vec<(f64, &AppliedRow)> = errors.iter().zip(&applied.rows).filter_map(|(e, r)| e.map(|e| (wrap_pi((e - offset).to_radians()).to_degrees(), r))).collect();
+    let is_ok = |r: &AppliedRow| r.integrity == IntegrityState::Ok;
+    let ok: Vec<&(f64, &AppliedRow)> = rows.iter().filter(|(_, r)| is_ok(r)).collect();
+    let bad: Vec<&(f64, &AppliedRow)> = rows.iter().filter(|(e, _)| e.abs() > bad_deg).collect();
+    let frac = |n: usize, d: usize| if d == 0 { f64::NAN } else { n as f64 / d as f64 };
+    IntegrityScore {
+        rows: rows.len(),
+        ok_fraction: frac(ok.len(), rows.len()),
+        bad_rows: bad.len(),
+        bad_not_ok_fraction: frac(bad.iter().filter(|(_, r)| !is_ok(r)).count(), bad.len()),
+        ok_rms_deg: rms(ok.iter().map(|(e, _)| *e)).unwrap_or(f64::NAN),
+        ok_predicted_deg: rms(ok.iter().filter_map(|(_, r)| r.heading_sigma_deg)).unwrap_or(f64::NAN),
+    }
+}

@@ -1,0 +1,182 @@
+//! Real recordings, every `fit --model` (issue 22): one row per dataset and
+//! model, accepted or refused (and why), the heading RMS against the optical
+//! reference (BROAD trials) or the dip and magnitude scatter (the glider's
+//! validation dives, below 3 m), beside the floor (the true calibration; the
+//! glider's own calibration). Then the leave-one-dataset-out choice of the
+//! attitude-aided fit's defaults.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use calib_core::attitude_fit::{fit_attitude, AttitudeConfig};
+use calib_core::cal::{FieldCal, ModelKind};
+use calib_core::heading::{level, magnetic_heading_rad};
+use host_tools::compute::attitude::attitude_samples;
+use host_tools::compute::{fit_recording, truth, FitOptions};
+use host_tools::data::Recording;
+use serde_json::json;
+
+/// The glider's site field, IGRF-14 (its README).
+const GLIDER_FIELD_NT: f64 = 52_203.0;
+/// The glider is judged below this depth (the README's rule).
+const GLIDER_JUDGE_DEPTH_M: f64 = 3.0;
+
+/// Every `fit --model`.
+const MODELS: [ModelKind; 6] = [ModelKind::Sphere, ModelKind::Axis, ModelKind::Full, ModelKind::Triangular, ModelKind::Gyro, ModelKind::Attitude];
+
+/// A numeric column read apart (the recording reader ignores it).
+fn column(path: &Path, name: &str) -> Option<Vec<f64>> {
+    let text = std::fs::read_to_string(path).ok()?;
+    let mut lines = text.lines();
+    let c = lines.next()?.split(',').position(|h| h == name)?;
+    Some(lines.map(|l| l.split(',').nth(c).and_then(|v| v.parse().ok()).unwrap_or(f64::NAN)).collect())
+}
+
+fn cal_of(v: &serde_json::Value) -> Option<FieldCal<f64>> {
+    let num = |x: &serde_json::Value| x.as_f64();
+    let bias = [num(&v["bias"][0])?, num(&v["bias"][1])?, num(&v["bias"][2])?];
+    let mut matrix = [[0.0; 3]; 3];
+    for (i, row) in matrix.iter_mut().enumerate() {
+        for (j, m) in row.iter_mut().enumerate() {
+            *m = num(&v["matrix"][i][j])?;
+        }
+    }
+    Some(FieldCal { bias, matrix })
+}
+
+fn read_json(path: &Path) -> Option<serde_json::Value> {
+    serde_json::from_str(&std::fs::read_to_string(path).ok()?).ok()
+}
+
+/// How a calibration is judged on a validation part: a score (lower is
+/// better) and the text for the table.
+type Judge = Box<dyn Fn(&FieldCal<f64>) -> (f64, String)>;
+
+/// A dataset: its calibration part, how a calibration is judged on its
+/// validation part (lower is better; the text for the table), the floor.
+struct Dataset {
+    name: String,
+    calib: Recording,
+    field_nt: f64,
+    judge: Judge,
+    floor: FieldCal<f64>,
+}
+
+fn std_dev(v: &[f64]) -> f64 {
+    let m = v.iter().sum::<f64>() / v.len() as f64;
+    (v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (v.len().max(2) - 1) as f64).sqrt()
+}
+
+/// Seaglider SG236: dip and magnitude scatter on dives 4–5 below 3 m.
+fn glider(dir: &Path) -> Option<Dataset> {
+    let calib = Recording::read(&dir.join("sg236_calib.csv")).ok()?;
+    let vpath = dir.join("sg236_validate.csv");
+    let val = Recording::read(&vpath).ok()?;
+    let depth = column(&vpath, "depth_m")?;
+    let floor = cal_of(&read_json(&dir.join("onboard_calibration.json"))?)?;
+    let judge = move |cal: &FieldCal<f64>| {
+        let (Some(roll), Some(pitch)) = (val.roll_deg.as_ref(), val.pitch_deg.as_ref()) else { return (f64::NAN, String::new()) };
+        let (mut dip, mut mag) = (vec![], vec![]);
+        for i in (0..val.len()).filter(|&i| depth[i] > GLIDER_JUDGE_DEPTH_M) {
+            let h = cal.apply(val.mag[i]);
+            let l = level(h, roll[i].to_radians(), pitch[i].to_radians());
+            dip.push(l[2].atan2(l[0].hypot(l[1])).to_degrees());
+            mag.push((h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt());
+        }
+        let mag_pct = 100.0 * std_dev(&mag) / (mag.iter().sum::<f64>() / mag.len() as f64);
+        let d = std_dev(&dip);
+        (d, format!("dip {d:.2}°, |F| {mag_pct:.2} %"))
+    };
+    Some(Dataset { name: "seaglider-sg236".into(), calib, field_nt: GLIDER_FIELD_NT, judge: Box::new(judge), floor })
+}
+
+/// A BROAD trial: heading RMS on the validation part after one offset.
+fn broad(dir: &Path, n: &str) -> Option<Dataset> {
+    let t = read_json(&dir.join(format!("{n}.truth.json")))?;
+    let calib = Recording::read(&dir.join(format!("{n}_calib.csv"))).ok()?;
+    let vpath = dir.join(format!("{n}_validate.csv"));
+    let val = Recording::read(&vpath).ok()?;
+    let optical = column(&vpath, "truth_heading_deg")?;
+    let judge = move |cal: &FieldCal<f64>| {
+        let (Some(roll), Some(pitch)) = (val.roll_deg.as_ref(), val.pitch_deg.as_ref()) else { return (f64::NAN, String::new()) };
+        let h = (0..val.len()).map(|i| (magnetic_heading_rad(cal.apply(val.mag[i]), roll[i].to_radians(), pitch[i].to_radians()), optical[i]));
+        let rms = truth::heading_rms_after_offset_deg(h).0.rms;
+        (rms, format!("heading {rms:.2}°"))
+    };
+    let name = dir.file_name().map_or(n.to_string(), |f| f.to_string_lossy().into_owned());
+    Some(Dataset { name, calib, field_nt: t["field_nt"].as_f64()?, judge: Box::new(judge), floor: cal_of(&t)? })
+}
+
+/// The datasets present under `tests/data`.
+fn datasets(root: &Path) -> Vec<Dataset> {
+    let data: PathBuf = root.join("tests/data");
+    let mut out: Vec<Dataset> = glider(&data.join("seaglider-sg236")).into_iter().collect();
+    for (d, n) in [("broad-02-limited", "02"), ("broad-03", "03"), ("broad-05", "05"), ("broad-09", "09")] {
+        out.extend(broad(&data.join(d), n));
+    }
+    out
+}
+
+/// The leave-one-dataset-out choice of the attitude-aided fit's two
+/// defaults (misalignment prior, Huber constant): for each dataset left out,
+/// the grid point with the least summed score (value / best value of that
+/// dataset) on the others, and what it gives on the one left out.
+fn attitude_leave_one_out(sets: &[Dataset], md: &mut String) -> serde_json::Value {
+    let grid: Vec<(f64, f64)> = [0.05, 0.2, 1.0, 5.0].iter().flat_map(|m| [0.5, 0.8, 1.345].map(move |k| (*m, k))).collect();
+    let scores: Vec<Vec<f64>> = grid
+        .iter()
+        .map(|&(mis_deg, k)| {
+            let cfg = AttitudeConfig { misalignment_sigma_rad: mis_deg.to_radians(), huber_k: k, ..AttitudeConfig::new() };
+            sets.iter()
+                .map(|d| attitude_samples(&d.calib).ok().and_then(|s| fit_attitude(&s, d.field_nt, &cfg).ok()).map_or(f64::INFINITY, |e| (d.judge)(&e.cal).0))
+                .collect()
+        })
+        .collect();
+    let best: Vec<f64> = (0..sets.len()).map(|j| scores.iter().map(|s| s[j]).fold(f64::INFINITY, f64::min)).collect();
+    let _ = writeln!(md, "\nThe attitude-aided fit's defaults, leave-one-dataset-out (grid: misalignment prior 0.05, 0.2, 1, 5° × Huber constant 0.5, 0.8, 1.345; the glider scored by its dip scatter):\n\n| left out | chosen on the others (misalignment °, Huber k) | value on the one left out | with the defaults |\n|---|---|---|---|");
+    let default_cfg = AttitudeConfig::<f64>::new();
+    let default_at = grid.iter().position(|&(m, k)| (m.to_radians() - default_cfg.misalignment_sigma_rad).abs() < 1e-9 && k == default_cfg.huber_k);
+    let mut rows = Vec::new();
+    for (out, d) in sets.iter().enumerate() {
+        let sum = |c: usize| (0..sets.len()).filter(|&j| j != out).map(|j| scores[c][j] / best[j]).sum::<f64>();
+        let chosen = (0..grid.len()).min_by(|&a, &b| sum(a).total_cmp(&sum(b))).unwrap_or(0);
+        let with_default = default_at.map_or(f64::NAN, |c| scores[c][out]);
+        let _ = writeln!(md, "| {} | {:?} | {:.2} | {:.2} |", d.name, grid[chosen], scores[chosen][out], with_default);
+        rows.push(json!({"left_out": d.name, "chosen": grid[chosen], "value": scores[chosen][out], "with_defaults": with_default}));
+    }
+    json!(rows)
+}
+
+/// The table and the leave-one-out choice, as JSON and markdown.
+pub fn real_data(root: &Path) -> (serde_json::Value, String) {
+    let sets = datasets(root);
+    let mut md = String::from("\nReal recordings, every model: calibration part in, validation part out (BROAD: heading RMS against the optical reference after one constant offset; the glider: 1σ scatter of the dip and of |F| on dives 4–5 below 3 m). The floor: the true calibration (BROAD), the glider's own (Seaglider MAGCAL).\n\n| dataset | model | verdict | result | floor | predicted heading 1σ |\n|---|---|---|---|---|---|\n");
+    let mut rows = Vec::new();
+    for d in &sets {
+        let (_, floor) = (d.judge)(&d.floor);
+        for model in MODELS {
+            let opts = FitOptions { model, field_nt: d.field_nt, saturation: None, allow_weak: false, gyro_lag_s: 0.0 };
+            let (verdict, result, predicted) = match fit_recording(&d.calib, &opts) {
+                Ok(doc) => ("accepted".to_string(), (d.judge)(&doc.field_cal()).1, doc.quality.predicted_heading_rms_deg.map_or("—".into(), |p| format!("{p:.2}°"))),
+                Err(e) => (format!("refused: {e}"), "—".to_string(), "—".to_string()),
+            };
+            let _ = writeln!(md, "| {} | {} | {verdict} | {result} | {floor} | {predicted} |", d.name, model.name());
+            rows.push(json!({"dataset": d.name, "model": model.name(), "verdict": verdict, "result": result, "floor": floor, "predicted": predicted}));
+        }
+    }
+    let loo = attitude_leave_one_out(&sets, &mut md);
+    (json!({"table": rows, "attitude_leave_one_out": loo}), md)
+}
+
+#[cfg(test)]
+mod tests {
+    /// Only this section: `cargo test -p xtask bench::real_data::tests::real_data_section -- --ignored --nocapture`.
+    #[test]
+    #[ignore = "a benchmark: prints its numbers"]
+    fn real_data_section() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        let (v, md) = super::real_data(&root);
+        eprintln!("{md}");
+        assert_eq!(v["table"].as_array().map(Vec::len), Some(5 * super::MODELS.len()), "{v}");
+    }
+}
