@@ -68,6 +68,33 @@ pub enum RecordingError {
         /// The time before it.
         previous_s: f64,
     },
+    /// An attitude or heading cell outside its range (roll ±180°, pitch
+    /// ±90°, heading ±360°).
+    #[error("{path}:{line}: column `{column}`: {value} is outside ±{limit_deg}°")]
+    OutOfRange {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line.
+        line: u64,
+        /// Column name.
+        column: String,
+        /// The cell's value.
+        value: f64,
+        /// The limit, degrees.
+        limit_deg: f64,
+    },
+    /// A field sample far beyond the recording's others (a glitch).
+    #[error("{path}: data row {row}: |m| = {magnitude:.4e} is more than {OUTLIER_FACTOR}× the recording's median |m| {median:.4e}: a glitch; remove the row")]
+    FieldOutlier {
+        /// The file.
+        path: PathBuf,
+        /// 1-based data row (the header not counted).
+        row: usize,
+        /// Its magnitude, raw units.
+        magnitude: f64,
+        /// The median magnitude, raw units.
+        median: f64,
+    },
     /// Malformed CSV (quoting, encoding).
     #[error("{path}: {source}")]
     Csv {
@@ -144,8 +171,10 @@ impl Recording {
     pub fn from_reader<R: std::io::Read>(reader: R, path: &Path) -> Result<Self, RecordingError> {
         let mut t = read_table_from(reader, path, &["mx", "my", "mz"], &["t", "roll_deg", "pitch_deg", "ref_heading_deg", "lat_deg", "lon_deg", "gx", "gy", "gz", "speed_mps", "motor_current_a", "temp_c"])?;
         let (mx, my, mz) = (t.take("mx").unwrap_or_default(), t.take("my").unwrap_or_default(), t.take("mz").unwrap_or_default());
+        let mag: Vec<[f64; 3]> = mx.into_iter().zip(my).zip(mz).map(|((x, y), z)| [x, y, z]).collect();
+        check_outliers(&mag, path)?;
         Ok(Recording {
-            mag: mx.into_iter().zip(my).zip(mz).map(|((x, y), z)| [x, y, z]).collect(),
+            mag,
             t_s: t.take("t"),
             roll_deg: t.take("roll_deg"),
             pitch_deg: t.take("pitch_deg"),
@@ -238,6 +267,40 @@ impl Table {
 }
 
 /// Reads the named columns of a CSV log file; see [`read_table_from`].
+/// A field sample whose magnitude is more than this many times the
+/// recording's median is refused as a glitch (the Earth's field varies by
+/// 3× over the globe, a calibration's gains by far less within a recording).
+pub const OUTLIER_FACTOR: f64 = 10.0;
+
+/// Refuses a field sample more than [`OUTLIER_FACTOR`] times the median
+/// magnitude, naming its row.
+fn check_outliers(mag: &[[f64; 3]], path: &Path) -> Result<(), RecordingError> {
+    let norm = |m: &[f64; 3]| (m[0] * m[0] + m[1] * m[1] + m[2] * m[2]).sqrt();
+    let mut sorted: Vec<f64> = mag.iter().map(norm).filter(|n| n.is_finite()).collect();
+    if sorted.is_empty() {
+        return Ok(());
+    }
+    sorted.sort_by(f64::total_cmp);
+    let median = sorted[sorted.len() / 2];
+    if !(median > 0.0) {
+        return Ok(());
+    }
+    match mag.iter().position(|m| norm(m) > OUTLIER_FACTOR * median) {
+        Some(i) => Err(RecordingError::FieldOutlier { path: path.into(), row: i + 1, magnitude: norm(&mag[i]), median }),
+        None => Ok(()),
+    }
+}
+
+/// The largest magnitude, degrees, of an attitude or heading column.
+fn angle_limit_deg(column: &str) -> Option<f64> {
+    match column {
+        "roll_deg" => Some(180.0),
+        "pitch_deg" => Some(90.0),
+        "ref_heading_deg" => Some(360.0),
+        _ => None,
+    }
+}
+
 pub(crate) fn read_table(path: &Path, required: &[&'static str], optional: &[&'static str]) -> Result<Table, RecordingError> {
     let file = std::fs::File::open(path).map_err(|source| RecordingError::Io { path: path.into(), source })?;
     read_table_from(file, path, required, optional)
@@ -289,6 +352,11 @@ pub(crate) fn read_table_from<R: std::io::Read>(reader: R, path: &Path, required
                 }
                 previous_t = v;
             }
+            if let Some(limit_deg) = angle_limit_deg(names[k]) {
+                if v.abs() > limit_deg {
+                    return Err(RecordingError::OutOfRange { path: path.into(), line, column: names[k].to_string(), value: v, limit_deg });
+                }
+            }
             columns[k].push(v);
         }
     }
@@ -332,6 +400,29 @@ mod tests {
         assert!(matches!(read("mx,my,mz\n1,2\n"), Err(RecordingError::Ragged { line: 2, .. })));
         let e = read("t,mx,my,mz\n1.0,1,2,3\n0.5,1,2,3\n").unwrap_err();
         assert!(matches!(e, RecordingError::TimeBackwards { line: 3, .. }), "{e}");
+    }
+
+    #[test]
+    fn impossible_attitudes_and_glitches_are_refused_by_row() {
+        // Issue 24: one roll of 999° (or 1e300) in a run silently worsened
+        // the heading from 0.23° to 0.74° (2.2°).
+        let e = read("mx,my,mz,roll_deg,pitch_deg\n1,2,3,10,5\n1,2,3,999,5\n").unwrap_err();
+        assert_eq!(e.to_string(), "rec.csv:3: column `roll_deg`: 999 is outside ±180°");
+        let e = read("mx,my,mz,roll_deg,pitch_deg\n1,2,3,1e300,5\n").unwrap_err();
+        assert!(matches!(e, RecordingError::OutOfRange { line: 2, .. }), "{e}");
+        assert!(matches!(read("mx,my,mz,pitch_deg\n1,2,3,-90.5\n").unwrap_err(), RecordingError::OutOfRange { .. }));
+        assert!(matches!(read("mx,my,mz,ref_heading_deg\n1,2,3,1e300\n").unwrap_err(), RecordingError::OutOfRange { .. }));
+        // At the limits, and absent: read.
+        let r = read("mx,my,mz,roll_deg,pitch_deg,ref_heading_deg\n1,2,3,-180,90,359.9\n1,2,3,,nan,\n").unwrap();
+        assert_eq!(r.roll_deg.unwrap()[0], -180.0);
+        // One mx = 1e7 among samples of |m| ≈ 480: named by its row.
+        let mut text = String::from("mx,my,mz\n");
+        for k in 0..50 {
+            text += &if k == 17 { "1e7,0,0\n".to_string() } else { format!("{},{},300\n", 300.0 + k as f64, -200.0) };
+        }
+        let e = read(&text).unwrap_err();
+        assert!(matches!(e, RecordingError::FieldOutlier { row: 18, .. }), "{e}");
+        assert!(e.to_string().contains("data row 18"), "{e}");
     }
 
     #[test]
