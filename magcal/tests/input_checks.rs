@@ -300,3 +300,22 @@ fn backstep_says_its_two_biases_are_not_separable_without_a_swing_test() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(!stderr(&o).contains("not observable apart"), "{}", stderr(&o));
 }
+
+#[test]
+fn an_impossible_attitude_or_a_glitch_is_refused_naming_the_row() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("run.csv");
+    let mut rec = sphere(200, [0.0; 3], 48_730.0, 2.0, 9);
+    let mut roll = vec![3.0; rec.len()];
+    roll[40] = 999.0;
+    rec.roll_deg = Some(roll);
+    rec.write(&input).unwrap();
+    let e = refused(&magcal(&["fit", "--input", p(&input), "--model", "axis", "--field-nt", "48730"]));
+    // Data row 41 is line 42 (the header is line 1).
+    assert!(e.contains("run.csv:42: column `roll_deg`: 999 is outside ±180°"), "{e}");
+    let mut rec = sphere(200, [0.0; 3], 48_730.0, 2.0, 9);
+    rec.mag[120] = [1e7, 0.0, 0.0];
+    rec.write(&input).unwrap();
+    let e = refused(&magcal(&["fit", "--input", p(&input), "--model", "axis", "--field-nt", "48730"]));
+    assert!(e.contains("data row 121") && e.contains("glitch"), "{e}");
+}
