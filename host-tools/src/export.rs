@@ -241,7 +241,7 @@ pub struct ExportWarning {
 #[derive(Debug, thiserror::Error)]
 pub enum ExportError {
     /// The raw units could not be inferred and were not given.
-    #[error("the calibration's mean gain is {gain_nt_per_unit:.4} nT per raw unit, which is none of nT, µT, mGauss or Gauss (within {tol:.0} %): give the raw units (--raw-unit or --raw-nt-per-unit)", tol = UNIT_INFERENCE_TOLERANCE * 100.0)]
+    #[error("the calibration's mean gain is {gain_nt_per_unit:.4} nT per raw unit, which is none of nT, µT, mGauss or Gauss (within {tol:.0} %): the raw units must be given", tol = UNIT_INFERENCE_TOLERANCE * 100.0)]
     UnknownUnits {
         /// cbrt(det M), nT per raw unit.
         gain_nt_per_unit: f64,
@@ -250,7 +250,7 @@ pub enum ExportError {
     #[error("nT per raw unit must be a positive number, not {0}")]
     BadUnit(f64),
     /// The rotation part is beyond what may be dropped.
-    #[error("the matrix's rotation part is {angle_deg:.2}°, more than {max_deg}° that {stack} could not express (it holds only a symmetric matrix); raise --max-rotation-deg to export the symmetric part anyway")]
+    #[error("the matrix's rotation part is {angle_deg:.2}°, more than {max_deg}° that {stack} could not express (it holds only a symmetric matrix)")]
     Rotation {
         /// The rotation's angle, degrees.
         angle_deg: f64,
@@ -261,7 +261,7 @@ pub enum ExportError {
     },
     /// The gain in the stack's unit is far from 1: the raw units are wrong
     /// (and ArduPilot would ignore the scale factor).
-    #[error("the calibration's gain in {stack}'s {unit} is {scale:.3}, outside the {:.3}..{:.3} of a calibration whose raw units are right (and in which ArduPilot applies COMPASS_SCALE): check the raw units (--raw-unit)", ARDUPILOT_SCALE_RANGE.0, ARDUPILOT_SCALE_RANGE.1)]
+    #[error("the calibration's gain in {stack}'s {unit} is {scale:.3}, outside the {:.3}..{:.3} of a calibration whose raw units are right (and in which ArduPilot applies COMPASS_SCALE): the raw units look wrong", ARDUPILOT_SCALE_RANGE.0, ARDUPILOT_SCALE_RANGE.1)]
     Gain {
         /// cbrt(det P).
         scale: f64,
@@ -306,30 +306,10 @@ fn mat_vec(m: &[[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
     [0, 1, 2].map(|i| m[i][0] * v[0] + m[i][1] * v[1] + m[i][2] * v[2])
 }
 
-/// Builds the stack's parameters for a document (its optional blocks included).
-pub fn export(doc: &CalDoc, opts: &ExportOptions) -> Result<Export, ExportError> {
-    let stack = opts.stack;
-    let (k, inferred) = match opts.raw_nt_per_unit {
-        Some(k) if k.is_finite() && k > 0.0 => (k, false),
-        Some(k) => return Err(ExportError::BadUnit(k)),
-        None => (infer_raw_unit(&doc.matrix)?.1, true),
-    };
-    let u = stack.unit_nt();
-    let a = doc.matrix.map(|row| row.map(|m| m / k));
-    let (r, p) = polar(&a)?;
-    // The gain in the stack's unit: near 1 when the raw units are right,
-    // for either stack (PX4 would take XSCALE 5 or 0.00005 without a word).
-    let scale = Matrix3::from_fn(|i, j| p[i][j]).determinant().cbrt();
-    if !(scale >= ARDUPILOT_SCALE_RANGE.0 && scale <= ARDUPILOT_SCALE_RANGE.1) {
-        return Err(ExportError::Gain { scale, stack: stack.name(), unit: stack.unit_name() });
-    }
-    let angle_deg = ((r[0][0] + r[1][1] + r[2][2] - 1.0) / 2.0).clamp(-1.0, 1.0).acos().to_degrees();
-    if angle_deg > opts.max_rotation_deg {
-        return Err(ExportError::Rotation { angle_deg, max_deg: opts.max_rotation_deg, stack: stack.name() });
-    }
-    let b_s = doc.bias.map(|b| b * k / u);
-    let c_s = doc.current.map(|c| c.bias_per_a.map(|c| c * k / u));
-
+/// What the document holds that neither stack can express: the matrix's
+/// rotation part (rotation `r` of `angle_deg`), the swing, the temperature
+/// gains, the declination.
+fn unexpressed(doc: &CalDoc, r: &[[f64; 3]; 3], angle_deg: f64) -> Vec<Unexpressed> {
     let mut warnings = Vec::new();
     // Asymmetry below rounding is no rotation worth a line.
     if angle_deg > 1e-6 {
@@ -350,56 +330,109 @@ pub fn export(doc: &CalDoc, opts: &ExportOptions) -> Result<Export, ExportError>
     if let Some(d) = doc.declination_deg {
         warnings.push(Unexpressed::Declination { declination_deg: d });
     }
+    warnings
+}
 
-    let f = |name: &str, value: f64| Param { name: name.into(), value, integer: false };
-    let int = |name: &str, value: i32| Param { name: name.into(), value: value.into(), integer: true };
-    let xyz = ["X", "Y", "Z"];
+fn param(name: &str, value: f64) -> Param {
+    Param { name: name.into(), value, integer: false }
+}
+
+fn int_param(name: &str, value: i32) -> Param {
+    Param { name: name.into(), value: value.into(), integer: true }
+}
+
+const XYZ: [&str; 3] = ["X", "Y", "Z"];
+
+/// ArduPilot's COMPASS_* parameters from the symmetric matrix `p`, the
+/// offsets `b_s` and the per-ampere field `c_s` in the stack's unit; warns
+/// when the offsets exceed its pre-arm limit.
+fn ardupilot_params(p: &[[f64; 3]; 3], b_s: [f64; 3], c_s: Option<[f64; 3]>, warnings: &mut Vec<Unexpressed>) -> Result<Vec<Param>, ExportError> {
+    // In range: `export` checked it for either stack.
+    let scale = gain(p);
     let mut params = Vec::new();
-    match stack {
-        Stack::ArduPilot => {
-            let ofs = b_s.map(|b| -b);
-            for i in 0..3 {
-                params.push(f(&format!("COMPASS_OFS_{}", xyz[i]), ofs[i]));
-            }
-            for i in 0..3 {
-                params.push(f(&format!("COMPASS_DIA_{}", xyz[i]), p[i][i] / scale));
-            }
-            for (n, (i, j)) in [(0, 1), (0, 2), (1, 2)].into_iter().enumerate() {
-                params.push(f(&format!("COMPASS_ODI_{}", xyz[n]), p[i][j] / scale));
-            }
-            params.push(f("COMPASS_SCALE", scale));
-            if let Some(c) = c_s {
-                // Added after the matrix (correct_field): MOT = −P·c_s, mGauss per A.
-                let mot = mat_vec(&p, c).map(|v| -v);
-                for i in 0..3 {
-                    params.push(f(&format!("COMPASS_MOT_{}", xyz[i]), mot[i]));
-                }
-                params.push(int("COMPASS_MOTCT", 2));
-            }
-            let max_ofs = ofs.iter().fold(0.0f64, |m, o| m.max(o.abs()));
-            if max_ofs > ARDUPILOT_OFFSETS_MAX_MGAUSS {
-                warnings.push(Unexpressed::OffsetsOverPrearmLimit { max_offset_mgauss: max_ofs, limit_mgauss: ARDUPILOT_OFFSETS_MAX_MGAUSS });
-            }
-        }
-        Stack::Px4 => {
-            for i in 0..3 {
-                params.push(f(&format!("CAL_MAG0_{}OFF", xyz[i]), b_s[i]));
-            }
-            for i in 0..3 {
-                params.push(f(&format!("CAL_MAG0_{}SCALE", xyz[i]), p[i][i]));
-            }
-            for (n, (i, j)) in [(0, 1), (0, 2), (1, 2)].into_iter().enumerate() {
-                params.push(f(&format!("CAL_MAG0_{}ODIAG", xyz[n]), p[i][j]));
-            }
-            if let Some(c) = c_s {
-                // Added to the raw field before the offset, per kA: COMP = −1000·c_s gauss/kA.
-                for i in 0..3 {
-                    params.push(f(&format!("CAL_MAG0_{}COMP", xyz[i]), -1000.0 * c[i]));
-                }
-                params.push(int("CAL_MAG_COMP_TYP", 2));
-            }
-        }
+    let ofs = b_s.map(|b| -b);
+    for i in 0..3 {
+        params.push(param(&format!("COMPASS_OFS_{}", XYZ[i]), ofs[i]));
     }
+    for i in 0..3 {
+        params.push(param(&format!("COMPASS_DIA_{}", XYZ[i]), p[i][i] / scale));
+    }
+    for (n, (i, j)) in [(0, 1), (0, 2), (1, 2)].into_iter().enumerate() {
+        params.push(param(&format!("COMPASS_ODI_{}", XYZ[n]), p[i][j] / scale));
+    }
+    params.push(param("COMPASS_SCALE", scale));
+    if let Some(c) = c_s {
+        // Added after the matrix (correct_field): MOT = −P·c_s, mGauss per A.
+        let mot = mat_vec(p, c).map(|v| -v);
+        for i in 0..3 {
+            params.push(param(&format!("COMPASS_MOT_{}", XYZ[i]), mot[i]));
+        }
+        params.push(int_param("COMPASS_MOTCT", 2));
+    }
+    let max_ofs = ofs.iter().fold(0.0f64, |m, o| m.max(o.abs()));
+    if max_ofs > ARDUPILOT_OFFSETS_MAX_MGAUSS {
+        warnings.push(Unexpressed::OffsetsOverPrearmLimit { max_offset_mgauss: max_ofs, limit_mgauss: ARDUPILOT_OFFSETS_MAX_MGAUSS });
+    }
+    Ok(params)
+}
+
+/// The symmetric matrix's mean gain, cbrt(det P).
+fn gain(p: &[[f64; 3]; 3]) -> f64 {
+    Matrix3::from_fn(|i, j| p[i][j]).determinant().cbrt()
+}
+
+/// PX4's CAL_MAG0_* parameters from the symmetric matrix `p`, the offsets
+/// `b_s` and the per-ampere field `c_s` in the stack's unit.
+fn px4_params(p: &[[f64; 3]; 3], b_s: [f64; 3], c_s: Option<[f64; 3]>) -> Vec<Param> {
+    let mut params = Vec::new();
+    for i in 0..3 {
+        params.push(param(&format!("CAL_MAG0_{}OFF", XYZ[i]), b_s[i]));
+    }
+    for i in 0..3 {
+        params.push(param(&format!("CAL_MAG0_{}SCALE", XYZ[i]), p[i][i]));
+    }
+    for (n, (i, j)) in [(0, 1), (0, 2), (1, 2)].into_iter().enumerate() {
+        params.push(param(&format!("CAL_MAG0_{}ODIAG", XYZ[n]), p[i][j]));
+    }
+    if let Some(c) = c_s {
+        // Added to the raw field before the offset, per kA: COMP = −1000·c_s gauss/kA.
+        for i in 0..3 {
+            params.push(param(&format!("CAL_MAG0_{}COMP", XYZ[i]), -1000.0 * c[i]));
+        }
+        params.push(int_param("CAL_MAG_COMP_TYP", 2));
+    }
+    params
+}
+
+/// Builds the stack's parameters for a document (its optional blocks included).
+pub fn export(doc: &CalDoc, opts: &ExportOptions) -> Result<Export, ExportError> {
+    let stack = opts.stack;
+    let (k, inferred) = match opts.raw_nt_per_unit {
+        Some(k) if k.is_finite() && k > 0.0 => (k, false),
+        Some(k) => return Err(ExportError::BadUnit(k)),
+        None => (infer_raw_unit(&doc.matrix)?.1, true),
+    };
+    let u = stack.unit_nt();
+    let a = doc.matrix.map(|row| row.map(|m| m / k));
+    let (r, p) = polar(&a)?;
+    // The gain in the stack's unit: near 1 when the raw units are right,
+    // for either stack (PX4 took XSCALE 5.1 or 0.00005 without a word).
+    let scale = gain(&p);
+    if !(scale >= ARDUPILOT_SCALE_RANGE.0 && scale <= ARDUPILOT_SCALE_RANGE.1) {
+        return Err(ExportError::Gain { scale, stack: stack.name(), unit: stack.unit_name() });
+    }
+    let angle_deg = ((r[0][0] + r[1][1] + r[2][2] - 1.0) / 2.0).clamp(-1.0, 1.0).acos().to_degrees();
+    if angle_deg > opts.max_rotation_deg {
+        return Err(ExportError::Rotation { angle_deg, max_deg: opts.max_rotation_deg, stack: stack.name() });
+    }
+    let b_s = doc.bias.map(|b| b * k / u);
+    let c_s = doc.current.map(|c| c.bias_per_a.map(|c| c * k / u));
+
+    let mut warnings = unexpressed(doc, &r, angle_deg);
+    let params = match stack {
+        Stack::ArduPilot => ardupilot_params(&p, b_s, c_s, &mut warnings)?,
+        Stack::Px4 => px4_params(&p, b_s, c_s),
+    };
     let warnings = warnings.into_iter().map(|w| ExportWarning { message: w.message(stack), what: w }).collect();
     Ok(Export {
         format: stack,
@@ -491,7 +524,7 @@ mod tests {
         assert_eq!(infer_raw_unit(&[[1.0e5, 0.0, 0.0], [0.0, 1.0e5, 0.0], [0.0, 0.0, 1.0e5]]).unwrap().0, "Gauss");
         // 150 nT per count: a raw sensor's counts, no unit.
         let e = infer_raw_unit(&[[150.0, 0.0, 0.0], [0.0, 150.0, 0.0], [0.0, 0.0, 150.0]]).unwrap_err();
-        assert!(e.to_string().contains("--raw-unit"), "{e}");
+        assert!(matches!(e, ExportError::UnknownUnits { gain_nt_per_unit } if (gain_nt_per_unit - 150.0).abs() < 1e-9) && e.to_string().contains("raw units must be given"), "{e}");
         let doc = CalDoc::new(ModelKind::Sphere, &FieldCal { bias: [0.0; 3], matrix: [[150.0, 0.0, 0.0], [0.0, 150.0, 0.0], [0.0, 0.0, 150.0]] }, 50_000.0, Default::default());
         let opts = ExportOptions { stack: Stack::ArduPilot, raw_nt_per_unit: Some(-1.0), max_rotation_deg: 2.0 };
         assert!(matches!(export(&doc, &opts), Err(ExportError::BadUnit(_))));

@@ -10,7 +10,9 @@
 //! * [`export`]: a calibration in ArduPilot's or PX4's parameters;
 //! * [`geomag`]: IGRF-14 and WMM2025, and the [`geomag::Site`];
 //! * [`session`]: the calibration session for any vehicle;
-//! * [`report`]: figures and an HTML page.
+//! * [`report`]: figures and an HTML page;
+//! * [`procedure`]: the field procedure's limits (the session's gates, the
+//!   report's marks), a leaf both import.
 //!
 //! The `magcal` binary (crate `magcal`) is a thin clap front end over this
 //! library, and the field-test simulator is a crate of its own
@@ -25,5 +27,6 @@ pub mod compute;
 pub mod data;
 pub mod export;
 pub mod geomag;
+pub mod procedure;
 pub mod report;
 pub mod session;

@@ -146,4 +146,80 @@ fn the_merge_command_prints_its_report_and_refuses_in_one_line() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && err.contains("missing column `roll_deg`"), "{err}");
     assert!(!dir.path().join("rec3.csv").exists());
+    // Issue 24: `--out` naming an input overwrote the raw log; now refused
+    // before any work, the input untouched.
+    let before = std::fs::read(p("board.csv")).unwrap();
+    for (name, flag) in [("board.csv", "--board"), ("nav.csv", "--nav")] {
+        let out = magcal(&["merge", "--board", &p("board.csv"), "--nav", &p("nav.csv"), "--out", &p(name)]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && err.contains(&format!("is the {flag} log")), "{err}");
+    }
+    assert_eq!(std::fs::read(p("board.csv")).unwrap(), before);
 }
+
+/// Merges `cases` (seed, offset s, drift ppm) of the logs `sim(seed)`
+/// makes, both logs at the simulation's rate; returns the offset errors
+/// and their stated σ, s.
+fn errors_and_sigmas(cases: &[(u64, f64, f64)], sim: impl Fn(u64) -> Simulation, trim_s: (f64, f64)) -> Vec<(f64, f64)> {
+    cases
+        .iter()
+        .map(|&(seed, offset_s, drift_ppm)| {
+            let (board, nav) = split(&sim(seed), offset_s, drift_ppm, 1, trim_s, seed);
+            let r = merge(&board, &nav, estimate()).unwrap_or_else(|e| panic!("seed {seed}, {offset_s} s, {drift_ppm} ppm: {e}")).report;
+            let e = r.offset_s - offset_s;
+            eprintln!(
+                "seed {seed}: offset {offset_s} s → error {:+.2} ms, σ {:.2} ms ({:.2}σ); drift {drift_ppm} → {:.1} ± {:.1} ppm; {} windows, agreement {:.4}",
+                e * 1e3,
+                r.offset_sigma_s * 1e3,
+                e / r.offset_sigma_s,
+                r.drift_ppm,
+                r.drift_sigma_ppm,
+                r.windows_used,
+                r.peak_correlation
+            );
+            (e, r.offset_sigma_s)
+        })
+        .collect()
+}
+
+/// RMS error over RMS stated σ: 1 when the σ tells the truth.
+fn error_over_sigma(es: &[(f64, f64)]) -> f64 {
+    let n = es.len() as f64;
+    (es.iter().map(|(e, _)| e * e).sum::<f64>() / n).sqrt() / (es.iter().map(|(_, s)| s * s).sum::<f64>() / n).sqrt()
+}
+
+/// Issue 22's numbers at 1 Hz: the simulator's out-and-back run (long
+/// straight legs with small wiggles, dives and climbs, rolling at the
+/// surface, one turnaround), board and navigation both at 1 Hz, clocks up
+/// to ±60 s and ±100 ppm apart (and the issue's −12.6 s / −45 ppm): merged,
+/// not refused, the offset within 50 ms, the stated σ within 0.5–2× of the
+/// error over the cases.
+#[test]
+fn a_1_hz_run_is_merged_within_50_ms_with_an_honest_sigma() {
+    let (sensor, site) = (SensorModel::paper_like(), paper_site());
+    let sim = |seed| field_test::run(&sensor, &site, &RunParams::paper_like(), seed, 1.0, RunKind::Run).unwrap();
+    let cases = [(31u64, 60.0, 100.0), (32, -60.0, -100.0), (33, -12.6, -45.0), (34, 59.3, -100.0), (35, -58.1, 100.0), (36, 23.77, 10.0)];
+    let es = errors_and_sigmas(&cases, sim, (20.0, 15.0));
+    let worst = es.iter().map(|(e, _)| e.abs()).fold(0.0, f64::max);
+    let ratio = error_over_sigma(&es);
+    eprintln!("1 Hz run: worst offset error {:.1} ms, RMS error / RMS σ {ratio:.2}", worst * 1e3);
+    assert!(worst < 0.05, "worst offset error {worst} s");
+    assert!((0.5..=2.0).contains(&ratio), "error / σ {ratio}");
+}
+
+/// Issue 22's numbers at 5 Hz: the swing test, board and navigation both at
+/// 5 Hz (the issue's +37.25 s / 80 ppm among them): the offset within
+/// 20 ms, the stated σ within 0.5–2× of the error over the cases.
+#[test]
+fn a_5_hz_swing_test_is_merged_within_20_ms_with_an_honest_sigma() {
+    let (sensor, site) = (SensorModel::paper_like(), paper_site());
+    let sim = |seed| field_test::swing(&sensor, &site, seed, 5.0).unwrap();
+    let cases = [(41u64, 37.25, 80.0), (42, -60.0, -100.0), (43, 60.0, 100.0), (44, -12.6, -45.0), (45, 4.013, 60.0), (46, -33.3, -20.0)];
+    let es = errors_and_sigmas(&cases, sim, (20.0, 15.0));
+    let worst = es.iter().map(|(e, _)| e.abs()).fold(0.0, f64::max);
+    let ratio = error_over_sigma(&es);
+    eprintln!("5 Hz swing: worst offset error {:.1} ms, RMS error / RMS σ {ratio:.2}", worst * 1e3);
+    assert!(worst < 0.02, "worst offset error {worst} s");
+    assert!((0.5..=2.0).contains(&ratio), "error / σ {ratio}");
+}
+

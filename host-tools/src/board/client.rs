@@ -14,6 +14,18 @@ use magcal_protocol::{
 /// are dropped and counted.
 pub const SAMPLE_QUEUE: usize = 100_000;
 
+/// The link's baud rate (the firmware's USART1 setting).
+pub const BAUD_RATE: u32 = 115_200;
+
+/// Opens a serial port (a board's USB-serial adapter, or a QEMU pty) at
+/// [`BAUD_RATE`], 8N1, with a short read timeout.
+pub(crate) fn open_port(path: &str) -> Result<Box<dyn serialport::SerialPort>, ClientError> {
+    serialport::new(path, BAUD_RATE)
+        .timeout(Duration::from_millis(20))
+        .open()
+        .map_err(|source| ClientError::Open { path: path.to_string(), source })
+}
+
 /// Why a request failed.
 #[derive(Debug, thiserror::Error)]
 pub enum ClientError {
@@ -71,9 +83,9 @@ pub struct BoardClient<P> {
 
 impl BoardClient<Box<dyn serialport::SerialPort>> {
     /// Opens a serial port (a board's USB-serial adapter, or QEMU's pty) at
-    /// [`super::BAUD_RATE`], 8N1.
+    /// [`BAUD_RATE`], 8N1.
     pub fn open(path: &str) -> Result<Self, ClientError> {
-        Ok(BoardClient::new(super::open_port(path)?))
+        Ok(BoardClient::new(open_port(path)?))
     }
 }
 

@@ -5,7 +5,7 @@ use std::io::Write;
 
 use magcal_protocol::{self as proto, SensorFeed, MAX_FRAME_LEN};
 
-use super::ClientError;
+use super::client::{open_port, ClientError};
 
 /// Writes the QEMU board's sensor feed (its USART2).
 pub struct FeedWriter<P> {
@@ -18,7 +18,7 @@ pub struct FeedWriter<P> {
 impl FeedWriter<Box<dyn serialport::SerialPort>> {
     /// Opens the feed's serial port (QEMU's second pty).
     pub fn open(path: &str) -> Result<Self, ClientError> {
-        Ok(Self { port: super::open_port(path)?, seq: 0, last: Vec::new(), offsets_sent: None })
+        Ok(Self { port: open_port(path)?, seq: 0, last: Vec::new(), offsets_sent: None })
     }
 }
 

@@ -1,5 +1,5 @@
 //! `magcal log`: the board's raw stream written to a board log (the CSV
-//! that [`crate::data::merge::BoardLog`] reads), on the board's own clock,
+//! that [`crate::data::board_log::BoardLog`] reads), on the board's own clock,
 //! for as long as asked.
 //!
 //! * `t` is the board's `t_ms` in seconds, unwrapped across the `u32`
@@ -21,21 +21,22 @@ use std::time::{Duration, Instant};
 use magcal_protocol::{Health, Sample, StreamMode};
 use serde::{Deserialize, Serialize};
 
-use super::{BoardClient, ClientError};
-use crate::data::merge::{HEALTH_AFTER_GAP, HEALTH_SATURATED};
-use crate::session::record::{reconnect_at, Resume};
+use super::client::{BoardClient, ClientError};
+use super::reconnect::{reconnect_at, Resume};
+use crate::data::board_log::{self, HEALTH_AFTER_GAP, HEALTH_SATURATED};
 
 /// Samples written between flushes and progress updates, at most.
 const BATCH: usize = 64;
 
-/// The board log's header (`docs/INTERFACES.md`, "Board log").
-pub const LOG_HEADER: &str = "t,mx,my,mz,temp_c,health";
+/// The board log's header (`docs/INTERFACES.md`, "Board log"; its one
+/// home is [`crate::data::board_log`]).
+pub const LOG_HEADER: &str = board_log::HEADER;
 
 /// Why logging could not start or could not go on.
 #[derive(Debug, thiserror::Error)]
 pub enum LogError {
     /// The output file exists (and overwriting was not asked for).
-    #[error("{0} exists: give another --out, or --force to overwrite it")]
+    #[error("{} exists (and overwriting it was not asked for)", .0.display())]
     Exists(PathBuf),
     /// The output file could not be created or written.
     #[error("{path}: {source}")]
@@ -55,9 +56,9 @@ pub enum LogError {
     /// The board refused to stream (at the start).
     #[error("the board would not stream raw samples: {0}")]
     Stream(ClientError),
-    /// An option is out of range.
-    #[error("{0}")]
-    Option(String),
+    /// The output rate asked for is not 1 to 100 Hz.
+    #[error("the output rate must be 1 to 100 Hz, not {0}")]
+    RateOutOfRange(u8),
 }
 
 /// How long to log and how to treat the link.
@@ -266,103 +267,25 @@ pub fn log_board<P: Read + Write, W: Write>(
     mut on_progress: impl FnMut(&LogProgress),
 ) -> Result<LogSummary, LogError> {
     if !(1..=100).contains(&opts.rate_hz) {
-        return Err(LogError::Option(format!("--rate-hz must be 1 to 100, not {}", opts.rate_hz)));
+        return Err(LogError::RateOutOfRange(opts.rate_hz));
     }
-    let io_err = |source| LogError::Io { path: out_path.clone(), source };
-    let mut out = io::LineWriter::new(out);
-    let mut link = connect().map_err(LogError::Open)?;
-    link.identify().map_err(LogError::Identify)?;
-    let health_start = link.status().ok();
-    link.set_output_rate(opts.rate_hz).map_err(LogError::Stream)?;
-    link.set_stream(StreamMode::Raw).map_err(LogError::Stream)?;
-    link.clear_samples();
-    writeln!(out, "{LOG_HEADER}").map_err(io_err)?;
-    out.flush().map_err(io_err)?;
-
+    let (mut link, health_start) = start_streaming(connect, opts)?;
+    let mut log = Logger::new(out, out_path, opts.rate_hz)?;
     let started = Instant::now();
-    let interval_ms = 1000.0 / f64::from(opts.rate_hz);
-    let mut clock = BoardClock::default();
-    let mut s = LogSummary {
-        out: out_path.clone(),
-        samples: 0,
-        first_t_s: None,
-        last_t_s: None,
-        rate_hz: opts.rate_hz,
-        gaps: vec![],
-        gap_total_s: 0.0,
-        missing_samples: 0,
-        link_drops: 0,
-        saturated_samples: 0,
-        samples_with_temp: 0,
-        host_discarded_frames: 0,
-        host_queue_dropped: 0,
-        out_of_order_samples: 0,
-        board_samples_produced: None,
-        board_tx_dropped: None,
-        board_saturated_pairs: None,
-        ended: LogEnd::Interrupted,
-        wall_s: 0.0,
-    };
-    let mut last_ms: Option<u64> = None;
     let mut last_sample_at = Instant::now();
     let mut link_alive = true;
-    let progress = |s: &LogSummary, down: bool| LogProgress { samples: s.samples, last_t_s: s.last_t_s.unwrap_or(f64::NAN), gaps: s.gaps.len(), link_drops: s.link_drops, link_down: down };
-    let ended = 'log: loop {
-        if stop.load(Ordering::Relaxed) {
-            break LogEnd::Interrupted;
+    let ended = loop {
+        if let Some(end) = time_to_stop(stop, opts, started) {
+            break end;
         }
-        if opts.duration.is_some_and(|d| started.elapsed() >= d) {
-            break LogEnd::Duration;
-        }
-        let got = link.next_sample(Duration::from_millis(100));
-        let dropped = match got {
+        let dropped = match link.next_sample(Duration::from_millis(100)) {
             Ok(Some(first)) => {
-                let mut next = Some(first);
-                let mut batch = 0;
-                while let Some(sample) = next {
-                    last_sample_at = Instant::now();
-                    match clock.unwrap(sample.t_ms) {
-                        ClockStep::Stale => s.out_of_order_samples += 1,
-                        ClockStep::Restarted => break 'log LogEnd::BoardRestarted,
-                        ClockStep::Ms(ms) => {
-                            let t_s = ms as f64 / 1000.0;
-                            let after_gap = last_ms.is_some_and(|l| (ms - l) as f64 > 1.5 * interval_ms);
-                            if let (true, Some(l)) = (after_gap, last_ms) {
-                                let length_s = (ms - l) as f64 / 1000.0;
-                                let missing = ((ms - l) as f64 / interval_ms).round().max(1.0) as u64 - 1;
-                                s.gaps.push(Gap { after_t_s: l as f64 / 1000.0, length_s, missing_samples: missing });
-                                s.gap_total_s += length_s;
-                                s.missing_samples += missing;
-                            }
-                            let raw = sample.raw.map(|r| r.map(f64::from));
-                            let temp = sample_temp_c(&sample);
-                            let flags = health_flags(&sample, after_gap);
-                            writeln!(
-                                out,
-                                "{:.3},{},{},{},{},{flags}",
-                                t_s,
-                                fmt_cell(raw.map(|r| r[0])),
-                                fmt_cell(raw.map(|r| r[1])),
-                                fmt_cell(raw.map(|r| r[2])),
-                                fmt_cell(temp)
-                            )
-                            .map_err(io_err)?;
-                            s.samples += 1;
-                            s.saturated_samples += u64::from(sample.saturated);
-                            s.samples_with_temp += u64::from(temp.is_some());
-                            s.first_t_s.get_or_insert(t_s);
-                            s.last_t_s = Some(t_s);
-                            last_ms = Some(ms);
-                        }
-                    }
-                    // What has arrived already, a bounded batch (a stream
-                    // faster than the file would never end one).
-                    batch += 1;
-                    // (An error here shows again on the next wait.)
-                    next = if batch < BATCH { link.next_sample(Duration::ZERO).ok().flatten() } else { None };
+                let restarted = log.write_batch(&mut link, first)?;
+                last_sample_at = Instant::now();
+                if let Some(end) = restarted {
+                    break end;
                 }
-                out.flush().map_err(io_err)?;
-                on_progress(&progress(&s, false));
+                on_progress(&log.progress(false));
                 false
             }
             Ok(None) => last_sample_at.elapsed() >= opts.silence,
@@ -373,47 +296,190 @@ pub fn log_board<P: Read + Write, W: Write>(
         }
         // The link is down: reopen it (the session's reconnect), backing
         // off between rounds, until it answers or logging is over.
-        s.link_drops += 1;
-        s.host_discarded_frames += u64::from(link.discarded_frames);
-        s.host_queue_dropped += link.dropped_samples;
+        log.count_drop(&link);
         link_alive = false;
-        on_progress(&progress(&s, true));
-        let mut pause = opts.backoff_initial;
-        loop {
-            if stop.load(Ordering::Relaxed) {
-                break 'log LogEnd::Interrupted;
-            }
-            if opts.duration.is_some_and(|d| started.elapsed() >= d) {
-                break 'log LogEnd::Duration;
-            }
-            let mut resume = Resume { connect: &mut *connect, stream: StreamMode::Raw, attempts: 1 };
-            if let Ok(l) = reconnect_at(&mut resume, opts.rate_hz) {
+        on_progress(&log.progress(true));
+        match reopen(connect, opts, stop, started) {
+            Ok(l) => {
                 link = l;
                 link_alive = true;
                 last_sample_at = Instant::now();
-                break;
             }
-            let until = Instant::now() + pause;
-            while Instant::now() < until && !stop.load(Ordering::Relaxed) {
-                std::thread::sleep(Duration::from_millis(20));
-            }
-            pause = (pause * 2).min(opts.backoff_max);
+            Err(end) => break end,
         }
     };
-    s.ended = ended;
-    s.wall_s = started.elapsed().as_secs_f64();
-    out.flush().map_err(io_err)?;
-    if link_alive {
-        s.host_discarded_frames += u64::from(link.discarded_frames);
-        s.host_queue_dropped += link.dropped_samples;
-        let health_end = link.status().ok();
-        // Best effort: the file is complete whatever the board says now.
-        let _ = link.set_stream(StreamMode::Off);
-        if let (Some(a), Some(b)) = (health_start, health_end) {
-            (s.board_samples_produced, s.board_tx_dropped, s.board_saturated_pairs) = health_deltas(&a, &b);
-        }
+    log.finish(ended, started, link_alive.then_some(&mut link), health_start)
+}
+
+/// Opens the link, checks a board answers, and starts its raw stream at the
+/// asked rate; returns the link and the board's `Health` at the start.
+fn start_streaming<P: Read + Write>(connect: &mut dyn FnMut() -> Result<BoardClient<P>, ClientError>, opts: &LogOptions) -> Result<(BoardClient<P>, Option<Health>), LogError> {
+    let mut link = connect().map_err(LogError::Open)?;
+    link.identify().map_err(LogError::Identify)?;
+    let health_start = link.status().ok();
+    link.set_output_rate(opts.rate_hz).map_err(LogError::Stream)?;
+    link.set_stream(StreamMode::Raw).map_err(LogError::Stream)?;
+    link.clear_samples();
+    Ok((link, health_start))
+}
+
+/// Why logging should end now, if it should.
+fn time_to_stop(stop: &AtomicBool, opts: &LogOptions, started: Instant) -> Option<LogEnd> {
+    if stop.load(Ordering::Relaxed) {
+        Some(LogEnd::Interrupted)
+    } else if opts.duration.is_some_and(|d| started.elapsed() >= d) {
+        Some(LogEnd::Duration)
+    } else {
+        None
     }
-    Ok(s)
+}
+
+/// Reopens a dropped link, one attempt a round with a pause doubling from
+/// `backoff_initial` to `backoff_max` between rounds, until it answers
+/// (`Ok`) or logging is over (`Err` with why).
+fn reopen<P: Read + Write>(connect: &mut dyn FnMut() -> Result<BoardClient<P>, ClientError>, opts: &LogOptions, stop: &AtomicBool, started: Instant) -> Result<BoardClient<P>, LogEnd> {
+    let mut pause = opts.backoff_initial;
+    loop {
+        if let Some(end) = time_to_stop(stop, opts, started) {
+            return Err(end);
+        }
+        let mut resume = Resume { connect: &mut *connect, stream: StreamMode::Raw, attempts: 1 };
+        if let Ok(l) = reconnect_at(&mut resume, opts.rate_hz) {
+            return Ok(l);
+        }
+        let until = Instant::now() + pause;
+        while Instant::now() < until && !stop.load(Ordering::Relaxed) {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        pause = (pause * 2).min(opts.backoff_max);
+    }
+}
+
+/// The log being written: the file, the board's clock unwrapped, and the
+/// summary so far.
+struct Logger<W: Write> {
+    out: io::LineWriter<W>,
+    out_path: PathBuf,
+    clock: BoardClock,
+    /// The output interval, ms.
+    interval_ms: f64,
+    /// The board time of the last row written, ms.
+    last_ms: Option<u64>,
+    s: LogSummary,
+}
+
+impl<W: Write> Logger<W> {
+    /// Starts the log: the header, flushed.
+    fn new(out: W, out_path: PathBuf, rate_hz: u8) -> Result<Self, LogError> {
+        let s = LogSummary {
+            out: out_path.clone(),
+            samples: 0,
+            first_t_s: None,
+            last_t_s: None,
+            rate_hz,
+            gaps: vec![],
+            gap_total_s: 0.0,
+            missing_samples: 0,
+            link_drops: 0,
+            saturated_samples: 0,
+            samples_with_temp: 0,
+            host_discarded_frames: 0,
+            host_queue_dropped: 0,
+            out_of_order_samples: 0,
+            board_samples_produced: None,
+            board_tx_dropped: None,
+            board_saturated_pairs: None,
+            ended: LogEnd::Interrupted,
+            wall_s: 0.0,
+        };
+        let mut log = Self { out: io::LineWriter::new(out), out_path, clock: BoardClock::default(), interval_ms: 1000.0 / f64::from(rate_hz), last_ms: None, s };
+        writeln!(log.out, "{LOG_HEADER}").map_err(|e| log.io_err(e))?;
+        log.out.flush().map_err(|e| log.io_err(e))?;
+        Ok(log)
+    }
+
+    fn io_err(&self, source: io::Error) -> LogError {
+        LogError::Io { path: self.out_path.clone(), source }
+    }
+
+    /// Writes `first` and what has arrived after it (a bounded batch: a
+    /// stream faster than the file would never end one), then flushes;
+    /// `Some` when the board restarted (the log ends there).
+    fn write_batch<P: Read + Write>(&mut self, link: &mut BoardClient<P>, first: Sample) -> Result<Option<LogEnd>, LogError> {
+        let mut next = Some(first);
+        let mut batch = 0;
+        while let Some(sample) = next {
+            match self.clock.unwrap(sample.t_ms) {
+                ClockStep::Stale => self.s.out_of_order_samples += 1,
+                ClockStep::Restarted => return Ok(Some(LogEnd::BoardRestarted)),
+                ClockStep::Ms(ms) => self.write_row(&sample, ms)?,
+            }
+            batch += 1;
+            // (An error here shows again on the next wait.)
+            next = if batch < BATCH { link.next_sample(Duration::ZERO).ok().flatten() } else { None };
+        }
+        self.out.flush().map_err(|e| self.io_err(e))?;
+        Ok(None)
+    }
+
+    /// One row at board time `ms`, noting the gap before it if there is one.
+    fn write_row(&mut self, sample: &Sample, ms: u64) -> Result<(), LogError> {
+        let t_s = ms as f64 / 1000.0;
+        let after_gap = self.last_ms.is_some_and(|l| (ms - l) as f64 > 1.5 * self.interval_ms);
+        if let (true, Some(l)) = (after_gap, self.last_ms) {
+            let length_s = (ms - l) as f64 / 1000.0;
+            let missing = ((ms - l) as f64 / self.interval_ms).round().max(1.0) as u64 - 1;
+            self.s.gaps.push(Gap { after_t_s: l as f64 / 1000.0, length_s, missing_samples: missing });
+            self.s.gap_total_s += length_s;
+            self.s.missing_samples += missing;
+        }
+        let raw = sample.raw.map(|r| r.map(f64::from));
+        let temp = sample_temp_c(sample);
+        let flags = health_flags(sample, after_gap);
+        writeln!(self.out, "{:.3},{},{},{},{},{flags}", t_s, fmt_cell(raw.map(|r| r[0])), fmt_cell(raw.map(|r| r[1])), fmt_cell(raw.map(|r| r[2])), fmt_cell(temp)).map_err(|e| self.io_err(e))?;
+        self.s.samples += 1;
+        self.s.saturated_samples += u64::from(sample.saturated);
+        self.s.samples_with_temp += u64::from(temp.is_some());
+        self.s.first_t_s.get_or_insert(t_s);
+        self.s.last_t_s = Some(t_s);
+        self.last_ms = Some(ms);
+        Ok(())
+    }
+
+    /// Adds the link's host-side losses to the summary.
+    fn count_link<P>(&mut self, link: &BoardClient<P>) {
+        self.s.host_discarded_frames += u64::from(link.discarded_frames);
+        self.s.host_queue_dropped += link.dropped_samples;
+    }
+
+    /// A link drop: counted, with what the dropped link had lost.
+    fn count_drop<P>(&mut self, link: &BoardClient<P>) {
+        self.s.link_drops += 1;
+        self.count_link(link);
+    }
+
+    fn progress(&self, link_down: bool) -> LogProgress {
+        let s = &self.s;
+        LogProgress { samples: s.samples, last_t_s: s.last_t_s.unwrap_or(f64::NAN), gaps: s.gaps.len(), link_drops: s.link_drops, link_down }
+    }
+
+    /// Ends the log: flushed, and with a live link, its losses and the
+    /// board's counters since the start (best effort: the file is complete
+    /// whatever the board says now).
+    fn finish<P: Read + Write>(mut self, ended: LogEnd, started: Instant, link: Option<&mut BoardClient<P>>, health_start: Option<Health>) -> Result<LogSummary, LogError> {
+        self.s.ended = ended;
+        self.s.wall_s = started.elapsed().as_secs_f64();
+        self.out.flush().map_err(|e| self.io_err(e))?;
+        if let Some(link) = link {
+            self.count_link(link);
+            let health_end = link.status().ok();
+            let _ = link.set_stream(StreamMode::Off);
+            if let (Some(a), Some(b)) = (health_start, health_end) {
+                (self.s.board_samples_produced, self.s.board_tx_dropped, self.s.board_saturated_pairs) = health_deltas(&a, &b);
+            }
+        }
+        Ok(self.s)
+    }
 }
 
 /// The board's counters between two `Status` replies (`None` when the
@@ -453,7 +519,7 @@ mod tests {
         let p = dir.path().join("board.csv");
         std::fs::write(&p, "keep me").unwrap();
         let e = create_log_file(&p, false).unwrap_err();
-        assert!(matches!(e, LogError::Exists(_)) && e.to_string().contains("--force"), "{e}");
+        assert!(matches!(&e, LogError::Exists(p) if p == &dir.path().join("board.csv")) && e.to_string().contains("exists"), "{e}");
         assert_eq!(std::fs::read_to_string(&p).unwrap(), "keep me");
         drop(create_log_file(&p, true).unwrap());
         assert_eq!(std::fs::read_to_string(&p).unwrap(), "");

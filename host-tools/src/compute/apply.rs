@@ -33,7 +33,7 @@ pub enum ApplyError {
     #[error("the calibration's reference cannot be used for integrity: {0}")]
     Reference(&'static str),
     /// The output would overwrite the input.
-    #[error("--out {0} is the input recording; write the result to another file")]
+    #[error("{} is the input recording", .0.display())]
     OverwritesInput(PathBuf),
     /// The output could not be written.
     #[error("{path}: {source}")]

@@ -5,7 +5,7 @@
 use calib_core::attitude_fit::{fit_attitude, AttitudeConfig, AttitudeEstimate, AttitudeSample};
 use calib_core::heading::Tilt;
 
-use super::ComputeError;
+use super::error::ComputeError;
 use crate::data::Recording;
 
 /// A hard-iron 1σ above this fraction of the field (in raw units) is

@@ -6,7 +6,7 @@ use calib_core::cal::ModelKind;
 
 use super::swing::magnetic_headings;
 use super::units::check_units;
-use super::ComputeError;
+use super::error::ComputeError;
 use calib_core::backstep::{JointConfig, JointSolution, Leg, RunSample, SwingSample};
 
 use crate::data::caldoc::{CurrentBlock, TemperatureBlock};
@@ -168,32 +168,27 @@ pub fn backstep_recording(rec: &Recording, doc: &CalDoc, opts: &BackstepOptions)
     let headings = magnetic_headings(rec, doc)?;
     let turnaround = match opts.turnaround_s {
         Some(s) => s,
-        None => find_turnaround(t, &headings, opts.window_s).ok_or_else(|| {
-            ComputeError::Backstep("no turnaround found (no 180° change of heading): give it with --turnaround-s".into())
-        })?,
+        None => find_turnaround(t, &headings, opts.window_s).ok_or(ComputeError::NoTurnaround)?,
     };
     let samples = run_samples(rec, &opts.reference, Some((turnaround, opts.window_s, opts.exclude_s)))?;
     let thrust = match &opts.thrust_test {
         Some(tt) => {
             if !tt.motor_current_a.as_ref().is_some_and(|c| c.iter().any(|v| v.is_finite())) {
-                return Err(ComputeError::Backstep("the thrust test has no motor_current_a: it cannot show the thrusters' field".into()));
+                return Err(ComputeError::ThrustTestNoCurrent);
             }
             run_samples(tt, &opts.reference, None)?
         }
         None => Vec::new(),
     };
-    let bs = |e: calib_core::backstep::BackstepError| ComputeError::Backstep(e.to_string());
-    let before = run_stats(&doc.field_cal(), &samples).map_err(bs)?;
+    let before = run_stats(&doc.field_cal(), &samples)?;
     let mut trace = Vec::new();
     let mut joint: Option<JointSolution<f64>> = None;
     // The joint refinement's run statistics, computed once for its trace.
     let mut joint_after = None;
     let (kind, cal, extra) = match opts.method {
         BackstepMethod::Paper => {
-            let start = AxisCoefficients::from_field_cal(&doc.field_cal()).ok_or_else(|| {
-                ComputeError::Backstep("the paper's back-stepping corrects the axis model: fit with --model axis first".into())
-            })?;
-            let end = paper_backstep(&start, &samples, opts.max_iterations, 20.0, 50.0, &mut |e| trace.push(paper_trace_entry(&e))).map_err(bs)?;
+            let start = AxisCoefficients::from_field_cal(&doc.field_cal()).ok_or(ComputeError::PaperNeedsAxis { model: doc.model.name() })?;
+            let end = paper_backstep(&start, &samples, opts.max_iterations, 20.0, 50.0, &mut |e| trace.push(paper_trace_entry(&e)))?;
             (ModelKind::Axis, end.field_cal(), None)
         }
         BackstepMethod::Joint => {
@@ -205,8 +200,8 @@ pub fn backstep_recording(rec: &Recording, doc: &CalDoc, opts: &BackstepOptions)
                 cfg.ref_c = median(samples.iter().chain(&thrust).map(|s| s.temp_c).chain(swing.iter().map(|s| s.temp_c)));
             }
             let all: Vec<RunSample<f64>> = samples.iter().chain(&thrust).copied().collect();
-            let r = calib_core::backstep::joint_refine_env(&doc.field_cal(), &all, &swing, swing_f, &cfg).map_err(bs)?;
-            let s = run_stats(&r.running, &corrected(&samples, &r)).map_err(bs)?;
+            let r = calib_core::backstep::joint_refine_env(&doc.field_cal(), &all, &swing, swing_f, &cfg)?;
+            let s = run_stats(&r.running, &corrected(&samples, &r))?;
             trace.push(TraceEntry {
                 iteration: r.iterations,
                 correction: Correction::JointLeastSquares,
@@ -224,7 +219,7 @@ pub fn backstep_recording(rec: &Recording, doc: &CalDoc, opts: &BackstepOptions)
     };
     let after = match joint_after {
         Some(s) => s,
-        None => run_stats(&cal, &samples).map_err(bs)?,
+        None => run_stats(&cal, &samples)?,
     };
     let (_, f_ref) = calib_core::backstep::reference_means(&samples);
     let mut out = CalDoc::new(kind, &cal, f_ref, doc.quality.clone());

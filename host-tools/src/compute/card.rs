@@ -22,8 +22,8 @@ use serde::{Deserialize, Serialize};
 
 use super::truth::true_headings_rad;
 use super::units::check_units;
-use super::ComputeError;
-use crate::data::recording::parse_cell;
+use super::error::ComputeError;
+use crate::data::table::{read_column, TableError};
 use crate::data::{CalDoc, Recording};
 
 /// The 16 compass points from north, clockwise.
@@ -35,32 +35,15 @@ pub enum CardError {
     /// The recording has no reference heading to compare with.
     #[error("the recording has no `{0}` column: the deviation card compares the magnetometer's heading with a reference (or truth) heading, so the recording needs one (`ref_heading_deg`, or name another column)")]
     NoReferenceColumn(String),
-    /// A cell of the reference column is not a number.
-    #[error("{path}:{line}: column `{column}`: `{text}` is not a number")]
-    BadNumber {
-        /// The file.
-        path: PathBuf,
-        /// 1-based line.
-        line: u64,
-        /// The column.
-        column: String,
-        /// The cell.
-        text: String,
-    },
-    /// The CSV could not be read.
-    #[error("{path}: {source}")]
-    Csv {
-        /// The file.
-        path: PathBuf,
-        /// The parser's message.
-        #[source]
-        source: csv::Error,
-    },
+    /// The reference column could not be read (a cell not a number, a
+    /// ragged row, malformed CSV).
+    #[error(transparent)]
+    Table(#[from] TableError),
     /// The reference column is empty everywhere.
     #[error("no row has both a reference heading (`ref_heading_deg`) and the magnetometer, roll and pitch: nothing to put on the card")]
     NoUsableRows,
     /// The sector width does not divide the circle.
-    #[error("--step-deg {0} must divide 360° into whole sectors (e.g. 5, 10, 15, 22.5, 30, 45)")]
+    #[error("sectors of {0}° must divide 360° into whole sectors (e.g. 5, 10, 15, 22.5, 30, 45)")]
     BadStep(f64),
     /// The number of compass points is not 8 or 16.
     #[error("compass points must be 8 or 16, not {0}")]
@@ -218,26 +201,10 @@ pub fn deviation_card(rec: &Recording, doc: &CalDoc, step_deg: f64, points: usiz
 
 /// One named column of a recording's CSV as the heading reference (a
 /// simulator's `true_heading_deg`, a lab's optical heading): the recording
-/// reader's rules, an empty cell or `nan` is "not available". `Ok(None)`
+/// reader's rules ([`crate::data::table`]), an empty cell or `nan` is "not available". `Ok(None)`
 /// when the header has no such column.
 pub fn read_reference_column(path: &Path, column: &str) -> Result<Option<Vec<f64>>, CardError> {
-    let csv_err = |source| CardError::Csv { path: path.into(), source };
-    let file = std::fs::File::open(path).map_err(|source| CardError::Io { path: path.into(), source })?;
-    let mut rdr = csv::ReaderBuilder::new().has_headers(true).flexible(true).trim(csv::Trim::All).from_reader(file);
-    let Some(index) = rdr.headers().map_err(csv_err)?.iter().position(|h| h == column) else { return Ok(None) };
-    let mut out = Vec::new();
-    for row in rdr.records() {
-        let row = row.map_err(csv_err)?;
-        let text = row.get(index).unwrap_or("");
-        let v = parse_cell(text).ok_or_else(|| CardError::BadNumber {
-            path: path.into(),
-            line: row.position().map_or(0, |p| p.line()),
-            column: column.into(),
-            text: text.into(),
-        })?;
-        out.push(v);
-    }
-    Ok(Some(out))
+    Ok(read_column(path, column)?)
 }
 
 fn fmt_deg(v: f64) -> String {

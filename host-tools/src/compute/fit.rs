@@ -8,8 +8,9 @@ use calib_core::fit::{fit_batch, Axis, FitError, Full, Sphere};
 use calib_core::ortho;
 use calib_core::quality::{assess, Gates, Quality};
 
+use super::gyro::GyroLag;
 use super::units::units_guess;
-use super::ComputeError;
+use super::error::ComputeError;
 use crate::data::results::{FitQuality, Quality as ResultsQuality};
 use crate::data::{CalDoc, Recording};
 
@@ -24,9 +25,8 @@ pub struct FitOptions {
     pub saturation: Option<f64>,
     /// Return coefficients even when the quality gates fail (with warnings).
     pub allow_weak: bool,
-    /// Gyro model: the magnetometer's lag behind the gyro, s (NaN: estimate
-    /// it from the data).
-    pub gyro_lag_s: f64,
+    /// Gyro model: the magnetometer's lag behind the gyro.
+    pub gyro_lag: GyroLag,
 }
 
 fn fit_quality(q: &Quality<f64>, skipped_rows: usize, warnings: Vec<String>, units: String) -> FitQuality {
@@ -62,7 +62,7 @@ pub fn fit_recording(rec: &Recording, opts: &FitOptions) -> Result<CalDoc, Compu
         ModelKind::Axis => fit_batch::<Axis, 6, f64>(&samples, opts.field_nt),
         ModelKind::Full | ModelKind::Triangular => fit_batch::<Full, 9, f64>(&samples, opts.field_nt),
         ModelKind::Gyro => {
-            let (cal, q) = super::gyro::fit_gyro_recording(rec, opts.field_nt, opts.gyro_lag_s)?;
+            let (cal, q) = super::gyro::fit_gyro_recording(rec, opts.field_nt, opts.gyro_lag)?;
             warnings.extend(q.weakly_determined.iter().cloned());
             gyro_quality = Some(q);
             Ok(cal)
@@ -81,7 +81,7 @@ pub fn fit_recording(rec: &Recording, opts: &FitOptions) -> Result<CalDoc, Compu
         if !opts.allow_weak {
             return Err(e);
         }
-        warnings.push(format!("quality gate failed but --allow-weak was given: {e}"));
+        warnings.push(format!("quality gate failed, kept because weak results were allowed: {e}"));
     }
     let skipped = rec.len() - samples.len();
     if skipped > 0 {

@@ -5,7 +5,7 @@
 use calib_core::cal::FieldCal;
 use calib_core::gyro::{fit_gyro_batch, GyroConfig, GyroSample, MAX_WINDOW_STEPS};
 
-use super::ComputeError;
+use super::error::{ComputeError, GyroError};
 use crate::data::results::GyroQuality;
 use crate::data::Recording;
 
@@ -62,6 +62,22 @@ fn median_step_s(t: &[f64]) -> Option<f64> {
     Some(d[d.len() / 2])
 }
 
+/// The magnetometer's lag behind the gyro, for the gyro-aided fit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum GyroLag {
+    /// Known, s: the rates are read this much earlier than each field sample.
+    Given(f64),
+    /// Estimated from the data ([`estimate_gyro_lag_s`]).
+    Estimate,
+}
+
+impl Default for GyroLag {
+    /// No lag.
+    fn default() -> Self {
+        GyroLag::Given(0.0)
+    }
+}
+
 /// Largest lag [`estimate_gyro_lag_s`] searches, s.
 pub const MAX_LAG_S: f64 = 0.25;
 
@@ -71,22 +87,22 @@ pub const MAX_LAG_S: f64 = 0.25;
 /// Returns the lag and the residual at it, nT.
 pub fn estimate_gyro_lag_s(rec: &Recording, field_nt: f64) -> Result<(f64, f64), ComputeError> {
     let t = rec.t_s.as_ref().ok_or(ComputeError::NeedsColumn("t"))?;
-    let step_s = median_step_s(t).ok_or(ComputeError::Gyro("the `t` column does not advance: no rotation can be integrated".into()))?;
+    let step_s = median_step_s(t).ok_or(GyroError::TimeNotAdvancing)?;
     let grid = step_s / 4.0;
     let n = (MAX_LAG_S / grid).floor() as i64;
     let mut best: Option<(f64, f64)> = None;
     for k in -n..=n {
         let lag = k as f64 * grid;
-        let Ok((_, q)) = fit_gyro_recording(rec, field_nt, lag) else { continue };
+        let Ok((_, q)) = fit_gyro_recording(rec, field_nt, GyroLag::Given(lag)) else { continue };
         if best.is_none_or(|(_, r)| q.residual_rms_nt < r) {
             best = Some((lag, q.residual_rms_nt));
         }
     }
-    best.ok_or(ComputeError::Gyro(format!("no lag within ±{MAX_LAG_S} s lets the gyro-aided fit run")))
+    Ok(best.ok_or(GyroError::NoLag { max_lag_s: MAX_LAG_S })?)
 }
 
 /// Fits the gyro-aided calibration; the magnitude is scaled to `field_nt`.
-pub fn fit_gyro_recording(rec: &Recording, field_nt: f64, gyro_lag_s: f64) -> Result<(FieldCal<f64>, GyroQuality), ComputeError> {
+pub fn fit_gyro_recording(rec: &Recording, field_nt: f64, gyro_lag: GyroLag) -> Result<(FieldCal<f64>, GyroQuality), ComputeError> {
     let t = rec.t_s.as_ref().ok_or(ComputeError::NeedsColumn("t"))?;
     let rates = rec.gyro_rad_s().ok_or(if rec.gx_rad_s.is_none() {
         ComputeError::NeedsColumn("gx")
@@ -95,15 +111,14 @@ pub fn fit_gyro_recording(rec: &Recording, field_nt: f64, gyro_lag_s: f64) -> Re
     } else {
         ComputeError::NeedsColumn("gz")
     })?;
-    if gyro_lag_s.is_nan() {
-        // Not given: estimated.
-        let (lag, _) = estimate_gyro_lag_s(rec, field_nt)?;
-        return fit_gyro_recording(rec, field_nt, lag);
-    }
+    let gyro_lag_s = match gyro_lag {
+        GyroLag::Given(lag_s) => lag_s,
+        GyroLag::Estimate => estimate_gyro_lag_s(rec, field_nt)?.0,
+    };
     if !gyro_lag_s.is_finite() || gyro_lag_s.abs() > 1.0 {
-        return Err(ComputeError::Gyro(format!("--gyro-lag-s {gyro_lag_s}: expected a lag within ±1 s")));
+        return Err(GyroError::LagOutOfRange { lag_s: gyro_lag_s }.into());
     }
-    let step_s = median_step_s(t).ok_or(ComputeError::Gyro("the `t` column does not advance: no rotation can be integrated".into()))?;
+    let step_s = median_step_s(t).ok_or(GyroError::TimeNotAdvancing)?;
     let rates = rates_at_lag(t, &rates, gyro_lag_s);
     let nan = vec![f64::NAN; rec.len()];
     let (roll, pitch) = (rec.roll_deg.as_ref().unwrap_or(&nan), rec.pitch_deg.as_ref().unwrap_or(&nan));
@@ -113,7 +128,7 @@ pub fn fit_gyro_recording(rec: &Recording, field_nt: f64, gyro_lag_s: f64) -> Re
     if samples.iter().any(|s| s.rate_rad_s.iter().any(|w| w.abs() > 35.0)) {
         // 35 rad/s = 2 000 °/s, a MEMS gyro's largest range: larger values
         // are deg/s or raw counts.
-        return Err(ComputeError::Gyro("gx, gy, gz exceed 35 rad/s (2 000°/s): the gyro columns must be in rad/s".into()));
+        return Err(GyroError::NotRadPerS { max_rad_s: 35.0 }.into());
     }
     let mut cfg = GyroConfig::new(1.5 * step_s);
     cfg.window_steps = ((WINDOW_S / step_s).round() as usize).clamp(1, MAX_WINDOW_STEPS);
@@ -200,8 +215,8 @@ mod tests {
         // The magnetometer leads the rows' gyro by one sample: reading the
         // rates 0.2 s *later* (lag −0.2 s) lines them up.
         assert!((lag + 0.2).abs() < 0.051, "{lag}");
-        let (with_lag, q) = fit_gyro_recording(&rec, 48_000.0, f64::NAN).unwrap();
-        let (without, _) = fit_gyro_recording(&rec, 48_000.0, 0.0).unwrap();
+        let (with_lag, q) = fit_gyro_recording(&rec, 48_000.0, GyroLag::Estimate).unwrap();
+        let (without, _) = fit_gyro_recording(&rec, 48_000.0, GyroLag::Given(0.0)).unwrap();
         let err = |c: &FieldCal<f64>| (c.bias[0] - 300.0).abs().max((c.bias[1] + 200.0).abs()).max((c.bias[2] - 100.0).abs());
         eprintln!("lag {lag} s (applied {} s); bias error {} with it, {} without", q.gyro_lag_s, err(&with_lag), err(&without));
         assert!(err(&with_lag) < err(&without));

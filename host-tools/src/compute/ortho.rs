@@ -3,7 +3,7 @@
 use calib_core::fit::{fit_batch, Full};
 use calib_core::ortho::{self, Triangular};
 
-use super::ComputeError;
+use super::error::ComputeError;
 use crate::data::Recording;
 
 /// Which paper-001 solver.

@@ -6,7 +6,7 @@ use calib_core::water_current::{fit_swing_in_current, heading_from_course, local
 use calib_core::swing::{aligned_pairs, estimate_delay, fit_swing, SwingFit, SwingTerms};
 
 use super::units::check_units;
-use super::ComputeError;
+use super::error::ComputeError;
 use crate::data::results::{SwingCurrent, SwingQuality};
 use crate::data::{CalDoc, Recording};
 
@@ -219,60 +219,23 @@ pub fn swing_recording_with(rec: &Recording, doc: &CalDoc, delay: Delay, current
     let mut warnings: Vec<String> = Vec::new();
     let mut current_report = None;
     if current == CurrentMode::Auto {
-        const FALLBACK: &str = "GPS course used as heading (in a current the crab angle goes into B and C)";
-        match (rec.speed_mps.as_ref(), &gps) {
-            (None, _) => warnings.push(format!("no speed_mps column (speed through water), so the water current cannot be estimated: {FALLBACK}")),
-            (Some(_), Err(why)) => warnings.push(format!("{why}, so the water current cannot be estimated: {FALLBACK}")),
-            (Some(speed), Ok(gps)) => {
-                let track = gps.track(&inputs(speed), delay_s);
-                match fit_swing_in_current(&track) {
-                    Ok(r) => {
-                        if !r.converged {
-                            warnings.push(format!("the current did not settle in {} rounds of current and swing fit", r.rounds));
-                        }
-                        current_report = Some(SwingCurrent {
-                            current_ne_mps: r.current.current_ne_mps,
-                            sigma_ne_mps: r.current.sigma_ne_mps,
-                            fixes: r.current.fixes,
-                            segments: r.current.segments,
-                            heading_resultant: r.current.heading_resultant,
-                            rounds: r.rounds,
-                            course_after_rms_deg: fit.residual_rms_rad.to_degrees(),
-                        });
-                        fit = r.fit;
-                    }
-                    Err(CurrentSwingError::Current { error, .. }) => warnings.push(format!("{error}: {FALLBACK}")),
-                    Err(CurrentSwingError::Swing(e)) => {
-                        warnings.push(format!("course turned into heading leaves too little for the swing fit ({e}): {FALLBACK}"))
-                    }
-                }
-            }
+        let speed = rec.speed_mps.as_deref();
+        let refit = match (speed, &gps) {
+            (None, _) => Err("no speed_mps column (speed through water), so the water current cannot be estimated".to_string()),
+            (Some(_), Err(why)) => Err(format!("{why}, so the water current cannot be estimated")),
+            (Some(speed), Ok(gps)) => refit_in_current(&gps.track(&inputs(speed), delay_s), &fit, &mut warnings),
+        };
+        match refit {
+            Ok((f, report)) => (fit, current_report) = (f, Some(report)),
+            Err(why) => warnings.push(format!("{why}: GPS course used as heading (in a current the crab angle goes into B and C)")),
         }
     }
     let mut out = doc.clone();
-    let s = fit.swing;
-    out.swing = Some(s);
+    out.swing = Some(fit.swing);
     if turning > 0 {
         warnings.push(format!("{turning} reference samples taken while turning faster than {MAX_SWING_TURN_RATE_DEG_S}°/s were used for the delay only"));
     }
-    match fit.terms {
-        SwingTerms::Full => {}
-        SwingTerms::FirstHarmonic => warnings.push(format!(
-            "headings visited {} of 12 compass sectors: fitted A, B, C only (D = E = 0)",
-            fit.sectors.count()
-        )),
-        SwingTerms::ConstantOnly => warnings.push(format!(
-            "headings visited {} of 12 compass sectors: fitted the constant A only",
-            fit.sectors.count()
-        )),
-    }
-    if (fit.swing.a - fit.a_only_rad).abs() > 0.05 {
-        warnings.push(format!(
-            "A of the full fit ({:.2}°) is far from the A-only fit ({:.2}°): the calibration or the data are suspect",
-            fit.swing.a.to_degrees(),
-            fit.a_only_rad.to_degrees()
-        ));
-    }
+    warnings.extend(fit_warnings(&fit));
     out.quality.swing = Some(SwingQuality {
         terms: fit.terms,
         samples: fit.samples,
@@ -287,6 +250,50 @@ pub fn swing_recording_with(rec: &Recording, doc: &CalDoc, delay: Delay, current
     Ok((out, fit, delay_s))
 }
 
+
+/// The swing fitted in the water current estimated from the surface track
+/// (course turned into heading), with the current's report; `Err` with why
+/// when it cannot be (the caller falls back to course as heading).
+fn refit_in_current(track: &SurfaceTrack<'_, f64>, course_fit: &SwingFit<f64>, warnings: &mut Vec<String>) -> Result<(SwingFit<f64>, SwingCurrent), String> {
+    match fit_swing_in_current(track) {
+        Ok(r) => {
+            if !r.converged {
+                warnings.push(format!("the current did not settle in {} rounds of current and swing fit", r.rounds));
+            }
+            let report = SwingCurrent {
+                current_ne_mps: r.current.current_ne_mps,
+                sigma_ne_mps: r.current.sigma_ne_mps,
+                fixes: r.current.fixes,
+                segments: r.current.segments,
+                heading_resultant: r.current.heading_resultant,
+                rounds: r.rounds,
+                course_after_rms_deg: course_fit.residual_rms_rad.to_degrees(),
+            };
+            Ok((r.fit, report))
+        }
+        Err(CurrentSwingError::Current { error, .. }) => Err(error.to_string()),
+        Err(CurrentSwingError::Swing(e)) => Err(format!("course turned into heading leaves too little for the swing fit ({e})")),
+    }
+}
+
+/// What the fit itself warns of: terms left out for want of headings, an
+/// A far from the A-only fit.
+fn fit_warnings(fit: &SwingFit<f64>) -> Vec<String> {
+    let mut warnings = Vec::new();
+    match fit.terms {
+        SwingTerms::Full => {}
+        SwingTerms::FirstHarmonic => warnings.push(format!("headings visited {} of 12 compass sectors: fitted A, B, C only (D = E = 0)", fit.sectors.count())),
+        SwingTerms::ConstantOnly => warnings.push(format!("headings visited {} of 12 compass sectors: fitted the constant A only", fit.sectors.count())),
+    }
+    if (fit.swing.a - fit.a_only_rad).abs() > 0.05 {
+        warnings.push(format!(
+            "A of the full fit ({:.2}°) is far from the A-only fit ({:.2}°): the calibration or the data are suspect",
+            fit.swing.a.to_degrees(),
+            fit.a_only_rad.to_degrees()
+        ));
+    }
+    warnings
+}
 
 #[cfg(test)]
 mod tests {

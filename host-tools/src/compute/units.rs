@@ -2,7 +2,7 @@
 //! checked against a calibration's (µT against nT, gauss, another sensor's
 //! counts are refused, not fitted).
 
-use super::ComputeError;
+use super::error::ComputeError;
 use crate::data::{CalDoc, Recording};
 
 /// What units raw magnitudes of radius `radius_raw` suggest for a field of
@@ -46,11 +46,7 @@ pub fn check_units(rec: &Recording, doc: &CalDoc) -> Result<(), ComputeError> {
     }
     if (m / doc.field_nt - 1.0).abs() > 0.25 {
         let raw_r = median(rec.mag.iter().map(|r| (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt()).collect());
-        return Err(ComputeError::Units(format!(
-            "through this calibration the recording's field is {m:.0} nT, not the calibration's {:.0} nT: the recording and the calibration are in different units (the raw magnitudes, ≈ {raw_r:.4}, look like {})",
-            doc.field_nt,
-            units_guess(raw_r, doc.field_nt)
-        )));
+        return Err(ComputeError::Units { through_cal_nt: m, cal_field_nt: doc.field_nt, raw_magnitude: raw_r, raw_units_guess: units_guess(raw_r, doc.field_nt) });
     }
     Ok(())
 }

@@ -417,64 +417,81 @@ fn solve3(m: &[[f64; 3]; 3], v: [f64; 3]) -> Option<[f64; 3]> {
     Some([0, 1, 2].map(|i| inv[i][0] * v[0] + inv[i][1] * v[1] + inv[i][2] * v[2]))
 }
 
-/// Imports a log: one row per `MAG` message of the instance.
-pub fn import(bytes: &[u8], opts: &ImportOptions) -> Result<Imported, DataFlashError> {
-    let mut params: HashMap<String, f64> = HashMap::new();
-    let mut report = ImportReport::default();
-    let (mut att, mut gps, mut bat) = (Series::default(), Series::default(), Series::default());
-    let mut mag: Vec<(f64, [f64; 3])> = Vec::new();
-    let mut instances: Vec<u8> = Vec::new();
+/// What the messages of a log hold, in time order per kind.
+#[derive(Default)]
+struct Collected {
+    params: HashMap<String, f64>,
+    att: Series,
+    gps: Series,
+    bat: Series,
+    /// The chosen compass's raw field: (time, raw).
+    mag: Vec<(f64, [f64; 3])>,
+    /// Every compass instance seen.
+    instances: Vec<u8>,
+}
+
+impl Collected {
+    /// A compass message (`MAG`, `MAG2`, `MAG3`): the raw field of the
+    /// chosen instance, the autopilot's corrections undone.
+    fn mag(&mut self, m: &Message, name: &str, opts: &ImportOptions, report: &mut ImportReport) -> Result<(), DataFlashError> {
+        let inst = match (name, m.num("I")) {
+            ("MAG", Some(i)) => i as u8,
+            ("MAG", None) => 0,
+            ("MAG2", _) => 1,
+            _ => 2,
+        };
+        if !self.instances.contains(&inst) {
+            self.instances.push(inst);
+        }
+        if inst != opts.mag_instance {
+            return Ok(());
+        }
+        let t = m.need("TimeUS")? * 1e-6;
+        let field = [m.need("MagX")?, m.need("MagY")?, m.need("MagZ")?];
+        let ofs = [m.need("OfsX")?, m.need("OfsY")?, m.need("OfsZ")?];
+        let mo = [m.num("MOX").unwrap_or(0.0), m.num("MOY").unwrap_or(0.0), m.num("MOZ").unwrap_or(0.0)];
+        let mat = compass_matrix(&self.params, inst, &mut report.notes);
+        let corrected = solve3(&mat, [0, 1, 2].map(|k| field[k] - mo[k])).ok_or(DataFlashError::Singular { instance: inst, t_s: t })?;
+        let raw = [0, 1, 2].map(|k| corrected[k] - ofs[k]);
+        if let Some((prev, _)) = self.mag.last() {
+            if t < *prev {
+                return Err(DataFlashError::TimeBackwards { t_s: t, previous_s: *prev });
+            }
+        }
+        self.mag.push((t, raw));
+        Ok(())
+    }
+
+    /// One message of any kind.
+    fn message(&mut self, m: &Message, opts: &ImportOptions, report: &mut ImportReport) -> Result<(), DataFlashError> {
+        match m.format.name.as_str() {
+            "PARM" => {
+                if let (Some(n), Some(v)) = (m.text("Name"), m.num("Value")) {
+                    self.params.insert(n.to_string(), v);
+                }
+            }
+            name @ ("MAG" | "MAG2" | "MAG3") => self.mag(m, name, opts, report)?,
+            "ATT" => self.att.push(m.need("TimeUS")? * 1e-6, vec![m.need("Roll")?, m.need("Pitch")?, m.need("Yaw")?]),
+            "GPS" if m.num("I").unwrap_or(0.0) == 0.0 => {
+                self.gps.push(m.need("TimeUS")? * 1e-6, vec![m.need("Status")?, m.need("Lat")?, m.need("Lng")?, m.need("Spd")?, m.need("GCrs")?])
+            }
+            "BAT" | "CURR" if m.num("Inst").or(m.num("I")).unwrap_or(0.0) == 0.0 => self.bat.push(m.need("TimeUS")? * 1e-6, vec![m.need("Curr")?]),
+            _ => {}
+        }
+        Ok(())
+    }
+}
+
+/// Reads every message of the log (the first bad one stops it).
+fn collect(bytes: &[u8], opts: &ImportOptions, report: &mut ImportReport) -> Result<Collected, DataFlashError> {
+    let mut c = Collected::default();
     let mut first_error: Option<DataFlashError> = None;
     let skipped = read_messages(bytes, |m| {
         if first_error.is_some() {
             return;
         }
         *report.messages.entry(m.format.name.clone()).or_default() += 1;
-        let r = (|| -> Result<(), DataFlashError> {
-            match m.format.name.as_str() {
-                "PARM" => {
-                    if let (Some(n), Some(v)) = (m.text("Name"), m.num("Value")) {
-                        params.insert(n.to_string(), v);
-                    }
-                }
-                name @ ("MAG" | "MAG2" | "MAG3") => {
-                    let inst = match (name, m.num("I")) {
-                        ("MAG", Some(i)) => i as u8,
-                        ("MAG", None) => 0,
-                        ("MAG2", _) => 1,
-                        _ => 2,
-                    };
-                    if !instances.contains(&inst) {
-                        instances.push(inst);
-                    }
-                    if inst != opts.mag_instance {
-                        return Ok(());
-                    }
-                    let t = m.need("TimeUS")? * 1e-6;
-                    let field = [m.need("MagX")?, m.need("MagY")?, m.need("MagZ")?];
-                    let ofs = [m.need("OfsX")?, m.need("OfsY")?, m.need("OfsZ")?];
-                    let mo = [m.num("MOX").unwrap_or(0.0), m.num("MOY").unwrap_or(0.0), m.num("MOZ").unwrap_or(0.0)];
-                    let mat = compass_matrix(&params, inst, &mut report.notes);
-                    let corrected = solve3(&mat, [0, 1, 2].map(|k| field[k] - mo[k])).ok_or(DataFlashError::Singular { instance: inst, t_s: t })?;
-                    let raw = [0, 1, 2].map(|k| corrected[k] - ofs[k]);
-                    if let Some((prev, _)) = mag.last() {
-                        if t < *prev {
-                            return Err(DataFlashError::TimeBackwards { t_s: t, previous_s: *prev });
-                        }
-                    }
-                    mag.push((t, raw));
-                }
-                "ATT" => att.push(m.need("TimeUS")? * 1e-6, vec![m.need("Roll")?, m.need("Pitch")?, m.need("Yaw")?]),
-                "GPS" if m.num("I").unwrap_or(0.0) == 0.0 => gps.push(
-                    m.need("TimeUS")? * 1e-6,
-                    vec![m.need("Status")?, m.need("Lat")?, m.need("Lng")?, m.need("Spd")?, m.need("GCrs")?],
-                ),
-                "BAT" | "CURR" if m.num("Inst").or(m.num("I")).unwrap_or(0.0) == 0.0 => bat.push(m.need("TimeUS")? * 1e-6, vec![m.need("Curr")?]),
-                _ => {}
-            }
-            Ok(())
-        })();
-        if let Err(e) = r {
+        if let Err(e) = c.message(m, opts, report) {
             first_error = Some(e);
         }
     })?;
@@ -482,21 +499,15 @@ pub fn import(bytes: &[u8], opts: &ImportOptions) -> Result<Imported, DataFlashE
         return Err(e);
     }
     report.skipped = skipped;
-    if mag.is_empty() {
-        instances.sort_unstable();
-        return Err(DataFlashError::NoMag { instance: opts.mag_instance, found: instances });
-    }
+    Ok(c)
+}
+
+/// The recording: one row per compass sample, the attitude interpolated to
+/// it, the latest GPS fix and battery current.
+fn rows(c: &Collected, opts: &ImportOptions, report: &mut ImportReport) -> Imported {
+    let (att, gps, bat, mag) = (&c.att, &c.gps, &c.bat, &c.mag);
     let n = mag.len();
-    let mut rec = Recording {
-        t_s: Some(mag.iter().map(|m| m.0).collect()),
-        mag: mag.iter().map(|m| m.1).collect(),
-        roll_deg: Some(vec![f64::NAN; n]),
-        pitch_deg: Some(vec![f64::NAN; n]),
-        ref_heading_deg: Some(vec![f64::NAN; n]),
-        lat_deg: Some(vec![f64::NAN; n]),
-        lon_deg: Some(vec![f64::NAN; n]),
-        ..Recording::default()
-    };
+    let (mut roll, mut pitch, mut course, mut lat, mut lon) = (vec![f64::NAN; n], vec![f64::NAN; n], vec![f64::NAN; n], vec![f64::NAN; n], vec![f64::NAN; n]);
     let (mut yaw, mut speed, mut current) = (vec![f64::NAN; n], vec![f64::NAN; n], vec![f64::NAN; n]);
     for (i, &(t, _)) in mag.iter().enumerate() {
         // Attitude: linear between the ATT samples around t (yaw across ±180°).
@@ -508,20 +519,16 @@ pub fn import(bytes: &[u8], opts: &ImportOptions) -> Result<Imported, DataFlashE
             } else {
                 [att.v[a][0], att.v[a][1], att.v[a][2]]
             };
-            rec.roll_deg.as_mut().unwrap()[i] = v[0];
-            rec.pitch_deg.as_mut().unwrap()[i] = v[1];
-            yaw[i] = v[2];
+            (roll[i], pitch[i], yaw[i]) = (v[0], v[1], v[2]);
             report.rows_with_attitude += 1;
         }
         // GPS: the latest fix (Status ≥ 3: 3D); the course only at speed.
         if let Some(g) = gps.latest(t, opts.max_age_s) {
             let v = &gps.v[g];
             if v[0] >= 3.0 {
-                rec.lat_deg.as_mut().unwrap()[i] = v[1];
-                rec.lon_deg.as_mut().unwrap()[i] = v[2];
-                speed[i] = v[3];
+                (lat[i], lon[i], speed[i]) = (v[1], v[2], v[3]);
                 if v[3] >= opts.min_course_speed_mps {
-                    rec.ref_heading_deg.as_mut().unwrap()[i] = v[4];
+                    course[i] = v[4];
                     report.rows_with_course += 1;
                 }
             }
@@ -532,8 +539,29 @@ pub fn import(bytes: &[u8], opts: &ImportOptions) -> Result<Imported, DataFlashE
         }
     }
     report.rows = n;
-    rec.motor_current_a = Some(current);
-    Ok(Imported { recording: rec, ahrs_yaw_deg: yaw, gps_speed_mps: speed, report })
+    let recording = Recording {
+        t_s: Some(mag.iter().map(|m| m.0).collect()),
+        mag: mag.iter().map(|m| m.1).collect(),
+        roll_deg: Some(roll),
+        pitch_deg: Some(pitch),
+        ref_heading_deg: Some(course),
+        lat_deg: Some(lat),
+        lon_deg: Some(lon),
+        motor_current_a: Some(current),
+        ..Recording::default()
+    };
+    Imported { recording, ahrs_yaw_deg: yaw, gps_speed_mps: speed, report: std::mem::take(report) }
+}
+
+/// Imports a log: one row per `MAG` message of the instance.
+pub fn import(bytes: &[u8], opts: &ImportOptions) -> Result<Imported, DataFlashError> {
+    let mut report = ImportReport::default();
+    let mut c = collect(bytes, opts, &mut report)?;
+    if c.mag.is_empty() {
+        c.instances.sort_unstable();
+        return Err(DataFlashError::NoMag { instance: opts.mag_instance, found: c.instances });
+    }
+    Ok(rows(&c, opts, &mut report))
 }
 
 /// Reads a log file and imports it.

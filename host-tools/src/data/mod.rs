@@ -1,13 +1,18 @@
-//! Data on disk: recordings (CSV), the calibration document (JSON), the
+//! Data on disk: tables (CSV, [`table`]: the one reader and writer),
+//! recordings, the calibration document (JSON), the
 //! typed results inside documents and session summaries, and the merging of
-//! a board log with a navigation log kept on another clock.
+//! a board log ([`board_log`]) with a navigation log ([`nav_log`]) kept on
+//! another clock.
 
 pub mod caldoc;
 pub mod dataflash;
+pub mod board_log;
 pub mod merge;
+pub mod nav_log;
 pub mod pairing;
 pub mod recording;
 pub mod results;
+pub mod table;
 
 pub use caldoc::{CalDoc, CalDocError};
 pub use recording::{Recording, RecordingError};

@@ -95,6 +95,27 @@ pub fn nice_ticks(lo: f64, hi: f64, max_count: usize) -> (Vec<f64>, Vec<f64>, us
     (ticks(step), ticks(step / 5.0), decimals)
 }
 
+/// Ticks at whole numbers over `0..=last` (iteration numbers): every one
+/// when they are few, else every 2, 5, 10, 20, 50, … — the smallest such
+/// step that gives at most `max_count` ticks.
+pub fn integer_ticks(last: u32, max_count: usize) -> Vec<f64> {
+    let max_count = max_count.max(2) as u64;
+    let mut step: u64 = 1;
+    for m in [2, 5, 10].iter().cycle().scan(1u64, |decade, &k| {
+        let s = *decade * k;
+        if k == 10 {
+            *decade *= 10;
+        }
+        Some(s)
+    }) {
+        if u64::from(last) / step < max_count {
+            break;
+        }
+        step = m;
+    }
+    (0..=u64::from(last)).step_by(step as usize).map(|v| v as f64).collect()
+}
+
 fn tick_label(v: f64, decimals: usize) -> String {
     let s = format!("{v:.decimals$}");
     if s.starts_with('-') && s[1..].chars().all(|c| c == '0' || c == '.') { s[1..].to_string() } else { s }
@@ -252,7 +273,8 @@ pub fn error_svg(message: &str) -> String {
 }
 
 /// Histograms of several samples on shared bins, as % of each sample, drawn
-/// as outlined translucent bars. Values outside `range` are left out (their
+/// as translucent fills under step outlines (earlier series wider, so equal
+/// distributions stay distinguishable), with a legend. Values outside `range` are left out (their
 /// count goes in the legend).
 pub fn try_histogram(title: &str, x_label: &str, samples: &[(String, Vec<f64>)], range: (f64, f64), bins: usize) -> Result<String, PlotError> {
     let bins = bins.max(1);
@@ -280,21 +302,68 @@ pub fn try_histogram(title: &str, x_label: &str, samples: &[(String, Vec<f64>)],
     let (ax, ay) = (axis(range.0, range.1, 10, None), axis(0.0, y_max * (1.1 + 0.08 * samples.len() as f64), 6, None));
     svg(title, |root| {
         let mut chart = framed(root, title, (ax, ay), (x_label, "share of samples, %"), true)?;
-        for (i, (label, pct)) in hists.iter().enumerate() {
+        // Every fill first, light enough that overlaps show through; then
+        // every outline on top, the earlier series drawn wider, so that
+        // coinciding outlines (equal distributions) keep both colours: a
+        // core of the later one inside a border of the earlier.
+        for (i, (_, pct)) in hists.iter().enumerate() {
             let c = color(i);
-            let bars = pct.iter().enumerate().filter(|(_, p)| **p > 0.0).flat_map(move |(k, p)| {
+            let bars = pct.iter().enumerate().filter(|(_, p)| **p > 0.0).map(move |(k, p)| {
                 let x0 = range.0 + k as f64 * width;
-                [Rectangle::new([(x0, 0.0), (x0 + width, *p)], c.mix(0.3).filled()), Rectangle::new([(x0, 0.0), (x0 + width, *p)], c.stroke_width(1))]
+                Rectangle::new([(x0, 0.0), (x0 + width, *p)], c.mix(HIST_FILL_ALPHA).filled())
             });
-            chart
-                .draw_series(bars)
-                .map_err(|e| err(title, e))?
-                .label(label.as_str())
-                .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 14, y + 5)], c.mix(0.5).filled()));
+            chart.draw_series(bars).map_err(|e| err(title, e))?;
+        }
+        let n = hists.len();
+        for (i, (label, pct)) in hists.iter().enumerate() {
+            let (c, w) = (color(i), hist_outline_px(i, n));
+            let outlines = histogram_outlines(pct, range.0, width).into_iter().map(move |v| PathElement::new(v, c.stroke_width(w)));
+            chart.draw_series(outlines).map_err(|e| err(title, e))?.label(label.as_str()).legend(move |(x, y)| {
+                EmptyElement::at((x, y)) + Rectangle::new([(0, -5), (14, 5)], c.mix(HIST_FILL_ALPHA * 2.0).filled()) + Rectangle::new([(0, -5), (14, 5)], c.stroke_width(2))
+            });
         }
         legend(&mut chart, title)?;
         Ok(())
     })
+}
+
+/// Opacity of a histogram's fill.
+const HIST_FILL_ALPHA: f64 = 0.15;
+
+/// Outline width of the `i`-th of `n` histograms, px: 2 for the last, 2 more
+/// for each earlier one.
+fn hist_outline_px(i: usize, n: usize) -> u32 {
+    2 + 2 * (n.saturating_sub(i + 1)).min(3) as u32
+}
+
+/// A histogram's outline as step paths, one per run of non-empty bins
+/// (up from the axis, across the bin tops, back down).
+fn histogram_outlines(pct: &[f64], x0: f64, width: f64) -> Vec<Vec<(f64, f64)>> {
+    let mut paths: Vec<Vec<(f64, f64)>> = Vec::new();
+    let mut open = false;
+    for (k, &p) in pct.iter().enumerate() {
+        let (a, b) = (x0 + k as f64 * width, x0 + (k + 1) as f64 * width);
+        if p > 0.0 {
+            if !open {
+                paths.push(vec![(a, 0.0)]);
+                open = true;
+            }
+            if let Some(v) = paths.last_mut() {
+                v.extend([(a, p), (b, p)]);
+            }
+        } else if open {
+            if let Some(v) = paths.last_mut() {
+                v.push((a, 0.0));
+            }
+            open = false;
+        }
+    }
+    if open {
+        if let Some(v) = paths.last_mut() {
+            v.push((x0 + pct.len() as f64 * width, 0.0));
+        }
+    }
+    paths
 }
 
 /// Samples per cell of a heading × tilt grid.
@@ -426,6 +495,19 @@ mod tests {
     }
 
     #[test]
+    fn iteration_ticks_stay_few_and_whole() {
+        // A paper trace of 95 iterations: every 10th (0, 10, …, 90), not 96 labels.
+        assert_eq!(integer_ticks(95, 12), (0..=9).map(|k| f64::from(k) * 10.0).collect::<Vec<_>>());
+        // A joint trace (start and end) or a short one: every iteration.
+        assert_eq!(integer_ticks(1, 12), vec![0.0, 1.0]);
+        assert_eq!(integer_ticks(11, 12).len(), 12);
+        // 12 → 13 ticks would be too many: every 2nd.
+        assert_eq!(integer_ticks(12, 12), vec![0.0, 2.0, 4.0, 6.0, 8.0, 10.0, 12.0]);
+        assert_eq!(integer_ticks(1000, 12).len(), 11, "every 100th");
+        assert_eq!(integer_ticks(0, 12), vec![0.0]);
+    }
+
+    #[test]
     fn coverage_grid_counts_and_finds_gaps() {
         // Two headings only, roll 0…10: 12 × 6 cells of 30° × 10° over ±30°;
         // wanted ±20° → 12 × 4 = 48 cells, 2 filled.
@@ -435,6 +517,24 @@ mod tests {
         assert_eq!(grid.gaps(), 46);
         let svg = try_coverage_map("c", "roll, °", &grid).unwrap();
         assert!(svg.matches("<polyline").count() >= 2 * 46, "two strokes a crossed gap");
+    }
+
+    #[test]
+    fn histogram_outlines_step_over_runs_of_bins() {
+        // Bins of 1 from 0: [2, 3, 0, 1] → two runs.
+        let paths = histogram_outlines(&[2.0, 3.0, 0.0, 1.0], 0.0, 1.0);
+        assert_eq!(paths, vec![vec![(0.0, 0.0), (0.0, 2.0), (1.0, 2.0), (1.0, 3.0), (2.0, 3.0), (2.0, 0.0)], vec![(3.0, 0.0), (3.0, 1.0), (4.0, 1.0), (4.0, 0.0)]]);
+        assert_eq!((hist_outline_px(0, 3), hist_outline_px(1, 3), hist_outline_px(2, 3)), (6, 4, 2));
+    }
+
+    #[test]
+    fn equal_histograms_keep_both_colours() {
+        let v: Vec<f64> = (0..100).map(|i| f64::from(i) / 100.0).collect();
+        let svg = try_histogram("h", "e", &[("a".into(), v.clone()), ("b".into(), v)], (-1.0, 1.0), 10).unwrap();
+        // Each colour outlines the data (plus its legend swatch), the first wider.
+        let outline = |colour: &str, w: u32| svg.lines().filter(|l| l.starts_with("<polyline") && l.contains(&format!("stroke=\"{colour}\"")) && l.contains(&format!("stroke-width=\"{w}\""))).count();
+        assert_eq!(outline("#1F77B4", 4), 1, "{svg}");
+        assert_eq!(outline("#D62728", 2), 1, "{svg}");
     }
 
     #[test]

@@ -1,4 +1,8 @@
 use super::*;
+use crate::compute::card::DeviationCard;
+use crate::data::{CalDoc, Recording};
+use crate::geomag::Site;
+use calib_core::heading::wrap_pi;
 use calib_core::cal::{FieldCal, ModelKind};
 
 /// Level or tilted vehicle in a field 20 000 nT north, 40 000 nT down
@@ -184,5 +188,5 @@ fn inputs_that_lack_a_column_leave_their_section_saying_why() {
     // A truth column of the wrong length is bad input, refused.
     let short = vec![0.0; 99];
     let inputs = ReportInputs { validation: Some(Validation { recording: &val, truth_deg: &short }), ..inputs };
-    assert!(matches!(write_report(dir.path(), &inputs), Err(ReportError::Data(m)) if m.contains("99 rows")));
+    assert!(matches!(write_report(dir.path(), &inputs), Err(ReportError::TruthLength { truth_rows: 99, recording_rows: 100 })));
 }

@@ -3,6 +3,8 @@
 
 use magcal_protocol::FitReport;
 
+pub use crate::procedure::{PITCH_GATE_DEG, ROLL_GATE_DEG};
+
 /// What the swing test has covered.
 #[derive(Debug, Clone, Default)]
 pub struct SwingCoverage {
@@ -13,10 +15,6 @@ pub struct SwingCoverage {
     pub fit: Option<FitReport>,
 }
 
-/// Roll the paper's swing test reaches (±55°); the gate asks for ±40°.
-pub const ROLL_GATE_DEG: f64 = 40.0;
-/// Pitch the swing test reaches (±10°); the gate asks for ±7°.
-pub const PITCH_GATE_DEG: f64 = 7.0;
 const COMPASS: [&str; 12] = ["north", "north-north-east", "east-north-east", "east", "east-south-east", "south-south-east", "south", "south-south-west", "west-south-west", "west", "west-north-west", "north-north-west"];
 
 impl SwingCoverage {
@@ -85,10 +83,10 @@ impl SwingTracker {
     pub fn step<P: std::io::Read + std::io::Write>(
         &mut self,
         i: usize,
-        step: &super::Step,
+        step: &super::vehicle::Step,
         sample: &magcal_protocol::Sample,
         link: &mut crate::board::BoardClient<P>,
-    ) -> Result<String, super::SessionError> {
+    ) -> Result<String, super::error::SessionError> {
         if let Some(raw) = sample.raw {
             let h = self.cal.apply(raw.map(f64::from));
             let psi = calib_core::heading::magnetic_heading_rad(h, step.roll_deg.to_radians(), step.pitch_deg.to_radians()).to_degrees();

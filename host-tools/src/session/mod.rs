@@ -23,7 +23,7 @@
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 
-use magcal_protocol::{Sample, StreamMode};
+use magcal_protocol::{FitReport, Sample, StreamMode};
 
 use crate::board::coefficients::{doc_from_coefficients, to_coefficients};
 use crate::board::{BoardClient, ClientError};
@@ -33,44 +33,19 @@ use crate::data::CalDoc;
 use crate::geomag::Site;
 
 pub mod coverage;
+pub mod error;
 pub mod progress;
 pub mod record;
 pub mod upload;
 pub mod vehicle;
 
+pub use error::SessionError;
 pub use coverage::{SwingCoverage, SwingTracker, PITCH_GATE_DEG, ROLL_GATE_DEG};
 pub use progress::Progress;
-pub use record::{record, Recorded, Resume};
+pub use record::{record, Recorded};
+pub use crate::board::reconnect::Resume;
 pub use upload::upload_verified;
 pub use vehicle::{NavStream, NavVehicle, Phase, Step, Vehicle};
-
-/// Why a session stopped.
-#[derive(Debug, thiserror::Error)]
-pub enum SessionError {
-    /// The link failed.
-    #[error("link: {0}")]
-    Link(#[from] ClientError),
-    /// A computation refused the data.
-    #[error("{0}")]
-    Compute(#[from] ComputeError),
-    /// The board stopped answering a step.
-    #[error("no sample from the board for step {step} within {timeout_ms} ms")]
-    NoSample {
-        /// Step index.
-        step: usize,
-        /// Timeout.
-        timeout_ms: u64,
-    },
-    /// The swing test did not cover enough attitudes.
-    #[error("swing test incomplete: {0}")]
-    Coverage(String),
-    /// Files could not be read or written, or a stream is malformed.
-    #[error("{0}")]
-    Io(String),
-    /// The coefficients could not be verified on the board.
-    #[error("coefficients not verified after {0} attempts")]
-    NotVerified(u32),
-}
 
 /// The site and options of a session.
 #[derive(Debug, Clone)]
@@ -88,10 +63,6 @@ const RECONNECT_ATTEMPTS: u32 = 5;
 /// Upload attempts (each on a fresh connection).
 const UPLOAD_ATTEMPTS: u32 = 3;
 
-fn io_error(e: impl std::fmt::Display) -> SessionError {
-    SessionError::Io(e.to_string())
-}
-
 /// The whole session with `vehicle`, over links opened by `connect`:
 /// swing test, out-and-back run, computation, verified upload and (when the
 /// vehicle has one) a validation run. Writes everything into `cfg.out_dir`
@@ -101,7 +72,7 @@ pub fn run<P: Read + Write>(
     connect: &mut dyn FnMut() -> Result<BoardClient<P>, ClientError>,
     cfg: &SessionConfig,
 ) -> Result<SessionSummary, SessionError> {
-    std::fs::create_dir_all(&cfg.out_dir).map_err(|e| io_error(format!("{}: {e}", cfg.out_dir.display())))?;
+    std::fs::create_dir_all(&cfg.out_dir).map_err(|source| SessionError::File { path: cfg.out_dir.clone(), source })?;
     let field = cfg.site.field().map_err(ComputeError::from)?;
     let mut link = connect()?;
     let id = link.identify()?;
@@ -116,44 +87,14 @@ pub fn run<P: Read + Write>(
     );
     let (board_coefficients, _, _) = link.read_coefficients()?;
     let before = doc_from_coefficients(&board_coefficients);
-    let attitude = vehicle.sends_attitude();
 
-    // 1. Swing test.
-    eprintln!("1/5 swing test: turn the vehicle through every heading, roll ±55°, pitch ±10° (thrusters off)");
-    begin(vehicle, Phase::Swing)?;
-    prepare_board(&mut link, StreamMode::Raw, Some(field.total_nt() as f32))?;
-    let mut tracker = SwingTracker::new(&before);
-    let swing = record_phase(&mut link, vehicle, Phase::Swing, attitude, connect, cfg, |i, step, sample, link| tracker.step(i, step, sample, link))?;
-    let fit = link.fit_stop()?;
-    let guidance = tracker.coverage.guidance();
-    if !guidance.is_empty() {
-        return Err(SessionError::Coverage(guidance.join("; ")));
-    }
-    eprintln!(
-        "  swing test complete: {} heading sectors, on-board fit {} samples, {}% of directions, {:.0} nT RMS",
-        tracker.coverage.sectors_visited(),
-        fit.samples,
-        fit.coverage_pct,
-        fit.residual_rms_nt
-    );
-
-    // 2. Out-and-back run.
+    let (swing, fit) = swing_test(&mut link, vehicle, connect, cfg, field.total_nt(), &before)?;
     eprintln!("2/5 out-and-back run: dolphin profile, GPS at the surface");
     begin(vehicle, Phase::Run)?;
     prepare_board(&mut link, StreamMode::Raw, None)?;
+    let attitude = vehicle.sends_attitude();
     let run = record_phase(&mut link, vehicle, Phase::Run, attitude, connect, cfg, |_, _, _, _| Ok("recording".into()))?;
-
-    // 3. Computation, saved beside the recordings.
-    eprintln!("3/5 computing: axis fit against IGRF, back-stepping, swing fit against the GPS course");
-    // A swing test with a gyro starts with the gyro-aided fit, which needs
-    // no full tumble; without, the paper's axis fit.
-    let first_step = if swing.recording.gyro_rad_s().is_some_and(|g| g.iter().any(|w| w.iter().all(|v| v.is_finite()))) { FirstStep::Gyro } else { FirstStep::Axis };
-    let chain = compute::calibrate(&swing.recording, &run.recording, &cfg.site, &ChainOptions { first_step, ..ChainOptions::default() })?;
-    for (name, doc) in [("cal_step1.json", &chain.step1), ("cal_backstep.json", &chain.backstepped), ("cal_final.json", &chain.final_doc)] {
-        doc.save(&cfg.out_dir.join(name)).map_err(io_error)?;
-    }
-    let (b0, b1) = (&chain.backstep.before, &chain.backstep.after);
-    eprintln!("  turnaround step {:.1} → {:.1} nT; |F| − IGRF {:.1} → {:.1} nT RMS", b0.step_nt, b1.step_nt, b0.f_error_rms_nt, b1.f_error_rms_nt);
+    let chain = compute_chain(&swing, &run, cfg)?;
 
     // 4. Verified upload on fresh connections.
     eprintln!("4/5 uploading: unlock, stage, commit, read back");
@@ -161,52 +102,11 @@ pub fn run<P: Read + Write>(
     let seq = upload_verified(&mut *connect, &to_coefficients(&chain.final_doc), UPLOAD_ATTEMPTS)?;
     eprintln!("  coefficients #{seq} stored and verified");
 
-    // 5. Validation with the board's own output.
-    let validation = if vehicle.begin(Phase::Validation)? {
-        eprintln!("5/5 validation run on other courses, headings from the board");
-        let mut link = connect()?;
-        prepare_board(&mut link, StreamMode::Both, None)?;
-        let val = record_phase(&mut link, vehicle, Phase::Validation, true, connect, cfg, |_, _, _, _| Ok("recording".into()))?;
-        link.set_stream(StreamMode::Off)?;
-        let metrics = validation_metrics(&val, &before, &cfg.site);
-        Some((val, metrics))
-    } else {
-        eprintln!("5/5 no validation run: the vehicle does not know its true heading");
-        None
-    };
-
-    let settings = SessionSettings {
-        lat_deg: cfg.site.lat_deg,
-        lon_deg: cfg.site.lon_deg,
-        decimal_year: cfg.site.decimal_year,
-        vehicle: vehicle.describe(),
-        firmware: id.firmware_version.to_string(),
-        reproduce: vec![
-            "magcal fit --input swing.csv --model axis --lat LAT --lon LON --date YEAR --out cal_step1.json".into(),
-            "magcal backstep --input run.csv --cal cal_step1.json --swing-input swing.csv --lat LAT --lon LON --date YEAR --out cal_backstep.json".into(),
-            "magcal swing --input run.csv --cal cal_backstep.json --estimate-delay --out cal_final.json".into(),
-        ],
-    };
+    let validation = validation_run(vehicle, connect, cfg, &before)?;
+    let settings = session_settings(vehicle, cfg, &id.firmware_version);
     save_json(&cfg.out_dir, "settings.json", &settings)?;
-    let validation_summary = validation.as_ref().map(|(_, m)| *m).filter(|v| v.validation_samples > 0);
-    // The chain's prediction: the fit's covariance and the run's white
-    // heading noise together, the same number the bench holds to 0.5–2×.
-    let predicted_heading_rms_deg = chain.predicted_heading_rms_deg;
-    let heading_rms_observed_over_predicted = match (validation_summary, predicted_heading_rms_deg) {
-        (Some(v), Some(p)) if p > 0.0 && v.heading_rms_deg_after.is_finite() => Some(v.heading_rms_deg_after / p),
-        _ => None,
-    };
-    let summary = SessionSummary {
-        validation: validation_summary,
-        coefficients_verified: true,
-        coefficient_seq: seq,
-        onboard_fit: OnboardFitSummary { samples: fit.samples, coverage_pct: fit.coverage_pct, residual_rms_nt: fit.residual_rms_nt },
-        backstep: chain.backstepped.quality.backstep.clone().ok_or_else(|| io_error("the back-stepping left no report"))?,
-        swing: chain.final_doc.quality.swing.clone().ok_or_else(|| io_error("the swing fit left no report"))?,
-        predicted_heading_rms_deg,
-        heading_rms_observed_over_predicted,
-        session_dir: cfg.out_dir.clone(),
-    };
+    let onboard_fit = OnboardFitSummary { samples: fit.samples, coverage_pct: fit.coverage_pct, residual_rms_nt: fit.residual_rms_nt };
+    let summary = session_summary(&chain, validation.as_ref().map(|(_, m)| *m), seq, onboard_fit, cfg)?;
     save_json(&cfg.out_dir, "summary.json", &summary)?;
     // The report comes after the summary: a report that cannot be drawn is
     // said, and does not undo a verified session.
@@ -216,11 +116,119 @@ pub fn run<P: Read + Write>(
     Ok(summary)
 }
 
+/// Step 1, the swing test, with the on-board fit of the paper's axis model and
+/// the coverage guidance; refused when the coverage is incomplete.
+fn swing_test<P: Read + Write>(
+    link: &mut BoardClient<P>,
+    vehicle: &mut dyn Vehicle,
+    connect: &mut dyn FnMut() -> Result<BoardClient<P>, ClientError>,
+    cfg: &SessionConfig,
+    field_nt: f64,
+    before: &CalDoc,
+) -> Result<(Recorded, FitReport), SessionError> {
+    eprintln!("1/5 swing test: turn the vehicle through every heading, roll ±55°, pitch ±10° (thrusters off)");
+    begin(vehicle, Phase::Swing)?;
+    prepare_board(link, StreamMode::Raw, Some(field_nt as f32))?;
+    let mut tracker = SwingTracker::new(before);
+    let attitude = vehicle.sends_attitude();
+    let swing = record_phase(link, vehicle, Phase::Swing, attitude, connect, cfg, |i, step, sample, link| tracker.step(i, step, sample, link))?;
+    let fit = link.fit_stop()?;
+    let guidance = tracker.coverage.guidance();
+    if !guidance.is_empty() {
+        return Err(SessionError::Coverage(guidance));
+    }
+    eprintln!(
+        "  swing test complete: {} heading sectors, on-board fit {} samples, {}% of directions, {:.0} nT RMS",
+        tracker.coverage.sectors_visited(),
+        fit.samples,
+        fit.coverage_pct,
+        fit.residual_rms_nt
+    );
+    Ok((swing, fit))
+}
+
+/// Step 3, the calibration chain on the swing test and the run, its documents
+/// saved beside the recordings.
+fn compute_chain(swing: &Recorded, run: &Recorded, cfg: &SessionConfig) -> Result<Chain, SessionError> {
+    eprintln!("3/5 computing: axis fit against IGRF, back-stepping, swing fit against the GPS course");
+    // A swing test with a gyro starts with the gyro-aided fit, which needs
+    // no full tumble; without, the paper's axis fit.
+    let first_step = if swing.recording.gyro_rad_s().is_some_and(|g| g.iter().any(|w| w.iter().all(|v| v.is_finite()))) { FirstStep::Gyro } else { FirstStep::Axis };
+    let chain = compute::calibrate(&swing.recording, &run.recording, &cfg.site, &ChainOptions { first_step, ..ChainOptions::default() })?;
+    for (name, doc) in [("cal_step1.json", &chain.step1), ("cal_backstep.json", &chain.backstepped), ("cal_final.json", &chain.final_doc)] {
+        doc.save(&cfg.out_dir.join(name))?;
+    }
+    let (b0, b1) = (&chain.backstep.before, &chain.backstep.after);
+    eprintln!("  turnaround step {:.1} → {:.1} nT; |F| − IGRF {:.1} → {:.1} nT RMS", b0.step_nt, b1.step_nt, b0.f_error_rms_nt, b1.f_error_rms_nt);
+    Ok(chain)
+}
+
+/// Step 5, the validation run with the board's own output, when the vehicle
+/// knows its true heading.
+fn validation_run<P: Read + Write>(
+    vehicle: &mut dyn Vehicle,
+    connect: &mut dyn FnMut() -> Result<BoardClient<P>, ClientError>,
+    cfg: &SessionConfig,
+    before: &CalDoc,
+) -> Result<Option<(Recorded, ValidationMetrics)>, SessionError> {
+    if !vehicle.begin(Phase::Validation)? {
+        eprintln!("5/5 no validation run: the vehicle does not know its true heading");
+        return Ok(None);
+    }
+    eprintln!("5/5 validation run on other courses, headings from the board");
+    let mut link = connect()?;
+    prepare_board(&mut link, StreamMode::Both, None)?;
+    let val = record_phase(&mut link, vehicle, Phase::Validation, true, connect, cfg, |_, _, _, _| Ok("recording".into()))?;
+    link.set_stream(StreamMode::Off)?;
+    let metrics = validation_metrics(&val, before, &cfg.site);
+    Ok(Some((val, metrics)))
+}
+
+/// The session's settings, with the commands that reproduce its numbers.
+fn session_settings(vehicle: &dyn Vehicle, cfg: &SessionConfig, firmware: &str) -> SessionSettings {
+    SessionSettings {
+        lat_deg: cfg.site.lat_deg,
+        lon_deg: cfg.site.lon_deg,
+        decimal_year: cfg.site.decimal_year,
+        vehicle: vehicle.describe(),
+        firmware: firmware.to_string(),
+        reproduce: vec![
+            "magcal fit --input swing.csv --model axis --lat LAT --lon LON --date YEAR --out cal_step1.json".into(),
+            "magcal backstep --input run.csv --cal cal_step1.json --swing-input swing.csv --lat LAT --lon LON --date YEAR --out cal_backstep.json".into(),
+            "magcal swing --input run.csv --cal cal_backstep.json --estimate-delay --out cal_final.json".into(),
+        ],
+    }
+}
+
+/// The session's summary: the chain's reports, the upload, the validation
+/// and how its heading error compares with the prediction.
+fn session_summary(chain: &Chain, validation: Option<ValidationMetrics>, seq: u32, onboard_fit: OnboardFitSummary, cfg: &SessionConfig) -> Result<SessionSummary, SessionError> {
+    let validation = validation.filter(|v| v.validation_samples > 0);
+    // The chain's prediction: the fit's covariance and the run's white
+    // heading noise together, the same number the bench holds to 0.5–2×.
+    let predicted_heading_rms_deg = chain.predicted_heading_rms_deg;
+    let heading_rms_observed_over_predicted = match (validation, predicted_heading_rms_deg) {
+        (Some(v), Some(p)) if p > 0.0 && v.heading_rms_deg_after.is_finite() => Some(v.heading_rms_deg_after / p),
+        _ => None,
+    };
+    Ok(SessionSummary {
+        validation,
+        coefficients_verified: true,
+        coefficient_seq: seq,
+        onboard_fit,
+        backstep: chain.backstepped.quality.backstep.clone().ok_or(SessionError::NoReport("back-stepping"))?,
+        swing: chain.final_doc.quality.swing.clone().ok_or(SessionError::NoReport("swing fit"))?,
+        predicted_heading_rms_deg,
+        heading_rms_observed_over_predicted,
+        session_dir: cfg.out_dir.clone(),
+    })
+}
+
 fn begin(vehicle: &mut dyn Vehicle, phase: Phase) -> Result<(), SessionError> {
     if vehicle.begin(phase)? {
         Ok(())
     } else {
-        Err(SessionError::Io(format!("the vehicle has no {} manoeuvre", phase.label())))
+        Err(SessionError::NoManoeuvre(phase.label()))
     }
 }
 
@@ -247,7 +255,7 @@ fn record_phase<P: Read + Write>(
     })?;
     progress.finish();
     let path = cfg.out_dir.join(format!("{label}.csv"));
-    recorded.recording.write(&path).map_err(io_error)?;
+    recorded.recording.write(&path)?;
     Ok(recorded)
 }
 
@@ -310,7 +318,7 @@ fn write_report(chain: &Chain, swing: &Recorded, run: &Recorded, validation: Opt
     // calibration; `magcal report --session` then leaves it out).
     save_json(&cfg.out_dir, "cal_before.json", before)?;
     if let Some(v) = validation {
-        v.recording.write_with_extra(&cfg.out_dir.join("validation_truth.csv"), &[("true_heading_deg", &v.true_heading_deg)]).map_err(io_error)?;
+        v.recording.write_with_extra(&cfg.out_dir.join("validation_truth.csv"), &[("true_heading_deg", &v.true_heading_deg)])?;
     }
     let cals: Vec<(String, &CalDoc)> = vec![("step 1 (swing-test fit)".into(), &chain.step1), ("back-stepped".into(), &chain.backstepped), ("final".into(), &chain.final_doc)];
     let inputs = crate::report::ReportInputs {
@@ -324,14 +332,14 @@ fn write_report(chain: &Chain, swing: &Recorded, run: &Recorded, validation: Opt
         summary: Some(summary),
         settings: Some(settings),
     };
-    crate::report::write_report(&cfg.out_dir.join("report"), &inputs).map_err(io_error)
+    Ok(crate::report::write_report(&cfg.out_dir.join("report"), &inputs)?)
 }
 
 /// Writes a JSON file in the session directory.
 fn save_json<T: serde::Serialize>(dir: &Path, name: &str, value: &T) -> Result<PathBuf, SessionError> {
     let p = dir.join(name);
-    let text = serde_json::to_string_pretty(value).map_err(io_error)?;
-    std::fs::write(&p, text).map_err(|e| SessionError::Io(format!("{}: {e}", p.display())))?;
+    let text = serde_json::to_string_pretty(value)?;
+    std::fs::write(&p, text).map_err(|source| SessionError::File { path: p.clone(), source })?;
     Ok(p)
 }
 

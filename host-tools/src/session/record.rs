@@ -6,10 +6,11 @@
 use std::io::{Read, Write};
 use std::time::{Duration, Instant};
 
-use magcal_protocol::{Sample, StreamMode};
+use magcal_protocol::Sample;
 
 use super::vehicle::{Step, Vehicle};
-use super::SessionError;
+use super::error::SessionError;
+use crate::board::reconnect::{reconnect_at, Resume};
 use crate::board::{BoardClient, ClientError};
 use crate::data::pairing::{ClockMap, TimePairer};
 use crate::data::Recording;
@@ -28,16 +29,6 @@ pub struct Recorded {
     pub true_field_nt: Vec<f64>,
     /// Steps lost to link drops.
     pub lost_steps: usize,
-}
-
-/// How to get the link back when it drops mid-recording.
-pub struct Resume<'a, P> {
-    /// Opens the link again.
-    pub connect: &'a mut dyn FnMut() -> Result<BoardClient<P>, ClientError>,
-    /// What the board streams (set again after reconnecting).
-    pub stream: StreamMode,
-    /// Attempts per drop.
-    pub attempts: u32,
 }
 
 /// How long the board has to deliver a step's sample.
@@ -228,22 +219,5 @@ fn take_by_time<P: Read + Write>(link: &mut BoardClient<P>, step: &Step, deadlin
 
 /// Opens the link again and restarts the stream at 100 Hz.
 fn reconnect<P: Read + Write>(r: &mut Resume<'_, P>) -> Result<BoardClient<P>, SessionError> {
-    reconnect_at(r, 100)
-}
-
-/// Opens the link again (up to `r.attempts` times, 200 ms apart) and
-/// restarts the stream at `rate_hz` (also `magcal log`'s reconnect).
-pub(crate) fn reconnect_at<P: Read + Write>(r: &mut Resume<'_, P>, rate_hz: u8) -> Result<BoardClient<P>, SessionError> {
-    let mut last = None;
-    for _ in 0..r.attempts.max(1) {
-        match (r.connect)() {
-            Ok(mut l) => match l.set_stream(r.stream).and_then(|()| l.set_output_rate(rate_hz)) {
-                Ok(()) => return Ok(l),
-                Err(e) => last = Some(e),
-            },
-            Err(e) => last = Some(e),
-        }
-        std::thread::sleep(Duration::from_millis(200));
-    }
-    Err(last.map_or(SessionError::NotVerified(r.attempts), SessionError::Link))
+    Ok(reconnect_at(r, 100)?)
 }

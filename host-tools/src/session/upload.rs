@@ -5,7 +5,7 @@ use std::io::{Read, Write};
 
 use magcal_protocol::Coefficients;
 
-use super::SessionError;
+use super::error::SessionError;
 use crate::board::{BoardClient, ClientError};
 
 /// Uploads and verifies, reconnecting and resuming when the link fails.

@@ -6,8 +6,9 @@
 
 use std::io::BufRead;
 
-use super::SessionError;
+use super::error::SessionError;
 use crate::board::ClientError;
+use crate::data::table::{col, StreamColumns};
 
 /// A manoeuvre of the session.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -94,13 +95,27 @@ pub trait Vehicle {
 
 /// Navigation columns a stream may carry (`t`, `roll_deg`, `pitch_deg`
 /// required).
-const NAV_COLUMNS: [&str; 13] = ["t", "roll_deg", "pitch_deg", "ref_heading_deg", "lat_deg", "lon_deg", "true_heading_deg", "gx", "gy", "gz", "motor_current_a", "speed_mps", "true_field_nt"];
+const NAV_COLUMNS: [&str; 13] = [
+    col::T,
+    col::ROLL_DEG,
+    col::PITCH_DEG,
+    col::REF_HEADING_DEG,
+    col::LAT_DEG,
+    col::LON_DEG,
+    col::TRUE_HEADING_DEG,
+    col::GYRO[0],
+    col::GYRO[1],
+    col::GYRO[2],
+    col::MOTOR_CURRENT_A,
+    col::SPEED_MPS,
+    col::TRUE_FIELD_NT,
+];
 
 /// One navigation stream: CSV lines in the INTERFACES.md columns from a
 /// file, a FIFO or stdin, one line per step.
 pub struct NavStream<R> {
     lines: std::io::Lines<R>,
-    columns: [Option<usize>; 13],
+    columns: StreamColumns,
     line_no: usize,
 }
 
@@ -112,13 +127,7 @@ impl<R: BufRead> NavStream<R> {
             .next()
             .ok_or_else(|| SessionError::Io("navigation stream: empty (expected a header)".into()))?
             .map_err(|e| SessionError::Io(format!("navigation stream: {e}")))?;
-        let names: Vec<String> = header.split(',').map(|h| h.trim().to_ascii_lowercase()).collect();
-        let columns = NAV_COLUMNS.map(|n| names.iter().position(|h| h == n));
-        for (k, name) in NAV_COLUMNS.iter().enumerate().take(3) {
-            if columns[k].is_none() {
-                return Err(SessionError::Io(format!("navigation stream: missing column `{name}` (the header has: {header})")));
-            }
-        }
+        let columns = StreamColumns::new(&header, &NAV_COLUMNS, 3).map_err(|e| SessionError::Io(format!("navigation stream: {e}")))?;
         Ok(Self { lines, columns, line_no: 1 })
     }
 
@@ -131,10 +140,7 @@ impl<R: BufRead> NavStream<R> {
             if line.trim().is_empty() {
                 continue;
             }
-            let cells: Vec<&str> = line.split(',').collect();
-            let cell = |k: usize| self.columns[k].and_then(|i| cells.get(i)).map_or(Some(f64::NAN), |c| crate::data::recording::parse_cell(c));
-            let values: Option<Vec<f64>> = (0..NAV_COLUMNS.len()).map(cell).collect();
-            match values {
+            match self.columns.values(&line) {
                 Some(v) if v[0].is_finite() => {
                     return Ok(Some(Step {
                         t_s: v[0],

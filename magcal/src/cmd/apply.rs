@@ -6,9 +6,11 @@
 use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
-use host_tools::compute::apply::{apply_recording, summarize, write_applied, ApplyOptions};
+use host_tools::compute::apply::{apply_recording, summarize, write_applied, ApplyError, ApplyOptions};
 use host_tools::compute::card::read_reference_column;
 use host_tools::data::{CalDoc, Recording};
+
+use super::hinted;
 
 /// Arguments of `magcal apply`.
 #[derive(clap::Args)]
@@ -55,7 +57,7 @@ pub fn run(a: Args) -> Result<()> {
     let rec = Recording::read(&a.input)?;
     let opts = ApplyOptions { inclination_deg: a.inclination_deg, field_sigma_nt: a.field_sigma_nt, tuning: None };
     let applied = apply_recording(&rec, &doc, &opts).with_context(|| format!("{}", a.input.display()))?;
-    write_applied(&a.out, &a.input, rec.t_s.as_deref(), &applied)?;
+    write_applied(&a.out, &a.input, rec.t_s.as_deref(), &applied).map_err(|e| hinted(e, |e| matches!(e, ApplyError::OverwritesInput(_)).then_some("give --out another file")))?;
     eprintln!("wrote {}", a.out.display());
     let truth = read_reference_column(&a.input, "truth_heading_deg")?;
     let reference = match (&truth, &rec.ref_heading_deg) {

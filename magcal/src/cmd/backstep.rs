@@ -7,7 +7,8 @@ use clap::ValueEnum;
 use host_tools::compute::{self, BackstepMethod, BackstepOptions, RunReference, SwingMagnitudes};
 use host_tools::data::{CalDoc, Recording};
 
-use super::{check_field_nt, check_out, check_positions, emit, SiteArgs};
+use super::{check_field_nt, check_out, check_positions, emit, hinted, SiteArgs};
+use host_tools::compute::ComputeError;
 
 /// The solver, as the command line names it.
 #[derive(Clone, Copy, ValueEnum)]
@@ -90,7 +91,7 @@ pub fn run(a: Args) -> Result<()> {
     if let Some(p) = &a.thrust_input {
         opts.thrust_test = Some(Recording::read(p)?);
     }
-    let (out_doc, report) = compute::backstep_recording(&rec, &doc, &opts).with_context(|| format!("{}: back-stepping", a.input.display()))?;
+    let (out_doc, report) = compute::backstep_recording(&rec, &doc, &opts).map_err(|e| hinted(e, backstep_hint)).with_context(|| format!("{}: back-stepping", a.input.display()))?;
     if !a.json {
         for e in out_doc.trace.iter().flatten() {
             eprintln!(
@@ -119,6 +120,15 @@ pub fn run(a: Args) -> Result<()> {
         report.after.f_error_rms_nt
     );
     emit(&out_doc, &a.input, a.out.as_ref(), a.json, &summary)
+}
+
+/// What to change on this command line when the back-stepping refuses.
+fn backstep_hint(e: &ComputeError) -> Option<&'static str> {
+    match e {
+        ComputeError::NoTurnaround => Some("give it with --turnaround-s"),
+        ComputeError::PaperNeedsAxis { .. } => Some("fit with --model axis first"),
+        _ => None,
+    }
 }
 
 /// Prints the joint solver's estimates with their 1σ on stderr; without a

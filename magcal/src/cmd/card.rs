@@ -8,6 +8,8 @@ use anyhow::{bail, Context, Result};
 use host_tools::compute::card::{deviation_card, read_reference_column, CardError};
 use host_tools::data::{CalDoc, Recording};
 
+use super::hinted;
+
 /// Arguments of `magcal card`.
 #[derive(clap::Args)]
 pub struct Args {
@@ -49,7 +51,7 @@ pub fn run(a: Args) -> Result<()> {
         }
         rec.ref_heading_deg = Some(column);
     }
-    let card = deviation_card(&rec, &doc, a.step_deg, a.points).with_context(|| format!("{}: deviation card", a.input.display()))?;
+    let card = deviation_card(&rec, &doc, a.step_deg, a.points).map_err(|e| hinted(e, |e| matches!(e, CardError::BadStep(_)).then_some("give another --step-deg"))).with_context(|| format!("{}: deviation card", a.input.display()))?;
     if let Some(path) = &a.csv {
         card.write_csv(path)?;
         eprintln!("wrote {}", path.display());

@@ -5,7 +5,9 @@ use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
 use host_tools::data::CalDoc;
-use host_tools::export::{export, ExportOptions, Stack};
+use host_tools::export::{export, ExportError, ExportOptions, Stack};
+
+use super::hinted;
 
 /// The target stack as `--format` spells it.
 #[derive(clap::ValueEnum, Clone, Copy)]
@@ -78,7 +80,7 @@ pub fn run(a: Args) -> Result<()> {
         None => a.raw_nt_per_unit,
     };
     let opts = ExportOptions { stack, raw_nt_per_unit, max_rotation_deg: a.max_rotation_deg };
-    let ex = export(&doc, &opts).with_context(|| format!("{}: export to {}", a.cal.display(), stack.name()))?;
+    let ex = export(&doc, &opts).map_err(|e| hinted(e, export_hint)).with_context(|| format!("{}: export to {}", a.cal.display(), stack.name()))?;
     if ex.raw_unit_inferred {
         eprintln!("note: raw units taken as {} nT per unit from the matrix's gain (give --raw-unit to set them)", ex.raw_nt_per_unit);
     }
@@ -94,4 +96,14 @@ pub fn run(a: Args) -> Result<()> {
         println!("{} parameters for {} in {}; {} warning(s)", ex.params.len(), stack.name(), a.out.display(), ex.warnings.len());
     }
     Ok(())
+}
+
+/// What to change on this command line when the export refuses.
+fn export_hint(e: &ExportError) -> Option<&'static str> {
+    match e {
+        ExportError::UnknownUnits { .. } => Some("give them with --raw-unit or --raw-nt-per-unit"),
+        ExportError::Rotation { .. } => Some("raise --max-rotation-deg to export the symmetric part anyway"),
+        ExportError::Gain { .. } => Some("check --raw-unit"),
+        _ => None,
+    }
 }

@@ -4,11 +4,12 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use calib_core::cal::ModelKind;
-use host_tools::compute::{self, FitOptions};
+use host_tools::compute::{self, FitOptions, GyroLag};
 use host_tools::data::caldoc::model_kind;
 use host_tools::data::Recording;
 
-use super::{check_out, check_positions, emit, reference_field, warn_all, SiteArgs};
+use super::{check_out, check_positions, emit, hinted, reference_field, warn_all, SiteArgs};
+use host_tools::compute::{ComputeError, GyroError};
 
 /// `--model`: calib-core's `ModelKind` by its document name.
 fn model_parser() -> impl clap::builder::TypedValueParser<Value = ModelKind> {
@@ -70,8 +71,8 @@ pub fn run(a: Args) -> Result<()> {
         check_positions(&rec, &a.input, lat, lon)?;
     }
     let model = a.model;
-    let opts = FitOptions { model, field_nt: reference.total_nt(), saturation: a.saturation, allow_weak: a.allow_weak, gyro_lag_s: if a.estimate_gyro_lag { f64::NAN } else { a.gyro_lag_s } };
-    let mut doc = compute::fit_recording(&rec, &opts).with_context(|| format!("{}: {} fit", a.input.display(), model.name()))?;
+    let opts = FitOptions { model, field_nt: reference.total_nt(), saturation: a.saturation, allow_weak: a.allow_weak, gyro_lag: if a.estimate_gyro_lag { GyroLag::Estimate } else { GyroLag::Given(a.gyro_lag_s) } };
+    let mut doc = compute::fit_recording(&rec, &opts).map_err(|e| hinted(e, fit_hint)).with_context(|| format!("{}: {} fit", a.input.display(), model.name()))?;
     if a.site.lat.is_some() {
         doc.declination_deg = Some(reference.declination_deg());
     }
@@ -90,6 +91,15 @@ pub fn run(a: Args) -> Result<()> {
         None => format!("{} fit: bias {:?}", doc.model.name(), doc.bias),
     };
     emit(&doc, &a.input, a.out.as_ref(), a.json, &summary)
+}
+
+/// What to change on this command line when the fit refuses.
+fn fit_hint(e: &ComputeError) -> Option<&'static str> {
+    match e {
+        ComputeError::NoReference => Some("give the reference field intensity with --field-nt (nT) or --lat/--lon/--date"),
+        ComputeError::Gyro(GyroError::LagOutOfRange { .. }) => Some("give --gyro-lag-s within ±1 s"),
+        _ => None,
+    }
 }
 
 /// Says what the recording's current and temperature columns span: the

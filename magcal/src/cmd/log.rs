@@ -7,9 +7,11 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use anyhow::{bail, Result};
-use host_tools::board::log::{create_log_file, log_board, LogEnd, LogOptions, LogSummary};
+use host_tools::board::log::{create_log_file, log_board, LogEnd, LogError, LogOptions, LogSummary};
 use host_tools::board::BoardClient;
 use host_tools::session::Progress;
+
+use super::hinted;
 
 /// Arguments of `magcal log`.
 #[derive(clap::Args)]
@@ -60,7 +62,7 @@ pub fn run(a: Args) -> Result<()> {
     if !(1..=100).contains(&a.rate_hz) {
         bail!("--rate-hz must be 1 to 100, not {}", a.rate_hz);
     }
-    let file = create_log_file(&a.out, a.force)?;
+    let file = create_log_file(&a.out, a.force).map_err(|e| hinted(e, |e| matches!(e, LogError::Exists(_)).then_some("give another --out, or --force to overwrite it")))?;
     let opts = LogOptions { duration, rate_hz: a.rate_hz, interactive: std::io::stderr().is_terminal(), ..LogOptions::default() };
     catch_interrupts();
     let total = duration.map_or(0, |d| (d.as_secs_f64() * f64::from(a.rate_hz)) as usize);

@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 use host_tools::data::merge::{merge_files, Clock};
 
 /// Arguments of `magcal merge`.
@@ -36,8 +36,22 @@ pub struct Args {
     json: bool,
 }
 
+/// Whether `out` names the same file as `input` (an existing `out` only:
+/// a file that does not exist yet is no input).
+fn same_file(out: &std::path::Path, input: &std::path::Path) -> bool {
+    match (std::fs::canonicalize(out), std::fs::canonicalize(input)) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => false,
+    }
+}
+
 /// Runs `magcal merge`.
 pub fn run(a: Args) -> Result<()> {
+    for (what, input) in [("--board", &a.board), ("--nav", &a.nav)] {
+        if same_file(&a.out, input) {
+            bail!("--out {} is the {what} log: the merged recording would overwrite it; give another --out", a.out.display());
+        }
+    }
     let clock = match a.offset_s {
         Some(offset_s) => Clock::Given { offset_s, drift_ppm: a.drift_ppm },
         None => Clock::Estimate { center_s: a.approx_offset_s, max_offset_s: a.max_offset_s },

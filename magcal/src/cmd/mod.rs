@@ -215,3 +215,34 @@ pub fn warn_all(doc: &CalDoc) {
         eprintln!("warning: {w}");
     }
 }
+
+/// A library error with the command line's fix appended, in the command's
+/// own flags (the library's messages name none). Printed as
+/// `<error>: <hint>`; the error stays its source.
+#[derive(Debug)]
+pub struct Hinted<E> {
+    /// What the library said.
+    pub error: E,
+    /// What to change on the command line.
+    pub hint: &'static str,
+}
+
+impl<E: std::fmt::Display> std::fmt::Display for Hinted<E> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}: {}", self.error, self.hint)
+    }
+}
+
+impl<E: std::error::Error + 'static> std::error::Error for Hinted<E> {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        Some(&self.error)
+    }
+}
+
+/// `e` with the hint `hint_for` gives for it (none: `e` as it is).
+pub fn hinted<E: std::error::Error + Send + Sync + 'static>(e: E, hint_for: impl FnOnce(&E) -> Option<&'static str>) -> anyhow::Error {
+    match hint_for(&e) {
+        Some(hint) => Hinted { error: e, hint }.into(),
+        None => e.into(),
+    }
+}

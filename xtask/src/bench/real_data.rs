@@ -155,7 +155,7 @@ pub fn real_data(root: &Path) -> (serde_json::Value, String) {
     for d in &sets {
         let (_, floor) = (d.judge)(&d.floor);
         for model in MODELS {
-            let opts = FitOptions { model, field_nt: d.field_nt, saturation: None, allow_weak: false, gyro_lag_s: 0.0 };
+            let opts = FitOptions { model, field_nt: d.field_nt, saturation: None, allow_weak: false, gyro_lag: host_tools::compute::GyroLag::Given(0.0) };
             let (verdict, result, predicted) = match fit_recording(&d.calib, &opts) {
                 Ok(doc) => ("accepted".to_string(), (d.judge)(&doc.field_cal()).1, doc.quality.predicted_heading_rms_deg.map_or("—".into(), |p| format!("{p:.2}°"))),
                 Err(e) => (format!("refused: {e}"), "—".to_string(), "—".to_string()),

@@ -1,0 +1,126 @@
+//! Why a computation on a recording failed: one typed error for the
+//! compute module, carrying the numbers behind each refusal. The messages
+//! say what is wrong with the data; the command line adds which of its
+//! options would fix it (the library knows no flags).
+
+use calib_core::backstep::BackstepError;
+use calib_core::fit::FitError;
+use calib_core::ortho::OrthoError;
+use calib_core::swing::SwingError;
+
+/// Why a computation on a recording failed.
+#[derive(Debug, thiserror::Error)]
+pub enum ComputeError {
+    /// The recording has no complete magnetometer rows.
+    #[error("no row has all of mx, my, mz")]
+    NoSamples,
+    /// A column the command needs is absent.
+    #[error("the recording has no `{0}` column, which this command needs")]
+    NeedsColumn(&'static str),
+    /// The field fit refused the data.
+    #[error("{0}")]
+    Fit(FitError),
+    /// The swing fit refused the data.
+    #[error("{0}")]
+    Swing(SwingError),
+    /// The non-orthogonality identification refused the data.
+    #[error("{0}")]
+    Ortho(OrthoError),
+    /// The reference intensity is missing or not positive.
+    #[error("no reference field intensity (it must be a positive number of nT)")]
+    NoReference,
+    /// The recording's magnitudes cannot be in the units the calibration says.
+    #[error(
+        "through this calibration the recording's field is {through_cal_nt:.0} nT, not the calibration's {cal_field_nt:.0} nT: the recording and the calibration are in different units (the raw magnitudes, ≈ {raw_magnitude:.4}, look like {raw_units_guess})"
+    )]
+    Units {
+        /// The recording's median magnitude through the calibration, nT.
+        through_cal_nt: f64,
+        /// The calibration's reference field, nT.
+        cal_field_nt: f64,
+        /// The recording's median raw magnitude, raw units.
+        raw_magnitude: f64,
+        /// What units those raw magnitudes look like.
+        raw_units_guess: String,
+    },
+    /// No turnaround was found in the run (and none was given).
+    #[error("no turnaround found (no 180° change of heading)")]
+    NoTurnaround,
+    /// The paper's back-stepping was asked of a calibration that is not the axis model.
+    #[error("the paper's back-stepping corrects the axis model, and this calibration ({model}) is not one")]
+    PaperNeedsAxis {
+        /// The calibration's model.
+        model: &'static str,
+    },
+    /// The thrust test has no motor current.
+    #[error("the thrust test has no motor_current_a: it cannot show the thrusters' field")]
+    ThrustTestNoCurrent,
+    /// The back-stepping could not run.
+    #[error("{0}")]
+    Backstep(BackstepError),
+    /// The gyro-aided fit cannot use the recording.
+    #[error(transparent)]
+    Gyro(#[from] GyroError),
+    /// Too little of the sphere of field directions for the model; `advice`
+    /// names the models the recording's columns allow.
+    #[error("only {covered_pct}% of field directions were visited: too little of the sphere for this model (a vehicle that cannot tumble: {advice})")]
+    Coverage {
+        /// Percent of the direction bins visited.
+        covered_pct: u8,
+        /// What to do with this recording.
+        advice: String,
+    },
+    /// The attitude-aided fit cannot use the recording.
+    #[error("{0}")]
+    Attitude(String),
+    /// The reference field could not be computed.
+    #[error("{0}")]
+    Geomag(#[from] crate::geomag::GeomagError),
+}
+
+/// Why the gyro-aided fit cannot use a recording.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum GyroError {
+    /// The `t` column does not advance.
+    #[error("the `t` column does not advance: no rotation can be integrated")]
+    TimeNotAdvancing,
+    /// No lag on the search grid lets the fit run.
+    #[error("no lag within ±{max_lag_s} s lets the gyro-aided fit run")]
+    NoLag {
+        /// The search's half-width, s.
+        max_lag_s: f64,
+    },
+    /// The lag given is not within ±1 s.
+    #[error("a gyro lag of {lag_s} s: expected a lag within ±1 s")]
+    LagOutOfRange {
+        /// The lag given, s.
+        lag_s: f64,
+    },
+    /// The rates are too large to be in rad/s.
+    #[error("gx, gy, gz exceed {max_rad_s} rad/s (2 000°/s): the gyro columns must be in rad/s")]
+    NotRadPerS {
+        /// The largest rate a MEMS gyro measures, rad/s.
+        max_rad_s: f64,
+    },
+}
+
+impl From<FitError> for ComputeError {
+    fn from(e: FitError) -> Self {
+        ComputeError::Fit(e)
+    }
+}
+impl From<SwingError> for ComputeError {
+    fn from(e: SwingError) -> Self {
+        ComputeError::Swing(e)
+    }
+}
+impl From<OrthoError> for ComputeError {
+    fn from(e: OrthoError) -> Self {
+        ComputeError::Ortho(e)
+    }
+}
+impl From<BackstepError> for ComputeError {
+    fn from(e: BackstepError) -> Self {
+        ComputeError::Backstep(e)
+    }
+}

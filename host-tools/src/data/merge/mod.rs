@@ -1,0 +1,430 @@
+//! `magcal merge`: one recording from the board's field log and the
+//! vehicle's navigation log, kept on two different clocks.
+//!
+//! One room per job: the logs' formats ([`super::board_log`],
+//! [`super::nav_log`]); what both logs see of the motion ([`signals`]); the
+//! least squares ([`fit`]); the clock search ([`align`]: the raw field
+//! fitted to the attitude at every lag, then window by window with
+//! sub-row interpolation, a line through the windows for offset and drift
+//! with an honest σ); the rows on the navigation clock ([`resample`]:
+//! angles the short way round, GPS only where both neighbours have it,
+//! nothing beyond the navigation log or across its long gaps).
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+pub use super::board_log::{BoardLog, HEALTH_AFTER_GAP, HEALTH_SATURATED};
+pub use super::nav_log::NavLog;
+use super::pairing::ClockMap;
+use super::recording::RecordingError;
+use super::Recording;
+
+mod align;
+mod fit;
+mod resample;
+mod signals;
+
+/// Why two logs could not be merged.
+#[derive(Debug, thiserror::Error)]
+pub enum MergeError {
+    /// A log could not be read (missing column, time running backwards, a
+    /// cell that is not a number, …).
+    #[error(transparent)]
+    Log(#[from] RecordingError),
+    /// The logs share no time.
+    #[error("the logs do not overlap: board {board_start_s:.3}…{board_end_s:.3} s, navigation {nav_start_s:.3}…{nav_end_s:.3} s; {detail}")]
+    NoOverlap {
+        /// First board time, s (board clock).
+        board_start_s: f64,
+        /// Last board time, s.
+        board_end_s: f64,
+        /// First navigation time, s (navigation clock).
+        nav_start_s: f64,
+        /// Last navigation time, s.
+        nav_end_s: f64,
+        /// With which offsets.
+        detail: String,
+    },
+    /// Nothing turned, or the two logs do not see the same turns.
+    #[error("no rotation to align the clocks on: {0} (turn the vehicle while both log, or give --offset-s)")]
+    NoRotation(String),
+    /// The logs agree best at an end of the searched offsets: the true
+    /// offset may lie beyond.
+    #[error("the logs agree best at a clock offset of {best_s:.2} s, the end of the search window {center_s} ± {max_offset_s} s: the true offset may lie outside it (centre the window with --approx-offset-s or widen it with --max-offset-s)")]
+    OutsideWindow {
+        /// The best offset searched, s.
+        best_s: f64,
+        /// The window's centre, s.
+        center_s: f64,
+        /// The window's half-width, s.
+        max_offset_s: f64,
+    },
+    /// The logs agree no better at the best offset of the search window
+    /// than at most others: the true offset lies outside the window, or
+    /// the logs do not see the same motion.
+    #[error("{detail}: the true offset lies outside the search window {center_s} ± {max_offset_s} s (centre it with --approx-offset-s or widen it with --max-offset-s), or the two logs do not see the same motion (or give --offset-s)")]
+    NoAgreement {
+        /// What did not agree.
+        detail: String,
+        /// The window's centre, s.
+        center_s: f64,
+        /// The window's half-width, s.
+        max_offset_s: f64,
+    },
+    /// An option is out of range.
+    #[error("{0}")]
+    Option(String),
+}
+
+/// How the clocks are found.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Clock {
+    /// Estimated from the data: `t_nav − t_board` is searched within
+    /// `center_s ± max_offset_s`.
+    Estimate {
+        /// Centre of the search, s.
+        center_s: f64,
+        /// Half-width of the search, s.
+        max_offset_s: f64,
+    },
+    /// Given: `t_nav = t_board + offset_s + drift_ppm·10⁻⁶·(t_board − first board time)`.
+    Given {
+        /// Offset at the board log's first sample, s.
+        offset_s: f64,
+        /// Drift, ppm.
+        drift_ppm: f64,
+    },
+}
+
+impl Default for Clock {
+    fn default() -> Self {
+        Clock::Estimate { center_s: 0.0, max_offset_s: 120.0 }
+    }
+}
+
+/// The clocks found and what was merged (`magcal merge --json`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MergeReport {
+    /// `t_nav − t_board` at the board log's first sample, s.
+    pub offset_s: f64,
+    /// 1σ of `offset_s`, s (0 when given).
+    pub offset_sigma_s: f64,
+    /// How much faster the navigation clock runs, ppm.
+    pub drift_ppm: f64,
+    /// 1σ of `drift_ppm` (0 when given or not fitted).
+    pub drift_sigma_ppm: f64,
+    /// The board time the offset refers to (the board log's first), s.
+    pub board_ref_s: f64,
+    /// The clocks were estimated from the data (not given).
+    pub estimated: bool,
+    /// The drift was fitted (enough windows); otherwise taken as given or 0.
+    pub drift_fitted: bool,
+    /// Windows whose offsets the line was fitted to.
+    pub windows_used: usize,
+    /// How well the logs agree at the offset found, 1 = perfectly: the
+    /// share of the raw field's spread the attitude explains (navigation
+    /// log with a heading), or the correlation of the two rates of turn.
+    pub peak_correlation: f64,
+    /// Rows written (board samples within the navigation log's span).
+    pub rows: usize,
+    /// Board samples in the board log.
+    pub board_samples: usize,
+    /// Board samples before or after the navigation log (not written: never
+    /// extrapolated).
+    pub board_samples_outside_nav: usize,
+    /// Rows in a gap of the navigation log (written without navigation).
+    pub rows_in_nav_gaps: usize,
+    /// Rows whose field was saturated (written without a field).
+    pub saturated_rows: usize,
+    /// The navigation rows' median interval, s.
+    pub nav_interval_s: f64,
+    /// The board samples' median interval, s.
+    pub board_interval_s: f64,
+}
+
+fn median_interval(t: &[f64]) -> f64 {
+    let mut d: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).filter(|d| *d > 0.0).collect();
+    if d.is_empty() {
+        return f64::NAN;
+    }
+    d.sort_by(f64::total_cmp);
+    d[d.len() / 2]
+}
+
+fn no_overlap(board: &BoardLog, nav: &NavLog, detail: String) -> MergeError {
+    MergeError::NoOverlap {
+        board_start_s: board.t_s[0],
+        board_end_s: *board.t_s.last().unwrap_or(&board.t_s[0]),
+        nav_start_s: nav.t_s[0],
+        nav_end_s: *nav.t_s.last().unwrap_or(&nav.t_s[0]),
+        detail,
+    }
+}
+
+/// Merges a board log and a navigation log into one recording on the
+/// navigation clock (`t` = the board sample's time mapped to the navigation
+/// clock), with `speed_mps`, `motor_current_a` and `temp_c` when the logs
+/// have them. Extra columns (ignored by the recording reader but kept for
+/// users): `t_board`, `heading_deg` — see [`Merged::extra_columns`].
+pub fn merge(board: &BoardLog, nav: &NavLog, clock: Clock) -> Result<Merged, MergeError> {
+    if board.t_s.is_empty() || nav.t_s.is_empty() {
+        return Err(MergeError::Option(format!("a log has no rows (board {}, navigation {})", board.t_s.len(), nav.t_s.len())));
+    }
+    let alignment = match clock {
+        Clock::Estimate { center_s, max_offset_s } => align::estimate_clock(board, nav, center_s, max_offset_s)?,
+        Clock::Given { offset_s, drift_ppm } => {
+            if !(offset_s.is_finite() && drift_ppm.is_finite() && drift_ppm.abs() < 1e5) {
+                return Err(MergeError::Option(format!("offset {offset_s} s / drift {drift_ppm} ppm: not usable numbers")));
+            }
+            let clock = ClockMap { offset_s, drift_ppm, board_ref_s: board.t_s[0] };
+            align::Alignment { clock, offset_sigma_s: 0.0, drift_sigma_ppm: 0.0, drift_fitted: false, windows: 0, agreement: f64::NAN }
+        }
+    };
+    let (recording, extra, counts) = resample::rows(board, nav, &alignment.clock);
+    if recording.mag.is_empty() {
+        return Err(no_overlap(board, nav, format!("with the clock offset {:.3} s (navigation − board) no board sample falls within the navigation log", alignment.clock.offset_s)));
+    }
+    let map = alignment.clock;
+    let report = MergeReport {
+        offset_s: map.offset_s,
+        offset_sigma_s: alignment.offset_sigma_s,
+        drift_ppm: map.drift_ppm,
+        drift_sigma_ppm: alignment.drift_sigma_ppm,
+        board_ref_s: map.board_ref_s,
+        estimated: matches!(clock, Clock::Estimate { .. }),
+        drift_fitted: alignment.drift_fitted,
+        windows_used: alignment.windows,
+        peak_correlation: if alignment.agreement.is_finite() { alignment.agreement } else { 0.0 },
+        rows: recording.mag.len(),
+        board_samples: board.t_s.len(),
+        board_samples_outside_nav: counts.outside,
+        rows_in_nav_gaps: counts.in_gaps,
+        saturated_rows: counts.saturated,
+        nav_interval_s: median_interval(&nav.t_s),
+        board_interval_s: median_interval(&board.t_s),
+    };
+    Ok(Merged { recording, extra, report })
+}
+
+/// The merged columns the recording format has no field for.
+#[derive(Debug, Clone, Default)]
+pub struct MergedExtra {
+    /// The sample's time on the board's clock, s.
+    pub t_board_s: Vec<f64>,
+    /// The AHRS's heading, degrees.
+    pub heading_deg: Option<Vec<f64>>,
+}
+
+/// A merged recording and its report.
+#[derive(Debug, Clone)]
+pub struct Merged {
+    /// The recording (INTERFACES.md columns), `t` on the navigation clock.
+    pub recording: Recording,
+    /// Columns beyond the recording's fields.
+    pub extra: MergedExtra,
+    /// The clocks and counts.
+    pub report: MergeReport,
+}
+
+impl Merged {
+    /// The extra columns by name, as [`Recording::write_with_extra`] takes them.
+    pub fn extra_columns(&self) -> Vec<(&'static str, &Vec<f64>)> {
+        let e = &self.extra;
+        let mut cols = vec![("t_board", &e.t_board_s)];
+        if let Some(c) = &e.heading_deg {
+            cols.push(("heading_deg", c));
+        }
+        cols
+    }
+
+    /// Writes the recording with its extra columns.
+    pub fn write(&self, path: &Path) -> Result<(), RecordingError> {
+        self.recording.write_with_extra(path, &self.extra_columns())
+    }
+}
+
+/// Reads both logs and merges them (see [`merge`]).
+pub fn merge_files(board: &Path, nav: &Path, clock: Clock) -> Result<Merged, MergeError> {
+    let (b, n) = (BoardLog::read(board)?, NavLog::read(nav)?);
+    merge(&b, &n, clock)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The rotation body → NED of roll, pitch, heading in degrees (Z-Y-X),
+    /// row-major, multiplied out by hand (the test's own reference).
+    fn rotation(roll_deg: f64, pitch_deg: f64, heading_deg: f64) -> [f64; 9] {
+        let (sr, cr) = roll_deg.to_radians().sin_cos();
+        let (sp, cp) = pitch_deg.to_radians().sin_cos();
+        let (sy, cy) = heading_deg.to_radians().sin_cos();
+        [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr, sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr, -sp, cp * sr, cp * cr]
+    }
+
+    /// A vehicle turning in a constant field (NED nT): navigation at 10 Hz
+    /// on its clock from `nav_start_s` for `len_s`, the board at 50 Hz on
+    /// a clock `offset_s` behind (`t_nav = t_board + offset_s`), a linear
+    /// sensor with hard iron.
+    fn logs(offset_s: f64, nav_start_s: f64, len_s: f64, turning: bool) -> (BoardLog, NavLog) {
+        let att = |t: f64| {
+            if turning {
+                (20.0 * (0.3 * t).sin(), 8.0 * (0.17 * t).sin(), (90.0 * (0.05 * t).sin() + 30.0 * (0.23 * t + 1.0).sin()).rem_euclid(360.0))
+            } else {
+                (1.0, -2.0, 100.0)
+            }
+        };
+        let f = [20_000.0, 1_000.0, 40_000.0];
+        let field = |t: f64| {
+            let (r, p, h) = att(t);
+            let m = rotation(r, p, h);
+            // Rᵀ·f, then gains and hard iron.
+            let body = [0, 1, 2].map(|c| m[c] * f[0] + m[3 + c] * f[1] + m[6 + c] * f[2]);
+            [0.2 * body[0] + 1500.0, 0.09 * body[1] - 700.0, 0.16 * body[2] + 300.0]
+        };
+        let nav_t: Vec<f64> = (0..(len_s * 10.0) as usize).map(|k| nav_start_s + k as f64 * 0.1).collect();
+        let nav = NavLog {
+            roll_deg: nav_t.iter().map(|&t| att(t).0).collect(),
+            pitch_deg: nav_t.iter().map(|&t| att(t).1).collect(),
+            heading_deg: Some(nav_t.iter().map(|&t| att(t).2).collect()),
+            // GPS at the surface only: the first 30 s.
+            ref_heading_deg: Some(nav_t.iter().map(|&t| if t < nav_start_s + 30.0 { att(t).2 } else { f64::NAN }).collect()),
+            t_s: nav_t,
+            ..NavLog::default()
+        };
+        let board_t: Vec<f64> = (0..((len_s + 40.0) * 50.0) as usize).map(|k| nav_start_s - offset_s - 20.0 + k as f64 * 0.02).collect();
+        let board = BoardLog { mag: board_t.iter().map(|&t| field(t + offset_s)).collect(), t_s: board_t, temp_c: None, health: None };
+        (board, nav)
+    }
+
+    #[test]
+    fn the_offset_is_found_and_nothing_is_extrapolated() {
+        let (board, nav) = logs(-47.3, 500.0, 300.0, true);
+        let m = merge(&board, &nav, Clock::default()).unwrap();
+        let r = &m.report;
+        // Noise-free logs: measured within 0.1 ms.
+        assert!((r.offset_s + 47.3).abs() < 0.002 && r.drift_ppm.abs() < 10.0, "{r:?}");
+        // 20 s of board samples before and after the navigation log are left out.
+        assert!((r.board_samples_outside_nav as f64 - 40.0 * 50.0).abs() < 10.0, "{r:?}");
+        let rec = &m.recording;
+        let t = rec.t_s.as_ref().unwrap();
+        assert!(t[0] >= nav.t_s[0] && *t.last().unwrap() <= *nav.t_s.last().unwrap());
+        // GPS course only while both neighbours have it: the first 30 s.
+        let gps = rec.ref_heading_deg.as_ref().unwrap();
+        assert!(t.iter().zip(gps).all(|(t, g)| g.is_finite() == (*t <= nav.t_s[0] + 29.9 + 1e-6)), "GPS where it was");
+        // Headings interpolated the short way round stay within 0…360.
+        assert!(m.extra.heading_deg.as_ref().unwrap().iter().all(|h| (0.0..360.0).contains(h)));
+    }
+
+    #[test]
+    fn a_given_offset_is_used_as_given() {
+        let (board, nav) = logs(12.0, 0.0, 100.0, false);
+        let m = merge(&board, &nav, Clock::Given { offset_s: 12.0, drift_ppm: 0.0 }).unwrap();
+        assert!(!m.report.estimated && m.report.offset_s == 12.0);
+        assert_eq!(m.recording.roll_deg.as_ref().unwrap()[0], 1.0);
+    }
+
+    #[test]
+    fn logs_that_do_not_overlap_are_refused() {
+        let (board, mut nav) = logs(0.0, 0.0, 100.0, true);
+        for t in nav.t_s.iter_mut() {
+            *t += 5000.0;
+        }
+        let e = merge(&board, &nav, Clock::default()).unwrap_err();
+        assert!(matches!(e, MergeError::NoOverlap { .. }), "{e}");
+        assert!(e.to_string().contains("do not overlap"), "{e}");
+        let e = merge(&board, &nav, Clock::Given { offset_s: 0.0, drift_ppm: 0.0 }).unwrap_err();
+        assert!(matches!(e, MergeError::NoOverlap { .. }), "{e}");
+    }
+
+    #[test]
+    fn logs_without_rotation_are_refused() {
+        let (board, nav) = logs(3.0, 0.0, 200.0, false);
+        let e = merge(&board, &nav, Clock::default()).unwrap_err();
+        assert!(matches!(e, MergeError::NoRotation(_)), "{e}");
+        assert!(e.to_string().contains("--offset-s"), "{e}");
+    }
+
+    /// Issue 24: a search window of ± 0 s with the true offset 37.25 s
+    /// wrote a recording 37 s out of line; now a window too narrow to tell
+    /// where the logs agree best is refused.
+    #[test]
+    fn a_search_window_too_narrow_is_refused() {
+        let (board, nav) = logs(37.25, 0.0, 200.0, true);
+        let e = merge(&board, &nav, Clock::Estimate { center_s: 0.0, max_offset_s: 0.0 }).unwrap_err();
+        assert!(matches!(e, MergeError::Option(_)) && e.to_string().contains("too narrow"), "{e}");
+    }
+
+    /// Issue 24: `--max-offset-s 1e300` panicked (capacity overflow) and
+    /// 1e5 ran for minutes; the search now stops where the logs stop
+    /// overlapping, so any window finishes as fast as the logs' spans allow.
+    #[test]
+    fn a_huge_search_window_is_bounded_by_the_logs() {
+        let (board, nav) = logs(-47.3, 500.0, 200.0, true);
+        for max_offset_s in [1e5, 1e300] {
+            let started = std::time::Instant::now();
+            let m = merge(&board, &nav, Clock::Estimate { center_s: 0.0, max_offset_s }).unwrap();
+            // Measured: 1 ms off, in well under a second (debug build).
+            assert!((m.report.offset_s + 47.3).abs() < 0.005, "{max_offset_s}: {:?}", m.report);
+            assert!(started.elapsed().as_secs_f64() < 30.0, "{max_offset_s}: {:?}", started.elapsed());
+        }
+    }
+
+    /// Issue 24: a true offset beyond the search window said "turn the
+    /// vehicle"; now the refusal names the window and how to move it.
+    #[test]
+    fn an_offset_beyond_the_window_names_the_window() {
+        let (board, nav) = logs(-47.3, 500.0, 200.0, true);
+        let e = merge(&board, &nav, Clock::Estimate { center_s: 0.0, max_offset_s: 20.0 }).unwrap_err();
+        assert!(matches!(e, MergeError::OutsideWindow { .. } | MergeError::NoAgreement { .. }), "{e}");
+        let text = e.to_string();
+        assert!(text.contains("0 ± 20 s") && text.contains("--max-offset-s"), "{text}");
+    }
+
+    fn read_board(text: &str) -> Result<BoardLog, RecordingError> {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("board.csv");
+        std::fs::write(&p, text).unwrap();
+        BoardLog::read(&p)
+    }
+
+    fn read_nav(text: &str) -> Result<NavLog, RecordingError> {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("nav.csv");
+        std::fs::write(&p, text).unwrap();
+        NavLog::read(&p)
+    }
+
+    #[test]
+    fn missing_columns_and_time_running_backwards_are_refused() {
+        let e = read_board("t,mx,my\n0,1,2\n").unwrap_err();
+        assert!(matches!(e, RecordingError::MissingColumn { column: "mz", .. }), "{e}");
+        let e = read_board("mx,my,mz\n0,1,2\n").unwrap_err();
+        assert!(matches!(e, RecordingError::MissingColumn { column: "t", .. }), "{e}");
+        let e = read_nav("t,roll_deg,heading_deg\n0,1,2\n").unwrap_err();
+        assert!(matches!(e, RecordingError::MissingColumn { column: "pitch_deg", .. }), "{e}");
+        let e = read_board("t,mx,my,mz\n0.0,1,2,3\n0.02,1,2,3\n0.01,1,2,3\n").unwrap_err();
+        assert!(matches!(e, RecordingError::TimeBackwards { line: 4, .. }), "{e}");
+        let e = read_nav("t,roll_deg,pitch_deg\n5,0,0\n4,0,0\n").unwrap_err();
+        assert!(matches!(e, RecordingError::TimeBackwards { line: 3, .. }), "{e}");
+        let e = read_board("t,mx,my,mz\n,1,2,3\n").unwrap_err();
+        assert!(matches!(e, RecordingError::BadNumber { .. }), "a row without a time: {e}");
+        // Optional columns are read; empty cells are absent.
+        let b = read_board("t,mx,my,mz,temp_c,health\n0,1,2,3,20.5,0\n0.01,,2,3,,1\n").unwrap();
+        let temp = b.temp_c.as_ref().unwrap();
+        assert!(temp[0] == 20.5 && temp[1].is_nan());
+        assert!(b.mag[1][0].is_nan() && b.health.as_ref().unwrap()[1] == 1.0);
+    }
+
+    #[test]
+    fn saturated_samples_are_written_without_a_field() {
+        let (mut board, nav) = logs(0.0, 0.0, 60.0, false);
+        let mut health = vec![0.0; board.t_s.len()];
+        health[2000] = HEALTH_SATURATED as f64;
+        board.health = Some(health);
+        let m = merge(&board, &nav, Clock::Given { offset_s: 0.0, drift_ppm: 0.0 }).unwrap();
+        assert_eq!(m.report.saturated_rows, 1);
+        assert_eq!(m.recording.mag.iter().filter(|v| v[0].is_nan()).count(), 1);
+    }
+}
