@@ -319,3 +319,24 @@ fn an_impossible_attitude_or_a_glitch_is_refused_naming_the_row() {
     let e = refused(&magcal(&["fit", "--input", p(&input), "--model", "axis", "--field-nt", "48730"]));
     assert!(e.contains("data row 121") && e.contains("glitch"), "{e}");
 }
+
+#[test]
+fn the_report_takes_the_site_from_the_recordings_and_labels_what_it_shows() {
+    let dir = tempfile::tempdir().unwrap();
+    let f = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    for (scenario, out) in [("swing", "swing.csv"), ("validation", "validation.csv")] {
+        let o = magcal(&["simulate", scenario, "--seed", "31", "--rate-hz", "1", "--out", &f(out)]);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let o = magcal(&["fit", "--input", &f("swing.csv"), "--model", "axis", "--lat", "36.9", "--lon", "50.6", "--date", "2021-01-01", "--out", &f("cal.json")]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // No --lat/--lon/--date: the site was "not available" though the
+    // validation run carries its positions (near the simulator's 36.9° N, 50.6° E: 36.88° N, 50.61° E measured).
+    let o = magcal(&["report", "--validation", &f("validation.csv"), "--cal", &f("cal.json"), "--out", &f("report")]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let html = std::fs::read_to_string(dir.path().join("report/index.html")).unwrap();
+    assert!(html.contains("the recordings' mean position") && html.contains("36.8") && html.contains("50.6"), "site");
+    // No --before: not "not available" beside the card's uncalibrated before.
+    assert!(html.contains("not given (no coefficients before; the card's “before” is the uncalibrated heading)"));
+    assert!(html.contains("from the fit's covariance only") && !html.contains("the fit's uncertainty and the heading noise"));
+}
