@@ -1,6 +1,7 @@
 //! The README's newcomer path: every `magcal` command of its ```sh blocks,
 //! run as written, in order, in one empty folder (so each command has only
-//! what the commands before it wrote). Skipped, and why:
+//! what the commands before it wrote, and the repository's `tests/data`,
+//! which the README names from the repository's root). Skipped, and why:
 //!
 //! * lines that are not `magcal` (`cargo xtask …`, building and flashing the
 //!   firmware): the build, QEMU and a probe, not the CLI;
@@ -47,8 +48,12 @@ fn skipped(words: &[&str]) -> Option<&'static str> {
 
 #[test]
 fn the_readmes_commands_run_as_written() {
-    let readme = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../README.md")).unwrap();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let readme = std::fs::read_to_string(root.join("README.md")).unwrap();
     let dir = tempfile::tempdir().unwrap();
+    // Commands on the repository's own data name it from the root
+    // (`tests/data/...`): the folder sees it there, read-only by intent.
+    std::os::unix::fs::symlink(root.join("tests").canonicalize().unwrap(), dir.path().join("tests")).unwrap();
     let (mut ran, mut skips) = (Vec::new(), Vec::new());
     for line in sh_lines(&readme) {
         let words: Vec<&str> = line.split_whitespace().collect();
@@ -62,10 +67,10 @@ fn the_readmes_commands_run_as_written() {
     }
     eprintln!("ran {} README commands; skipped:\n  {}", ran.len(), skips.join("\n  "));
     // The two blocks' simulate → fit → backstep → swing → report → card →
-    // export chains (17 commands as of this writing): a README whose blocks
+    // export chains and apply (18 commands as of this writing): a README whose blocks
     // stopped being found would otherwise pass with nothing run.
     assert!(ran.len() >= 15, "only {} README commands found to run: {ran:?}", ran.len());
-    for sub in ["simulate", "igrf", "fit", "backstep", "swing", "ortho", "report", "card", "export"] {
+    for sub in ["simulate", "igrf", "fit", "backstep", "swing", "ortho", "report", "card", "export", "apply"] {
         assert!(ran.iter().any(|l| l.starts_with(&format!("magcal {sub} "))), "no `magcal {sub}` run from the README");
     }
     // What they wrote is there.
