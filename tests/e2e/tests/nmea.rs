@@ -11,7 +11,7 @@ use std::process::Command;
 use std::time::{Duration, Instant};
 
 use calib_core::heading::{ned_field, ned_to_body};
-use e2e_tests::boot_with_feed;
+use e2e_tests::{boot_with_feed, magcal_bin};
 use host_tools::board::{BoardClient, FeedWriter};
 use magcal_protocol::{self as proto, Integrity, Request, RequestBody, Response, ResponseBody, StreamMode, MAX_FRAME_LEN};
 
@@ -93,7 +93,12 @@ fn the_board_streams_nmea_sentences_a_parser_accepts_and_goes_back_to_frames() {
     let offsets = [50_000.0, -40_000.0, 20_000.0];
     feed.send(clean, offsets).expect("feed");
     link.attitude(roll, pitch).expect("attitude");
-    link.set_stream(StreamMode::Nmea).expect("NMEA mode");
+    // The switch as a user makes it: `magcal stream --mode nmea` on the
+    // board's port (the test's own link closed meanwhile, then reopened).
+    drop(link);
+    let out = Command::new(magcal_bin()).args(["stream", "--port", board.link_port(), "--mode", "nmea"]).output().expect("run magcal stream");
+    assert!(out.status.success(), "magcal stream --mode nmea failed: {}", String::from_utf8_lossy(&out.stderr));
+    let link = BoardClient::open(board.link_port()).expect("reopen link");
 
     // 4 s clean, 1.5 s with the magnet, 1 s clean again; the AHRS keeps
     // the attitude fresh with framed requests meanwhile.
