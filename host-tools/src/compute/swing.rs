@@ -94,9 +94,7 @@ fn gps_columns(rec: &Recording, t: &[f64]) -> Result<GpsColumns, String> {
         north_m.push(n);
         east_m.push(e);
     }
-    let mut dts: Vec<f64> = fix_t.windows(2).map(|w| w[1] - w[0]).filter(|d| *d > 0.0).collect();
-    dts.sort_by(f64::total_cmp);
-    let median = dts.get(dts.len() / 2).copied().unwrap_or(0.0);
+    let median = crate::data::pairing::median_step_s(&fix_t).unwrap_or(0.0);
     Ok(GpsColumns { north_m, east_m, max_fix_gap_s: MAX_FIX_GAP_S.max(2.5 * median) })
 }
 
@@ -120,9 +118,7 @@ fn turn_rate_deg_s(t: &[f64], heading_rad: &[f64], i: usize) -> f64 {
 
 /// The interpolation gap allowed for a recording's sample spacing.
 fn interpolation_gap_s(t: &[f64]) -> f64 {
-    let mut dts: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).filter(|d| *d > 0.0).collect();
-    dts.sort_by(f64::total_cmp);
-    let median = dts.get(dts.len() / 2).copied().unwrap_or(0.0);
+    let median = crate::data::pairing::median_step_s(t).unwrap_or(0.0);
     MAX_INTERPOLATION_GAP_S.max(2.5 * median)
 }
 
