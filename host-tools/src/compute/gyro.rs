@@ -39,16 +39,11 @@ fn rates_at_lag(t: &[f64], rates: &[[f64; 3]], lag_s: f64) -> Vec<[f64; 3]> {
     if lag_s == 0.0 {
         return rates.to_vec();
     }
+    let axes: [Vec<f64>; 3] = core::array::from_fn(|k| rates.iter().map(|r| r[k]).collect());
     t.iter()
-        .map(|&ti| {
-            let want = ti - lag_s;
-            let j = t.partition_point(|&x| x <= want);
-            if j == 0 || j >= t.len() {
-                return [f64::NAN; 3];
-            }
-            let (t0, t1) = (t[j - 1], t[j]);
-            let f = if t1 > t0 { (want - t0) / (t1 - t0) } else { 0.0 };
-            core::array::from_fn(|k| rates[j - 1][k] + f * (rates[j][k] - rates[j - 1][k]))
+        .map(|&ti| match crate::data::pairing::bracket(t, ti - lag_s, f64::INFINITY) {
+            Some(b) => core::array::from_fn(|k| b.lerp(&axes[k])),
+            None => [f64::NAN; 3],
         })
         .collect()
 }
