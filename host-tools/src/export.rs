@@ -259,11 +259,16 @@ pub enum ExportError {
         /// The stack.
         stack: &'static str,
     },
-    /// ArduPilot would ignore the scale factor.
-    #[error("the calibration's gain in ArduPilot's milligauss is {scale:.3}, outside the {:.3}..{:.3} in which ArduPilot applies COMPASS_SCALE: the raw units look wrong", ARDUPILOT_SCALE_RANGE.0, ARDUPILOT_SCALE_RANGE.1)]
+    /// The gain in the stack's unit is far from 1: the raw units are wrong
+    /// (and ArduPilot would ignore the scale factor).
+    #[error("the calibration's gain in {stack}'s {unit} is {scale:.3}, outside the {:.3}..{:.3} of a calibration whose raw units are right (and in which ArduPilot applies COMPASS_SCALE): the raw units look wrong", ARDUPILOT_SCALE_RANGE.0, ARDUPILOT_SCALE_RANGE.1)]
     Gain {
         /// cbrt(det P).
         scale: f64,
+        /// The stack.
+        stack: &'static str,
+        /// Its unit.
+        unit: &'static str,
     },
     /// The matrix could not be decomposed.
     #[error("the matrix cannot be decomposed (singular or not finite)")]
@@ -342,10 +347,8 @@ const XYZ: [&str; 3] = ["X", "Y", "Z"];
 /// offsets `b_s` and the per-ampere field `c_s` in the stack's unit; warns
 /// when the offsets exceed its pre-arm limit.
 fn ardupilot_params(p: &[[f64; 3]; 3], b_s: [f64; 3], c_s: Option<[f64; 3]>, warnings: &mut Vec<Unexpressed>) -> Result<Vec<Param>, ExportError> {
-    let scale = Matrix3::from_fn(|i, j| p[i][j]).determinant().cbrt();
-    if !(scale >= ARDUPILOT_SCALE_RANGE.0 && scale <= ARDUPILOT_SCALE_RANGE.1) {
-        return Err(ExportError::Gain { scale });
-    }
+    // In range: `export` checked it for either stack.
+    let scale = gain(p);
     let mut params = Vec::new();
     let ofs = b_s.map(|b| -b);
     for i in 0..3 {
@@ -371,6 +374,11 @@ fn ardupilot_params(p: &[[f64; 3]; 3], b_s: [f64; 3], c_s: Option<[f64; 3]>, war
         warnings.push(Unexpressed::OffsetsOverPrearmLimit { max_offset_mgauss: max_ofs, limit_mgauss: ARDUPILOT_OFFSETS_MAX_MGAUSS });
     }
     Ok(params)
+}
+
+/// The symmetric matrix's mean gain, cbrt(det P).
+fn gain(p: &[[f64; 3]; 3]) -> f64 {
+    Matrix3::from_fn(|i, j| p[i][j]).determinant().cbrt()
 }
 
 /// PX4's CAL_MAG0_* parameters from the symmetric matrix `p`, the offsets
@@ -407,6 +415,12 @@ pub fn export(doc: &CalDoc, opts: &ExportOptions) -> Result<Export, ExportError>
     let u = stack.unit_nt();
     let a = doc.matrix.map(|row| row.map(|m| m / k));
     let (r, p) = polar(&a)?;
+    // The gain in the stack's unit: near 1 when the raw units are right,
+    // for either stack (PX4 took XSCALE 5.1 or 0.00005 without a word).
+    let scale = gain(&p);
+    if !(scale >= ARDUPILOT_SCALE_RANGE.0 && scale <= ARDUPILOT_SCALE_RANGE.1) {
+        return Err(ExportError::Gain { scale, stack: stack.name(), unit: stack.unit_name() });
+    }
     let angle_deg = ((r[0][0] + r[1][1] + r[2][2] - 1.0) / 2.0).clamp(-1.0, 1.0).acos().to_degrees();
     if angle_deg > opts.max_rotation_deg {
         return Err(ExportError::Rotation { angle_deg, max_deg: opts.max_rotation_deg, stack: stack.name() });
@@ -518,6 +532,8 @@ mod tests {
         let doc2 = CalDoc { matrix: [[200.0, 0.0, 0.0], [0.0, 200.0, 0.0], [0.0, 0.0, 200.0]], ..doc };
         let opts = ExportOptions { raw_nt_per_unit: Some(100.0), ..opts };
         assert!(matches!(export(&doc2, &opts), Err(ExportError::Gain { .. })));
-        assert!(export(&doc2, &ExportOptions { stack: Stack::Px4, ..opts }).is_ok());
+        // PX4 is held to the same range (it took XSCALE 2 before, 5.1 with
+        // a wrong --raw-unit): its gain in gauss is the same 2.
+        assert!(matches!(export(&doc2, &ExportOptions { stack: Stack::Px4, ..opts }), Err(ExportError::Gain { scale, .. }) if (scale - 2.0).abs() < 1e-12));
     }
 }

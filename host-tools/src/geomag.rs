@@ -39,8 +39,8 @@ pub enum GeomagError {
         /// Longitude given.
         lon_deg: f64,
     },
-    /// Height outside −1 km … 1000 km.
-    #[error("height {0} m is outside -1000 m … 1 000 000 m")]
+    /// Height outside [`MIN_HEIGHT_M`] … 1000 km.
+    #[error("height {0} m is outside -11 000 m (the deepest ocean) … 1 000 000 m")]
     BadHeight(f64),
     /// The date text is not YYYY-MM-DD or a decimal year.
     #[error("date `{0}` is neither YYYY-MM-DD nor a decimal year")]
@@ -224,13 +224,17 @@ fn coefficients_at(year: f64) -> Result<Coeffs, GeomagError> {
     Ok(out)
 }
 
+/// Lowest height accepted, m: the Challenger Deep is 10 935 m down, and
+/// AUVs dive to 6 000 m.
+pub const MIN_HEIGHT_M: f64 = -11_000.0;
+
 /// IGRF-14 at a geodetic position (WGS-84), height above the ellipsoid, and
 /// decimal year.
 pub fn igrf14(lat_deg: f64, lon_deg: f64, height_m: f64, year: f64) -> Result<Field, GeomagError> {
     if !(lat_deg.abs() <= 90.0 && lon_deg.abs() <= 360.0) {
         return Err(GeomagError::BadPosition { lat_deg, lon_deg });
     }
-    if !(-1000.0..=1_000_000.0).contains(&height_m) {
+    if !(MIN_HEIGHT_M..=1_000_000.0).contains(&height_m) {
         return Err(GeomagError::BadHeight(height_m));
     }
     let coeffs = coefficients_at(year)?;
@@ -357,7 +361,19 @@ mod tests {
     fn out_of_range_inputs_are_refused() {
         assert!(matches!(igrf14(0.0, 0.0, 0.0, 2031.0), Err(GeomagError::DateOutOfRange(..))));
         assert!(matches!(igrf14(91.0, 0.0, 0.0, 2026.0), Err(GeomagError::BadPosition { .. })));
-        assert!(matches!(igrf14(0.0, 0.0, -2000.0, 2026.0), Err(GeomagError::BadHeight(_))));
+        assert!(matches!(igrf14(0.0, 0.0, -12_000.0, 2026.0), Err(GeomagError::BadHeight(_))));
+        assert!(matches!(igrf14(0.0, 0.0, 1.1e6, 2026.0), Err(GeomagError::BadHeight(_))));
+    }
+
+    #[test]
+    fn an_auv_at_6000_m_gets_the_field_there() {
+        // Refused below −1 000 m before. The field's main (dipole) part grows
+        // as r⁻³: 6 km down, by (6371.2 / 6365.2)³ − 1 = 0.28 %; the higher
+        // degrees grow faster, so between 0.2 % and 0.5 %.
+        let (top, deep) = (igrf14(45.0, -30.0, 0.0, 2026.0).unwrap(), igrf14(45.0, -30.0, -6000.0, 2026.0).unwrap());
+        let growth = deep.total_nt() / top.total_nt() - 1.0;
+        assert!((0.002..0.005).contains(&growth), "{growth}");
+        assert!(igrf14(11.35, 142.2, -10_935.0, 2026.0).is_ok(), "the Challenger Deep");
         assert!(igrf14(f64::NAN, 0.0, 0.0, 2026.0).is_err());
     }
 }

@@ -52,7 +52,7 @@ pub fn measure(elf: &Path) -> Result<Usage> {
     let file = object::File::parse(&*data).context("parsing the firmware ELF")?;
     let (mut flash, mut ram) = (0, 0);
     for s in file.sections() {
-        let alloc = matches!(s.flags(), SectionFlags::Elf { sh_flags } if sh_flags & u64::from(object::elf::SHF_ALLOC) != 0);
+        let alloc = matches!(s.flags(), SectionFlags::Elf { sh_flags, .. } if sh_flags.contains(object::elf::SHF_ALLOC));
         if !alloc || s.size() == 0 {
             continue;
         }

@@ -222,7 +222,8 @@ impl CalDoc {
     /// Reads and validates a document.
     pub fn load(path: &Path) -> Result<Self, CalDocError> {
         let text = std::fs::read_to_string(path).map_err(|source| CalDocError::Io { path: path.into(), source })?;
-        let doc: CalDoc = serde_json::from_str(&text).map_err(|source| CalDocError::Parse { path: path.into(), source })?;
+        // A UTF-8 byte-order mark (Windows editors) is not part of the JSON.
+        let doc: CalDoc = serde_json::from_str(text.strip_prefix('\u{feff}').unwrap_or(&text)).map_err(|source| CalDocError::Parse { path: path.into(), source })?;
         doc.validate(path)?;
         Ok(doc)
     }

@@ -74,8 +74,10 @@ impl Recording {
         let optional = [T, ROLL_DEG, PITCH_DEG, REF_HEADING_DEG, LAT_DEG, LON_DEG, GYRO[0], GYRO[1], GYRO[2], SPEED_MPS, MOTOR_CURRENT_A, TEMP_C];
         let mut t = read_table_from(reader, path, &MAG, &optional)?;
         let [mx, my, mz] = MAG.map(|c| t.take(c).unwrap_or_default());
+        let mag: Vec<[f64; 3]> = mx.into_iter().zip(my).zip(mz).map(|((x, y), z)| [x, y, z]).collect();
+        super::table::check_outliers(&mag, path)?;
         Ok(Recording {
-            mag: mx.into_iter().zip(my).zip(mz).map(|((x, y), z)| [x, y, z]).collect(),
+            mag,
             t_s: t.take(T),
             roll_deg: t.take(ROLL_DEG),
             pitch_deg: t.take(PITCH_DEG),
@@ -161,6 +163,29 @@ mod tests {
         assert!(matches!(read("mx,my,mz\n1,2\n"), Err(RecordingError::Ragged { line: 2, .. })));
         let e = read("t,mx,my,mz\n1.0,1,2,3\n0.5,1,2,3\n").unwrap_err();
         assert!(matches!(e, RecordingError::TimeBackwards { line: 3, .. }), "{e}");
+    }
+
+    #[test]
+    fn impossible_attitudes_and_glitches_are_refused_by_row() {
+        // Issue 24: one roll of 999° (or 1e300) in a run silently worsened
+        // the heading from 0.23° to 0.74° (2.2°).
+        let e = read("mx,my,mz,roll_deg,pitch_deg\n1,2,3,10,5\n1,2,3,999,5\n").unwrap_err();
+        assert_eq!(e.to_string(), "rec.csv:3: column `roll_deg`: 999 is outside ±180°");
+        let e = read("mx,my,mz,roll_deg,pitch_deg\n1,2,3,1e300,5\n").unwrap_err();
+        assert!(matches!(e, RecordingError::OutOfRange { line: 2, .. }), "{e}");
+        assert!(matches!(read("mx,my,mz,pitch_deg\n1,2,3,-90.5\n").unwrap_err(), RecordingError::OutOfRange { .. }));
+        assert!(matches!(read("mx,my,mz,ref_heading_deg\n1,2,3,1e300\n").unwrap_err(), RecordingError::OutOfRange { .. }));
+        // At the limits, and absent: read.
+        let r = read("mx,my,mz,roll_deg,pitch_deg,ref_heading_deg\n1,2,3,-180,90,359.9\n1,2,3,,nan,\n").unwrap();
+        assert_eq!(r.roll_deg.unwrap()[0], -180.0);
+        // One mx = 1e7 among samples of |m| ≈ 480: named by its row.
+        let mut text = String::from("mx,my,mz\n");
+        for k in 0..50 {
+            text += &if k == 17 { "1e7,0,0\n".to_string() } else { format!("{},{},300\n", 300.0 + k as f64, -200.0) };
+        }
+        let e = read(&text).unwrap_err();
+        assert!(matches!(e, RecordingError::FieldOutlier { row: 18, .. }), "{e}");
+        assert!(e.to_string().contains("data row 18"), "{e}");
     }
 
     #[test]

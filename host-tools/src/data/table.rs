@@ -107,6 +107,33 @@ pub enum TableError {
         /// The time before it.
         previous_s: f64,
     },
+    /// An attitude or heading cell outside its range (roll ±180°, pitch
+    /// ±90°, heading ±360°).
+    #[error("{path}:{line}: column `{column}`: {value} is outside ±{limit_deg}°")]
+    OutOfRange {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line.
+        line: u64,
+        /// Column name.
+        column: String,
+        /// The cell's value.
+        value: f64,
+        /// The limit, degrees.
+        limit_deg: f64,
+    },
+    /// A field sample far beyond the recording's others (a glitch).
+    #[error("{path}: data row {row}: |m| = {magnitude:.4e} is more than {OUTLIER_FACTOR}× the recording's median |m| {median:.4e}: a glitch; remove the row")]
+    FieldOutlier {
+        /// The file.
+        path: PathBuf,
+        /// 1-based data row (the header not counted).
+        row: usize,
+        /// Its magnitude, raw units.
+        magnitude: f64,
+        /// The median magnitude, raw units.
+        median: f64,
+    },
     /// Malformed CSV (quoting, encoding).
     #[error("{path}: {source}")]
     Csv {
@@ -116,6 +143,40 @@ pub enum TableError {
         #[source]
         source: csv::Error,
     },
+}
+
+/// A field sample whose magnitude is more than this many times the
+/// recording's median is refused as a glitch (the Earth's field varies by
+/// 3× over the globe, a calibration's gains by far less within a recording).
+pub const OUTLIER_FACTOR: f64 = 10.0;
+
+/// Refuses a field sample more than [`OUTLIER_FACTOR`] times the median
+/// magnitude, naming its row.
+pub(crate) fn check_outliers(mag: &[[f64; 3]], path: &Path) -> Result<(), TableError> {
+    let norm = |m: &[f64; 3]| (m[0] * m[0] + m[1] * m[1] + m[2] * m[2]).sqrt();
+    let mut sorted: Vec<f64> = mag.iter().map(norm).filter(|n| n.is_finite()).collect();
+    if sorted.is_empty() {
+        return Ok(());
+    }
+    sorted.sort_by(f64::total_cmp);
+    let median = sorted[sorted.len() / 2];
+    if !(median > 0.0) {
+        return Ok(());
+    }
+    match mag.iter().position(|m| norm(m) > OUTLIER_FACTOR * median) {
+        Some(i) => Err(TableError::FieldOutlier { path: path.into(), row: i + 1, magnitude: norm(&mag[i]), median }),
+        None => Ok(()),
+    }
+}
+
+/// The largest magnitude, degrees, of an attitude or heading column.
+fn angle_limit_deg(column: &str) -> Option<f64> {
+    match column {
+        col::ROLL_DEG => Some(180.0),
+        col::PITCH_DEG => Some(90.0),
+        col::REF_HEADING_DEG => Some(360.0),
+        _ => None,
+    }
 }
 
 /// A cell: a number, or empty/`nan` for "not available". `None` if neither.
@@ -216,6 +277,11 @@ pub(crate) fn read_table_from<R: std::io::Read>(reader: R, path: &Path, required
                     return Err(TableError::TimeBackwards { path: path.into(), line, t_s: v, previous_s: previous_t });
                 }
                 previous_t = v;
+            }
+            if let Some(limit_deg) = angle_limit_deg(&names[k]) {
+                if v.abs() > limit_deg {
+                    return Err(TableError::OutOfRange { path: path.into(), line, column: names[k].to_string(), value: v, limit_deg });
+                }
             }
             columns[k].push(v);
         }

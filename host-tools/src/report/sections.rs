@@ -118,8 +118,13 @@ pub(crate) fn headline(page: &mut Page, cx: &Context<'_>) {
     let mut row = |k: &str, v: String| {
         let _ = writeln!(page.body, "<tr><th class=\"l\">{k}</th><td class=\"l big\">{v}</td></tr>");
     };
-    row("True-heading RMS on validation, before → after", format!("{} → {}", fmt_opt(before_rms, 2, "°"), fmt_opt(after_rms, 2, "°")));
-    row("Predicted heading error (the fit's uncertainty and the heading noise)", fmt_opt(predicted, 2, "° RMS"));
+    let before_text = match (before_rms, after_rms) {
+        // The card's "before" is the uncalibrated heading: a different thing.
+        (None, Some(_)) => "not given (no coefficients before; the card's “before” is the uncalibrated heading)".to_string(),
+        _ => fmt_opt(before_rms, 2, "°"),
+    };
+    row("True-heading RMS on validation, before → after", format!("{before_text} → {}", fmt_opt(after_rms, 2, "°")));
+    row("Predicted heading error (from the fit's covariance only: what the data's noise leaves uncertain, not what the model leaves out)", fmt_opt(predicted, 2, "° RMS"));
     if let (Some(p), Some(after)) = (predicted, after_rms) {
         if p > 0.0 {
             row("Observed ÷ predicted heading error", format!("{:.2} (near 1: the prediction is honest)", after / p));
@@ -135,7 +140,10 @@ pub(crate) fn headline(page: &mut Page, cx: &Context<'_>) {
             row("Date", date_of_decimal_year(s.decimal_year));
             row("Site", format!("{:.4}° {}, {:.4}° {}", s.lat_deg.abs(), if s.lat_deg >= 0.0 { "N" } else { "S" }, s.lon_deg.abs(), if s.lon_deg >= 0.0 { "E" } else { "W" }));
         }
-        None => row("Date, site", "not available (no site given)".into()),
+        None => match recordings_position(inputs) {
+            Some((lat, lon)) => row("Site (no site given: the recordings' mean position)", format!("{:.4}° {}, {:.4}° {}", lat.abs(), if lat >= 0.0 { "N" } else { "S" }, lon.abs(), if lon >= 0.0 { "E" } else { "W" })),
+            None => row("Date, site", "not available (no site given)".into()),
+        },
     }
     if let Some(st) = inputs.settings {
         row("Vehicle, firmware", format!("{}, firmware {}", escape(&st.vehicle), escape(&st.firmware)));
@@ -151,6 +159,18 @@ pub(crate) fn headline(page: &mut Page, cx: &Context<'_>) {
         page.missing("headline", "no validation run with a truth heading and no session summary: no heading RMS before/after");
     }
     page.end();
+}
+
+/// The mean of the recordings' own positions (`lat_deg`, `lon_deg`), when
+/// they carry any: the validation run's, the run's, the swing test's.
+fn recordings_position(inputs: &ReportInputs<'_>) -> Option<(f64, f64)> {
+    let recs = [inputs.validation.as_ref().map(|v| v.recording), inputs.run, inputs.swing];
+    recs.into_iter().flatten().find_map(|r| {
+        let (lat, lon) = (r.lat_deg.as_ref()?, r.lon_deg.as_ref()?);
+        let fixes: Vec<(f64, f64)> = lat.iter().zip(lon).filter(|(a, o)| a.is_finite() && o.is_finite()).map(|(&a, &o)| (a, o)).collect();
+        let n = fixes.len() as f64;
+        (n > 0.0).then(|| (fixes.iter().map(|f| f.0).sum::<f64>() / n, fixes.iter().map(|f| f.1).sum::<f64>() / n))
+    })
 }
 
 /// Section 2, the deviation card of the validation run (against truth), else of

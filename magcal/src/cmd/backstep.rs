@@ -7,7 +7,7 @@ use clap::ValueEnum;
 use host_tools::compute::{self, BackstepMethod, BackstepOptions, RunReference, SwingMagnitudes};
 use host_tools::data::{CalDoc, Recording};
 
-use super::{emit, hinted, SiteArgs};
+use super::{check_field_nt, check_out, check_positions, emit, hinted, SiteArgs};
 use host_tools::compute::ComputeError;
 
 /// The solver, as the command line names it.
@@ -58,13 +58,26 @@ pub struct Args {
 
 /// Runs `magcal backstep`.
 pub fn run(a: Args) -> Result<()> {
+    if let Some(out) = &a.out {
+        let inputs: Vec<&std::path::Path> = [Some(&a.input), Some(&a.cal), a.swing_input.as_ref(), a.thrust_input.as_ref()].into_iter().flatten().map(|p| p.as_path()).collect();
+        check_out("--out", out, &inputs)?;
+    }
     let reference = match (a.site.site()?, a.site.any(), a.field_h_nt, a.field_z_nt) {
         (Some(site), _, None, None) => RunReference::Igrf(site),
-        (None, false, Some(h_nt), Some(z_nt)) => RunReference::Given { h_nt, z_nt },
+        (None, false, Some(h_nt), Some(z_nt)) => {
+            check_field_nt(h_nt.hypot(z_nt), "--field-h-nt/--field-z-nt give an intensity of")?;
+            RunReference::Given { h_nt, z_nt }
+        }
         _ => bail!("give the reference as --lat/--lon/--date or as --field-h-nt/--field-z-nt"),
     };
     let doc = CalDoc::load(&a.cal)?;
+    // A step-1 calibration fitted to a field in other units (µT typed for
+    // nT) scales the run wrongly: nothing after it could be right.
+    check_field_nt(doc.field_nt, &format!("{}: the calibration's field_nt", a.cal.display()))?;
     let rec = Recording::read(&a.input)?;
+    if let (Some(lat), Some(lon)) = (a.site.lat, a.site.lon) {
+        check_positions(&rec, &a.input, lat, lon)?;
+    }
     let mut opts = BackstepOptions::new(reference);
     opts.method = match a.method {
         Method::Joint => BackstepMethod::Joint,
@@ -93,8 +106,10 @@ pub fn run(a: Args) -> Result<()> {
         }
     }
     if let Some(e) = out_doc.quality.backstep.as_ref().and_then(|b| b.estimates.as_ref()) {
-        print_estimates(e);
+        print_estimates(e, a.swing_input.is_some());
+        check_field_nt(e.local_hz_nt[0].hypot(e.local_hz_nt[1]), &format!("{}: the back-stepped local field", a.input.display()))?;
     }
+    check_field_nt(report.after.f_nt, &format!("{}: the run's mean field through the back-stepped calibration", a.input.display()))?;
     let summary = format!(
         "back-stepping ({}) around the turnaround at {:.0} s: step {:.1} → {:.1} nT, |F − IGRF| RMS {:.1} → {:.1} nT",
         opts.method.name(),
@@ -104,7 +119,7 @@ pub fn run(a: Args) -> Result<()> {
         report.before.f_error_rms_nt,
         report.after.f_error_rms_nt
     );
-    emit(&out_doc, a.out.as_ref(), a.json, &summary)
+    emit(&out_doc, &a.input, a.out.as_ref(), a.json, &summary)
 }
 
 /// What to change on this command line when the back-stepping refuses.
@@ -116,8 +131,9 @@ fn backstep_hint(e: &ComputeError) -> Option<&'static str> {
     }
 }
 
-/// Prints the joint solver's estimates with their 1σ on stderr.
-pub fn print_estimates(e: &host_tools::data::results::JointEstimates) {
+/// Prints the joint solver's estimates with their 1σ on stderr; without a
+/// swing test (`with_swing` false) it says the two biases are not separable.
+pub fn print_estimates(e: &host_tools::data::results::JointEstimates, with_swing: bool) {
     let v3 = |v: [f64; 3], k: f64| format!("[{:.4}, {:.4}, {:.4}]", v[0] * k, v[1] * k, v[2] * k);
     if let Some(c) = &e.bias_per_a_raw {
         eprintln!("  thruster field per A    {} ± {} raw/A", v3(c.value, 1.0), v3(c.sigma, 1.0));
@@ -128,6 +144,9 @@ pub fn print_estimates(e: &host_tools::data::results::JointEstimates) {
     eprintln!("  resting bias            {} ± {} raw", v3(e.bias_raw.value, 1.0), v3(e.bias_raw.sigma, 1.0));
     if e.bias_per_a_raw.is_none() {
         eprintln!("  running-only bias       {} ± {} raw", v3(e.running_bias_raw.value, 1.0), v3(e.running_bias_raw.sigma, 1.0));
+        if !with_swing {
+            eprintln!("  note: without --swing-input (a thrusters-off swing test) the resting and running-only biases are not observable apart: only their sum is; the ± above say so");
+        }
     }
     eprintln!(
         "  local field             H {:.0} nT, Z {:.0} nT (inclination {:+.3}° ± {:.3}° from IGRF; intensity IGRF's ± {:.0} nT, not observable)",

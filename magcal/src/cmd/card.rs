@@ -39,6 +39,9 @@ pub struct Args {
 
 /// Runs `magcal card`.
 pub fn run(a: Args) -> Result<()> {
+    if let Some(csv) = &a.csv {
+        super::check_out("--csv", csv, &[&a.input, &a.cal])?;
+    }
     let doc = CalDoc::load(&a.cal)?;
     let mut rec = Recording::read(&a.input)?;
     if a.reference_column != "ref_heading_deg" {

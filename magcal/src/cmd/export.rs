@@ -61,6 +61,7 @@ pub struct Args {
 
 /// Runs `magcal export`.
 pub fn run(a: Args) -> Result<()> {
+    super::check_out("--out", &a.out, &[&a.cal])?;
     if !(a.max_rotation_deg.is_finite() && a.max_rotation_deg >= 0.0) {
         bail!("--max-rotation-deg must be a non-negative number of degrees, not {}", a.max_rotation_deg);
     }
@@ -87,9 +88,7 @@ pub fn run(a: Args) -> Result<()> {
         eprintln!("warning: {}", w.message);
     }
     let text = ex.to_file_text(&a.cal, &doc);
-    let tmp = a.out.with_extension("tmp");
-    std::fs::write(&tmp, text).with_context(|| format!("{}: write", tmp.display()))?;
-    std::fs::rename(&tmp, &a.out).with_context(|| format!("{}: write", a.out.display()))?;
+    super::write_atomically(&a.out, &text)?;
     eprintln!("wrote {} ({} parameters)", a.out.display(), ex.params.len());
     if a.json {
         println!("{}", serde_json::to_string_pretty(&ex)?);

@@ -8,7 +8,7 @@ use host_tools::compute::{self, FitOptions, GyroLag};
 use host_tools::data::caldoc::model_kind;
 use host_tools::data::Recording;
 
-use super::{emit, hinted, reference_field, warn_all, SiteArgs};
+use super::{check_out, check_positions, emit, hinted, reference_field, warn_all, SiteArgs};
 use host_tools::compute::{ComputeError, GyroError};
 
 /// `--model`: calib-core's `ModelKind` by its document name.
@@ -62,8 +62,14 @@ pub struct Args {
 
 /// Runs `magcal fit`.
 pub fn run(a: Args) -> Result<()> {
+    if let Some(out) = &a.out {
+        check_out("--out", out, &[&a.input])?;
+    }
     let reference = reference_field(a.field_nt, &a.site)?;
     let rec = Recording::read(&a.input)?;
+    if let (Some(lat), Some(lon)) = (a.site.lat, a.site.lon) {
+        check_positions(&rec, &a.input, lat, lon)?;
+    }
     let model = a.model;
     let opts = FitOptions { model, field_nt: reference.total_nt(), saturation: a.saturation, allow_weak: a.allow_weak, gyro_lag: if a.estimate_gyro_lag { GyroLag::Estimate } else { GyroLag::Given(a.gyro_lag_s) } };
     let mut doc = compute::fit_recording(&rec, &opts).map_err(|e| hinted(e, fit_hint)).with_context(|| format!("{}: {} fit", a.input.display(), model.name()))?;
@@ -84,7 +90,7 @@ pub fn run(a: Args) -> Result<()> {
         ),
         None => format!("{} fit: bias {:?}", doc.model.name(), doc.bias),
     };
-    emit(&doc, a.out.as_ref(), a.json, &summary)
+    emit(&doc, &a.input, a.out.as_ref(), a.json, &summary)
 }
 
 /// What to change on this command line when the fit refuses.

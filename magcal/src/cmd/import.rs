@@ -28,6 +28,7 @@ pub struct Args {
 
 /// Runs `magcal import`.
 pub fn run(a: Args) -> Result<()> {
+    super::check_out("--out", &a.out, &[&a.dataflash])?;
     if !(a.min_course_speed_mps.is_finite() && a.min_course_speed_mps >= 0.0) {
         bail!("--min-course-speed-mps must be a non-negative number, not {}", a.min_course_speed_mps);
     }

@@ -16,10 +16,10 @@ pub mod session;
 pub mod simulate;
 pub mod swing;
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Result};
-use host_tools::data::CalDoc;
+use anyhow::{bail, Context, Result};
+use host_tools::data::{CalDoc, Recording};
 use host_tools::geomag::{self, Field, Site};
 
 /// Where and when, for the IGRF reference (all three or none).
@@ -79,6 +79,7 @@ pub fn reference_field(field_nt: Option<f64>, site: &SiteArgs) -> Result<Field> 
             if !(f > 0.0 && f.is_finite()) {
                 bail!("--field-nt must be a positive number of nT, not {f}");
             }
+            check_field_nt(f, "--field-nt")?;
             // Only the intensity is known: put it all on one axis.
             Ok(geomag::Field { north_nt: f, east_nt: 0.0, down_nt: 0.0 })
         }
@@ -90,11 +91,115 @@ pub fn reference_field(field_nt: Option<f64>, site: &SiteArgs) -> Result<Field> 
     }
 }
 
+/// The range of the geomagnetic field's intensity at the Earth's surface
+/// (IGRF: about 22 000 nT off Brazil to 67 000 nT near the south magnetic
+/// pole), widened for local anomalies: 10 000 … 100 000 nT.
+pub const FIELD_NT_RANGE: std::ops::RangeInclusive<f64> = 10_000.0..=100_000.0;
+
+/// Refuses a field intensity that is not one at the Earth's surface in nT,
+/// saying which unit it looks like (`what` names where it came from).
+pub fn check_field_nt(field_nt: f64, what: &str) -> Result<()> {
+    if FIELD_NT_RANGE.contains(&field_nt) {
+        return Ok(());
+    }
+    // The Earth's field is 22–67 µT: which unit makes the number one?
+    let guess = [("µT", 1e3), ("mGauss", 100.0), ("Gauss", 1e5), ("pT", 1e-3)]
+        .iter()
+        .find(|(_, nt_per_unit)| FIELD_NT_RANGE.contains(&(field_nt * nt_per_unit)))
+        .map(|(unit, k)| format!(" (it looks like {unit}: {field_nt} {unit} is {:.0} nT)", field_nt * k))
+        .unwrap_or_default();
+    bail!(
+        "{what} {field_nt} nT is not a geomagnetic field intensity at the Earth's surface ({:.0} … {:.0} nT){guess}",
+        FIELD_NT_RANGE.start(),
+        FIELD_NT_RANGE.end()
+    )
+}
+
+/// Checks an output path before any work is done: not a directory, in a
+/// directory that exists, and not the same file as any of `inputs` (an input
+/// is never overwritten).
+/// `flag` is the option that named it (`--out`, `--csv`).
+pub fn check_out(flag: &str, out: &Path, inputs: &[&Path]) -> Result<()> {
+    if out.is_dir() {
+        bail!("{flag} {}: is a directory (give a file name)", out.display());
+    }
+    let parent = out.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    if !parent.is_dir() {
+        bail!("{flag} {}: the folder {} does not exist", out.display(), parent.display());
+    }
+    if let Ok(out_abs) = out.canonicalize() {
+        for input in inputs {
+            if input.canonicalize().is_ok_and(|i| i == out_abs) {
+                bail!("{flag} {} is the input {}: it would be overwritten (write to another file)", out.display(), input.display());
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Distance beyond which a recording's positions are warned about as far
+/// from the site (the declination can move by tenths of a degree), km.
+pub const SITE_WARN_KM: f64 = 20.0;
+/// Distance beyond which they are refused (a wrong sign or a typo in
+/// --lat/--lon: the reference field would be another place's), km.
+pub const SITE_REFUSE_KM: f64 = 500.0;
+
+/// Great-circle distance on a sphere of the Earth's mean radius, km.
+pub fn distance_km(lat1_deg: f64, lon1_deg: f64, lat2_deg: f64, lon2_deg: f64) -> f64 {
+    let (p1, p2) = (lat1_deg.to_radians(), lat2_deg.to_radians());
+    let (dp, dl) = (p2 - p1, (lon2_deg - lon1_deg).to_radians());
+    let h = (dp / 2.0).sin().powi(2) + p1.cos() * p2.cos() * (dl / 2.0).sin().powi(2);
+    2.0 * 6371.0 * h.sqrt().clamp(0.0, 1.0).asin()
+}
+
+/// Checks the recording's own positions (`lat_deg`/`lon_deg`, where present)
+/// against the site of the reference field: a warning beyond
+/// [`SITE_WARN_KM`], a refusal beyond [`SITE_REFUSE_KM`], naming both.
+pub fn check_positions(rec: &Recording, path: &Path, lat_deg: f64, lon_deg: f64) -> Result<()> {
+    let (Some(lat), Some(lon)) = (&rec.lat_deg, &rec.lon_deg) else { return Ok(()) };
+    let far = lat
+        .iter()
+        .zip(lon)
+        .enumerate()
+        .filter(|(_, (a, o))| a.is_finite() && o.is_finite())
+        .map(|(i, (&a, &o))| (distance_km(lat_deg, lon_deg, a, o), i, a, o))
+        .max_by(|x, y| x.0.total_cmp(&y.0));
+    let Some((km, row, a, o)) = far else { return Ok(()) };
+    let what = format!(
+        "{}: the recording's position {a:.5}°, {o:.5}° (data row {}) is {km:.0} km from the site --lat {lat_deg} --lon {lon_deg}",
+        path.display(),
+        row + 1
+    );
+    if km > SITE_REFUSE_KM {
+        bail!("{what}: the reference field and declination would be another place's; give the site where the recording was made");
+    }
+    if km > SITE_WARN_KM {
+        eprintln!("warning: {what}: the reference field and declination are the site's, not the recording's");
+    }
+    Ok(())
+}
+
+/// Writes `text` to `path` through a temporary file beside it, renamed into
+/// place: no half-written file, and no temporary left behind on failure.
+pub fn write_atomically(path: &Path, text: &str) -> Result<()> {
+    let tmp = path.with_extension("tmp");
+    let written = std::fs::write(&tmp, text).and_then(|()| std::fs::rename(&tmp, path));
+    if written.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    written.with_context(|| format!("{}: write", path.display()))
+}
+
 /// Writes the document (`--out`) and prints it (`--json`) or the summary.
-pub fn emit(doc: &CalDoc, out: Option<&PathBuf>, json: bool, summary: &str) -> Result<()> {
+/// Without `--out` it says on stderr that nothing was saved. Coefficients
+/// refused are blamed on the `input` they were computed from, not on `--out`.
+pub fn emit(doc: &CalDoc, input: &Path, out: Option<&PathBuf>, json: bool, summary: &str) -> Result<()> {
     if let Some(path) = out {
-        doc.save(path)?;
+        doc.validate(input)?;
+        doc.save(path).with_context(|| format!("{}: saving the calibration", path.display()))?;
         eprintln!("wrote {}", path.display());
+    } else {
+        eprintln!("note: no --out given: the calibration is printed, not saved");
     }
     if json {
         println!("{}", serde_json::to_string_pretty(doc)?);

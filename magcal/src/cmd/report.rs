@@ -85,6 +85,9 @@ pub fn run(a: Args) -> Result<()> {
     } else {
         a.cal.clone()
     };
+    if run_path.is_none() && swing_path.is_none() && validation_path.is_none() && cal_paths.is_empty() {
+        bail!("nothing to report: give --session DIR (a session's folder) or at least one of --run, --swing-input, --validation, --cal");
+    }
 
 
     let run = run_path.as_deref().map(Recording::read).transpose()?;

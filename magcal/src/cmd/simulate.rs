@@ -113,6 +113,7 @@ pub struct Args {
 
 /// Runs `magcal simulate`.
 pub fn run(a: Args) -> Result<()> {
+    super::check_out("--out", &a.out, &[])?;
     let simulation = simulate(&a)?;
     simulation.write(&a.out)?;
     let truth = truth_path(&a.out);

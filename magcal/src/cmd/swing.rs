@@ -7,7 +7,7 @@ use anyhow::{bail, Context, Result};
 use host_tools::compute::{self, swing::WaterCurrentMode, Delay};
 use host_tools::data::{CalDoc, Recording};
 
-use super::{emit, warn_all};
+use super::{check_out, emit, warn_all};
 
 /// Arguments of `magcal swing`.
 #[derive(clap::Args)]
@@ -43,6 +43,9 @@ pub struct Args {
 
 /// Runs `magcal swing`.
 pub fn run(a: Args) -> Result<()> {
+    if let Some(out) = &a.out {
+        check_out("--out", out, &[&a.input, &a.cal])?;
+    }
     let delay = match (a.delay_s, a.estimate_delay) {
         (Some(s), false) if s.is_finite() && s >= 0.0 => Delay::Given(s),
         (Some(s), false) => bail!("--delay-s must be a non-negative number of seconds, not {s}"),
@@ -56,12 +59,18 @@ pub fn run(a: Args) -> Result<()> {
         compute::swing::swing_recording_with(&rec, &doc, delay, mode).with_context(|| format!("{}: swing fit", a.input.display()))?;
     warn_all(&doc);
     let s = fit.swing;
-    let current = match doc.quality.swing.as_ref().and_then(|q| q.current) {
+    let current_removed = doc.quality.swing.as_ref().and_then(|q| q.current);
+    if current_removed.is_none() && !has_reciprocal(fit.sectors.visited_mask()) {
+        eprintln!(
+            "warning: the headings hold one course (no reciprocal leg, no turn through the compass): against GPS course, which holds the water current's crab angle and the GPS delay, those go into A; the heading error after is against that course, not the calibration's own; swing over all headings, or run the course both ways"
+        );
+    }
+    let current = match current_removed {
         Some(c) => format!(
             " against course less the crab angle in a current of {:.3}±{:.3} m/s north, {:.3}±{:.3} m/s east;",
             c.current_ne_mps[0], c.sigma_ne_mps[0], c.current_ne_mps[1], c.sigma_ne_mps[1]
         ),
-        None => String::new(),
+        None => " against the reference heading as it is (GPS course holds the crab angle in a current and any delay left);".to_string(),
     };
     let summary = format!(
         "swing fit of {} pairs at delay {:.2} s:{current} A={:.5} B={:.5} C={:.5} D={:.5} E={:.5} rad; heading error {:.2}° → {:.2}° RMS",
@@ -75,5 +84,12 @@ pub fn run(a: Args) -> Result<()> {
         fit.before_rms_rad.to_degrees(),
         fit.residual_rms_rad.to_degrees()
     );
-    emit(&doc, a.out.as_ref(), a.json, &summary)
+    emit(&doc, &a.input, a.out.as_ref(), a.json, &summary)
+}
+
+/// Whether the 12 visited compass sectors (bit `k`: 30°·k …) include two
+/// at least 150° apart: a reciprocal leg or a turn through the compass.
+fn has_reciprocal(visited: u16) -> bool {
+    let on = |k: u32| visited & (1 << (k % 12)) != 0;
+    (0..12).any(|i| on(i) && (5..=7).any(|d| on(i + d)))
 }
