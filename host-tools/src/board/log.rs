@@ -251,7 +251,7 @@ pub struct LogProgress {
 }
 
 fn fmt_cell(v: Option<f64>) -> String {
-    v.filter(|x| x.is_finite()).map_or(String::new(), |x| format!("{x}"))
+    crate::data::table::cell(v.unwrap_or(f64::NAN))
 }
 
 /// Logs the board's raw stream into `out` (a fresh file, see
