@@ -11,9 +11,9 @@
 //!    with the gaps marked (paper 000 Fig 6);
 //! 4. the field magnitude along the run for each calibration (Figs 7–12);
 //! 5. heading against the reference at the surface (Fig 13) and against the
-//!    truth in validation;
-//! 5b. the integrity along the validation run (`magcal apply` with the
-//!    final calibration: heading error by state over the predicted ±1σ);
+//!    truth in validation; then the integrity along the validation run
+//!    (`magcal apply` with the final calibration: the heading error by
+//!    state over the predicted ±1σ, rows per state, the σ's honesty);
 //! 6. the back-stepping trace;
 //! 7. residual distributions (|F| − IGRF, heading errors);
 //! 8. the coefficients.

@@ -470,7 +470,7 @@ fn state_colour(state: IntegrityState) -> plotters::style::RGBColor {
     }
 }
 
-/// Section 5b, the integrity along the validation run: the recording through
+/// Section 5 (continued), the integrity along the validation run: the recording through
 /// `magcal apply` with the final calibration (the board's own per-sample
 /// code), the heading error against the truth coloured by state over the
 /// predicted ±1σ, and a table of rows per state, the σ's honesty on the ok
