@@ -419,8 +419,34 @@ pub struct SessionSummary {
     /// above 1: errors the model does not know about).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub heading_rms_observed_over_predicted: Option<f64>,
+    /// "Recalibrate": the validation run's integrity (the final calibration
+    /// applied by the board's own code) says the calibration does not fit
+    /// this vehicle, with the evidence; absent when it fits or without a
+    /// validation run.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub recalibrate: Option<RecalibrateEvidence>,
     /// Where the session's files are.
     pub session_dir: std::path::PathBuf,
+}
+
+/// Why a session says "recalibrate": what the validation run's per-sample
+/// integrity found with the final calibration.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct RecalibrateEvidence {
+    /// Rows of the validation run.
+    pub rows: usize,
+    /// Rows judged `cal_invalid` (a sustained misfit).
+    pub cal_invalid_rows: usize,
+    /// Their share of the rows, 0…1.
+    pub cal_invalid_fraction: f64,
+    /// The on-line hard-iron estimate was applied at some point (the stored
+    /// hard iron no longer fits).
+    pub hard_iron_applied: bool,
+    /// The on-line hard-iron estimate at the end, nT (when there is one).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub hard_iron_nt: Option<[f64; 3]>,
+    /// Longest run of rows not `ok`, s.
+    pub longest_disturbance_s: f64,
 }
 
 /// What a session saves as `settings.json`: enough to reproduce it offline.

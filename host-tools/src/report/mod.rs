@@ -11,7 +11,9 @@
 //!    with the gaps marked (paper 000 Fig 6);
 //! 4. the field magnitude along the run for each calibration (Figs 7–12);
 //! 5. heading against the reference at the surface (Fig 13) and against the
-//!    truth in validation;
+//!    truth in validation; then the integrity along the validation run
+//!    (`magcal apply` with the final calibration: the heading error by
+//!    state over the predicted ±1σ, rows per state, the σ's honesty);
 //! 6. the back-stepping trace;
 //! 7. residual distributions (|F| − IGRF, heading errors);
 //! 8. the coefficients.
@@ -50,6 +52,7 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs<'_>) -> Result<WrittenRepo
     sections::coverage(&mut page, &cx)?;
     let field_errors = sections::field(&mut page, &cx)?;
     let heading_errors = sections::heading(&mut page, &cx)?;
+    sections::integrity(&mut page, &cx)?;
     sections::backstep(&mut page, &cx)?;
     sections::residuals(&mut page, &cx, &field_errors, &heading_errors)?;
     sections::coefficients(&mut page, &cx);

@@ -51,7 +51,7 @@ impl Page {
     }
     /// The whole self-contained document around the body.
     pub(crate) fn html(&self, title: &str) -> String {
-        let nav = "<p class=\"sub\">magcal · <a href=\"#headline\">headline</a> · <a href=\"#card\">deviation card</a> · <a href=\"#coverage\">coverage</a> · <a href=\"#field\">field</a> · <a href=\"#heading\">heading</a> · <a href=\"#backstep\">back-stepping</a> · <a href=\"#residuals\">residuals</a> · <a href=\"#coefficients\">coefficients</a></p>";
+        let nav = "<p class=\"sub\">magcal · <a href=\"#headline\">headline</a> · <a href=\"#card\">deviation card</a> · <a href=\"#coverage\">coverage</a> · <a href=\"#field\">field</a> · <a href=\"#heading\">heading</a> · <a href=\"#integrity\">integrity</a> · <a href=\"#backstep\">back-stepping</a> · <a href=\"#residuals\">residuals</a> · <a href=\"#coefficients\">coefficients</a></p>";
         format!(
             "<!doctype html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><meta name=\"viewport\" content=\"width=device-width, initial-scale=1\"><link rel=\"icon\" href=\"data:,\"><title>{t}</title><style>{CSS}</style></head>\n<body><h1>{t}</h1>{nav}\n{}</body></html>\n",
             self.body,

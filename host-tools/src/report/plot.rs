@@ -226,34 +226,82 @@ pub fn try_line_plot_ticks(title: &str, x_label: &str, y_label: &str, series: &[
     let (ax, ay) = (axis(x0, x1, 10, x_ticks), axis(y0, y1, 8, None));
     svg(title, |root| {
         let mut chart = framed(root, title, (ax, ay), (x_label, y_label), true)?;
-        for (i, s) in series.iter().enumerate() {
-            let c = color(i);
-            let inside = |p: &&(f64, f64)| p.0.is_finite() && p.1.is_finite() && p.1 >= y0 && p.1 <= y1 && p.0 >= x0 && p.0 <= x1;
-            let anno = if s.dots {
-                // A few points (a trace) get markers one can see; a cloud, small dots.
-                let r = if s.points.len() < 50 { 5 } else { 2 };
-                chart.draw_series(s.points.iter().filter(inside).map(move |&p| Circle::new(p, r, c.mix(0.8).filled()))).map_err(|e| err(title, e))?
-            } else {
-                // A non-finite point lifts the pen: one path per stretch.
-                let mut stretches: Vec<Vec<(f64, f64)>> = vec![Vec::new()];
-                for p in &s.points {
-                    if p.0.is_finite() && p.1.is_finite() {
-                        if let Some(v) = stretches.last_mut() {
-                            v.push(*p);
-                        }
-                    } else if stretches.last().is_some_and(|v| !v.is_empty()) {
-                        stretches.push(Vec::new());
+        draw_series(&mut chart, title, series, &|i| color(i), (x0, x1, y0, y1))?;
+        Ok(())
+    })
+}
+
+/// Draws each series (dots or lines, `colour(i)` for the `i`-th) inside
+/// `x0…x1 × y0…y1`, with the shared legend.
+fn draw_series<'a, 'b: 'a>(
+    chart: &mut ChartContext<'a, SVGBackend<'b>, Cartesian2d<Axis, Axis>>,
+    title: &str,
+    series: &[Series],
+    colour: &dyn Fn(usize) -> RGBColor,
+    (x0, x1, y0, y1): (f64, f64, f64, f64),
+) -> Result<(), PlotError> {
+    for (i, s) in series.iter().enumerate() {
+        let c = colour(i);
+        let inside = |p: &&(f64, f64)| p.0.is_finite() && p.1.is_finite() && p.1 >= y0 && p.1 <= y1 && p.0 >= x0 && p.0 <= x1;
+        let anno = if s.dots {
+            // A few points (a trace) get markers one can see; a cloud, small dots.
+            let r = if s.points.len() < 50 { 5 } else { 2 };
+            chart.draw_series(s.points.iter().filter(inside).map(move |&p| Circle::new(p, r, c.mix(0.8).filled()))).map_err(|e| err(title, e))?
+        } else {
+            // A non-finite point lifts the pen: one path per stretch.
+            let mut stretches: Vec<Vec<(f64, f64)>> = vec![Vec::new()];
+            for p in &s.points {
+                if p.0.is_finite() && p.1.is_finite() {
+                    if let Some(v) = stretches.last_mut() {
+                        v.push(*p);
                     }
+                } else if stretches.last().is_some_and(|v| !v.is_empty()) {
+                    stretches.push(Vec::new());
                 }
-                chart.draw_series(stretches.into_iter().filter(|v| !v.is_empty()).map(|v| PathElement::new(v, c.stroke_width(2)))).map_err(|e| err(title, e))?
-            };
-            if s.dots {
-                anno.label(s.name.as_str()).legend(move |(x, y)| Circle::new((x + 9, y), 4, c.filled()));
-            } else {
-                anno.label(s.name.as_str()).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c.stroke_width(3)));
             }
+            chart.draw_series(stretches.into_iter().filter(|v| !v.is_empty()).map(|v| PathElement::new(v, c.stroke_width(2)))).map_err(|e| err(title, e))?
+        };
+        if s.dots {
+            anno.label(s.name.as_str()).legend(move |(x, y)| Circle::new((x + 9, y), 4, c.filled()));
+        } else {
+            anno.label(s.name.as_str()).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c.stroke_width(3)));
         }
-        if !series.is_empty() {
+    }
+    if !series.is_empty() {
+        legend(chart, title)?;
+    }
+    Ok(())
+}
+
+/// A scatter over a shaded band `±σ(x)` about zero (an error against its
+/// predicted 1σ): `band` is `(x, σ)` in x order, `band_name` its legend
+/// text; `series` are drawn over it in `colours` (one each, by index).
+/// The y axis spans the data and the band, padded, within ±`y_cap`.
+#[allow(clippy::too_many_arguments)]
+pub fn try_band_plot(title: &str, x_label: &str, y_label: &str, band_name: &str, band: &[(f64, f64)], series: &[Series], colours: &[RGBColor], y_cap: f64) -> Result<String, PlotError> {
+    let band: Vec<(f64, f64)> = band.iter().copied().filter(|p| p.0.is_finite() && p.1.is_finite()).collect();
+    let points = || series.iter().flat_map(|s| s.points.iter()).filter(|p| p.0.is_finite() && p.1.is_finite());
+    let (x0, x1) = padded_range(points().map(|p| p.0).chain(band.iter().map(|p| p.0)));
+    let (lo, hi) = padded_range(points().map(|p| p.1).chain(band.iter().flat_map(|p| [p.1, -p.1])));
+    let (lo, hi) = (lo.max(-y_cap), hi.min(y_cap));
+    // Headroom for the legend (a line a series and the band's).
+    let (y0, y1) = (lo, hi + (hi - lo) * 0.075 * (series.len() + 1) as f64);
+    let (ax, ay) = (axis(x0, x1, 10, None), axis(y0, y1, 8, None));
+    svg(title, |root| {
+        let mut chart = framed(root, title, (ax, ay), (x_label, y_label), true)?;
+        if !band.is_empty() {
+            let shade = RGBColor(0x1f, 0x77, 0xb4);
+            let upper = band.iter().map(|p| (p.0, p.1.clamp(y0, y1)));
+            let lower = band.iter().rev().map(|p| (p.0, (-p.1).clamp(y0, y1)));
+            chart
+                .draw_series(std::iter::once(Polygon::new(upper.chain(lower).collect::<Vec<_>>(), shade.mix(0.18).filled())))
+                .map_err(|e| err(title, e))?
+                .label(band_name)
+                .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 18, y + 5)], shade.mix(0.3).filled()));
+        }
+        let colour = |i: usize| colours.get(i).copied().unwrap_or_else(|| color(i));
+        draw_series(&mut chart, title, series, &colour, (x0, x1, y0, y1))?;
+        if series.is_empty() && !band.is_empty() {
             legend(&mut chart, title)?;
         }
         Ok(())

@@ -10,7 +10,9 @@ use super::error::{io, ReportError};
 use super::inputs::{CardFiles, ReportInputs};
 use super::page::{escape, fmt_opt, Page};
 use super::plot::{self, integer_ticks, try_coverage_map, try_histogram, try_line_plot, CoverageGrid, Series};
+use crate::compute::apply::{apply_recording, heading_errors_deg, summarize, ApplyOptions, ApplySummary};
 use crate::compute::card::{deviation_card, DeviationCard};
+use calib_core::integrity::IntegrityState;
 use crate::compute::magnetic_headings;
 use crate::compute::truth::{calibrated_fields_nt, heading_rms_deg, true_headings_rad};
 use crate::data::caldoc::CalDoc;
@@ -450,4 +452,99 @@ pub(crate) fn coefficients(page: &mut Page, cx: &Context<'_>) {
         page.body.push_str("</table>\n");
     }
     page.end();
+}
+
+/// The colour of each integrity state in the figure (ok green, disturbed
+/// orange, calibration invalid red, no attitude grey), in
+/// [`IntegrityState::ALL`]'s order.
+fn state_colour(state: IntegrityState) -> plotters::style::RGBColor {
+    match state {
+        IntegrityState::Ok => plot::color(2),
+        IntegrityState::Disturbed => plot::color(3),
+        IntegrityState::CalInvalid => plot::color(1),
+        IntegrityState::NoAttitude => plot::color(7),
+    }
+}
+
+/// Section 5 (continued), the integrity along the validation run: the recording through
+/// `magcal apply` with the final calibration (the board's own per-sample
+/// code), the heading error against the truth coloured by state over the
+/// predicted ±1σ, and a table of rows per state, the σ's honesty on the ok
+/// rows and the longest disturbance.
+pub(crate) fn integrity(page: &mut Page, cx: &Context<'_>) -> Result<(), ReportError> {
+    page.h2("integrity", "Integrity along the validation run");
+    let (Some(v), Some(doc)) = (&cx.inputs.validation, cx.final_doc) else {
+        page.missing("integrity", "no validation run and final calibration to apply");
+        page.end();
+        return Ok(());
+    };
+    let applied = match apply_recording(v.recording, doc, &ApplyOptions::default()) {
+        Ok(a) => a,
+        Err(e) => {
+            page.missing("integrity", &format!("the final calibration could not be applied to the validation run: {e}"));
+            page.end();
+            return Ok(());
+        }
+    };
+    // The truth, else the recording's own reference heading.
+    let reference: Option<(&str, &[f64])> = if v.truth_deg.iter().any(|t| t.is_finite()) {
+        Some(("truth", v.truth_deg))
+    } else {
+        v.recording.ref_heading_deg.as_deref().filter(|r| r.iter().any(|t| t.is_finite())).map(|r| ("ref_heading_deg", r))
+    };
+    let summary = summarize(&applied, reference);
+    page.p(&format!(
+        "The validation recording run through <code>magcal apply</code> with the final calibration: the board's own per-sample integrity (field magnitude and dip against the calibration's reference, the field's rotation against the gyro, hysteresis), {} rows.",
+        summary.rows
+    ));
+    integrity_table(&mut page.body, &summary);
+    match reference {
+        Some((name, values)) => {
+            let t: Vec<f64> = v.recording.t_s.clone().unwrap_or_else(|| (0..v.recording.len()).map(|i| i as f64).collect());
+            let errors = heading_errors_deg(&applied, values);
+            let series: Vec<Series> = IntegrityState::ALL
+                .iter()
+                .map(|&state| {
+                    let e: Vec<f64> = errors.iter().zip(&applied.rows).map(|(e, r)| e.filter(|_| r.integrity == state).unwrap_or(f64::NAN)).collect();
+                    Series { name: state.name().into(), points: scatter_points(&t, &e), dots: true }
+                })
+                .filter(|s| !s.points.is_empty())
+                .collect();
+            let colours: Vec<_> = IntegrityState::ALL.iter().filter(|&&st| applied.rows.iter().zip(&errors).any(|(r, e)| r.integrity == st && e.is_some())).map(|&st| state_colour(st)).collect();
+            let band: Vec<(f64, f64)> = thin(applied.rows.len().min(t.len()), LINE_POINTS).filter_map(|i| applied.rows[i].heading_sigma_deg.map(|s| (t[i], s))).collect();
+            let x_label = if v.recording.t_s.is_some() { "time, s" } else { "row" };
+            page.figure(
+                plot::try_band_plot("Heading error by integrity state (validation run)", x_label, &format!("heading − {name}, °"), "±1σ predicted", &band, &series, &colours, 180.0),
+                "Each row's heading error coloured by the state the board would have given it; the band is the σ it would have streamed. Rows off the band should not be ok.",
+            )?;
+        }
+        None => page.missing("integrity figure", "the validation run has no truth or reference heading to measure the error against"),
+    }
+    page.end();
+    Ok(())
+}
+
+fn integrity_table(out: &mut String, s: &ApplySummary) {
+    out.push_str("<div class=\"cols\"><table><tr><th class=\"l\">state</th><th>rows</th><th>share</th></tr>\n");
+    for state in IntegrityState::ALL {
+        let n = s.rows_per_state.get(state.name()).copied().unwrap_or(0);
+        let share = if s.rows > 0 { 100.0 * n as f64 / s.rows as f64 } else { f64::NAN };
+        let _ = writeln!(out, "<tr><td class=\"l\">{}</td><td>{n}</td><td>{}</td></tr>", state.name(), fmt_opt(Some(share), 1, " %"));
+    }
+    out.push_str("</table><table>\n");
+    let ratio = match (s.heading_rms_ok_deg, s.predicted_sigma_ok_deg) {
+        (Some(o), Some(p)) if p > 0.0 => Some(o / p),
+        _ => None,
+    };
+    let rows = [
+        ("Heading RMS on ok rows, observed", fmt_opt(s.heading_rms_ok_deg, 2, "°")),
+        ("Predicted σ on ok rows (RMS)", fmt_opt(s.predicted_sigma_ok_deg, 2, "°")),
+        ("Observed ÷ predicted (0.5–2: honest)", fmt_opt(ratio, 2, "")),
+        ("Longest disturbance", fmt_opt(Some(s.longest_disturbance_s), 1, " s")),
+        ("On-line hard iron applied at the end", if s.hard_iron_applied { "<span class=\"bad\">yes</span>".into() } else { "no".to_string() }),
+    ];
+    for (k, v) in rows {
+        let _ = writeln!(out, "<tr><th class=\"l\">{k}</th><td>{v}</td></tr>");
+    }
+    out.push_str("</table></div>\n");
 }

@@ -83,15 +83,16 @@ fn a_full_report_has_every_section_the_card_and_the_physics_numbers() {
     let out = write_report(dir.path(), &inputs).unwrap();
     assert!(out.missing.iter().all(|m| m.starts_with("backstep")), "only the trace is missing: {:?}", out.missing);
     let html = std::fs::read_to_string(&out.index).unwrap();
-    for id in ["headline", "card", "coverage", "field", "heading", "backstep", "residuals", "coefficients"] {
+    for id in ["headline", "card", "coverage", "field", "heading", "integrity", "backstep", "residuals", "coefficients"] {
         assert!(html.contains(&format!("<section id=\"{id}\">")), "section {id}");
     }
     // Self-contained: no fetches (the only URL is the SVG namespace), print CSS.
     assert!(!html.contains("<img") && !html.contains("src=") && !html.contains("<script"));
     assert_eq!(html.matches("http").count(), html.matches("http://www.w3.org/2000/svg").count());
     assert!(html.contains("@media print"));
-    assert_eq!(out.figures, 8, "card, 2 coverage, field, run heading, validation heading, 2 histograms");
-    assert_eq!(html.matches("<svg").count(), 8);
+    // 9 since the integrity section's figure (issue 23) joined.
+    assert_eq!(out.figures, 9, "card, 2 coverage, field, run heading, validation heading, integrity, 2 histograms");
+    assert_eq!(html.matches("<svg").count(), 9);
     // The headline: the final calibration removes the bias exactly (0°);
     // before, the raw heading errs by physics: ψ − atan2(H sin ψ − b, H cos ψ).
     let before: f64 = (vh.iter().map(|p| {
@@ -189,4 +190,75 @@ fn inputs_that_lack_a_column_leave_their_section_saying_why() {
     let short = vec![0.0; 99];
     let inputs = ReportInputs { validation: Some(Validation { recording: &val, truth_deg: &short }), ..inputs };
     assert!(matches!(write_report(dir.path(), &inputs), Err(ReportError::TruthLength { truth_rows: 99, recording_rows: 100 })));
+}
+
+/// The integrity section on a validation run with a steel object passed:
+/// the rows where the field is off are not ok, the figure is there with
+/// its ±σ band and one colour per state seen.
+#[test]
+fn the_integrity_section_shows_a_disturbance_on_the_validation_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, fixed) = docs();
+    // 600 rows at 2 Hz turning 1° a row, level; rows 300–339 (20 s) carry
+    // 5000 nT more along x (11 % of F, ~9× the 1.2 % scatter the monitor
+    // expects): a hull passed at a few metres.
+    let n = 600;
+    let h: Vec<f64> = (0..n).map(|i| f64::from(i % 360)).collect();
+    let mut val = recording(&h, &vec![0.0; n as usize], &vec![0.0; n as usize]);
+    for m in &mut val.mag[300..340] {
+        m[0] += 5000.0;
+    }
+    let inputs = ReportInputs {
+        run: None,
+        swing: None,
+        validation: Some(Validation { recording: &val, truth_deg: &h }),
+        cals: vec![("final".into(), &fixed)],
+        before: None,
+        field_nt: None,
+        site: None,
+        summary: None,
+        settings: None,
+    };
+    let out = write_report(dir.path(), &inputs).unwrap();
+    let html = std::fs::read_to_string(&out.index).unwrap();
+    if let Ok(keep) = std::env::var("MAGCAL_KEEP_REPORT") {
+        std::fs::copy(&out.index, keep).unwrap();
+    }
+    let section = html.split("<section id=\"integrity\">").nth(1).expect("the section").split("</section>").next().unwrap();
+    assert!(!out.missing.iter().any(|m| m.starts_with("integrity")), "{:?}", out.missing);
+    assert!(section.contains("Heading error by integrity state") && section.contains("±1σ predicted"));
+    assert_eq!(section.matches("<svg").count(), 1);
+    // Rows per state: the 40 disturbed rows are not ok (the state may
+    // linger a few rows after), the rest ok.
+    let count = |state: &str| -> usize {
+        let cell = section.split(&format!("<td class=\"l\">{state}</td><td>")).nth(1).unwrap();
+        cell.split('<').next().unwrap().parse().unwrap()
+    };
+    let not_ok = count("disturbed") + count("cal_invalid");
+    assert!((40..=60).contains(&not_ok), "{not_ok}");
+    assert_eq!(count("ok") + not_ok + count("no_attitude"), 600);
+    assert_eq!(count("no_attitude"), 0);
+    // The disturbed rows' dots are orange (the state's colour) in the figure.
+    assert!(section.contains("#FF7F0E") || section.contains("#D62728"));
+    assert!(section.contains("Longest disturbance"));
+}
+
+/// Without a validation run the section says so; with one whose truth is
+/// empty and no reference heading, the table is there and the figure said missing.
+#[test]
+fn the_integrity_section_without_its_inputs_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, fixed) = docs();
+    let inputs = ReportInputs { run: None, swing: None, validation: None, cals: vec![("final".into(), &fixed)], before: None, field_nt: None, site: None, summary: None, settings: None };
+    let out = write_report(dir.path(), &inputs).unwrap();
+    assert!(out.missing.iter().any(|m| m.starts_with("integrity: no validation run")), "{:?}", out.missing);
+    let h: Vec<f64> = (0..100).map(|i| f64::from(i) * 3.6).collect();
+    let mut val = recording(&h, &[0.0; 100], &[0.0; 100]);
+    val.ref_heading_deg = None;
+    let truth = vec![f64::NAN; 100];
+    let inputs = ReportInputs { validation: Some(Validation { recording: &val, truth_deg: &truth }), ..inputs };
+    let out = write_report(dir.path(), &inputs).unwrap();
+    assert!(out.missing.iter().any(|m| m.starts_with("integrity figure")), "{:?}", out.missing);
+    let html = std::fs::read_to_string(&out.index).unwrap();
+    assert!(html.contains("<td class=\"l\">ok</td><td>100</td>"));
 }

@@ -28,7 +28,9 @@ use magcal_protocol::{FitReport, Sample, StreamMode};
 use crate::board::coefficients::{doc_from_coefficients, to_coefficients};
 use crate::board::{BoardClient, ClientError};
 use crate::compute::{self, truth, Chain, ChainOptions, ComputeError, FirstStep};
-use crate::data::results::{OnboardFitSummary, SessionSettings, SessionSummary, ValidationMetrics};
+use crate::compute::apply::{apply_recording, Applied, ApplyOptions};
+use crate::data::results::{OnboardFitSummary, RecalibrateEvidence, SessionSettings, SessionSummary, ValidationMetrics};
+use calib_core::integrity::IntegrityState;
 use crate::data::CalDoc;
 use crate::geomag::Site;
 
@@ -106,7 +108,8 @@ pub fn run<P: Read + Write>(
     let settings = session_settings(vehicle, cfg, &id.firmware_version);
     save_json(&cfg.out_dir, "settings.json", &settings)?;
     let onboard_fit = OnboardFitSummary { samples: fit.samples, coverage_pct: fit.coverage_pct, residual_rms_nt: fit.residual_rms_nt };
-    let summary = session_summary(&chain, validation.as_ref().map(|(_, m)| *m), seq, onboard_fit, cfg)?;
+    let recalibrate = validation.as_ref().and_then(|(v, _)| validation_integrity(&v.recording, &chain.final_doc));
+    let summary = session_summary(&chain, validation.as_ref().map(|(_, m)| *m), recalibrate, seq, onboard_fit, cfg)?;
     save_json(&cfg.out_dir, "summary.json", &summary)?;
     // The report comes after the summary: a report that cannot be drawn is
     // said, and does not undo a verified session.
@@ -202,7 +205,7 @@ fn session_settings(vehicle: &dyn Vehicle, cfg: &SessionConfig, firmware: &str) 
 
 /// The session's summary: the chain's reports, the upload, the validation
 /// and how its heading error compares with the prediction.
-fn session_summary(chain: &Chain, validation: Option<ValidationMetrics>, seq: u32, onboard_fit: OnboardFitSummary, cfg: &SessionConfig) -> Result<SessionSummary, SessionError> {
+fn session_summary(chain: &Chain, validation: Option<ValidationMetrics>, recalibrate: Option<RecalibrateEvidence>, seq: u32, onboard_fit: OnboardFitSummary, cfg: &SessionConfig) -> Result<SessionSummary, SessionError> {
     let validation = validation.filter(|v| v.validation_samples > 0);
     // The chain's prediction: the fit's covariance and the run's white
     // heading noise together, the same number the bench holds to 0.5–2×.
@@ -220,8 +223,66 @@ fn session_summary(chain: &Chain, validation: Option<ValidationMetrics>, seq: u3
         swing: chain.final_doc.quality.swing.clone().ok_or(SessionError::NoReport("swing fit"))?,
         predicted_heading_rms_deg,
         heading_rms_observed_over_predicted,
+        recalibrate,
         session_dir: cfg.out_dir.clone(),
     })
+}
+
+/// Share of the validation run judged `cal_invalid` above which the session
+/// says "recalibrate": `cal_invalid` needs a misfit sustained for seconds,
+/// so a pier or hull passed at a few metres gives a short stretch of it;
+/// a tenth of the run is no passing object.
+pub const RECALIBRATE_CAL_INVALID_FRACTION: f64 = 0.10;
+
+/// The final calibration applied to the validation recording by the board's
+/// own per-sample code, and what it says: `Some` evidence when it says
+/// "recalibrate" (printed), `None` when the calibration fits or it could
+/// not be applied (said).
+fn validation_integrity(recording: &crate::data::Recording, final_doc: &CalDoc) -> Option<RecalibrateEvidence> {
+    match apply_recording(recording, final_doc, &ApplyOptions::default()) {
+        Ok(applied) => {
+            let evidence = recalibrate_evidence(&applied, RECALIBRATE_CAL_INVALID_FRACTION);
+            if let Some(e) = &evidence {
+                eprintln!("session: {}", recalibrate_text(e));
+            }
+            evidence
+        }
+        Err(e) => {
+            eprintln!("session: the validation run's integrity was not computed: {e}");
+            None
+        }
+    }
+}
+
+/// "Recalibrate" when more than `max_cal_invalid_fraction` of the rows are
+/// `cal_invalid` or the on-line hard iron was applied, with the evidence;
+/// `None` otherwise (and for an empty run).
+pub fn recalibrate_evidence(applied: &Applied, max_cal_invalid_fraction: f64) -> Option<RecalibrateEvidence> {
+    let rows = applied.rows.len();
+    let cal_invalid_rows = applied.rows.iter().filter(|r| r.integrity == IntegrityState::CalInvalid).count();
+    let cal_invalid_fraction = if rows > 0 { cal_invalid_rows as f64 / rows as f64 } else { 0.0 };
+    let hard_iron_applied = applied.health.hard_iron_applied > 0 || applied.applied_offset_nt.is_some();
+    (rows > 0 && (cal_invalid_fraction > max_cal_invalid_fraction || hard_iron_applied)).then(|| RecalibrateEvidence {
+        rows,
+        cal_invalid_rows,
+        cal_invalid_fraction,
+        hard_iron_applied,
+        hard_iron_nt: applied.hard_iron.map(|h| h.offset_nt),
+        longest_disturbance_s: applied.health.longest_disturbance_s,
+    })
+}
+
+/// The printed line: "recalibrate" and why.
+pub fn recalibrate_text(e: &RecalibrateEvidence) -> String {
+    let mut why = vec![format!("{} of {} validation rows ({:.1} %) cal_invalid", e.cal_invalid_rows, e.rows, 100.0 * e.cal_invalid_fraction)];
+    if e.hard_iron_applied {
+        why.push(match e.hard_iron_nt {
+            Some(h) => format!("the on-line hard iron was applied ({:.0}, {:.0}, {:.0} nT)", h[0], h[1], h[2]),
+            None => "the on-line hard iron was applied".into(),
+        });
+    }
+    why.push(format!("longest disturbance {:.1} s", e.longest_disturbance_s));
+    format!("RECALIBRATE: the calibration does not fit this vehicle any more: {}", why.join("; "))
 }
 
 fn begin(vehicle: &mut dyn Vehicle, phase: Phase) -> Result<(), SessionError> {

@@ -348,3 +348,89 @@ fn a_faster_board_stream_is_paired_by_time_with_a_bounded_lag() {
 
 /// `magcal log` against the same in-memory board and link.
 mod log;
+
+/// A level vehicle turning slowly (3°/s) in a field 20 000 nT north,
+/// 40 000 nT down, 10 Hz; from row `from` on, `step_nt` is added to the raw
+/// field (a payload switched on: a new hard iron the calibration lacks).
+fn turning_recording(rows: usize, from: usize, step_nt: [f64; 3]) -> crate::data::Recording {
+    let mag = (0..rows)
+        .map(|i| {
+            let psi = (i as f64 * 0.3).to_radians();
+            let extra = if i >= from { step_nt } else { [0.0; 3] };
+            [20_000.0 * psi.cos() + extra[0], -20_000.0 * psi.sin() + extra[1], 40_000.0 + extra[2]]
+        })
+        .collect();
+    crate::data::Recording {
+        t_s: Some((0..rows).map(|i| i as f64 * 0.1).collect()),
+        mag,
+        roll_deg: Some(vec![0.0; rows]),
+        pitch_deg: Some(vec![0.0; rows]),
+        ..crate::data::Recording::default()
+    }
+}
+
+fn identity_doc() -> CalDoc {
+    use calib_core::cal::{FieldCal, ModelKind};
+    let mut doc = CalDoc::new(ModelKind::Sphere, &FieldCal::identity(), 44_721.4, Default::default());
+    doc.quality.predicted_heading_rms_deg = Some(0.5);
+    doc
+}
+
+#[test]
+fn a_payload_switched_on_during_validation_says_recalibrate_with_the_evidence() {
+    // 120 s; an 8000 nT hard iron from 40 s on, the vehicle turning: the
+    // monitor calls the misfit cal_invalid within seconds, then the on-line
+    // estimate (from the attitude and the turning) recovers the new hard
+    // iron and is applied. Measured: 86 rows cal_invalid, the longest
+    // disturbance 9.9 s, the estimate (7978, 358, −160) nT.
+    let rec = turning_recording(1200, 400, [8000.0, 0.0, 0.0]);
+    let applied = apply_recording(&rec, &identity_doc(), &ApplyOptions::default()).unwrap();
+    let e = recalibrate_evidence(&applied, RECALIBRATE_CAL_INVALID_FRACTION).expect("recalibrate");
+    assert_eq!(e.rows, 1200);
+    assert!(e.hard_iron_applied, "{e:?}");
+    let h = e.hard_iron_nt.expect("the estimate");
+    // Against the injected step (8000, 0, 0) nT.
+    assert!(((h[0] - 8000.0).powi(2) + h[1].powi(2) + h[2].powi(2)).sqrt() < 1000.0, "{h:?}");
+    // Not before the step: the first 400 rows fit.
+    assert!(applied.rows[..400].iter().all(|r| r.integrity == IntegrityState::Ok));
+    assert!((20..=400).contains(&e.cal_invalid_rows), "{e:?}");
+    assert!((e.cal_invalid_fraction - e.cal_invalid_rows as f64 / 1200.0).abs() < 1e-12);
+    assert!(e.longest_disturbance_s > 2.0 && e.longest_disturbance_s < 40.0, "{e:?}");
+    let text = recalibrate_text(&e);
+    assert!(text.starts_with("RECALIBRATE") && text.contains(&format!("{} of 1200 validation rows", e.cal_invalid_rows)) && text.contains("hard iron was applied"), "{text}");
+    // Typed in the summary's JSON.
+    let json = serde_json::to_value(e).unwrap();
+    assert_eq!(json["cal_invalid_rows"], e.cal_invalid_rows);
+    // The same run without the payload: the calibration fits, nothing said.
+    let clean = apply_recording(&turning_recording(1200, 1200, [0.0; 3]), &identity_doc(), &ApplyOptions::default()).unwrap();
+    assert!(clean.rows.iter().all(|r| r.integrity == IntegrityState::Ok));
+    assert_eq!(recalibrate_evidence(&clean, RECALIBRATE_CAL_INVALID_FRACTION), None);
+}
+
+#[test]
+fn recalibrate_needs_more_than_the_fraction_or_the_hard_iron_applied() {
+    let rec = turning_recording(1000, 1000, [0.0; 3]);
+    let mut applied = apply_recording(&rec, &identity_doc(), &ApplyOptions::default()).unwrap();
+    // 100 of 1000 rows cal_invalid: exactly the threshold, not above it.
+    for r in applied.rows.iter_mut().take(100) {
+        r.integrity = IntegrityState::CalInvalid;
+    }
+    assert_eq!(recalibrate_evidence(&applied, 0.10), None);
+    applied.rows[100].integrity = IntegrityState::CalInvalid;
+    let e = recalibrate_evidence(&applied, 0.10).expect("101 rows > 10 %");
+    assert_eq!((e.cal_invalid_rows, e.hard_iron_applied), (101, false));
+    assert!((e.cal_invalid_fraction - 0.101).abs() < 1e-12);
+    // Disturbed rows (a passing object) are not evidence.
+    for r in applied.rows.iter_mut().take(500) {
+        r.integrity = IntegrityState::Disturbed;
+    }
+    assert_eq!(recalibrate_evidence(&applied, 0.10), None);
+    // The on-line hard iron applied is evidence on its own.
+    applied.health.hard_iron_applied = 1;
+    let e = recalibrate_evidence(&applied, 0.10).expect("hard iron applied");
+    assert!(e.hard_iron_applied && e.cal_invalid_rows == 0);
+    assert!(recalibrate_text(&e).contains("on-line hard iron was applied"));
+    // An empty run says nothing.
+    applied.rows.clear();
+    assert_eq!(recalibrate_evidence(&applied, 0.10), None);
+}
