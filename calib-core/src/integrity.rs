@@ -102,6 +102,24 @@ pub struct Reference<T> {
     pub heading_sigma_rad: T,
 }
 
+/// The field's scatter about `F` taken when a calibration reports none (the
+/// board's stored coefficients; a document without a fit residual), as a
+/// fraction of `F`: the RMS of `|h| − F` with the true calibration on the
+/// four undisturbed BROAD validation trials (02, 03, 05, 09) is 476–638 nT
+/// on about 44 000 nT, 1.1–1.45 %.
+pub const DEFAULT_FIELD_SIGMA_REL: f64 = 0.012;
+
+impl<T: Real> Reference<T> {
+    /// The reference of a calibration that keeps only its intensity `F` —
+    /// the board's stored coefficients, or a document without quality
+    /// figures: scatter [`DEFAULT_FIELD_SIGMA_REL`] of `F`, the inclination
+    /// learned, no heading σ of its own. The board and `magcal apply` both
+    /// start from this, so they judge alike.
+    pub fn from_field_nt(field_nt: T) -> Self {
+        Self { field_nt, field_sigma_nt: T::from_f64(DEFAULT_FIELD_SIGMA_REL) * field_nt, inclination_rad: None, heading_sigma_rad: T::ZERO }
+    }
+}
+
 /// The monitor's constants. [`Tuning::standard`] holds the values chosen on
 /// real data (leave-one-dataset-out, see `xtask/src/bench/integrity.rs`).
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -83,6 +83,15 @@ pub struct OnlineIntegrity<T> {
 /// The on-line hard iron's memory, s.
 pub const HARD_IRON_TAU_S: f64 = 60.0;
 
+/// The board runs the hard-iron estimator and its shadow check every this
+/// many output samples ([`OnlineIntegrity::with_estimator_every`]);
+/// `magcal apply` uses the same, so it gives the board's bits. Every
+/// sample: at the board's default 10 Hz a larger `n` would join gyro rows
+/// more than `Tuning::max_gap_s` (0.2 s) apart, and the estimator would
+/// never see a rotation (its cost, ~1 300 Cortex-M4 instructions a run,
+/// is reported by `cargo xtask bench`).
+pub const BOARD_ESTIMATOR_EVERY: u8 = 1;
+
 impl<T: Real> OnlineIntegrity<T> {
     /// Integrity for a calibration with this reference.
     pub fn new(reference: Reference<T>, tuning: Tuning<T>) -> Result<Self, IntegrityError> {
@@ -100,6 +109,13 @@ impl<T: Real> OnlineIntegrity<T> {
             alt_dt_s: T::ZERO,
             health: Health { samples_per_state: [0; 4], longest_disturbance_s: T::ZERO, current_disturbance_s: T::ZERO, hard_iron_applied: 0 },
         })
+    }
+
+    /// The board's integrity for a stored calibration of intensity
+    /// `field_nt` ([`Reference::from_field_nt`], [`Tuning::standard`], the
+    /// estimator every [`BOARD_ESTIMATOR_EVERY`] samples).
+    pub fn for_stored_field(field_nt: T) -> Result<Self, IntegrityError> {
+        Ok(Self::new(Reference::from_field_nt(field_nt), Tuning::standard())?.with_estimator_every(BOARD_ESTIMATOR_EVERY))
     }
 
     /// Runs the hard-iron estimator and its shadow check only every `n`-th

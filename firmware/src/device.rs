@@ -119,7 +119,7 @@ impl Device {
             staged: None,
             lock: WriteLock::new(boot.challenge),
             inputs: Inputs::default(),
-            pipeline: Pipeline::new(),
+            pipeline: Pipeline::new(coefficients.field_nt),
             fit: None,
             last_error,
         }

@@ -25,6 +25,7 @@ pub mod clocks;
 pub mod device;
 pub mod layout;
 pub mod link;
+pub mod nmea;
 pub mod platform;
 pub mod ads131m04_model;
 pub mod store;

@@ -96,6 +96,23 @@ impl LinkServer {
     }
 }
 
+/// A reply frame as sent while the stream is NMEA sentences: `0x00 ‖
+/// frame ‖ \r\n`. The leading zero ends the sentence bytes a framed
+/// reader has buffered (it then sees one damaged frame, counted, and this
+/// one whole); the trailing line end makes the frame one line an NMEA
+/// reader discards (it does not start with `$`).
+pub fn nmea_safe(frame: &ReplyFrame) -> NmeaSafeFrame {
+    let mut out = NmeaSafeFrame::new();
+    // Cannot fail: the capacity is the frame's plus three.
+    let _ = out.push(0);
+    let _ = out.extend_from_slice(frame);
+    let _ = out.extend_from_slice(b"\r\n");
+    out
+}
+
+/// A reply frame with its NMEA-mode margins ([`nmea_safe`]).
+pub type NmeaSafeFrame = heapless::Vec<u8, { MAX_FRAME_LEN + 3 }>;
+
 /// The requests the link layer answers itself; `None` for the device's.
 fn serve(body: &RequestBody, device: &DeviceInfo) -> Option<ResponseBody> {
     match body {
@@ -189,6 +206,23 @@ mod tests {
         ));
         assert_eq!(replies[1], Response { seq: Some(2), body: ResponseBody::Pong { nonce: 6 } });
         assert_eq!(s.counters(), LinkCounters { requests: 1, bad_frames: 1, encode_failures: 0 });
+    }
+
+    /// In NMEA mode a framed reader that has buffered sentence bytes loses
+    /// them (one damaged frame) but decodes the reply whole.
+    #[test]
+    fn a_reply_after_nmea_sentences_still_decodes() {
+        let mut s = LinkServer::new();
+        let reply = s.reply(Some(3), ResponseBody::Ack).unwrap();
+        let mut bytes = b"$HCHDT,123.4,T*1D\r\n$PMAGI,0.73,ok*3C\r\n".to_vec();
+        bytes.extend_from_slice(&nmea_safe(&reply));
+        bytes.extend_from_slice(b"$HCHDT,,T*2C\r\n");
+        let mut dec = FrameDecoder::new();
+        let got: Vec<Result<Response, FrameError>> = bytes.iter().filter_map(|&b| dec.push(b).map(|r| r.and_then(proto::decode_body::<Response>))).collect();
+        assert_eq!(got.len(), 2, "{got:?}");
+        assert!(got[0].is_err());
+        assert_eq!(got[1], Ok(Response { seq: Some(3), body: ResponseBody::Ack }));
+        assert!(nmea_safe(&reply).ends_with(b"\r\n") && nmea_safe(&reply)[0] == 0);
     }
 
     #[test]

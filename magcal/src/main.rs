@@ -41,6 +41,9 @@ enum Cmd {
     Igrf(cmd::igrf::Args),
     /// Ask the board (or the QEMU board) who it is.
     Identify(cmd::identify::Args),
+    /// Choose what the board streams: framed samples, or NMEA 0183 sentences
+    /// ($HCHDG, $HCHDT, $PMAGI with the heading's σ and integrity).
+    Stream(cmd::stream::Args),
     /// Field (ellipsoid) calibration from a recording.
     Fit(cmd::fit::Args),
     /// Fourier (swinging) heading calibration against a reference heading.
@@ -74,6 +77,7 @@ fn main() {
         Cmd::Backstep(a) => cmd::backstep::run(a),
         Cmd::Igrf(a) => cmd::igrf::run(a),
         Cmd::Identify(a) => cmd::identify::run(a),
+        Cmd::Stream(a) => cmd::stream::run(a),
         Cmd::Fit(a) => cmd::fit::run(a),
         Cmd::Swing(a) => cmd::swing::run(a),
         Cmd::Ortho(a) => cmd::ortho::run(a),

@@ -5,7 +5,7 @@
 //!
 //! * lines that are not `magcal` (`cargo xtask …`, building and flashing the
 //!   firmware): the build, QEMU and a probe, not the CLI;
-//! * `identify`, `session`, `log`: they talk to a board (a serial port, or
+//! * `identify`, `session`, `log`, `stream`: they talk to a board (a serial port, or
 //!   the firmware in QEMU: `cargo xtask demo` and tests/e2e run those);
 //! * `merge`: its inputs are the board's and the navigation computer's logs
 //!   from `log` on a vehicle (`magcal/tests/merge.rs` covers it);
@@ -38,7 +38,7 @@ fn sh_lines(readme: &str) -> Vec<String> {
 fn skipped(words: &[&str]) -> Option<&'static str> {
     match words {
         [first, ..] if *first != "magcal" => Some("not a magcal command (cargo: build, QEMU, probe)"),
-        [_, "identify" | "session" | "log", ..] => Some("talks to a board (serial port or QEMU)"),
+        [_, "identify" | "session" | "log" | "stream", ..] => Some("talks to a board (serial port or QEMU)"),
         [_, "merge", ..] => Some("its inputs come from `log` on a vehicle"),
         [_, "import", ..] => Some("needs a vehicle's DataFlash log"),
         [_, "report", "--session", ..] => Some("needs the folder `session` writes"),

@@ -12,8 +12,10 @@ use crate::error::FrameError;
 /// and temperature terms to `Coefficients`, `temp_c` to `Sample` and
 /// `SensorFeed`, the environment counters to `Health`, and the
 /// `AttitudeEnv` request (postcard has no field tags, so a version-2 peer
-/// would misread these).
-pub const PROTOCOL_VERSION: u8 = 3;
+/// would misread these). Version 4 appended the heading's σ and integrity
+/// to `Sample`, the integrity counters and the on-line hard iron to
+/// `Health`, and the `Nmea` stream mode.
+pub const PROTOCOL_VERSION: u8 = 4;
 
 /// Longest decoded frame (version byte, postcard payload and CRC).
 pub const MAX_DECODED_LEN: usize = 250;

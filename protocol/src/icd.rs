@@ -137,6 +137,59 @@ pub enum StreamMode {
     Calibrated,
     /// Both.
     Both,
+    /// NMEA 0183 sentences instead of framed samples: per output sample
+    /// `$HCHDG`, `$HCHDT` and `$PMAGI` (heading σ and integrity),
+    /// `docs/INTERFACES.md` "NMEA 0183 output". The link still takes framed
+    /// requests (and answers them framed) in this mode: `SetStream` with
+    /// another mode goes back. (Last: earlier variants keep their wire tags.)
+    Nmea,
+}
+
+/// The integrity of a sample's heading (calib-core's
+/// [`calib_core::integrity::IntegrityState`], in the same order: the wire
+/// tag is the state's `u8`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Integrity {
+    /// The field fits the calibration's reference and the gyro: the heading
+    /// may be used with its σ.
+    Ok,
+    /// This sample's field does not fit (a nearby magnetic object).
+    Disturbed,
+    /// The stored calibration no longer fits this vehicle (sustained misfit).
+    CalInvalid,
+    /// No fresh attitude (or a needed current is stale): no heading.
+    NoAttitude,
+}
+
+impl Integrity {
+    /// The wire state from calib-core's.
+    pub fn from_state(s: calib_core::integrity::IntegrityState) -> Self {
+        use calib_core::integrity::IntegrityState as S;
+        match s {
+            S::Ok => Integrity::Ok,
+            S::Disturbed => Integrity::Disturbed,
+            S::CalInvalid => Integrity::CalInvalid,
+            S::NoAttitude => Integrity::NoAttitude,
+        }
+    }
+
+    /// calib-core's state.
+    pub fn state(self) -> calib_core::integrity::IntegrityState {
+        use calib_core::integrity::IntegrityState as S;
+        match self {
+            Integrity::Ok => S::Ok,
+            Integrity::Disturbed => S::Disturbed,
+            Integrity::CalInvalid => S::CalInvalid,
+            Integrity::NoAttitude => S::NoAttitude,
+        }
+    }
+
+    /// The word used in CSV, JSON and the `$PMAGI` sentence (`ok`,
+    /// `disturbed`, `cal_invalid`, `no_attitude`).
+    pub fn name(self) -> &'static str {
+        self.state().name()
+    }
 }
 
 /// On-board fit models: calib-core's [`ModelKind`] (the board fits sphere,
@@ -227,6 +280,15 @@ pub struct Sample {
     /// when the thermistor reads out of range: open or shorted; the sample
     /// was then corrected at the reference temperature).
     pub temp_c: Option<f32>,
+    /// The heading's 1σ, degrees, as the calibration and the integrity
+    /// checks see it (`None` when the board had no heading: no fresh
+    /// attitude). Sent in every stream mode with [`Sample::integrity`], so a
+    /// raw log records the board's judgement too.
+    pub heading_sigma_deg: Option<f32>,
+    /// The heading's integrity (in every stream mode): a heading that is
+    /// not [`Integrity::Ok`] is still sent (for plots) but must not be used
+    /// as a good heading.
+    pub integrity: Integrity,
 }
 
 /// Counters and state.
@@ -290,6 +352,20 @@ pub struct Health {
     /// The last sample was corrected with a stale/missing current or a
     /// missing temperature.
     pub env_degraded: bool,
+    /// Output samples judged in each [`Integrity`] state since boot (or
+    /// since the coefficients in use were set), indexed by the state's wire
+    /// tag (`ok`, `disturbed`, `cal_invalid`, `no_attitude`).
+    pub integrity_samples: [u32; 4],
+    /// Longest run of samples not `ok` (disturbed or calibration invalid), ms.
+    pub longest_disturbance_ms: u32,
+    /// The on-line hard-iron estimate, nT in the body frame (`None` before
+    /// it has one).
+    pub hard_iron_nt: Option<[f32; 3]>,
+    /// The estimate is applied to the samples now (under the guard: the
+    /// stored calibration judged invalid and the estimate checked).
+    pub hard_iron_applied: bool,
+    /// Times the estimate was applied.
+    pub hard_iron_applications: u32,
 }
 
 /// The on-board fit's state.

@@ -608,8 +608,9 @@ pub struct Effects {
     pub anomaly: Option<AnomalyModel>,
     /// AHRS misalignment.
     pub ahrs: Option<AhrsMisalignment>,
-    /// Water current, speed log and GPS.
-    pub current: Option<WaterModel>,
+    /// Water current, speed log and GPS (`current` in scenario files).
+    #[serde(rename = "current")]
+    pub water_current: Option<WaterModel>,
     /// A steel structure beside the track.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub structure: Option<SteelStructure>,
@@ -645,7 +646,7 @@ impl Effects {
             Effect::Temperature => self.temperature = Some(ThermalModel::summer_sea()),
             Effect::Anomaly => self.anomaly = Some(AnomalyModel::two_bodies()),
             Effect::Ahrs => self.ahrs = Some(AhrsMisalignment::typical()),
-            Effect::Current => self.current = Some(WaterModel::tidal()),
+            Effect::Current => self.water_current = Some(WaterModel::tidal()),
             Effect::Structure => self.structure = Some(SteelStructure::pier_beside_validation()),
             Effect::Payload => self.payload = Some(Payload::motor_on_validation()),
         }
@@ -676,7 +677,7 @@ impl Effects {
 
     /// The effects that are on.
     pub fn list(&self) -> Vec<Effect> {
-        let on = [self.thrusters.is_some(), self.temperature.is_some(), self.anomaly.is_some(), self.ahrs.is_some(), self.current.is_some(), self.structure.is_some(), self.payload.is_some()];
+        let on = [self.thrusters.is_some(), self.temperature.is_some(), self.anomaly.is_some(), self.ahrs.is_some(), self.water_current.is_some(), self.structure.is_some(), self.payload.is_some()];
         Effect::ALL.iter().chain(&Effect::DISTURBANCES).zip(on).filter(|(_, o)| *o).map(|(e, _)| *e).collect()
     }
 }

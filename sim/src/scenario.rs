@@ -6,7 +6,7 @@
 //! are [`host_tools::compute::truth`]'s. Used by the acceptance tests and by
 //! `cargo xtask bench`.
 
-use host_tools::compute::{self, truth, BackstepMethod, ChainOptions, ComputeError, CurrentMode, Delay, FirstStep};
+use host_tools::compute::{self, truth, BackstepMethod, ChainOptions, ComputeError, WaterCurrentMode, Delay, FirstStep};
 use host_tools::data::CalDoc;
 
 use crate::effects::{Effect, Effects};
@@ -261,14 +261,14 @@ impl Variant {
         let mut o = ChainOptions::default();
         match self {
             Variant::Full => {}
-            Variant::NoCurrentTerm => o.joint.terms.current = false,
+            Variant::NoCurrentTerm => o.joint.terms.motor_current = false,
             Variant::NoTemperatureTerm => o.joint.terms.temperature = false,
             Variant::NoLocalField => o.joint.terms.local_field = false,
             Variant::NoMisalignment => o.joint.terms.misalignment = false,
-            Variant::NoWaterCurrent => o.current = CurrentMode::Off,
+            Variant::NoWaterCurrent => o.water_current = WaterCurrentMode::Off,
             Variant::Paper => {
                 o.method = BackstepMethod::Paper;
-                o.current = CurrentMode::Off;
+                o.water_current = WaterCurrentMode::Off;
             }
         }
         o

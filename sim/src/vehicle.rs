@@ -256,7 +256,7 @@ mod tests {
     fn chain_on(plan: SimPlan) -> (f64, f64, f64) {
         let site = paper_site();
         let [swing, run, validation] = plan.simulate(&site).unwrap().map(|s| as_the_board_records(&s));
-        assert!(run.recording.speed_mps.is_some() == plan.effects.current.is_some());
+        assert!(run.recording.speed_mps.is_some() == plan.effects.water_current.is_some());
         let chain = compute::calibrate(&swing.recording, &run.recording, &site, &ChainOptions::default()).unwrap();
         let observed = scenario::heading_rms_deg(&chain.final_doc, &validation);
         let predicted = chain.final_doc.quality.predicted_heading_rms_deg.unwrap();

@@ -223,7 +223,7 @@ fn gps_and_crab_are_kinematically_consistent() {
     let effects = Effects::of(&[Effect::Current]);
     let rate = 2.0;
     let sim = field_test::run_with(&quiet_sensor(), &paper_site(), &run, 3, rate, RunKind::Run, &effects).unwrap();
-    let water = effects.current.unwrap();
+    let water = effects.water_current.unwrap();
     let c = water.current_ne_mps();
     let lat = sim.effect_column("true_lat_deg").unwrap();
     let lon = sim.effect_column("true_lon_deg").unwrap();

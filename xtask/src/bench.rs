@@ -140,17 +140,9 @@ fn paper000() -> (serde_json::Value, String) {
     (json!(rows), md)
 }
 
-/// Issue 15: a vehicle that cannot tumble. The simulated swing test at the
-/// paper's ±55° / ±10° and at ±15° / ±5°, with and without a gyro (our
-/// chain each time); and the real BROAD trial 05 data: magcal's gyro-aided
-/// fit against the true calibration, the sphere fit and the peers shipped
-/// in the `magyc` package (MAGYC-LS/NLS, TWOSTEP, SAR-LS, ellipsoid fit)
-/// when it installs.
-fn limited_tilt(root: &Path) -> (serde_json::Value, String) {
-    use calib_core::cal::{FieldCal, ModelKind};
-    use calib_core::heading::magnetic_heading_rad;
-    use host_tools::compute::{fit_recording, truth, FitOptions};
-    use host_tools::data::Recording;
+/// The simulated half of [`limited_tilt`]: the swing test at ±55° / ±10°
+/// and ±15° / ±5°, with and without a gyro, three seeds each.
+fn limited_tilt_simulated() -> (Vec<serde_json::Value>, String) {
     use magcal_sim::scenario::{evaluate_limited, LimitedSwing};
     use magcal_sim::SensorModel;
 
@@ -177,6 +169,22 @@ fn limited_tilt(root: &Path) -> (serde_json::Value, String) {
             }
         }
     }
+    (sim_rows, md)
+}
+
+/// Issue 15: a vehicle that cannot tumble. The simulated swing test at the
+/// paper's ±55° / ±10° and at ±15° / ±5°, with and without a gyro (our
+/// chain each time); and the real BROAD trial 05 data: magcal's gyro-aided
+/// fit against the true calibration, the sphere fit and the peers shipped
+/// in the `magyc` package (MAGYC-LS/NLS, TWOSTEP, SAR-LS, ellipsoid fit)
+/// when it installs.
+fn limited_tilt(root: &Path) -> (serde_json::Value, String) {
+    use calib_core::cal::{FieldCal, ModelKind};
+    use calib_core::heading::magnetic_heading_rad;
+    use host_tools::compute::{fit_recording, truth, FitOptions};
+    use host_tools::data::Recording;
+
+    let (sim_rows, mut md) = limited_tilt_simulated();
     // broad-05.
     let dir = root.join("tests/data/broad-05");
     let (Ok(calib), Ok(validate)) = (Recording::read(&dir.join("05_calib.csv")), Recording::read(&dir.join("05_validate.csv"))) else {

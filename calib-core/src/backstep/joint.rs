@@ -164,8 +164,8 @@ pub struct JointConfig<T> {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct JointTerms {
-    /// The thrusters' per-ampere vector.
-    pub current: bool,
+    /// The thrusters' per-ampere vector (the motors' electric current).
+    pub motor_current: bool,
     /// The per-axis temperature gains.
     pub temperature: bool,
     /// The local field's inclination offset from the reference.
@@ -177,7 +177,7 @@ pub struct JointTerms {
 impl Default for JointTerms {
     /// Every term switched on.
     fn default() -> Self {
-        Self { current: true, temperature: true, local_field: true, misalignment: true }
+        Self { motor_current: true, temperature: true, local_field: true, misalignment: true }
     }
 }
 
@@ -561,7 +561,7 @@ fn choose_terms<T: Real>(run: &[RunSample<T>], swing: &[SwingSample<T>], cfg: &J
     let mut notes = [None; 3];
     // Current: observable when it varies.
     let (current_mean, current_sd, _, _, current_n) = spread(run.iter().map(|s| s.current_a).chain(swing.iter().map(|s| s.current_a)));
-    let use_current = if !cfg.terms.current {
+    let use_current = if !cfg.terms.motor_current {
         false
     } else if current_n == 0 {
         notes[NOTE_CURRENT] = Some(JointNote::NoCurrentColumn);

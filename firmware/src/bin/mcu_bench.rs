@@ -20,6 +20,7 @@ mod bench {
     use calib_core::conformance::{tumble_sample, SplitMix64};
     use calib_core::fit::{AxisRls, FullRls, Normalization};
     use calib_core::heading::Tilt;
+    use calib_core::online::OnlineIntegrity;
     use calib_core::swing::SwingRls;
     use cortex_m::peripheral::{syst::SystClkSource, SYST};
     use cortex_m_semihosting::{debug, hprintln};
@@ -157,6 +158,19 @@ mod bench {
         acc
     }
 
+    /// The device's path with integrity: `OnlineIntegrity::process` (the
+    /// same `apply_tilt`, then the monitor, and the hard-iron estimator
+    /// every `BOARD_ESTIMATOR_EVERY`-th sample), gyro rates given.
+    #[inline(never)]
+    fn integrity_loop(online: &mut OnlineIntegrity<f32>, cal: &Calibration<f32>, samples: &[[f32; 3]; 64], tilts: &[Tilt<f32>; 4]) -> f32 {
+        let mut acc = 0.0;
+        for (k, s) in samples.iter().enumerate() {
+            let j = online.process(cal, *s, Some(&tilts[k % 4]), Some([0.01, -0.02, 0.2]), 0.02);
+            acc += j.heading_rad.unwrap_or(0.0) + j.field_nt[0] + j.verdict.heading_sigma_rad;
+        }
+        acc
+    }
+
     #[cortex_m_rt::entry]
     fn main() -> ! {
         let Some(mut cp) = cortex_m::Peripherals::take() else {
@@ -211,6 +225,31 @@ mod bench {
         let s0 = t.start();
         acc += apply_env_loop(&cal_env, &envs, &samples, &tilts);
         let apply_env = t.instructions(s0, reps);
+
+        // The same samples judged by the integrity (`device::pipeline`): a
+        // warm-up pass (inclination learned), then the measured pass.
+        let Ok(mut online) = OnlineIntegrity::<f32>::for_stored_field(50_000.0) else {
+            debug::exit(debug::EXIT_FAILURE);
+            loop {
+                cortex_m::asm::wfi();
+            }
+        };
+        acc += integrity_loop(&mut online, &cal, &samples, &tilts);
+        let s0 = t.start();
+        acc += integrity_loop(&mut online, &cal, &samples, &tilts);
+        let integrity = t.instructions(s0, reps);
+        // The monitor alone (the estimator once in 255 samples).
+        let Ok(online) = OnlineIntegrity::<f32>::for_stored_field(50_000.0) else {
+            debug::exit(debug::EXIT_FAILURE);
+            loop {
+                cortex_m::asm::wfi();
+            }
+        };
+        let mut monitor_only = online.with_estimator_every(255);
+        acc += integrity_loop(&mut monitor_only, &cal, &samples, &tilts);
+        let s0 = t.start();
+        acc += integrity_loop(&mut monitor_only, &cal, &samples, &tilts);
+        let integrity_monitor = t.instructions(s0, reps);
 
         let norm = Normalization { centre: [0.0; 3], scale: 50_000.0 };
         let mut full = FullRls::<f32>::new(norm);
@@ -270,6 +309,8 @@ mod bench {
         }
         hprintln!("apply_heading_instructions {}", apply);
         hprintln!("apply_env_heading_instructions {}", apply_env);
+        hprintln!("integrity_heading_instructions {}", integrity);
+        hprintln!("integrity_monitor_heading_instructions {}", integrity_monitor);
         hprintln!("rls_axis_update_instructions {}", rls_axis);
         hprintln!("rls_full_update_instructions {}", rls_full);
         hprintln!("rls_swing_update_instructions {}", rls_swing);

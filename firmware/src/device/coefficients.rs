@@ -149,6 +149,7 @@ impl Device {
             Ok(seq) => {
                 self.coefficients = pending.staged;
                 self.calibration = pending.calibration;
+                self.pipeline.restart_integrity(pending.staged.field_nt);
                 self.source = CoefficientSource::Stored;
                 self.seq = seq;
                 self.staged = None;

@@ -5,12 +5,20 @@
 //! output settings (`SetStream`, `SetOutputRate`). It owns its state
 //! ([`Pipeline`]) and is handed the calibration, the inputs and the fit:
 //! it knows nothing of [`super::Device`].
+//!
+//! Every output sample is judged by calib-core's [`OnlineIntegrity`] (f32,
+//! the same bits as `magcal apply` on the host): the heading's 1σ and the
+//! integrity state go out with the sample, the on-line hard iron is
+//! applied under its guard, and the counters feed `Health`. The reference
+//! is the stored set's `field_nt` ([`OnlineIntegrity::for_stored_field`]);
+//! a new set starts a new judgement ([`Pipeline::restart_integrity`]).
 
 use calib_core::cal::{Calibration, Environment};
-use magcal_protocol::{DeviceError, RequestBody, Sample, StreamMode};
+use calib_core::online::OnlineIntegrity;
+use magcal_protocol::{DeviceError, Integrity, RequestBody, Sample, StreamMode};
 
 use super::health::DeviceCounters;
-use super::inputs::Inputs;
+use super::inputs::{fresh, Inputs};
 use super::onboard_fit::OnboardFit;
 use crate::acquisition::RawSample;
 
@@ -24,13 +32,41 @@ pub(super) struct Pipeline {
     /// The last sample used a stale current or a missing temperature.
     pub(super) env_degraded: bool,
     pub(super) counters: DeviceCounters,
+    /// The heading's integrity for the calibration in use (`None` if its
+    /// `field_nt` cannot be a reference — never for a validated set).
+    pub(super) integrity: Option<OnlineIntegrity<f32>>,
+    /// Board time of the previous output sample, ms.
+    last_ms: Option<u32>,
 }
 
 impl Pipeline {
-    /// Nothing streamed, 10 Hz.
-    pub(super) fn new() -> Self {
-        Self { stream: StreamMode::Off, output_rate_hz: 10, last_temp_c: None, env_degraded: false, counters: DeviceCounters::default() }
+    /// Nothing streamed, 10 Hz; the integrity judged against `field_nt`.
+    pub(super) fn new(field_nt: f32) -> Self {
+        Self {
+            stream: StreamMode::Off,
+            output_rate_hz: 10,
+            last_temp_c: None,
+            env_degraded: false,
+            counters: DeviceCounters::default(),
+            integrity: OnlineIntegrity::for_stored_field(field_nt).ok(),
+            last_ms: None,
+        }
     }
+
+    /// A new calibration (of intensity `field_nt`) is in use: its integrity
+    /// starts afresh (the old one's counters, learned inclination and
+    /// hard-iron estimate belonged to the old set).
+    pub(super) fn restart_integrity(&mut self, field_nt: f32) {
+        self.integrity = OnlineIntegrity::for_stored_field(field_nt).ok();
+    }
+}
+
+/// A sample calibrated and judged.
+struct Judged {
+    field_nt: [f32; 3],
+    heading_rad: Option<f32>,
+    heading_sigma_deg: Option<f32>,
+    integrity: Integrity,
 }
 
 /// The environment a sample is corrected for, and whether its current
@@ -81,17 +117,29 @@ impl Pipeline {
     pub(super) fn process(&mut self, raw: &RawSample, now_ms: u32, cal: &Calibration<f32>, inputs: &Inputs, fit: Option<&mut OnboardFit>) -> Option<Sample> {
         self.counters.samples = self.counters.samples.wrapping_add(1);
         let SampleEnv { env, current_ok } = self.sample_env(cal, inputs, raw.temp_c, now_ms);
-        // The document's formula, as calib-core applies it (~260
-        // instructions a sample with the heading: `cargo xtask bench`).
-        // (`apply_tilt_env` is `correct_raw` then `apply_tilt`: the corrected
-        // sample is kept for the fit.)
+        // The document's formula, as calib-core applies it, then the
+        // integrity (`OnlineIntegrity::process` calls `apply_tilt`; the
+        // corrected sample is kept for the fit). Cost: `cargo xtask bench`.
         let corrected = cal.env.correct_raw(raw.field_counts, &env);
-        let (field, heading_rad) = match inputs.tilt(now_ms) {
-            Some(tilt) => {
-                let out = cal.apply_tilt(corrected, &tilt);
-                (out.field_nt, current_ok.then_some(out.true_heading_rad))
+        // The heading needs a fresh attitude, and a fresh current when the
+        // current term needs one; the gyro check a fresh body rate.
+        let tilt = inputs.tilt(now_ms).filter(|_| current_ok);
+        let rate_rad_s = inputs.motion().filter(|m| fresh(m.at_ms, now_ms)).map(|m| m.rate_rad_s);
+        let dt_s = self.last_ms.replace(now_ms).map_or(f32::NAN, |l| now_ms.wrapping_sub(l) as f32 * 1e-3);
+        let judged = match self.integrity.as_mut() {
+            Some(online) => {
+                let j = online.process(cal, corrected, tilt.as_ref(), rate_rad_s, dt_s);
+                let sigma_deg = j.heading_rad.map(|_| j.verdict.heading_sigma_rad.to_degrees());
+                Judged { field_nt: j.field_nt, heading_rad: j.heading_rad, heading_sigma_deg: sigma_deg, integrity: Integrity::from_state(j.verdict.state) }
             }
-            None => (cal.field.apply(corrected), None),
+            // No reference to judge against: the heading cannot be trusted.
+            None => match tilt {
+                Some(t) => {
+                    let out = cal.apply_tilt(corrected, &t);
+                    Judged { field_nt: out.field_nt, heading_rad: Some(out.true_heading_rad), heading_sigma_deg: None, integrity: Integrity::CalInvalid }
+                }
+                None => Judged { field_nt: cal.field.apply(corrected), heading_rad: None, heading_sigma_deg: None, integrity: Integrity::NoAttitude },
+            },
         };
         if let Some(f) = fit {
             if f.running() && !raw.saturated {
@@ -100,20 +148,23 @@ impl Pipeline {
                 f.push(corrected, inputs.motion(), now_ms);
             }
         }
+        let field = judged.field_nt;
         let (raw_out, cal_out) = match self.stream {
             StreamMode::Off => return None,
             StreamMode::Raw => (Some(raw.field_counts), None),
-            StreamMode::Calibrated => (None, Some(field)),
+            StreamMode::Calibrated | StreamMode::Nmea => (None, Some(field)),
             StreamMode::Both => (Some(raw.field_counts), Some(field)),
         };
         Some(Sample {
             t_ms: now_ms,
             raw: raw_out,
             field_nt: cal_out,
-            heading_rad: heading_rad.filter(|_| cal_out.is_some()),
+            heading_rad: judged.heading_rad.filter(|_| cal_out.is_some()),
             saturated: raw.saturated,
             feed_seq: raw.tag,
             temp_c: raw.temp_c,
+            heading_sigma_deg: judged.heading_sigma_deg,
+            integrity: judged.integrity,
         })
     }
 }

@@ -251,7 +251,7 @@ pub struct LogProgress {
 }
 
 fn fmt_cell(v: Option<f64>) -> String {
-    v.filter(|x| x.is_finite()).map_or(String::new(), |x| format!("{x}"))
+    crate::data::table::cell(v.unwrap_or(f64::NAN))
 }
 
 /// Logs the board's raw stream into `out` (a fresh file, see
@@ -436,7 +436,21 @@ impl<W: Write> Logger<W> {
         let raw = sample.raw.map(|r| r.map(f64::from));
         let temp = sample_temp_c(sample);
         let flags = health_flags(sample, after_gap);
-        writeln!(self.out, "{:.3},{},{},{},{},{flags}", t_s, fmt_cell(raw.map(|r| r[0])), fmt_cell(raw.map(|r| r[1])), fmt_cell(raw.map(|r| r[2])), fmt_cell(temp)).map_err(|e| self.io_err(e))?;
+        // The board's σ to 0.001° (the f32's digits beyond are noise) and
+        // its integrity word.
+        let sigma = sample.heading_sigma_deg.map(|d| (f64::from(d) * 1000.0).round() / 1000.0);
+        writeln!(
+            self.out,
+            "{:.3},{},{},{},{},{flags},{},{}",
+            t_s,
+            fmt_cell(raw.map(|r| r[0])),
+            fmt_cell(raw.map(|r| r[1])),
+            fmt_cell(raw.map(|r| r[2])),
+            fmt_cell(temp),
+            fmt_cell(sigma),
+            sample.integrity.name()
+        )
+        .map_err(|e| self.io_err(e))?;
         self.s.samples += 1;
         self.s.saturated_samples += u64::from(sample.saturated);
         self.s.samples_with_temp += u64::from(temp.is_some());

@@ -18,10 +18,9 @@ use serde::Serialize;
 use crate::data::{CalDoc, Recording};
 
 /// The field's scatter about `F` taken when the document reports none, as a
-/// fraction of `F`: the RMS of `|h| − F` with the true calibration on the
-/// four undisturbed BROAD validation trials (02, 03, 05, 09) is 476–638 nT on
-/// about 44 000 nT, 1.1–1.45 %.
-pub const DEFAULT_FIELD_SIGMA_REL: f64 = 0.012;
+/// fraction of `F` (the board's: calib-core's
+/// [`calib_core::integrity::DEFAULT_FIELD_SIGMA_REL`]).
+pub use calib_core::integrity::DEFAULT_FIELD_SIGMA_REL;
 
 /// Why a recording could not be applied.
 #[derive(Debug, thiserror::Error)]
@@ -126,7 +125,10 @@ pub fn apply_recording(rec: &Recording, doc: &CalDoc, opts: &ApplyOptions) -> Re
         return Err(ApplyError::Empty);
     }
     let reference = reference_of(doc, opts)?;
-    let mut online = OnlineIntegrity::new(reference, opts.tuning.unwrap_or_else(Tuning::standard)).map_err(|_| ApplyError::Reference("bad reference"))?;
+    // The board's estimator cadence, so a recording gives the board's bits.
+    let mut online = OnlineIntegrity::new(reference, opts.tuning.unwrap_or_else(Tuning::standard))
+        .map_err(|_| ApplyError::Reference("bad reference"))?
+        .with_estimator_every(calib_core::online::BOARD_ESTIMATOR_EVERY);
     let cal = doc.calibration();
     let col = |c: &Option<Vec<f64>>, i: usize| c.as_ref().and_then(|v| v.get(i).copied()).filter(|v| v.is_finite());
     let gyro = rec.gyro_rad_s();

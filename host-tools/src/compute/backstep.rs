@@ -315,19 +315,15 @@ fn corrected(samples: &[calib_core::backstep::RunSample<f64>], r: &JointSolution
         .collect()
 }
 
-/// The median of the finite values.
+/// The median of the finite values ([`calib_core::series::median`]).
 fn median(values: impl Iterator<Item = f64>) -> Option<f64> {
     let mut v: Vec<f64> = values.filter(|x| x.is_finite()).collect();
-    if v.is_empty() {
-        return None;
-    }
-    v.sort_by(f64::total_cmp);
-    Some(v[v.len() / 2])
+    calib_core::series::median(&mut v)
 }
 
 /// Samples in a circle of `circle_s` seconds at the run's median rate.
 fn circle_samples(t: &[f64], circle_s: f64) -> usize {
-    let dt = median(t.windows(2).map(|w| w[1] - w[0]).filter(|d| *d > 0.0)).unwrap_or(1.0);
+    let dt = crate::data::pairing::median_step_s(t).unwrap_or(1.0);
     ((circle_s / dt).round() as usize).clamp(36, 100_000)
 }
 

@@ -215,6 +215,13 @@ fn fmt_deg(v: f64) -> String {
     }
 }
 
+/// One cell's columns of the text card: samples, mean and RMS (the count
+/// blank when zero and `blank_empty`).
+fn text_cells(c: &Cell, blank_empty: bool) -> String {
+    let samples = if blank_empty && c.samples == 0 { String::new() } else { c.samples.to_string() };
+    format!("{samples:>6} {:>8} {:>8}", opt(c.mean_deg, 2), opt(c.rms_deg, 2))
+}
+
 fn opt(v: Option<f64>, prec: usize) -> String {
     v.map(|v| format!("{v:.prec$}")).unwrap_or_default()
 }
@@ -231,19 +238,10 @@ impl DeviationCard {
         for (title, rows) in [("heading", &self.by_heading), ("point", &self.by_point)] {
             s.push_str(&format!("\n{title:>8} | {:>6} {:>8} {:>8} | {:>6} {:>8} {:>8}\n", "n", "before", "rms", "n", "after", "rms"));
             for r in rows.iter() {
-                let c = |c: &Cell| format!("{:>6} {:>8} {:>8}", if c.samples == 0 { String::new() } else { c.samples.to_string() }, opt(c.mean_deg, 2), opt(c.rms_deg, 2));
-                s.push_str(&format!("{:>8} | {} | {}\n", r.label, c(&r.before), c(&r.after)));
+                s.push_str(&format!("{:>8} | {} | {}\n", r.label, text_cells(&r.before, true), text_cells(&r.after, true)));
             }
         }
-        s.push_str(&format!(
-            "\n     all | {:>6} {:>8} {:>8} | {:>6} {:>8} {:>8}\n",
-            self.before.samples,
-            opt(self.before.mean_deg, 2),
-            opt(self.before.rms_deg, 2),
-            self.after.samples,
-            opt(self.after.mean_deg, 2),
-            opt(self.after.rms_deg, 2)
-        ));
+        s.push_str(&format!("\n     all | {} | {}\n", text_cells(&self.before, false), text_cells(&self.after, false)));
         s
     }
 

@@ -10,7 +10,7 @@ use calib_core::cal::ModelKind;
 use super::backstep::{backstep_recording, BackstepOptions, BackstepReport, RunReference, SwingMagnitudes};
 use super::fit::{fit_recording, FitOptions};
 use super::gyro::GyroLag;
-use super::swing::{swing_recording_with, CurrentMode, Delay};
+use super::swing::{swing_recording_with, WaterCurrentMode, Delay};
 use super::error::ComputeError;
 use crate::data::results::BackstepMethod;
 use crate::data::{CalDoc, Recording};
@@ -40,7 +40,7 @@ pub struct ChainOptions {
     /// terms it may estimate ([`calib_core::backstep::JointTerms`]).
     pub joint: JointConfig<f64>,
     /// Whether the swing fit removes the water current from GPS course.
-    pub current: CurrentMode,
+    pub water_current: WaterCurrentMode,
 }
 
 impl Default for ChainOptions {
@@ -52,7 +52,7 @@ impl Default for ChainOptions {
             delay: Delay::Estimate { max_s: 5.0 },
             first_step: FirstStep::Axis,
             joint: JointConfig::default(),
-            current: CurrentMode::Auto,
+            water_current: WaterCurrentMode::Auto,
         }
     }
 }
@@ -128,7 +128,7 @@ pub fn refine(step1: CalDoc, swing: &Recording, run: &Recording, site: &Site, op
         backstep_opts.swing = Some(SwingMagnitudes::from_recording(swing, site.field()?.total_nt()));
     }
     let (backstepped, backstep) = backstep_recording(run, &step1, &backstep_opts)?;
-    let (final_doc, _, delay_s) = swing_recording_with(run, &backstepped, opts.delay, opts.current)?;
+    let (final_doc, _, delay_s) = swing_recording_with(run, &backstepped, opts.delay, opts.water_current)?;
     let heading_noise_deg = heading_noise_deg(run, &final_doc)?;
     let predicted_heading_rms_deg = match (backstepped.quality.predicted_heading_rms_deg, heading_noise_deg) {
         (Some(p), Some(n)) => Some(p.hypot(n)),

@@ -39,27 +39,13 @@ fn rates_at_lag(t: &[f64], rates: &[[f64; 3]], lag_s: f64) -> Vec<[f64; 3]> {
     if lag_s == 0.0 {
         return rates.to_vec();
     }
+    let axes: [Vec<f64>; 3] = core::array::from_fn(|k| rates.iter().map(|r| r[k]).collect());
     t.iter()
-        .map(|&ti| {
-            let want = ti - lag_s;
-            let j = t.partition_point(|&x| x <= want);
-            if j == 0 || j >= t.len() {
-                return [f64::NAN; 3];
-            }
-            let (t0, t1) = (t[j - 1], t[j]);
-            let f = if t1 > t0 { (want - t0) / (t1 - t0) } else { 0.0 };
-            core::array::from_fn(|k| rates[j - 1][k] + f * (rates[j][k] - rates[j - 1][k]))
+        .map(|&ti| match crate::data::pairing::bracket(t, ti - lag_s, f64::INFINITY) {
+            Some(b) => core::array::from_fn(|k| b.lerp(&axes[k])),
+            None => [f64::NAN; 3],
         })
         .collect()
-}
-
-fn median_step_s(t: &[f64]) -> Option<f64> {
-    let mut d: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).filter(|d| *d > 0.0).collect();
-    if d.is_empty() {
-        return None;
-    }
-    d.sort_by(f64::total_cmp);
-    Some(d[d.len() / 2])
 }
 
 /// The magnetometer's lag behind the gyro, for the gyro-aided fit.
@@ -87,7 +73,7 @@ pub const MAX_LAG_S: f64 = 0.25;
 /// Returns the lag and the residual at it, nT.
 pub fn estimate_gyro_lag_s(rec: &Recording, field_nt: f64) -> Result<(f64, f64), ComputeError> {
     let t = rec.t_s.as_ref().ok_or(ComputeError::NeedsColumn("t"))?;
-    let step_s = median_step_s(t).ok_or(GyroError::TimeNotAdvancing)?;
+    let step_s = crate::data::pairing::median_step_s(t).ok_or(GyroError::TimeNotAdvancing)?;
     let grid = step_s / 4.0;
     let n = (MAX_LAG_S / grid).floor() as i64;
     let mut best: Option<(f64, f64)> = None;
@@ -118,7 +104,7 @@ pub fn fit_gyro_recording(rec: &Recording, field_nt: f64, gyro_lag: GyroLag) -> 
     if !gyro_lag_s.is_finite() || gyro_lag_s.abs() > 1.0 {
         return Err(GyroError::LagOutOfRange { lag_s: gyro_lag_s }.into());
     }
-    let step_s = median_step_s(t).ok_or(GyroError::TimeNotAdvancing)?;
+    let step_s = crate::data::pairing::median_step_s(t).ok_or(GyroError::TimeNotAdvancing)?;
     let rates = rates_at_lag(t, &rates, gyro_lag_s);
     let nan = vec![f64::NAN; rec.len()];
     let (roll, pitch) = (rec.roll_deg.as_ref().unwrap_or(&nan), rec.pitch_deg.as_ref().unwrap_or(&nan));

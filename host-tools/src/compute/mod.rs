@@ -31,6 +31,6 @@ pub use chain::{axis_step, calibrate, gyro_step, heading_noise_deg, refine, Chai
 pub use fit::{fit_recording, FitOptions};
 pub use gyro::GyroLag;
 pub use ortho::{ortho_recording, OrthoSolver};
-pub use swing::{magnetic_headings, swing_recording, swing_recording_with, CurrentMode, Delay};
+pub use swing::{magnetic_headings, swing_recording, swing_recording_with, WaterCurrentMode, Delay};
 pub use units::{check_units, units_guess};
 pub use crate::data::results::BackstepMethod;

@@ -25,7 +25,7 @@ pub enum Delay {
 /// Whether GPS course is turned into heading (the water current removed)
 /// before the fit.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub enum CurrentMode {
+pub enum WaterCurrentMode {
     /// Estimate the current from the surface fixes and `speed_mps` and
     /// remove the crab angle; when the data cannot (no speed column, no
     /// circle at the surface, GPS too sparse) fit against course as it is,
@@ -94,9 +94,7 @@ fn gps_columns(rec: &Recording, t: &[f64]) -> Result<GpsColumns, String> {
         north_m.push(n);
         east_m.push(e);
     }
-    let mut dts: Vec<f64> = fix_t.windows(2).map(|w| w[1] - w[0]).filter(|d| *d > 0.0).collect();
-    dts.sort_by(f64::total_cmp);
-    let median = dts.get(dts.len() / 2).copied().unwrap_or(0.0);
+    let median = crate::data::pairing::median_step_s(&fix_t).unwrap_or(0.0);
     Ok(GpsColumns { north_m, east_m, max_fix_gap_s: MAX_FIX_GAP_S.max(2.5 * median) })
 }
 
@@ -120,9 +118,7 @@ fn turn_rate_deg_s(t: &[f64], heading_rad: &[f64], i: usize) -> f64 {
 
 /// The interpolation gap allowed for a recording's sample spacing.
 fn interpolation_gap_s(t: &[f64]) -> f64 {
-    let mut dts: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).filter(|d| *d > 0.0).collect();
-    dts.sort_by(f64::total_cmp);
-    let median = dts.get(dts.len() / 2).copied().unwrap_or(0.0);
+    let median = crate::data::pairing::median_step_s(t).unwrap_or(0.0);
     MAX_INTERPOLATION_GAP_S.max(2.5 * median)
 }
 
@@ -175,13 +171,13 @@ fn delay_in_current(i: &TrackInputs<'_>, gps: &GpsColumns, reference: &[f64], ma
 
 /// Fits the swing correction and returns the document with it, removing
 /// the water current from GPS course when the data allow
-/// ([`CurrentMode::Auto`]).
+/// ([`WaterCurrentMode::Auto`]).
 pub fn swing_recording(rec: &Recording, doc: &CalDoc, delay: Delay) -> Result<(CalDoc, SwingFit<f64>, f64), ComputeError> {
-    swing_recording_with(rec, doc, delay, CurrentMode::Auto)
+    swing_recording_with(rec, doc, delay, WaterCurrentMode::Auto)
 }
 
 /// [`swing_recording`] with the choice of treating course.
-pub fn swing_recording_with(rec: &Recording, doc: &CalDoc, delay: Delay, current: CurrentMode) -> Result<(CalDoc, SwingFit<f64>, f64), ComputeError> {
+pub fn swing_recording_with(rec: &Recording, doc: &CalDoc, delay: Delay, water_current: WaterCurrentMode) -> Result<(CalDoc, SwingFit<f64>, f64), ComputeError> {
     let t = rec.t_s.as_ref().ok_or(ComputeError::NeedsColumn("t"))?;
     check_units(rec, doc)?;
     let reference_deg = rec.ref_heading_deg.as_ref().ok_or(ComputeError::NeedsColumn("ref_heading_deg"))?;
@@ -211,14 +207,14 @@ pub fn swing_recording_with(rec: &Recording, doc: &CalDoc, delay: Delay, current
     let gps = gps_columns(rec, t);
     let course_true: Vec<f64> = steady.iter().map(|r| r + decl).collect();
     let inputs = |speed| TrackInputs { t, headings: &headings, speed, course_true: &course_true, decl, gap };
-    if let (Delay::Estimate { max_s }, CurrentMode::Auto, Some(speed), Ok(gps)) = (delay, current, rec.speed_mps.as_ref(), &gps) {
+    if let (Delay::Estimate { max_s }, WaterCurrentMode::Auto, Some(speed), Ok(gps)) = (delay, water_current, rec.speed_mps.as_ref(), &gps) {
         delay_s = delay_in_current(&inputs(speed), gps, &reference, max_s, delay_s);
     }
     let turning = reference.iter().zip(&steady).filter(|(r, s)| r.is_finite() && !s.is_finite()).count();
     let mut fit = fit_swing(aligned_pairs(t, &headings, t, &steady, delay_s, gap))?;
     let mut warnings: Vec<String> = Vec::new();
     let mut current_report = None;
-    if current == CurrentMode::Auto {
+    if water_current == WaterCurrentMode::Auto {
         let speed = rec.speed_mps.as_deref();
         let refit = match (speed, &gps) {
             (None, _) => Err("no speed_mps column (speed through water), so the water current cannot be estimated".to_string()),
@@ -390,7 +386,7 @@ mod tests {
         let with = largest_term_error(&fit.swing);
         assert!(with < 1e-3, "{:?}", fit.swing);
         // Course as heading: the crab angle (|c|/s ≈ 0.27 rad) lands in B, C.
-        let (plain, plain_fit, _) = swing_recording_with(&rec, &doc, Delay::Given(0.0), CurrentMode::Off).unwrap();
+        let (plain, plain_fit, _) = swing_recording_with(&rec, &doc, Delay::Given(0.0), WaterCurrentMode::Off).unwrap();
         assert!(plain.quality.swing.as_ref().unwrap().current.is_none());
         let without = largest_term_error(&plain_fit.swing);
         assert!(without > 0.1 && with < without / 50.0, "{with} vs {without}");
@@ -400,7 +396,7 @@ mod tests {
     fn without_speed_or_circles_it_falls_back_and_says_why() {
         let doc = CalDoc::new(ModelKind::Full, &FieldCal::identity(), 48_730.0, Default::default());
         let mut rec = surface_recording();
-        let course_only = swing_recording_with(&rec, &doc, Delay::Given(0.0), CurrentMode::Off).unwrap().1;
+        let course_only = swing_recording_with(&rec, &doc, Delay::Given(0.0), WaterCurrentMode::Off).unwrap().1;
         rec.speed_mps = None;
         let (out, fit, _) = swing_recording(&rec, &doc, Delay::Given(0.0)).unwrap();
         let q = out.quality.swing.as_ref().unwrap();

@@ -21,15 +21,11 @@ pub fn units_guess(radius_raw: f64, field_nt: f64) -> String {
     }
 }
 
-
-/// The median of a slice (NaN-free), or NaN when empty.
-fn median(mut v: Vec<f64>) -> f64 {
+/// The median of the finite values ([`calib_core::series::median`]), or NaN
+/// when there are none (the caller turns that into `NoSamples`).
+fn median_or_nan(mut v: Vec<f64>) -> f64 {
     v.retain(|x| x.is_finite());
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
+    calib_core::series::median(&mut v).unwrap_or(f64::NAN)
 }
 
 /// Refuses a recording whose magnitudes, through the calibration, are far
@@ -37,7 +33,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 /// calibration differ (µT against nT, gauss, another sensor's counts).
 pub fn check_units(rec: &Recording, doc: &CalDoc) -> Result<(), ComputeError> {
     let cal = doc.field_cal();
-    let m = median(rec.mag.iter().map(|r| {
+    let m = median_or_nan(rec.mag.iter().map(|r| {
         let h = cal.apply(*r);
         (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt()
     }).collect());
@@ -45,7 +41,7 @@ pub fn check_units(rec: &Recording, doc: &CalDoc) -> Result<(), ComputeError> {
         return Err(ComputeError::NoSamples);
     }
     if (m / doc.field_nt - 1.0).abs() > 0.25 {
-        let raw_r = median(rec.mag.iter().map(|r| (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt()).collect());
+        let raw_r = median_or_nan(rec.mag.iter().map(|r| (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt()).collect());
         return Err(ComputeError::Units { through_cal_nt: m, cal_field_nt: doc.field_nt, raw_magnitude: raw_r, raw_units_guess: units_guess(raw_r, doc.field_nt) });
     }
     Ok(())

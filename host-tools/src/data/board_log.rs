@@ -18,10 +18,17 @@ pub const MAG: [&str; 3] = col::MAG;
 pub const TEMP_C: &str = col::TEMP_C;
 /// `health`: the sample's health bits (optional; see [`HEALTH_SATURATED`]).
 pub const HEALTH: &str = col::HEALTH;
+/// `heading_sigma_deg`: the board's 1σ of the sample's heading, degrees
+/// (written by `magcal log`; empty when the board had no heading).
+pub const HEADING_SIGMA_DEG: &str = "heading_sigma_deg";
+/// `integrity`: the board's judgement of the sample, a word (`ok`,
+/// `disturbed`, `cal_invalid`, `no_attitude`; written by `magcal log`, not
+/// read back by [`BoardLog::read`]).
+pub const INTEGRITY: &str = "integrity";
 /// Every column in the order the board writes them.
-pub const COLUMNS: [&str; 6] = [T, MAG[0], MAG[1], MAG[2], TEMP_C, HEALTH];
+pub const COLUMNS: [&str; 8] = [T, MAG[0], MAG[1], MAG[2], TEMP_C, HEALTH, HEADING_SIGMA_DEG, INTEGRITY];
 /// The header line the board writes ([`COLUMNS`] joined by commas).
-pub const HEADER: &str = "t,mx,my,mz,temp_c,health";
+pub const HEADER: &str = "t,mx,my,mz,temp_c,health,heading_sigma_deg,integrity";
 
 /// `health` bit: a channel was saturated (the raw field is not usable).
 pub const HEALTH_SATURATED: u32 = 1;

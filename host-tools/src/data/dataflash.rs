@@ -379,8 +379,7 @@ impl Series {
 }
 
 fn lerp_angle_deg(a: f64, b: f64, w: f64) -> f64 {
-    let d = (b - a + 540.0).rem_euclid(360.0) - 180.0;
-    a + w * d
+    a + w * super::pairing::wrap180(b - a)
 }
 
 /// The compass parameters of one instance (names per `AP_Compass`: the first

@@ -88,29 +88,30 @@ impl Bracket {
     }
 }
 
-/// An angle difference wrapped to −180…180 degrees.
+/// An angle difference wrapped to −180…180 degrees (the degree twin of
+/// [`calib_core::heading::wrap_pi`], kept in degrees so that degree columns
+/// are not round-tripped through radians).
 pub fn wrap180(deg: f64) -> f64 {
     (deg + 180.0).rem_euclid(360.0) - 180.0
+}
+
+/// The median of a stream's positive sample intervals, s (the one home of
+/// "the recording's sample spacing"); `None` with fewer than two distinct
+/// times. The median is [`calib_core::series::median`].
+pub fn median_step_s(times_s: &[f64]) -> Option<f64> {
+    let mut steps: Vec<f64> = times_s.windows(2).map(|w| w[1] - w[0]).filter(|d| *d > 0.0).collect();
+    calib_core::series::median(&mut steps)
 }
 
 /// Where `t` falls in the non-decreasing `times`. `None` outside the span
 /// (never extrapolated) or when the two neighbours are more than
 /// `max_gap_s` apart.
 pub fn bracket(times: &[f64], t: f64, max_gap_s: f64) -> Option<Bracket> {
-    let (&first, &last) = (times.first()?, times.last()?);
-    if !(t >= first && t <= last) {
-        return None;
-    }
-    let hi = times.partition_point(|&x| x < t);
-    if times[hi] == t {
-        return Some(Bracket { lo: hi, hi, weight: 0.0 });
-    }
-    let lo = hi - 1;
-    let span = times[hi] - times[lo];
-    if span > max_gap_s {
-        return None;
-    }
-    Some(Bracket { lo, hi, weight: (t - times[lo]) / span })
+    // The one bracketing rule is calib-core's; this is its host form.
+    Some(match calib_core::series::bracket(times, t, max_gap_s)? {
+        calib_core::series::Bracket::At(i) => Bracket { lo: i, hi: i, weight: 0.0 },
+        calib_core::series::Bracket::Between(lo, weight) => Bracket { lo, hi: lo + 1, weight },
+    })
 }
 
 /// Live pairing by time: samples arrive in board-time order and each

@@ -419,11 +419,7 @@ pub(crate) fn residuals(page: &mut Page, cx: &Context<'_>, field_errors: &Errors
 /// The `q`-quantile of |e| over the finite values (0 when none).
 fn percentile_abs(e: &[f64], q: f64) -> f64 {
     let mut a: Vec<f64> = e.iter().filter(|v| v.is_finite()).map(|v| v.abs()).collect();
-    if a.is_empty() {
-        return 0.0;
-    }
-    a.sort_by(f64::total_cmp);
-    a[((a.len() - 1) as f64 * q).round() as usize]
+    calib_core::series::quantile(&mut a, q).unwrap_or(0.0)
 }
 
 /// Section 8, the calibrations' coefficients side by side.

@@ -35,7 +35,7 @@ pub struct Recorded {
 const SAMPLE_TIMEOUT: Duration = Duration::from_millis(3000);
 
 fn lost_sample() -> Sample {
-    Sample { t_ms: 0, raw: None, field_nt: None, heading_rad: None, saturated: false, feed_seq: None, temp_c: None }
+    Sample { t_ms: 0, raw: None, field_nt: None, heading_rad: None, saturated: false, feed_seq: None, temp_c: None, heading_sigma_deg: None, integrity: magcal_protocol::Integrity::NoAttitude }
 }
 
 /// Records the current manoeuvre of `vehicle`. `on_step` sees every step

@@ -111,7 +111,7 @@ impl Read for Conn {
             let mut board = self.board.borrow_mut();
             if board.streaming {
                 board.clock_ms += 10;
-                let s = magcal_protocol::Sample { t_ms: board.clock_ms, raw: Some([board.roll_rad * 1000.0, 2.0 + board.current_a * 100.0, 3.0]), field_nt: None, heading_rad: None, saturated: false, feed_seq: None, temp_c: Some(21.5) };
+                let s = magcal_protocol::Sample { t_ms: board.clock_ms, raw: Some([board.roll_rad * 1000.0, 2.0 + board.current_a * 100.0, 3.0]), field_nt: None, heading_rad: None, saturated: false, feed_seq: None, temp_c: Some(21.5), heading_sigma_deg: Some(1.25), integrity: magcal_protocol::Integrity::Disturbed };
                 if let Some(f) = board.link.reply(None, magcal_protocol::ResponseBody::Sample(s)) {
                     self.out.extend(f);
                 }
@@ -299,7 +299,7 @@ fn the_validation_field_error_is_against_the_true_field_when_known() {
     let igrf_nt = site.field_at(36.9, 50.6).unwrap().total_nt();
     // |F| 48 100, 48 300 and 48 000 nT from the board.
     let fields = [[48_100.0f32, 0.0, 0.0], [0.0, 48_300.0, 0.0], [0.0, 0.0, 48_000.0]];
-    let samples: Vec<Sample> = fields.iter().map(|f| Sample { t_ms: 0, raw: Some([1.0, 0.0, 0.0]), field_nt: Some(*f), heading_rad: Some(0.0), saturated: false, feed_seq: None, temp_c: None }).collect();
+    let samples: Vec<Sample> = fields.iter().map(|f| Sample { t_ms: 0, raw: Some([1.0, 0.0, 0.0]), field_nt: Some(*f), heading_rad: Some(0.0), saturated: false, feed_seq: None, temp_c: None, heading_sigma_deg: None, integrity: magcal_protocol::Integrity::NoAttitude }).collect();
     let n = samples.len();
     let rec = crate::data::Recording { t_s: Some(vec![0.0, 1.0, 2.0]), roll_deg: Some(vec![0.0; n]), pitch_deg: Some(vec![0.0; n]), lat_deg: Some(vec![36.9; n]), lon_deg: Some(vec![50.6; n]), mag: vec![[1.0, 0.0, 0.0]; n], ..crate::data::Recording::default() };
     let before = crate::board::coefficients::doc_from_coefficients(&coefficients());

@@ -6,6 +6,7 @@ pub mod card;
 pub mod export;
 pub mod fit;
 pub mod identify;
+pub mod stream;
 pub mod igrf;
 pub mod import;
 pub mod log;

@@ -159,7 +159,7 @@ fn tune(a: &Args, mut p: RunParams) -> RunParams {
 fn effects(a: &Args) -> Result<Effects> {
     let mut effects = *a.effects.clone();
     // With the current effect, --current-mps/--current-to-deg set its current.
-    if let Some(water) = effects.current.as_mut() {
+    if let Some(water) = effects.water_current.as_mut() {
         water.current_mps = a.current_mps.unwrap_or(water.current_mps);
         water.current_to_deg = a.current_to_deg.unwrap_or(water.current_to_deg);
     }

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
-use host_tools::compute::{self, swing::CurrentMode, Delay};
+use host_tools::compute::{self, swing::WaterCurrentMode, Delay};
 use host_tools::data::CalDoc;
 
 use super::{check_out, emit, warn_all};
@@ -57,7 +57,7 @@ pub fn run(a: Args) -> Result<()> {
     };
     let doc = CalDoc::load(&a.cal)?;
     let rec = a.columns.read(&a.input)?;
-    let mode = if a.no_current { CurrentMode::Off } else { CurrentMode::Auto };
+    let mode = if a.no_current { WaterCurrentMode::Off } else { WaterCurrentMode::Auto };
     let (doc, fit, delay_s) =
         compute::swing::swing_recording_with(&rec, &doc, delay, mode).with_context(|| format!("{}: swing fit", a.input.display()))?;
     warn_all(&doc);

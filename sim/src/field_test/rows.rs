@@ -150,7 +150,7 @@ impl<'a> Rows<'a> {
         let running_bias = row.running && self.effects.thrusters.is_none();
         let bridge_gain = self.bridge_gain(row.t_s, env.depth_m, bus_a);
         let e = self.effects;
-        if e.temperature.is_some() || e.anomaly.is_some() || e.current.is_some() || e.structure.is_some() {
+        if e.temperature.is_some() || e.anomaly.is_some() || e.water_current.is_some() || e.structure.is_some() {
             self.sim.push_column("depth_m", env.depth_m);
         }
         self.last_t = Some(row.t_s);
@@ -178,7 +178,7 @@ impl<'a> Rows<'a> {
 
     /// The speed log and the true track (current effect).
     fn log_water(&mut self, row: &Row, env: &RowEnv) {
-        let Some(water) = &self.effects.current else { return };
+        let Some(water) = &self.effects.water_current else { return };
         let logged = env.speed_mps * water.speed_log_scale + water.speed_log_noise_mps * self.noise.effects.gauss();
         push(&mut self.sim.recording.speed_mps, logged);
         self.sim.push_column("water_speed_mps", env.speed_mps);

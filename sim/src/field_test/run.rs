@@ -123,7 +123,7 @@ impl<'a> Profile<'a> {
         if !(params.course_out_deg.is_finite() && params.course_back_deg.is_finite()) {
             return Err(SimError::Parameter(format!("courses {} / {} degrees must be finite", params.course_out_deg, params.course_back_deg)));
         }
-        let current = effects.current.as_ref().map_or((params.current_mps, params.current_to_deg), |w| (w.current_mps, w.current_to_deg));
+        let current = effects.water_current.as_ref().map_or((params.current_mps, params.current_to_deg), |w| (w.current_mps, w.current_to_deg));
         if !current.1.is_finite() {
             return Err(SimError::Parameter(format!("the current's direction {} degrees must be finite", current.1)));
         }
@@ -192,7 +192,7 @@ pub fn run_with(sensor: &SensorModel, site: &Site, params: &RunParams, seed: u64
     let dt = 1.0 / rate_hz;
     let n = (profile.total_s / dt) as usize;
     let delay_rows = (params.gps_delay_s / dt).round() as usize;
-    let mut track = Kinematics::new(site.lat_deg, site.lon_deg, effects.current.as_ref(), delay_rows, params.gps_noise_deg, n);
+    let mut track = Kinematics::new(site.lat_deg, site.lon_deg, effects.water_current.as_ref(), delay_rows, params.gps_noise_deg, n);
     if let (Some(thermal), Some(thrusters)) = (&effects.temperature, &effects.thrusters) {
         let bus: f64 = thrusters.currents_a(params.speed_mps, 0.0).iter().sum();
         b.sensor_temp_c = Some(thermal.equilibrium_c(0.0, bus));

@@ -240,7 +240,7 @@ impl EffectsTruth {
             }),
             anomaly: if effects.anomaly.is_some() { AnomalyTruth::from_rows(sim) } else { None },
             ahrs_misalignment_deg: effects.ahrs.map(|m| [m.roll_deg, m.pitch_deg]),
-            current: effects.current.as_ref().map(|w| CurrentTruth::new(w.current_ne_mps(), sim)),
+            current: effects.water_current.as_ref().map(|w| CurrentTruth::new(w.current_ne_mps(), sim)),
             structure: effects.structure.as_ref().and_then(|_| StructureTruth::from_rows(sim)),
             payload: effects.payload.as_ref().map(|p| PayloadTruth {
                 on_at_s: (p.field_test == sim.truth.scenario).then_some(p.on_at_s),

@@ -183,9 +183,9 @@ fn coarse_lag(rows: &[(f64, [f64; 3])], series: &AttitudeSeries, range: (f64, f6
     if k == 0 || k + 1 == steps {
         return Err(MergeError::OutsideWindow { best_s: lag, center_s: 0.5 * (window.0 + window.1), max_offset_s: 0.5 * (window.1 - window.0) });
     }
-    let mut sorted: Vec<f64> = misfit.iter().copied().filter(|m| m.is_finite()).collect();
-    sorted.sort_by(f64::total_cmp);
-    let median = sorted[sorted.len() / 2];
+    let mut finite: Vec<f64> = misfit.iter().copied().filter(|m| m.is_finite()).collect();
+    // Never empty: `best` is one of them.
+    let median = calib_core::series::median(&mut finite).unwrap_or(best);
     // Another local minimum nearly as good: a motion that repeats.
     let second = (1..steps - 1).filter(|&j| j.abs_diff(k) > 1 && misfit[j] <= misfit[j - 1] && misfit[j] <= misfit[j + 1]).map(|j| misfit[j]).fold(f64::INFINITY, f64::min);
     if !(best <= MAX_CONTRAST * median && best <= MAX_SECOND_RATIO * second) {

@@ -143,13 +143,9 @@ pub struct MergeReport {
     pub board_interval_s: f64,
 }
 
+/// The median interval, s; NaN with fewer than two distinct times.
 fn median_interval(t: &[f64]) -> f64 {
-    let mut d: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).filter(|d| *d > 0.0).collect();
-    if d.is_empty() {
-        return f64::NAN;
-    }
-    d.sort_by(f64::total_cmp);
-    d[d.len() / 2]
+    super::pairing::median_step_s(t).unwrap_or(f64::NAN)
 }
 
 fn no_overlap(board: &BoardLog, nav: &NavLog, detail: String) -> MergeError {

@@ -181,8 +181,10 @@ fn rough_normalisation(mag: &[[f64; 3]]) -> [(f64, f64); 3] {
         if v.is_empty() {
             return (0.0, 1.0);
         }
-        v.sort_by(f64::total_cmp);
-        let (lo, hi) = (v[v.len() / 100], v[v.len() - 1 - v.len() / 100]);
+        let (lo, hi) = match (calib_core::series::quantile(&mut v, 0.01), calib_core::series::quantile(&mut v, 0.99)) {
+            (Some(lo), Some(hi)) => (lo, hi),
+            _ => return (0.0, 1.0),
+        };
         (0.5 * (lo + hi), 0.5 * (hi - lo))
     });
     let widest = ranges.iter().map(|r| r.1).fold(0.0, f64::max);

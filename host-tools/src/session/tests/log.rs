@@ -70,6 +70,10 @@ fn a_link_cut_mid_log_is_reopened_and_the_gap_kept_and_counted() {
     assert!(log.mag.iter().all(|m| *m == [0.0, 2.0, 3.0]));
     assert!(log.temp_c.as_ref().unwrap().iter().all(|t| *t == 21.5));
     assert!(text.starts_with(&format!("{}\n", board_log::HEADER)));
+    assert!(board_log::HEADER.ends_with(",heading_sigma_deg,integrity"));
+    // The board's heading σ and integrity, as it sent them (the mock
+    // board: 1.25°, disturbed).
+    assert!(text.lines().skip(1).all(|l| l.ends_with(",1.25,disturbed")), "{text}");
     // The board's clock started at 5 s and advanced 10 ms per read.
     assert!(log.t_s[0] > 5.0 && log.t_s[0] < 5.5, "{}", log.t_s[0]);
 }
