@@ -5,7 +5,7 @@
 use std::path::Path;
 
 pub use super::table::TableError as RecordingError;
-use super::table::{col, read_table_from, write_table};
+use super::table::{col, read_table_mapped, write_table, ColumnMap};
 
 /// A recording, column by column (NaN where not available).
 #[derive(Debug, Clone, Default)]
@@ -64,15 +64,27 @@ impl Recording {
 
     /// Reads a CSV recording. `mx, my, mz` are required; the rest optional.
     pub fn read(path: &Path) -> Result<Self, RecordingError> {
+        Self::read_mapped(path, &ColumnMap::default())
+    }
+
+    /// Reads a recording whose columns have the file's own names and units
+    /// (`map`; the separator comma, semicolon, tab or spaces as for every
+    /// recording).
+    pub fn read_mapped(path: &Path, map: &ColumnMap) -> Result<Self, RecordingError> {
         let file = std::fs::File::open(path).map_err(|source| RecordingError::Io { path: path.into(), source })?;
-        Self::from_reader(file, path)
+        Self::from_reader_mapped(file, path, map)
     }
 
     /// Reads CSV from any reader (`path` names it in errors).
     pub fn from_reader<R: std::io::Read>(reader: R, path: &Path) -> Result<Self, RecordingError> {
+        Self::from_reader_mapped(reader, path, &ColumnMap::default())
+    }
+
+    /// [`Recording::from_reader`] with the file's names and units of `map`.
+    pub fn from_reader_mapped<R: std::io::Read>(reader: R, path: &Path, map: &ColumnMap) -> Result<Self, RecordingError> {
         use col::*;
         let optional = [T, ROLL_DEG, PITCH_DEG, REF_HEADING_DEG, LAT_DEG, LON_DEG, GYRO[0], GYRO[1], GYRO[2], SPEED_MPS, MOTOR_CURRENT_A, TEMP_C];
-        let mut t = read_table_from(reader, path, &MAG, &optional)?;
+        let mut t = read_table_mapped(reader, path, &MAG, &optional, map)?;
         let [mx, my, mz] = MAG.map(|c| t.take(c).unwrap_or_default());
         let mag: Vec<[f64; 3]> = mx.into_iter().zip(my).zip(mz).map(|((x, y), z)| [x, y, z]).collect();
         super::table::check_outliers(&mag, path)?;

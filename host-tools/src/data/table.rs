@@ -62,13 +62,36 @@ pub enum TableError {
     #[error("{0}: header only, no data rows")]
     NoRows(PathBuf),
     /// A required column is missing.
-    #[error("{path}: missing column `{column}` (the header has: {header})")]
+    #[error("{path}: missing column `{column}` (the header has: {header}){hint}")]
     MissingColumn {
         /// The file.
         path: PathBuf,
         /// The column needed.
         column: &'static str,
         /// The columns found.
+        header: String,
+        /// For the field's columns: the mapping the header's names suggest
+        /// (`; ... give the column mapping mx=...`), else empty.
+        hint: String,
+    },
+    /// A column mapping names a column the header does not have.
+    #[error("{path}: the column mapping gives `{column}` as `{name}`, which the header does not have (the header has: {header})")]
+    MappedColumnMissing {
+        /// The file.
+        path: PathBuf,
+        /// The project's column.
+        column: String,
+        /// The file's name the mapping gives.
+        name: String,
+        /// The columns found.
+        header: String,
+    },
+    /// The header line holds more than one of comma, semicolon and tab.
+    #[error("{path}: the header line `{header}` has more than one of comma, semicolon and tab: which separates the cells?")]
+    AmbiguousSeparator {
+        /// The file.
+        path: PathBuf,
+        /// The header line.
         header: String,
     },
     /// A cell is not a number.
@@ -206,6 +229,207 @@ pub(crate) fn column_index<'h>(header: impl IntoIterator<Item = &'h str>, name: 
     header.into_iter().position(|h| h.trim().trim_start_matches('\u{feff}').eq_ignore_ascii_case(name))
 }
 
+/// A unit a mapped column is given in (`--columns mx=NAME:uT`), converted
+/// on reading to the project's: the field to nT, angles to degrees.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ColumnUnit {
+    /// Nanotesla.
+    Nanotesla,
+    /// Microtesla (`uT` or `µT`).
+    Microtesla,
+    /// Gauss (1 G = 100 000 nT).
+    Gauss,
+    /// Milligauss (1 mG = 100 nT).
+    Milligauss,
+    /// Raw sensor counts: kept as they are.
+    Counts,
+    /// Degrees.
+    Degrees,
+    /// Radians.
+    Radians,
+}
+
+/// The units a mapping may name, as written.
+pub const COLUMN_UNITS: &str = "nT, uT, µT, gauss, mG, counts (field); deg, rad (angles)";
+
+impl ColumnUnit {
+    /// From its name (any case): `None` when unknown.
+    fn parse(text: &str) -> Option<Self> {
+        Some(match text.trim().to_ascii_lowercase().as_str() {
+            "nt" => Self::Nanotesla,
+            "ut" | "µt" | "μt" => Self::Microtesla,
+            "g" | "gauss" => Self::Gauss,
+            "mg" | "mgauss" | "milligauss" => Self::Milligauss,
+            "counts" | "raw" => Self::Counts,
+            "deg" | "degrees" => Self::Degrees,
+            "rad" | "radians" => Self::Radians,
+            _ => return None,
+        })
+    }
+
+    /// The factor to the project's unit (nT, degrees; counts stay counts).
+    fn factor(self) -> f64 {
+        match self {
+            Self::Nanotesla | Self::Counts | Self::Degrees => 1.0,
+            Self::Microtesla => 1e3,
+            Self::Gauss => 1e5,
+            Self::Milligauss => 100.0,
+            Self::Radians => 180.0 / std::f64::consts::PI,
+        }
+    }
+
+    /// A unit of the magnetic field (else of an angle).
+    fn is_field(self) -> bool {
+        !matches!(self, Self::Degrees | Self::Radians)
+    }
+}
+
+/// The project's columns a mapping may name.
+fn mappable_columns() -> Vec<&'static str> {
+    use col::*;
+    let mut all = vec![T, ROLL_DEG, PITCH_DEG, HEADING_DEG, REF_HEADING_DEG, LAT_DEG, LON_DEG, SPEED_MPS, MOTOR_CURRENT_A, TEMP_C, HEALTH, T_BOARD, TRUE_HEADING_DEG, TRUE_FIELD_NT];
+    all.extend(MAG);
+    all.extend(GYRO);
+    all
+}
+
+/// The project's columns whose unit may be given as an angle's.
+const ANGLE_COLUMNS: [&str; 7] = [col::ROLL_DEG, col::PITCH_DEG, col::HEADING_DEG, col::REF_HEADING_DEG, col::LAT_DEG, col::LON_DEG, col::TRUE_HEADING_DEG];
+
+/// Why a column mapping could not be understood.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum ColumnMapError {
+    /// An entry is not `column=NAME` or `column=NAME:unit`.
+    #[error("column mapping `{0}`: expected column=NAME or column=NAME:unit (e.g. mx=Magnetometer X (uT):uT)")]
+    Syntax(String),
+    /// The mapping names a column the project does not have.
+    #[error("column mapping `{0}`: no such column; the columns are: {1}")]
+    UnknownColumn(String, String),
+    /// The unit is not one of [`COLUMN_UNITS`].
+    #[error("column mapping `{0}`: unknown unit `{1}` (the units: {COLUMN_UNITS})")]
+    UnknownUnit(String, String),
+    /// A unit given for a column it does not fit (a field unit for an angle,
+    /// any unit for a column other than the field's and the angles').
+    #[error("column mapping `{0}`: a unit fits only mx, my, mz (nT, uT, gauss, mG, counts) and angle columns (deg, rad)")]
+    WrongUnit(String),
+    /// A column mapped twice.
+    #[error("column mapping: `{0}` is mapped twice")]
+    Duplicate(String),
+}
+
+/// The file's own names (and units) for the project's columns:
+/// `mx=mag_x_gauss:gauss,my=...,roll_deg=Roll (rad):rad`. Names are matched
+/// exactly but in any case; they may hold spaces and parentheses, not `,`
+/// or `:`. Columns not mapped keep their project names.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ColumnMap {
+    /// (project column, the file's name, unit).
+    entries: Vec<(&'static str, String, Option<ColumnUnit>)>,
+}
+
+impl std::str::FromStr for ColumnMap {
+    type Err = ColumnMapError;
+
+    fn from_str(spec: &str) -> Result<Self, Self::Err> {
+        let mut entries: Vec<(&'static str, String, Option<ColumnUnit>)> = Vec::new();
+        for entry in spec.split(',').map(str::trim).filter(|e| !e.is_empty()) {
+            let (key, value) = entry.split_once('=').ok_or_else(|| ColumnMapError::Syntax(entry.into()))?;
+            let known = mappable_columns();
+            let column = *known.iter().find(|c| c.eq_ignore_ascii_case(key.trim())).ok_or_else(|| ColumnMapError::UnknownColumn(entry.into(), known.join(", ")))?;
+            let (name, unit) = match value.rsplit_once(':') {
+                Some((name, unit)) => (name, Some(ColumnUnit::parse(unit).ok_or_else(|| ColumnMapError::UnknownUnit(entry.into(), unit.trim().into()))?)),
+                None => (value, None),
+            };
+            let name = name.trim();
+            if name.is_empty() {
+                return Err(ColumnMapError::Syntax(entry.into()));
+            }
+            if let Some(u) = unit {
+                let fits = if col::MAG.contains(&column) { u.is_field() } else { ANGLE_COLUMNS.contains(&column) && !u.is_field() };
+                if !fits {
+                    return Err(ColumnMapError::WrongUnit(entry.into()));
+                }
+            }
+            if entries.iter().any(|(c, _, _)| *c == column) {
+                return Err(ColumnMapError::Duplicate(column.into()));
+            }
+            entries.push((column, name.to_string(), unit));
+        }
+        Ok(Self { entries })
+    }
+}
+
+impl ColumnMap {
+    /// The name the file gives the project's `column`.
+    fn file_name<'a>(&'a self, column: &'a str) -> &'a str {
+        self.entries.iter().find(|(c, _, _)| *c == column).map_or(column, |(_, n, _)| n.as_str())
+    }
+
+    /// The factor from the file's unit of `column` to the project's.
+    fn factor(&self, column: &str) -> f64 {
+        self.entries.iter().find(|(c, _, _)| *c == column).and_then(|(_, _, u)| *u).map_or(1.0, ColumnUnit::factor)
+    }
+}
+
+/// For a missing field column: the header's names that look like the
+/// magnetometer's, as a mapping to give (empty when none do).
+fn mapping_hint(header: &[&str]) -> String {
+    let looks_like_field = |lower: &str| {
+        let words: Vec<&str> = lower.split(|c: char| !c.is_alphanumeric()).filter(|w| !w.is_empty()).collect();
+        let axis = words.iter().find_map(|w| match *w {
+            "x" | "y" | "z" => Some(*w),
+            w if w.starts_with("mag") && w.len() == 4 => w.get(3..),
+            _ => None,
+        });
+        let unit = words.iter().find_map(|w| match *w {
+            "ut" | "nt" | "gauss" | "mg" => Some(*w),
+            _ => None,
+        });
+        let field = lower.contains("mag") || (axis.is_some() && (unit.is_some() || lower.contains("field")));
+        field.then(|| (axis.map(str::to_string), unit.map(str::to_string)))
+    };
+    let candidates: Vec<(&str, Option<String>, Option<String>)> =
+        header.iter().filter_map(|h| looks_like_field(&h.trim().to_lowercase()).map(|(a, u)| (h.trim(), a, u))).collect();
+    if candidates.is_empty() {
+        return String::new();
+    }
+    let by_axis: Vec<Option<String>> = ["x", "y", "z"]
+        .iter()
+        .zip(col::MAG)
+        .map(|(axis, mag)| {
+            let (name, _, unit) = candidates.iter().find(|(_, a, _)| a.as_deref() == Some(*axis))?;
+            Some(format!("{mag}={name}{}", unit.as_ref().map(|u| format!(":{u}")).unwrap_or_default()))
+        })
+        .collect();
+    let names = candidates.iter().map(|(n, _, _)| format!("`{n}`")).collect::<Vec<_>>().join(", ");
+    match by_axis.into_iter().collect::<Option<Vec<_>>>() {
+        Some(map) => format!("; {names} look like magnetometer columns: give the column mapping `{}`", map.join(",")),
+        None => format!("; {names} look like magnetometer columns: give a column mapping `mx=NAME,my=NAME,mz=NAME`"),
+    }
+}
+
+/// The separator of a table's cells, from its header line: comma,
+/// semicolon, tab, or (none of those) runs of spaces; `None` when more than
+/// one of comma, semicolon and tab appear.
+fn separator(header_line: &[u8]) -> Option<Separator> {
+    let found: Vec<u8> = [b',', b';', b'\t'].into_iter().filter(|s| header_line.contains(s)).collect();
+    match found[..] {
+        [] if header_line.trim_ascii().contains(&b' ') => Some(Separator::Spaces),
+        [] => Some(Separator::Byte(b',')),
+        [one] => Some(Separator::Byte(one)),
+        _ => None,
+    }
+}
+
+/// How a table's cells are separated.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Separator {
+    /// One byte: comma, semicolon or tab.
+    Byte(u8),
+    /// Runs of spaces (the cells hold none).
+    Spaces,
+}
+
 /// Columns of a CSV table, by name.
 #[derive(Debug)]
 pub(crate) struct Table {
@@ -237,24 +461,61 @@ pub(crate) fn read_column(path: &Path, name: &str) -> Result<Option<Vec<f64>>, T
 /// case, rows as long as the header, empty or `nan` = absent; a `t` column
 /// finite and non-decreasing). `path` names the source in errors.
 pub(crate) fn read_table_from<R: std::io::Read>(reader: R, path: &Path, required: &[&'static str], optional: &[&str]) -> Result<Table, TableError> {
-    let mut rdr = csv::ReaderBuilder::new().has_headers(true).flexible(true).trim(csv::Trim::All).from_reader(reader);
+    read_table_mapped(reader, path, required, optional, &ColumnMap::default())
+}
+
+/// [`read_table_from`] with the cells separated by comma, semicolon, tab or
+/// runs of spaces (found from the header line), and the columns under the
+/// file's own names and units of `map` (converted to the project's).
+pub(crate) fn read_table_mapped<R: std::io::Read>(reader: R, path: &Path, required: &[&'static str], optional: &[&str], map: &ColumnMap) -> Result<Table, TableError> {
+    use std::io::{BufRead, Cursor, Read};
+    let io_err = |source| TableError::Io { path: path.into(), source };
+    let mut reader = std::io::BufReader::new(reader);
+    let mut first = Vec::new();
+    reader.read_until(b'\n', &mut first).map_err(io_err)?;
+    let sep = separator(&first).ok_or_else(|| TableError::AmbiguousSeparator { path: path.into(), header: String::from_utf8_lossy(&first).trim().to_string() })?;
+    match sep {
+        Separator::Byte(delimiter) => read_csv(Cursor::new(first).chain(reader), delimiter, path, required, optional, map),
+        Separator::Spaces => {
+            let mut all = first;
+            reader.read_to_end(&mut all).map_err(io_err)?;
+            let text: Vec<String> = String::from_utf8_lossy(&all).lines().map(|l| l.split_whitespace().collect::<Vec<_>>().join(",")).collect();
+            read_csv(Cursor::new(text.join("\n").into_bytes()), b',', path, required, optional, map)
+        }
+    }
+}
+
+/// Where each wanted column is in the header (the file's name from `map`),
+/// checking that every name `map` gives is there.
+fn locate(header: &csv::StringRecord, path: &Path, required: &[&'static str], optional: &[&str], map: &ColumnMap) -> Result<Vec<Option<usize>>, TableError> {
+    let names: Vec<&str> = header.iter().map(|h| h.trim().trim_start_matches('\u{feff}')).collect();
+    let header_list = names.join(", ");
+    if let Some((column, name, _)) = map.entries.iter().find(|(_, n, _)| column_index(names.iter().copied(), n).is_none()) {
+        return Err(TableError::MappedColumnMissing { path: path.into(), column: column.to_string(), name: name.clone(), header: header_list });
+    }
+    let mut index = Vec::new();
+    for &name in required {
+        let i = column_index(names.iter().copied(), map.file_name(name)).ok_or_else(|| {
+            let hint = if col::MAG.contains(&name) { mapping_hint(&names) } else { String::new() };
+            TableError::MissingColumn { path: path.into(), column: name, header: header_list.clone(), hint }
+        })?;
+        index.push(Some(i));
+    }
+    index.extend(optional.iter().map(|name| column_index(names.iter().copied(), map.file_name(name))));
+    Ok(index)
+}
+
+/// Reads the CSV of [`read_table_mapped`] once its separator is known.
+fn read_csv<R: std::io::Read>(reader: R, delimiter: u8, path: &Path, required: &[&'static str], optional: &[&str], map: &ColumnMap) -> Result<Table, TableError> {
+    let mut rdr = csv::ReaderBuilder::new().has_headers(true).flexible(true).delimiter(delimiter).trim(csv::Trim::All).from_reader(reader);
     let csv_err = |source| TableError::Csv { path: path.into(), source };
     let header = rdr.headers().map_err(csv_err)?.clone();
     if header.is_empty() || header.iter().all(str::is_empty) {
         return Err(TableError::Empty(path.into()));
     }
-    let header_list = header.iter().collect::<Vec<_>>().join(", ");
-    let mut names: Vec<String> = Vec::new();
-    let mut index = Vec::new();
-    for &name in required {
-        let i = column_index(&header, name).ok_or_else(|| TableError::MissingColumn { path: path.into(), column: name, header: header_list.clone() })?;
-        names.push(name.to_string());
-        index.push(Some(i));
-    }
-    for &name in optional {
-        names.push(name.to_string());
-        index.push(column_index(&header, name));
-    }
+    let index = locate(&header, path, required, optional, map)?;
+    let names: Vec<String> = required.iter().chain(optional).map(|n| n.to_string()).collect();
+    let factors: Vec<f64> = names.iter().map(|n| map.factor(n)).collect();
     let mut columns: Vec<Vec<f64>> = vec![Vec::new(); names.len()];
     let (mut previous_t, mut rows) = (f64::NEG_INFINITY, 0usize);
     for (row, result) in rdr.records().enumerate() {
@@ -268,7 +529,7 @@ pub(crate) fn read_table_from<R: std::io::Read>(reader: R, path: &Path, required
             let Some(i) = *i else { continue };
             let text = record.get(i).unwrap_or("");
             let bad = || TableError::BadNumber { path: path.into(), line, column: names[k].clone(), text: text.to_string() };
-            let v = parse_cell(text).ok_or_else(bad)?;
+            let v = parse_cell(text).ok_or_else(bad)? * factors[k];
             if names[k] == col::T {
                 if !v.is_finite() {
                     return Err(bad());
@@ -356,5 +617,71 @@ mod tests {
         assert!(v[0] == 1.5 && v[1] == 2.0 && v[2].is_nan());
         assert!(StreamColumns::new("t,x", &["t", "roll_deg"], 2).unwrap_err().contains("roll_deg"));
         assert_eq!((cell(f64::NAN), cell(1.25)), (String::new(), "1.25".to_string()));
+    }
+
+    fn mapped(text: &str, map: &str) -> Result<Table, TableError> {
+        read_table_mapped(text.as_bytes(), Path::new("x.csv"), &col::MAG, &[col::T, col::ROLL_DEG], &map.parse().unwrap())
+    }
+
+    /// Semicolon, tab and space-separated files read as the comma file does.
+    #[test]
+    fn the_separator_is_found_from_the_header() {
+        let comma = "t,mx,my,mz,roll_deg\n0,1.5,-2,3,10\n1,4,5,6,nan\n";
+        let want = |mut t: Table| (t.take("t"), t.take("mx"), t.take("mz"));
+        let expect = want(mapped(comma, "").unwrap());
+        assert_eq!(expect.1, Some(vec![1.5, 4.0]));
+        for sep in [";", "\t", " ", "   "] {
+            let text = comma.replace(',', sep);
+            assert_eq!(want(mapped(&text, "").unwrap()), expect, "separator {sep:?}");
+        }
+        // An empty cell is only possible with a real separator: in a space
+        // file a row with a missing value is ragged.
+        assert!(matches!(mapped("t mx my mz\n0 1 2\n", ""), Err(TableError::Ragged { line: 2, .. })));
+        let e = mapped("t,mx;my,mz\n0,1,2,3\n", "").unwrap_err();
+        assert!(matches!(e, TableError::AmbiguousSeparator { .. }), "{e}");
+    }
+
+    /// Other tools' names and units: gauss to nT, radians to degrees.
+    #[test]
+    fn a_mapping_reads_other_names_and_units() {
+        let text = "Time;Magnetometer X (uT);Magnetometer Y (uT);mag_z_gauss;Roll (rad)\n0;48.5;-1.25;0.2;0.5\n";
+        let mut t = mapped(text, "t=time, mx=Magnetometer X (uT):uT, my=MAGNETOMETER Y (UT):µT, mz=mag_z_gauss:gauss, roll_deg=Roll (rad):rad").unwrap();
+        // 48.5 µT = 48 500 nT; 0.2 G = 20 000 nT; 0.5 rad = 28.6479 deg.
+        assert_eq!(t.take("mx"), Some(vec![48_500.0]));
+        assert_eq!(t.take("my"), Some(vec![-1_250.0]));
+        assert!((t.take("mz").unwrap()[0] - 20_000.0).abs() < 1e-9);
+        assert!((t.take("roll_deg").unwrap()[0] - 28.647_889_756).abs() < 1e-8);
+        // An angle in radians is range-checked after conversion: 3.2 rad > 180°.
+        let e = mapped("mx,my,mz,r\n1,2,3,3.2\n", "roll_deg=r:rad").unwrap_err();
+        assert!(matches!(e, TableError::OutOfRange { line: 2, .. }), "{e}");
+    }
+
+    #[test]
+    fn bad_mappings_are_refused_by_name() {
+        let e = mapped("a,b,c\n1,2,3\n", "mx=a,my=b,mz=nope").unwrap_err();
+        assert_eq!(e.to_string(), "x.csv: the column mapping gives `mz` as `nope`, which the header does not have (the header has: a, b, c)");
+        let parse = |s: &str| s.parse::<ColumnMap>().unwrap_err();
+        assert!(matches!(parse("mx"), ColumnMapError::Syntax(_)));
+        assert!(matches!(parse("mx="), ColumnMapError::Syntax(_)));
+        assert!(matches!(parse("magx=a"), ColumnMapError::UnknownColumn(..)));
+        assert!(matches!(parse("mx=a:tesla"), ColumnMapError::UnknownUnit(_, u) if u == "tesla"));
+        assert!(matches!(parse("mx=a:deg"), ColumnMapError::WrongUnit(_)));
+        assert!(matches!(parse("roll_deg=a:uT"), ColumnMapError::WrongUnit(_)));
+        assert!(matches!(parse("t=a:rad"), ColumnMapError::WrongUnit(_)));
+        assert!(matches!(parse("mx=a,MX=b"), ColumnMapError::Duplicate(_)));
+    }
+
+    /// Issue 24: "missing column `mx`" alone left other tools' users stuck.
+    #[test]
+    fn a_missing_field_column_suggests_the_mapping() {
+        let e = mapped("time,mag_x_gauss,mag_y_gauss,mag_z_gauss\n0,1,2,3\n", "").unwrap_err();
+        assert!(e.to_string().ends_with("give the column mapping `mx=mag_x_gauss:gauss,my=mag_y_gauss:gauss,mz=mag_z_gauss:gauss`"), "{e}");
+        let e = mapped("Magnetometer X (uT)\tMagnetometer Y (uT)\tMagnetometer Z (uT)\n1\t2\t3\n", "").unwrap_err();
+        assert!(e.to_string().contains("`mx=Magnetometer X (uT):ut,my=Magnetometer Y (uT):ut,mz=Magnetometer Z (uT):ut`"), "{e}");
+        let e = mapped("t,magnetic\n0,1\n", "").unwrap_err();
+        assert!(e.to_string().ends_with("`magnetic` look like magnetometer columns: give a column mapping `mx=NAME,my=NAME,mz=NAME`"), "{e}");
+        // Nothing field-like (temperature, current): no suggestion.
+        let e = mapped("t,temp_c,motor_current_a\n0,1,2\n", "").unwrap_err();
+        assert!(e.to_string().ends_with("(the header has: t, temp_c, motor_current_a)"), "{e}");
     }
 }

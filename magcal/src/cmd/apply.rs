@@ -8,13 +8,16 @@ use std::path::PathBuf;
 use anyhow::{bail, Context, Result};
 use host_tools::compute::apply::{apply_recording, summarize, write_applied, ApplyError, ApplyOptions};
 use host_tools::compute::card::read_reference_column;
-use host_tools::data::{CalDoc, Recording};
+use host_tools::data::CalDoc;
 
 use super::hinted;
 
 /// Arguments of `magcal apply`.
 #[derive(clap::Args)]
 pub struct Args {
+    /// The recordings' own column names and units.
+    #[command(flatten)]
+    pub columns: super::InputColumns,
     /// Recording: mx, my, mz; roll_deg, pitch_deg for the heading; t and
     /// gx, gy, gz for the gyro check; motor_current_a, temp_c for the
     /// document's terms.
@@ -54,7 +57,7 @@ pub fn run(a: Args) -> Result<()> {
         }
     }
     let doc = CalDoc::load(&a.cal)?;
-    let rec = Recording::read(&a.input)?;
+    let rec = a.columns.read(&a.input)?;
     let opts = ApplyOptions { inclination_deg: a.inclination_deg, field_sigma_nt: a.field_sigma_nt, tuning: None };
     let applied = apply_recording(&rec, &doc, &opts).with_context(|| format!("{}", a.input.display()))?;
     write_applied(&a.out, &a.input, rec.t_s.as_deref(), &applied).map_err(|e| hinted(e, |e| matches!(e, ApplyError::OverwritesInput(_)).then_some("give --out another file")))?;

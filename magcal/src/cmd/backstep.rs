@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use anyhow::{bail, Context, Result};
 use clap::ValueEnum;
 use host_tools::compute::{self, BackstepMethod, BackstepOptions, RunReference, SwingMagnitudes};
-use host_tools::data::{CalDoc, Recording};
+use host_tools::data::CalDoc;
 
 use super::{check_field_nt, check_out, check_positions, emit, hinted, SiteArgs};
 use host_tools::compute::ComputeError;
@@ -22,6 +22,9 @@ pub enum Method {
 /// Arguments of `magcal backstep`.
 #[derive(clap::Args)]
 pub struct Args {
+    /// The recordings' own column names and units.
+    #[command(flatten)]
+    pub columns: super::InputColumns,
     /// The run (t, mx, my, mz, roll_deg, pitch_deg; lat_deg/lon_deg used when present).
     #[arg(long)]
     input: PathBuf,
@@ -74,7 +77,7 @@ pub fn run(a: Args) -> Result<()> {
     // A step-1 calibration fitted to a field in other units (µT typed for
     // nT) scales the run wrongly: nothing after it could be right.
     check_field_nt(doc.field_nt, &format!("{}: the calibration's field_nt", a.cal.display()))?;
-    let rec = Recording::read(&a.input)?;
+    let rec = a.columns.read(&a.input)?;
     if let (Some(lat), Some(lon)) = (a.site.lat, a.site.lon) {
         check_positions(&rec, &a.input, lat, lon)?;
     }
@@ -85,11 +88,11 @@ pub fn run(a: Args) -> Result<()> {
     };
     opts.turnaround_s = a.turnaround_s;
     if let Some(p) = &a.swing_input {
-        let swing = Recording::read(p)?;
+        let swing = a.columns.read(p)?;
         opts.swing = Some(SwingMagnitudes::from_recording(&swing, doc.field_nt));
     }
     if let Some(p) = &a.thrust_input {
-        opts.thrust_test = Some(Recording::read(p)?);
+        opts.thrust_test = Some(a.columns.read(p)?);
     }
     let (out_doc, report) = compute::backstep_recording(&rec, &doc, &opts).map_err(|e| hinted(e, backstep_hint)).with_context(|| format!("{}: back-stepping", a.input.display()))?;
     if !a.json {

@@ -6,13 +6,16 @@ use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
 use host_tools::compute::card::{deviation_card, read_reference_column, CardError};
-use host_tools::data::{CalDoc, Recording};
+use host_tools::data::CalDoc;
 
 use super::hinted;
 
 /// Arguments of `magcal card`.
 #[derive(clap::Args)]
 pub struct Args {
+    /// The recordings' own column names and units.
+    #[command(flatten)]
+    pub columns: super::InputColumns,
     /// Recording with mx, my, mz, roll_deg, pitch_deg and the reference
     /// (or truth) heading `ref_heading_deg`.
     #[arg(long)]
@@ -43,7 +46,7 @@ pub fn run(a: Args) -> Result<()> {
         super::check_out("--csv", csv, &[&a.input, &a.cal])?;
     }
     let doc = CalDoc::load(&a.cal)?;
-    let mut rec = Recording::read(&a.input)?;
+    let mut rec = a.columns.read(&a.input)?;
     if a.reference_column != "ref_heading_deg" {
         let column = read_reference_column(&a.input, &a.reference_column)?.ok_or_else(|| CardError::NoReferenceColumn(a.reference_column.clone()))?;
         if column.len() != rec.len() {

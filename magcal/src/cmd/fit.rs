@@ -28,6 +28,9 @@ fn model_parser() -> impl clap::builder::TypedValueParser<Value = ModelKind> {
 /// Arguments of `magcal fit`.
 #[derive(clap::Args)]
 pub struct Args {
+    /// The recordings' own column names and units.
+    #[command(flatten)]
+    pub columns: super::InputColumns,
     /// Recording (CSV with mx, my, mz).
     #[arg(long)]
     input: PathBuf,
@@ -66,7 +69,7 @@ pub fn run(a: Args) -> Result<()> {
         check_out("--out", out, &[&a.input])?;
     }
     let reference = reference_field(a.field_nt, &a.site)?;
-    let rec = Recording::read(&a.input)?;
+    let rec = a.columns.read(&a.input)?;
     if let (Some(lat), Some(lon)) = (a.site.lat, a.site.lon) {
         check_positions(&rec, &a.input, lat, lon)?;
     }

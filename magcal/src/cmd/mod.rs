@@ -20,8 +20,36 @@ pub mod swing;
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
-use host_tools::data::{CalDoc, Recording};
+use host_tools::data::table::ColumnMap;
+use host_tools::data::{CalDoc, Recording, RecordingError};
 use host_tools::geomag::{self, Field, Site};
+
+/// The input recordings' own column names and units (`--columns`), shared
+/// by every command that reads recordings.
+#[derive(clap::Args, Clone)]
+pub struct InputColumns {
+    /// The recordings' own names for the project's columns, and optionally
+    /// their units: `mx=Magnetometer X (uT):uT,my=...,roll_deg=Roll:rad`
+    /// (names any case, may hold spaces; units nT, uT, µT, gauss, mG,
+    /// counts for mx/my/mz, converted to nT; deg, rad for angles, converted
+    /// to degrees). Cells may be separated by comma, semicolon, tab or spaces.
+    #[arg(long, value_name = "COLUMN=NAME[:UNIT],...")]
+    pub columns: Option<ColumnMap>,
+}
+
+impl InputColumns {
+    /// Reads a recording under the mapping; a missing field column whose
+    /// header suggests a mapping says to give it with `--columns`.
+    pub fn read(&self, path: &Path) -> Result<Recording> {
+        let map = self.columns.clone().unwrap_or_default();
+        Recording::read_mapped(path, &map).map_err(|e| {
+            hinted(e, |e| match e {
+                RecordingError::MissingColumn { hint, .. } if !hint.is_empty() => Some("give the mapping with --columns"),
+                _ => None,
+            })
+        })
+    }
+}
 
 /// Where and when, for the IGRF reference (all three or none).
 #[derive(clap::Args, Clone)]

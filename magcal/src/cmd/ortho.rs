@@ -8,7 +8,7 @@ use calib_core::fit::{fit_batch, Full};
 use calib_core::quality::{assess, Gates, Quality};
 use clap::ValueEnum;
 use host_tools::compute::{self, OrthoSolver};
-use host_tools::data::{CalDoc, Recording};
+use host_tools::data::CalDoc;
 use serde_json::json;
 
 /// The solver, as the command line names it.
@@ -28,6 +28,9 @@ pub enum Solver {
 /// Arguments of `magcal ortho`.
 #[derive(clap::Args)]
 pub struct Args {
+    /// The recordings' own column names and units.
+    #[command(flatten)]
+    pub columns: super::InputColumns,
     /// Recording (CSV with mx, my, mz), the sensor turned in a constant field.
     #[arg(long)]
     input: PathBuf,
@@ -52,7 +55,7 @@ pub struct Args {
 
 /// Runs `magcal ortho`.
 pub fn run(a: Args) -> Result<()> {
-    let rec = Recording::read(&a.input)?;
+    let rec = a.columns.read(&a.input)?;
     let bias = match (&a.cal, a.zero_bias) {
         (Some(p), _) => Some(CalDoc::load(p)?.bias),
         (None, true) => Some([0.0; 3]),

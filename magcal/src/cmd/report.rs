@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use host_tools::compute::card::read_reference_column;
 use host_tools::data::results::{SessionSettings, SessionSummary};
-use host_tools::data::{CalDoc, Recording};
+use host_tools::data::CalDoc;
 use host_tools::geomag::Site;
 use host_tools::report::{write_report, ReportInputs, Validation};
 
@@ -18,6 +18,9 @@ use super::SiteArgs;
 /// Arguments of `magcal report`.
 #[derive(clap::Args)]
 pub struct Args {
+    /// The recordings' own column names and units.
+    #[command(flatten)]
+    pub columns: super::InputColumns,
     /// A session directory (`magcal session --out`): its recordings,
     /// calibrations, settings and summary; the flags below override its files.
     #[arg(long)]
@@ -90,11 +93,11 @@ pub fn run(a: Args) -> Result<()> {
     }
 
 
-    let run = run_path.as_deref().map(Recording::read).transpose()?;
-    let swing = swing_path.as_deref().map(Recording::read).transpose()?;
+    let run = run_path.as_deref().map(|p| a.columns.read(p)).transpose()?;
+    let swing = swing_path.as_deref().map(|p| a.columns.read(p)).transpose()?;
     let validation = match &validation_path {
         Some(p) => {
-            let rec = Recording::read(p)?;
+            let rec = a.columns.read(p)?;
             let truth = read_reference_column(p, &a.truth_column)?.with_context(|| format!("{}: no `{}` column (the validation run's truth heading; name another with --truth-column)", p.display(), a.truth_column))?;
             if truth.len() != rec.len() {
                 bail!("{}: column `{}` has {} rows, the recording {}", p.display(), a.truth_column, truth.len(), rec.len());

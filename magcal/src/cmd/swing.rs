@@ -5,13 +5,16 @@ use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
 use host_tools::compute::{self, swing::WaterCurrentMode, Delay};
-use host_tools::data::{CalDoc, Recording};
+use host_tools::data::CalDoc;
 
 use super::{check_out, emit, warn_all};
 
 /// Arguments of `magcal swing`.
 #[derive(clap::Args)]
 pub struct Args {
+    /// The recordings' own column names and units.
+    #[command(flatten)]
+    pub columns: super::InputColumns,
     /// Recording with t, mx, my, mz, roll_deg, pitch_deg, ref_heading_deg.
     #[arg(long)]
     input: PathBuf,
@@ -53,7 +56,7 @@ pub fn run(a: Args) -> Result<()> {
         _ => bail!("give the reference delay with --delay-s S, or --estimate-delay"),
     };
     let doc = CalDoc::load(&a.cal)?;
-    let rec = Recording::read(&a.input)?;
+    let rec = a.columns.read(&a.input)?;
     let mode = if a.no_current { WaterCurrentMode::Off } else { WaterCurrentMode::Auto };
     let (doc, fit, delay_s) =
         compute::swing::swing_recording_with(&rec, &doc, delay, mode).with_context(|| format!("{}: swing fit", a.input.display()))?;
