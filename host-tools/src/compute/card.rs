@@ -91,6 +91,10 @@ pub struct CardRow {
 /// The deviation card: what `magcal card --json` prints.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct DeviationCard {
+    /// The column the headings are compared with (`ref_heading_deg`: the
+    /// navigation's heading or GPS course; `true_heading_deg`: the truth).
+    #[serde(default = "default_reference")]
+    pub reference: String,
     /// Rows used (reference, magnetometer, roll and pitch all present).
     pub samples: usize,
     /// Rows left out for a missing value.
@@ -105,6 +109,21 @@ pub struct DeviationCard {
     pub by_heading: Vec<CardRow>,
     /// By compass point.
     pub by_point: Vec<CardRow>,
+}
+
+fn default_reference() -> String {
+    "ref_heading_deg".to_string()
+}
+
+/// What the card's numbers measure, said beside them: against a truth column
+/// the calibration's own error; against `ref_heading_deg` (GPS course over
+/// ground or the navigation's heading) also the reference's own errors.
+pub fn reference_note(column: &str) -> &'static str {
+    if column.contains("true") || column.contains("truth") {
+        "the true heading: the calibration's own error"
+    } else {
+        "a reference heading, not the truth: a GPS course over ground also holds the water current's crab angle and the GPS delay, so these are not the calibration's error alone"
+    }
 }
 
 #[derive(Default, Clone, Copy)]
@@ -189,6 +208,7 @@ pub fn deviation_card(rec: &Recording, doc: &CalDoc, step_deg: f64, points: usiz
     }
     let stride = 16 / points;
     Ok(DeviationCard {
+        reference: default_reference(),
         samples: all_b.n,
         skipped_rows: skipped,
         declination_deg,
@@ -232,8 +252,8 @@ impl DeviationCard {
     pub fn to_text(&self) -> String {
         let mut s = String::new();
         s.push_str(&format!(
-            "deviation card: reference − magnetometer heading, degrees; {} rows ({} skipped); declination {:.2}°\n",
-            self.samples, self.skipped_rows, self.declination_deg
+            "deviation card: reference − magnetometer heading, degrees; {} rows ({} skipped); declination {:.2}°\nreference: `{}`, {}\n",
+            self.samples, self.skipped_rows, self.declination_deg, self.reference, reference_note(&self.reference)
         ));
         for (title, rows) in [("heading", &self.by_heading), ("point", &self.by_point)] {
             s.push_str(&format!("\n{title:>8} | {:>6} {:>8} {:>8} | {:>6} {:>8} {:>8}\n", "n", "before", "rms", "n", "after", "rms"));
@@ -320,6 +340,13 @@ mod tests {
         assert!((n - expected).abs() < 1e-6, "{n} vs {expected}");
         assert_eq!(card.by_point[0].label, "N");
         assert_eq!(deviation_card(&level_recording(&h, [0.0; 3]), &identity_doc(), 15.0, 8).unwrap().by_point[1].label, "NE");
+        // The card names its reference and says what a GPS course holds
+        // (issue 24: errors against GPS course printed as the calibration's).
+        let mut card = deviation_card(&level_recording(&h, [0.0; 3]), &identity_doc(), 15.0, 16).unwrap();
+        let text = card.to_text();
+        assert!(text.contains("reference: `ref_heading_deg`, a reference heading, not the truth") && text.contains("crab angle"), "{text}");
+        card.reference = "true_heading_deg".into();
+        assert!(card.to_text().contains("the calibration's own error"));
     }
 
     #[test]

@@ -54,7 +54,8 @@ pub fn run(a: Args) -> Result<()> {
         }
         rec.ref_heading_deg = Some(column);
     }
-    let card = deviation_card(&rec, &doc, a.step_deg, a.points).map_err(|e| hinted(e, |e| matches!(e, CardError::BadStep(_)).then_some("give another --step-deg"))).with_context(|| format!("{}: deviation card", a.input.display()))?;
+    let mut card = deviation_card(&rec, &doc, a.step_deg, a.points).map_err(|e| hinted(e, |e| matches!(e, CardError::BadStep(_)).then_some("give another --step-deg"))).with_context(|| format!("{}: deviation card", a.input.display()))?;
+    card.reference.clone_from(&a.reference_column);
     if let Some(path) = &a.csv {
         card.write_csv(path)?;
         eprintln!("wrote {}", path.display());
