@@ -302,8 +302,10 @@ impl<T: Real> Calibration<T> {
     // Inlined, as `FieldCal::apply` and `mul_mat_vec`: outlined, the three
     // cost the Cortex-M4F's per-sample path 36 instructions of argument and
     // result copies (263 → 299 with the terms, `cargo xtask bench`).
+    /// The heading of an already calibrated field (the second half of
+    /// [`Calibration::apply_tilt`], for a caller that has the field).
     #[inline(always)]
-    fn heading_of_field(&self, field_nt: Vec3<T>, tilt: &Tilt<T>) -> Output<T> {
+    pub fn heading_of_field(&self, field_nt: Vec3<T>, tilt: &Tilt<T>) -> Output<T> {
         let l = tilt.level(field_nt);
         let psi = heading_of_levelled(l);
         let hh = (l[0] * l[0] + l[1] * l[1]).sqrt();

@@ -154,13 +154,15 @@ impl<T: Real> OnlineIntegrity<T> {
     /// sample, s.
     pub fn process(&mut self, cal: &Calibration<T>, raw: Vec3<T>, tilt: Option<&Tilt<T>>, rate_rad_s: Option<Vec3<T>>, dt_s: T) -> Judged<T> {
         let stored_nt = cal.field.apply(raw);
-        let used_raw = if self.applied { [raw[0] - self.applied_raw[0], raw[1] - self.applied_raw[1], raw[2] - self.applied_raw[2]] } else { raw };
+        // The field through the stored calibration, or through it with the
+        // applied hard iron: one matrix product a sample either way.
+        let used_nt = if self.applied { cal.field.apply([raw[0] - self.applied_raw[0], raw[1] - self.applied_raw[1], raw[2] - self.applied_raw[2]]) } else { stored_nt };
         let (field_nt, heading_rad) = match tilt {
             Some(t) => {
-                let out = cal.apply_tilt(used_raw, t);
+                let out = cal.heading_of_field(used_nt, t);
                 (out.field_nt, Some(out.true_heading_rad))
             }
-            None => (cal.field.apply(used_raw), None),
+            None => (used_nt, None),
         };
         let was_invalid = self.monitor.cal_invalid();
         let mut verdict = self.monitor.step(field_nt, heading_rad.unwrap_or(T::ZERO), tilt, rate_rad_s, dt_s);

@@ -221,9 +221,6 @@ fn the_integrity_section_shows_a_disturbance_on_the_validation_run() {
     };
     let out = write_report(dir.path(), &inputs).unwrap();
     let html = std::fs::read_to_string(&out.index).unwrap();
-    if let Ok(keep) = std::env::var("MAGCAL_KEEP_REPORT") {
-        std::fs::copy(&out.index, keep).unwrap();
-    }
     let section = html.split("<section id=\"integrity\">").nth(1).expect("the section").split("</section>").next().unwrap();
     assert!(!out.missing.iter().any(|m| m.starts_with("integrity")), "{:?}", out.missing);
     assert!(section.contains("Heading error by integrity state") && section.contains("±1σ predicted"));
