@@ -322,6 +322,9 @@ fn cpu_budget(mcu: &serde_json::Value) -> serde_json::Value {
         // The device's per-sample path: current and temperature terms,
         // field, heading (`apply_heading_instructions` is without the terms).
         ("apply_and_heading", get("apply_env_heading_instructions") / SYSCLK_HZ * 1e6),
+        // The integrity on a usual sample (the calibration fitting): what
+        // the device's path adds to apply + heading on the same turn.
+        ("integrity", (get("integrity_ok_turn_instructions") - get("apply_heading_turn_instructions")).max(0.0) / SYSCLK_HZ * 1e6),
         ("onboard_full_fit_update", get("rls_full_update_instructions") / SYSCLK_HZ * 1e6),
         ("usart_tx_interrupts", SAMPLE_FRAME_BYTES * CYCLES_PER_TX_BYTE / SYSCLK_HZ * 1e6),
     ];
