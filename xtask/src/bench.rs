@@ -343,7 +343,7 @@ fn cpu_budget(mcu: &serde_json::Value) -> serde_json::Value {
         "worst_store_stall_ms": layout::worst_store_stall_ms(),
         "watchdog_timeout_ms": layout::watchdog_min_timeout_ms(),
         "watchdog_timeout_nominal_ms": layout::WATCHDOG_TIMEOUT_MS,
-        "targets": {"cpu_busy_pct_at_pair_rate_max": 10.0, "watchdog_over_worst_stall_min": 2.0, "apply_env_heading_instructions_max": 300, "flash_bytes_max": 65536},
+        "targets": {"cpu_busy_pct_at_pair_rate_max": 10.0, "watchdog_over_worst_stall_min": 2.0, "apply_env_heading_instructions_max": 300, "flash_bytes_max": crate::size::FLASH_BUDGET_BYTES},
     })
 }
 
