@@ -21,9 +21,13 @@
 //! estimate has passed every test a heading with the stored calibration
 //! must pass, with a σ at least as large.
 //!
-//! **Cost.** The estimator and the shadow run only while the stored
-//! calibration is judged invalid; a sample the calibration fits costs the
-//! monitor alone (`cargo xtask bench`, `integrity_ok_turn_instructions`).
+//! While applied, the estimator goes on and the offset in use follows its
+//! estimate whenever that passes the guard.
+//!
+//! **Cost.** The estimator runs only while the stored calibration is judged
+//! invalid or its estimate is applied; a sample the stored calibration fits
+//! costs the monitor alone (`cargo xtask bench`,
+//! `integrity_ok_turn_instructions`).
 
 use crate::cal::Calibration;
 use crate::hardiron::{HardIron, HardIronEstimator};
@@ -162,7 +166,7 @@ impl<T: Real> OnlineIntegrity<T> {
     /// levelling (shared by the heading and the monitor) and the monitor;
     /// the estimator runs only while the stored calibration is judged
     /// invalid (it restarts at each onset, so nothing it would have seen
-    /// before is lost).
+    /// before is lost) or its estimate is applied.
     pub fn process(&mut self, cal: &Calibration<T>, raw: Vec3<T>, tilt: Option<&Tilt<T>>, rate_rad_s: Option<Vec3<T>>, dt_s: T) -> Judged<T> {
         let stored_nt = cal.field.apply(raw);
         // The field through the stored calibration, or through it with the
@@ -184,6 +188,8 @@ impl<T: Real> OnlineIntegrity<T> {
             verdict.heading_sigma_rad = (verdict.heading_sigma_rad * verdict.heading_sigma_rad + self.applied_sigma_rad * self.applied_sigma_rad).sqrt();
             if self.monitor.cal_invalid() {
                 self.withdraw();
+            } else {
+                self.refine_applied(stored_nt, tilt, rate_rad_s, dt, cal);
             }
         } else if self.monitor.cal_invalid() {
             if !was_invalid {
@@ -246,26 +252,64 @@ impl<T: Real> OnlineIntegrity<T> {
         }
     }
 
-    /// Applies the estimate if its uncertainty passes the guard.
-    fn try_apply(&mut self, e: &HardIron<T>, cal: &Calibration<T>, sin_incl: Option<T>) {
+    /// The estimate's heading σ, radians, if it passes the guard: its
+    /// uncertainty moves the heading by no more than the stored
+    /// calibration's σ does, and the offset model explains the misfit.
+    fn guard(&self, e: &HardIron<T>, sin_incl: Option<T>) -> Option<T> {
         let r = *self.monitor.reference();
         let cos_incl = sin_incl.map_or(T::ONE, |s| (T::ONE - s * s).max(T::EPSILON).sqrt());
         let hh = (r.field_nt * cos_incl).max(r.field_sigma_nt);
         let sigma_max = e.sigma_nt[0].max(e.sigma_nt[1]).max(e.sigma_nt[2]);
         let stored_sigma_rad = ((r.field_sigma_nt / hh) * (r.field_sigma_nt / hh) + r.heading_sigma_rad * r.heading_sigma_rad).sqrt();
         let sigma_rad = sigma_max / hh;
-        if !(sigma_rad <= stored_sigma_rad && e.residual_rms_z <= T::from_f64(2.0)) {
-            return;
-        }
-        let Some(inv) = inverse3(&cal.field.matrix) else { return };
+        (sigma_rad <= stored_sigma_rad && e.residual_rms_z <= T::from_f64(2.0)).then_some(sigma_rad)
+    }
+
+    /// Puts the estimate in use (its offset in raw units through the stored
+    /// matrix's inverse); `false` if that matrix cannot be inverted.
+    fn use_estimate(&mut self, e: &HardIron<T>, sigma_rad: T, cal: &Calibration<T>) -> bool {
+        let Some(inv) = inverse3(&cal.field.matrix) else { return false };
         self.applied_raw = mul_mat_vec(&inv, e.offset_nt);
         self.applied_nt = e.offset_nt;
         self.applied_sigma_rad = sigma_rad;
+        true
+    }
+
+    /// Applies the estimate if it passes the guard.
+    fn try_apply(&mut self, e: &HardIron<T>, cal: &Calibration<T>, sin_incl: Option<T>) {
+        let Some(sigma_rad) = self.guard(e, sin_incl) else { return };
+        if !self.use_estimate(e, sigma_rad, cal) {
+            return;
+        }
         self.health.hard_iron_applied = self.health.hard_iron_applied.wrapping_add(1);
         self.applied = true;
         // The monitor goes on with the corrected field's misfit fraction.
         self.monitor.switch_field(self.shadow_misfit);
         self.shadow_seen_s = T::ZERO;
+    }
+
+    /// While the estimate is applied: the estimator goes on (every
+    /// `alt_every`-th sample), and the offset in use follows its estimate
+    /// whenever that passes the guard (the monitor judges the corrected
+    /// field meanwhile, and withdraws it if it misfits).
+    #[inline(never)]
+    fn refine_applied(&mut self, stored_nt: Vec3<T>, tilt: Option<&Tilt<T>>, rate_rad_s: Option<Vec3<T>>, dt: T, cal: &Calibration<T>) {
+        self.alt_dt_s += dt;
+        self.alt_count = self.alt_count.saturating_add(1);
+        if self.alt_count < self.alt_every {
+            return;
+        }
+        let dt = self.alt_dt_s;
+        self.alt_count = 0;
+        self.alt_dt_s = T::ZERO;
+        let r = *self.monitor.reference();
+        let sin_incl = self.monitor.sin_inclination();
+        self.estimator.update(stored_nt, tilt, rate_rad_s, dt, r.field_nt, r.field_sigma_nt, sin_incl, self.monitor.tuning().max_gap_s);
+        if let Some(e) = self.estimator.estimate() {
+            if let Some(sigma_rad) = self.guard(&e, sin_incl) {
+                self.use_estimate(&e, sigma_rad, cal);
+            }
+        }
     }
 
     /// The corrected field misfits for a sustained time: the estimate is

@@ -382,7 +382,7 @@ fn a_payload_switched_on_during_validation_says_recalibrate_with_the_evidence() 
     // monitor calls the misfit cal_invalid within seconds, then the on-line
     // estimate (from the attitude and the turning) recovers the new hard
     // iron and is applied. Measured: 86 rows cal_invalid, the longest
-    // disturbance 9.9 s, the estimate (7978, 358, −160) nT.
+    // disturbance 9.9 s, the estimate (8002, 99, −36) nT.
     let rec = turning_recording(1200, 400, [8000.0, 0.0, 0.0]);
     let applied = apply_recording(&rec, &identity_doc(), &ApplyOptions::default()).unwrap();
     let e = recalibrate_evidence(&applied, RECALIBRATE_CAL_INVALID_FRACTION).expect("recalibrate");
