@@ -7,7 +7,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use anyhow::{bail, Result};
-use host_tools::board::log::{create_log_file, log_board, LogEnd, LogError, LogOptions, LogSummary};
+use host_tools::board::log::{create_log_file, log_board, LogEnd, LogError, LogOptions, LogSummary, LOGGED_SAMPLES};
+use host_tools::integrity_evidence::recalibrate_text;
 use host_tools::board::BoardClient;
 use host_tools::session::Progress;
 
@@ -89,6 +90,10 @@ pub fn run(a: Args) -> Result<()> {
         }
     };
     eprintln!("{}", describe(&s));
+    eprintln!("{}", describe_integrity(&s));
+    if let Some(e) = &s.recalibrate {
+        eprintln!("{}", recalibrate_text(e, LOGGED_SAMPLES));
+    }
     if s.ended == LogEnd::BoardRestarted {
         eprintln!("warning: the board restarted (its clock went back): the log ends there; start another log for what follows");
     }
@@ -122,5 +127,21 @@ fn describe(s: &LogSummary) -> String {
         s.host_discarded_frames,
         s.host_queue_dropped,
         s.ended
+    )
+}
+
+/// The board's integrity states of the logged samples in words.
+fn describe_integrity(s: &LogSummary) -> String {
+    let c = &s.integrity;
+    let n = &c.states;
+    let cal_invalid = c.longest_cal_invalid_s.map_or(String::new(), |t| format!(", longest cal_invalid {t:.1} s"));
+    let hard_iron = match (c.hard_iron_applied, c.hard_iron_nt) {
+        (None, _) => "the board's hard iron not read at the end".to_string(),
+        (Some(a), Some(h)) => format!("on-line hard iron ({:.0}, {:.0}, {:.0}) nT, {}", h[0], h[1], h[2], if a { "applied" } else { "not applied" }),
+        (Some(a), None) => format!("no on-line hard-iron estimate{}", if a { " (applied)" } else { "" }),
+    };
+    format!(
+        "integrity: {} ok, {} disturbed, {} cal_invalid, {} no_attitude; longest disturbance {:.1} s{cal_invalid}; {hard_iron}",
+        n.ok, n.disturbed, n.cal_invalid, n.no_attitude, c.longest_disturbance_s
     )
 }
