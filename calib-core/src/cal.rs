@@ -307,10 +307,20 @@ impl<T: Real> Calibration<T> {
     #[inline(always)]
     pub fn heading_of_field(&self, field_nt: Vec3<T>, tilt: &Tilt<T>) -> Output<T> {
         let l = tilt.level(field_nt);
-        let psi = heading_of_levelled(l);
         let hh = (l[0] * l[0] + l[1] * l[1]).sqrt();
+        Output { field_nt, true_heading_rad: self.true_heading_of_levelled(l, hh) }
+    }
+
+    /// The true heading of a calibrated field already levelled (`levelled_nt`,
+    /// [`Tilt::level`]) with its horizontal intensity `horizontal_nt`
+    /// (`√(l₀² + l₁²)`): the swing correction and the declination added. For
+    /// a caller that needs the levelled field too (the integrity monitor).
+    #[inline(always)]
+    pub fn true_heading_of_levelled(&self, levelled_nt: Vec3<T>, horizontal_nt: T) -> T {
+        let (l, hh) = (levelled_nt, horizontal_nt);
+        let psi = heading_of_levelled(l);
         let correction = if hh > T::ZERO { self.swing.correction_of_phasor(-l[1] / hh, l[0] / hh) } else { self.swing.correction_rad(psi) };
-        Output { field_nt, true_heading_rad: wrap_two_pi(psi + correction + self.declination_rad) }
+        wrap_two_pi(psi + correction + self.declination_rad)
     }
 }
 

@@ -206,25 +206,33 @@ pub struct Verdict<T> {
     pub field_z: T,
     /// Normalised dip residual `z_I` (0 before an inclination is known).
     pub dip_z: T,
-    /// Normalised heading innovation against the gyro (0 when not anchored).
-    pub heading_z: T,
 }
 
-/// Wraps an angle within (−3π, 3π] to (−π, π] with compares instead of
+/// Wraps an angle within (−3π, 3π] to (−π, π] with two compares instead of
 /// `floor` (libm's is software on the Cortex-M4F): every angle here is a
 /// heading in [0, 2π) or (−π, π] plus a small step, or a difference of two.
 #[inline(always)]
-fn wrap_near<T: Real>(mut a: T) -> T {
+fn wrap_near<T: Real>(a: T) -> T {
     if a > T::PI {
-        a -= T::TAU;
+        a - T::TAU
+    } else if a <= -T::PI {
+        a + T::TAU
+    } else {
+        a
     }
-    if a <= -T::PI {
-        a += T::TAU;
-    }
-    if a <= -T::PI {
-        a += T::TAU;
-    }
-    a
+}
+
+/// The cosine of an angle in ±90° from its sine (clamped, never 0).
+#[inline(always)]
+fn cos_of_sin<T: Real>(sin: T) -> T {
+    let s = sin.max(-T::ONE).min(T::ONE);
+    (T::ONE - s * s).max(T::EPSILON).sqrt()
+}
+
+/// A time step, s: non-positive or non-finite taken as 0.
+#[inline(always)]
+pub(crate) fn positive_dt<T: Real>(dt_s: T) -> T {
+    if dt_s.is_finite() && dt_s > T::ZERO { dt_s } else { T::ZERO }
 }
 
 /// The gyro-propagated heading: a two-state Kalman filter.
@@ -273,9 +281,10 @@ impl<T: Real> GyroHeading<T> {
 pub struct Monitor<T> {
     reference: Reference<T>,
     tuning: Tuning<T>,
-    /// sin and cos of the reference (or learned) inclination.
+    /// sin of the reference (or learned) inclination, and the dip
+    /// residual's gain `F / (σ_F cos I)`.
     sin_incl: T,
-    cos_incl: T,
+    dip_gain: T,
     /// Samples averaged into a learned inclination (0: none yet).
     incl_weight: T,
     gyro: GyroHeading<T>,
@@ -312,12 +321,13 @@ impl<T: Real> Monitor<T> {
             Some(i) => (i.sin(), i.cos(), t.inclination_memory),
             None => (T::ZERO, T::ONE, T::ZERO),
         };
+        let dip_gain = r.field_nt / (r.field_sigma_nt * cos_incl);
         let bias_var = t.bias_sigma_rad_s * t.bias_sigma_rad_s;
         Ok(Self {
             reference,
             tuning,
             sin_incl,
-            cos_incl,
+            dip_gain,
             incl_weight,
             gyro: GyroHeading { heading_rad: T::ZERO, bias_rad_s: T::ZERO, p00: T::ZERO, p01: T::ZERO, p11: bias_var, anchored: false },
             misfit: T::ZERO,
@@ -336,7 +346,7 @@ impl<T: Real> Monitor<T> {
 
     /// The inclination in use, radians (`None` before one is learned).
     pub fn inclination_rad(&self) -> Option<T> {
-        (self.incl_weight > T::ZERO).then(|| self.sin_incl.atan2(self.cos_incl))
+        (self.incl_weight > T::ZERO).then(|| self.sin_incl.atan2(cos_of_sin(self.sin_incl)))
     }
 
     /// sin of the inclination in use (`None` before one is learned).
@@ -390,25 +400,52 @@ impl<T: Real> Monitor<T> {
     /// body rates (rad/s; `None`: no gyro) and the time since the previous
     /// sample (s).
     pub fn step(&mut self, field_nt: Vec3<T>, heading_rad: T, tilt: Option<&Tilt<T>>, rate_rad_s: Option<Vec3<T>>, dt_s: T) -> Verdict<T> {
+        match tilt {
+            Some(t) => {
+                let l = t.level(field_nt);
+                let hh = (l[0] * l[0] + l[1] * l[1]).sqrt();
+                self.step_levelled(l, hh, heading_rad, t, rate_rad_s, dt_s)
+            }
+            None => self.step_without_attitude(field_nt, dt_s),
+        }
+    }
+
+    /// Judges a sample without attitude: only its magnitude counts towards
+    /// the misfit; the state is [`IntegrityState::NoAttitude`].
+    pub fn step_without_attitude(&mut self, field_nt: Vec3<T>, dt_s: T) -> Verdict<T> {
+        let mag = (field_nt[0] * field_nt[0] + field_nt[1] * field_nt[1] + field_nt[2] * field_nt[2]).sqrt();
+        let field_z = (mag - self.reference.field_nt) / self.reference.field_sigma_nt;
+        self.track_misfit(!(field_z.abs() < self.tuning.gate_sigma), positive_dt(dt_s));
+        self.gyro.anchored = false;
+        Verdict { state: IntegrityState::NoAttitude, heading_sigma_rad: T::NAN, field_z, dip_z: T::ZERO }
+    }
+
+    /// [`Monitor::step`] for a caller that has levelled the field already
+    /// (the heading needs it too): the calibrated field levelled with the
+    /// attitude `tilt` ([`Tilt::level`]), its horizontal intensity
+    /// `√(l₀² + l₁²)`, the heading, the body rates and the time step. The
+    /// board's per-sample path; inlined into it.
+    #[inline(always)]
+    pub fn step_levelled(&mut self, levelled_nt: Vec3<T>, horizontal_nt: T, heading_rad: T, tilt: &Tilt<T>, rate_rad_s: Option<Vec3<T>>, dt_s: T) -> Verdict<T> {
+        self.judge_levelled(levelled_nt, horizontal_nt, heading_rad, tilt, rate_rad_s, positive_dt(dt_s))
+    }
+
+    /// [`Monitor::step_levelled`] with the time step already checked
+    /// ([`positive_dt`]).
+    #[inline(always)]
+    pub(crate) fn judge_levelled(&mut self, levelled_nt: Vec3<T>, horizontal_nt: T, heading_rad: T, tilt: &Tilt<T>, rate_rad_s: Option<Vec3<T>>, dt: T) -> Verdict<T> {
         let g = self.tuning.gate_sigma;
         let (f, sigma_f) = (self.reference.field_nt, self.reference.field_sigma_nt);
-        let mag = (field_nt[0] * field_nt[0] + field_nt[1] * field_nt[1] + field_nt[2] * field_nt[2]).sqrt();
+        let (l, hh) = (levelled_nt, horizontal_nt);
+        // |h| = |levelled h|.
+        let mag = (hh * hh + l[2] * l[2]).sqrt();
         let field_z = (mag - f) / sigma_f;
-        let dt = if dt_s.is_finite() && dt_s > T::ZERO { dt_s } else { T::ZERO };
-        let Some(tilt) = tilt else {
-            self.track_misfit(!(field_z.abs() < g), dt);
-            self.gyro.anchored = false;
-            return Verdict { state: IntegrityState::NoAttitude, heading_sigma_rad: T::NAN, field_z, dip_z: T::ZERO, heading_z: T::ZERO };
-        };
-        let l = tilt.level(field_nt);
-        let hh = (l[0] * l[0] + l[1] * l[1]).sqrt();
         let sin_dip = l[2] / mag.max(sigma_f);
-        let dip_z = if self.incl_weight > T::ZERO { (sin_dip - self.sin_incl) / self.cos_incl * f / sigma_f } else { T::ZERO };
+        let dip_z = if self.incl_weight > T::ZERO { (sin_dip - self.sin_incl) * self.dip_gain } else { T::ZERO };
         let var_m = self.sample_var(hh);
         // The gyro prediction.
-        let gap = !(dt <= self.tuning.max_gap_s);
         match rate_rad_s {
-            Some(w) if self.gyro.anchored && !gap => {
+            Some(w) if self.gyro.anchored && dt <= self.tuning.max_gap_s => {
                 let yaw_rate = (tilt.sin_roll * w[1] + tilt.cos_roll * w[2]) / tilt.cos_pitch;
                 self.gyro.predict(yaw_rate, dt, &self.tuning);
             }
@@ -416,15 +453,14 @@ impl<T: Real> Monitor<T> {
         }
         let anchored = self.gyro.anchored;
         let (innovation, s) = if anchored { (wrap_near(heading_rad - self.gyro.heading_rad), self.gyro.p00 + var_m) } else { (T::ZERO, var_m) };
-        let heading_z = innovation / s.sqrt();
+        // |innovation| / √s < g, without the square root.
         let field_ok = field_z.abs() < g && dip_z.abs() < g;
-        let pass = field_ok && heading_z.abs() < g;
-        self.track_misfit(!field_ok, dt);
+        let pass = field_ok && innovation * innovation < g * g * s;
+        let fraction = self.track_misfit(!field_ok, dt);
         self.track_gyro(rate_rad_s.is_some(), field_ok, pass, heading_rad, var_m, dt);
         if pass && anchored {
             self.gyro.update(innovation, s);
         }
-        let fraction = self.misfit_fraction();
         if pass && !self.disturbed && fraction < self.tuning.misfit_exit && self.reference.inclination_rad.is_none() {
             self.learn_inclination(sin_dip);
         }
@@ -444,21 +480,24 @@ impl<T: Real> Monitor<T> {
         } else {
             IntegrityState::Ok
         };
-        let heading_sigma_rad = if state == IntegrityState::Ok {
-            var_m.sqrt()
-        } else {
-            // The misfit's size, as a field error across the horizontal field.
-            let hh = hh.max(sigma_f);
-            let dip_nt = dip_z * sigma_f;
-            let e_nt = (mag - f) * (mag - f) + dip_nt * dip_nt;
-            (var_m + innovation * innovation + e_nt / (hh * hh)).sqrt()
-        };
-        Verdict { state, heading_sigma_rad, field_z, dip_z, heading_z }
+        let heading_sigma_rad = if state == IntegrityState::Ok { var_m.sqrt() } else { self.misfit_sigma(var_m, innovation, mag, dip_z, hh) };
+        Verdict { state, heading_sigma_rad, field_z, dip_z }
+    }
+
+    /// The heading σ of a sample not `ok`: its own variance, the gyro
+    /// innovation, and the field misfit's size across the horizontal field.
+    #[inline(never)]
+    fn misfit_sigma(&self, var_m: T, innovation: T, mag: T, dip_z: T, hh: T) -> T {
+        let (f, sigma_f) = (self.reference.field_nt, self.reference.field_sigma_nt);
+        let hh = hh.max(sigma_f);
+        let dip_nt = dip_z * sigma_f;
+        let e_nt = (mag - f) * (mag - f) + dip_nt * dip_nt;
+        (var_m + innovation * innovation + e_nt / (hh * hh)).sqrt()
     }
 
     /// The sustained-misfit fraction and the calibration's validity.
     #[inline(always)]
-    fn track_misfit(&mut self, misfit: bool, dt: T) {
+    fn track_misfit(&mut self, misfit: bool, dt: T) -> T {
         let tau = self.tuning.misfit_tau_s;
         let a = (dt / tau).min(T::ONE);
         // At least one sample's weight, so the first samples count.
@@ -474,6 +513,7 @@ impl<T: Real> Monitor<T> {
         } else if self.cal_invalid && fraction < self.tuning.misfit_exit {
             self.cal_invalid = false;
         }
+        fraction
     }
 
     /// Anchors the gyro heading when it is not, and re-anchors it when the
@@ -497,12 +537,16 @@ impl<T: Real> Monitor<T> {
     }
 
     /// Running mean of the sine of the dip over the samples judged ok.
+    #[inline(always)]
     fn learn_inclination(&mut self, sin_dip: T) {
-        let w = (self.incl_weight + T::ONE).min(self.tuning.inclination_memory);
-        self.incl_weight = w;
-        self.sin_incl += (sin_dip - self.sin_incl) / w;
-        let s = self.sin_incl.max(-T::ONE).min(T::ONE);
-        self.cos_incl = (T::ONE - s * s).max(T::EPSILON).sqrt();
+        if self.incl_weight < self.tuning.inclination_memory {
+            self.incl_weight += T::ONE;
+        }
+        // A running mean of values in [−1, 1] stays there (up to rounding,
+        // which the floor under cos² absorbs).
+        self.sin_incl += (sin_dip - self.sin_incl) / self.incl_weight;
+        let cos2 = (T::ONE - self.sin_incl * self.sin_incl).max(T::EPSILON);
+        self.dip_gain = self.reference.field_nt / (self.reference.field_sigma_nt * cos2.sqrt());
     }
 }
 

@@ -15,15 +15,20 @@
 //! stored calibration's σ does (`max σ_δ / H_h ≤ σ_ψ,stored`). Applied, each
 //! sample's σ adds the estimate's, and the corrected field goes through the
 //! same monitor: if it misfits for a sustained time the estimate is
-//! withdrawn (and the stored calibration, shadow-checked meanwhile, judged
-//! again). So a heading called `ok` with the estimate has passed every test
-//! a heading with the stored calibration must pass, with a σ at least as
-//! large.
+//! withdrawn and the stored calibration taken back as invalid (it is not
+//! checked while the estimate is applied; it is valid again only after its
+//! own field has fitted for a while). So a heading called `ok` with the
+//! estimate has passed every test a heading with the stored calibration
+//! must pass, with a σ at least as large.
+//!
+//! **Cost.** The estimator and the shadow run only while the stored
+//! calibration is judged invalid; a sample the calibration fits costs the
+//! monitor alone (`cargo xtask bench`, `integrity_ok_turn_instructions`).
 
 use crate::cal::Calibration;
 use crate::hardiron::{HardIron, HardIronEstimator};
 use crate::heading::{Tilt, Vec3};
-use crate::integrity::{IntegrityError, IntegrityState, Monitor, Reference, Tuning, Verdict};
+use crate::integrity::{positive_dt, IntegrityError, IntegrityState, Monitor, Reference, Tuning, Verdict};
 use crate::linalg::{inverse3, mul_mat_vec};
 use crate::Real;
 
@@ -67,13 +72,13 @@ pub struct OnlineIntegrity<T> {
     applied_nt: Vec3<T>,
     applied_sigma_rad: T,
     applied: bool,
-    /// Misfit fraction of the alternative field (stored calibration
-    /// corrected by the estimate when not applied; the stored calibration
-    /// alone when applied), and how long it has been tracked, s.
+    /// Misfit fraction of the stored calibration corrected by the estimate
+    /// (tracked while the stored calibration is invalid), and how long it
+    /// has been tracked, s.
     shadow_misfit: T,
     shadow_seen_s: T,
-    /// The estimator and shadow run every `alt_every`-th sample (the
-    /// board's CPU budget), over the time accumulated since.
+    /// While estimating, the estimator and shadow run every `alt_every`-th
+    /// sample, over the time accumulated since.
     alt_every: u8,
     alt_count: u8,
     alt_dt_s: T,
@@ -83,13 +88,13 @@ pub struct OnlineIntegrity<T> {
 /// The on-line hard iron's memory, s.
 pub const HARD_IRON_TAU_S: f64 = 60.0;
 
-/// The board runs the hard-iron estimator and its shadow check every this
-/// many output samples ([`OnlineIntegrity::with_estimator_every`]);
-/// `magcal apply` uses the same, so it gives the board's bits. Every
-/// sample: at the board's default 10 Hz a larger `n` would join gyro rows
-/// more than `Tuning::max_gap_s` (0.2 s) apart, and the estimator would
-/// never see a rotation (its cost, ~1 300 Cortex-M4 instructions a run,
-/// is reported by `cargo xtask bench`).
+/// While the stored calibration is invalid, the board runs the hard-iron
+/// estimator and its shadow check every this many output samples
+/// ([`OnlineIntegrity::with_estimator_every`]); `magcal apply` uses the
+/// same, so it gives the board's bits. Every sample: at the board's default
+/// 10 Hz a larger `n` would join gyro rows more than `Tuning::max_gap_s`
+/// (0.2 s) apart, and the estimator would never see a rotation (its cost
+/// is reported by `cargo xtask bench`, `integrity_cal_invalid_instructions`).
 pub const BOARD_ESTIMATOR_EVERY: u8 = 1;
 
 impl<T: Real> OnlineIntegrity<T> {
@@ -152,63 +157,77 @@ impl<T: Real> OnlineIntegrity<T> {
     /// current and temperature terms (`EnvTerms::correct_raw`), the
     /// attitude and body rates when known, the time since the previous
     /// sample, s.
+    ///
+    /// The usual sample (the stored calibration fits) costs the field, its
+    /// levelling (shared by the heading and the monitor) and the monitor;
+    /// the estimator runs only while the stored calibration is judged
+    /// invalid (it restarts at each onset, so nothing it would have seen
+    /// before is lost).
     pub fn process(&mut self, cal: &Calibration<T>, raw: Vec3<T>, tilt: Option<&Tilt<T>>, rate_rad_s: Option<Vec3<T>>, dt_s: T) -> Judged<T> {
         let stored_nt = cal.field.apply(raw);
         // The field through the stored calibration, or through it with the
         // applied hard iron: one matrix product a sample either way.
-        let used_nt = if self.applied { cal.field.apply([raw[0] - self.applied_raw[0], raw[1] - self.applied_raw[1], raw[2] - self.applied_raw[2]]) } else { stored_nt };
-        let (field_nt, heading_rad) = match tilt {
-            Some(t) => {
-                let out = cal.heading_of_field(used_nt, t);
-                (out.field_nt, Some(out.true_heading_rad))
-            }
-            None => (used_nt, None),
-        };
+        let field_nt = if self.applied { cal.field.apply([raw[0] - self.applied_raw[0], raw[1] - self.applied_raw[1], raw[2] - self.applied_raw[2]]) } else { stored_nt };
         let was_invalid = self.monitor.cal_invalid();
-        let mut verdict = self.monitor.step(field_nt, heading_rad.unwrap_or(T::ZERO), tilt, rate_rad_s, dt_s);
-        if !was_invalid && self.monitor.cal_invalid() && !self.applied {
-            // The misfit's onset: what the estimator saw before belongs to
-            // the old vehicle.
-            self.estimator.reset();
-            self.shadow_misfit = T::ZERO;
-            self.shadow_seen_s = T::ZERO;
-        }
+        let dt = positive_dt(dt_s);
+        let (heading_rad, mut verdict) = match tilt {
+            Some(t) => {
+                let l = t.level(field_nt);
+                let hh = (l[0] * l[0] + l[1] * l[1]).sqrt();
+                let heading_rad = cal.true_heading_of_levelled(l, hh);
+                (Some(heading_rad), self.monitor.judge_levelled(l, hh, heading_rad, t, rate_rad_s, dt))
+            }
+            None => (None, self.monitor.step_without_attitude(field_nt, dt)),
+        };
+        let applied_here = self.applied;
         if self.applied {
             verdict.heading_sigma_rad = (verdict.heading_sigma_rad * verdict.heading_sigma_rad + self.applied_sigma_rad * self.applied_sigma_rad).sqrt();
+            if self.monitor.cal_invalid() {
+                self.withdraw();
+            }
+        } else if self.monitor.cal_invalid() {
+            if !was_invalid {
+                // The misfit's onset: what the estimator saw before belongs
+                // to the old vehicle.
+                self.restart_estimate();
+            }
+            self.track_estimate(stored_nt, tilt, rate_rad_s, dt, cal);
         }
-        let applied_here = self.applied;
-        if dt_s.is_finite() && dt_s > T::ZERO {
-            self.alt_dt_s += dt_s;
-        }
-        self.alt_count = self.alt_count.saturating_add(1);
-        if self.alt_count >= self.alt_every {
-            let dt = self.alt_dt_s;
-            self.alt_count = 0;
-            self.alt_dt_s = T::ZERO;
-            self.track_alternative(stored_nt, tilt, rate_rad_s, dt, cal);
-        }
-        self.count(verdict.state, dt_s);
+        self.count(verdict.state, dt);
         Judged { field_nt, heading_rad, verdict, hard_iron_applied: applied_here }
     }
 
-    /// Feeds the estimator, shadow-checks the alternative field, and applies
-    /// or withdraws the estimate.
-    fn track_alternative(&mut self, stored_nt: Vec3<T>, tilt: Option<&Tilt<T>>, rate_rad_s: Option<Vec3<T>>, dt_s: T, cal: &Calibration<T>) {
+    /// Forgets the estimate in progress and its shadow check.
+    fn restart_estimate(&mut self) {
+        self.estimator.reset();
+        self.shadow_misfit = T::ZERO;
+        self.shadow_seen_s = T::ZERO;
+        self.alt_count = 0;
+        self.alt_dt_s = T::ZERO;
+    }
+
+    /// While the stored calibration is invalid: feeds the estimator (every
+    /// `alt_every`-th sample, over the time accumulated since), checks the
+    /// field it corrects (the shadow), and applies the estimate when the
+    /// shadow has fitted long enough and the guard passes.
+    fn track_estimate(&mut self, stored_nt: Vec3<T>, tilt: Option<&Tilt<T>>, rate_rad_s: Option<Vec3<T>>, dt: T, cal: &Calibration<T>) {
+        self.alt_dt_s += dt;
+        self.alt_count = self.alt_count.saturating_add(1);
+        if self.alt_count < self.alt_every {
+            return;
+        }
+        let dt = self.alt_dt_s;
+        self.alt_count = 0;
+        self.alt_dt_s = T::ZERO;
         let r = *self.monitor.reference();
         let tuning = *self.monitor.tuning();
         let sin_incl = self.monitor.sin_inclination();
-        self.estimator.update(stored_nt, tilt, rate_rad_s, dt_s, r.field_nt, r.field_sigma_nt, sin_incl, tuning.max_gap_s);
-        let estimate = self.estimator.estimate();
-        let alt = match (self.applied, estimate) {
-            (true, _) => Some(stored_nt),
-            (false, Some(e)) => Some([stored_nt[0] - e.offset_nt[0], stored_nt[1] - e.offset_nt[1], stored_nt[2] - e.offset_nt[2]]),
-            (false, None) => None,
-        };
-        let dt = if dt_s.is_finite() && dt_s > T::ZERO { dt_s } else { T::ZERO };
-        let Some(alt) = alt else {
+        self.estimator.update(stored_nt, tilt, rate_rad_s, dt, r.field_nt, r.field_sigma_nt, sin_incl, tuning.max_gap_s);
+        let Some(e) = self.estimator.estimate() else {
             self.shadow_seen_s = T::ZERO;
             return;
         };
+        let alt = [stored_nt[0] - e.offset_nt[0], stored_nt[1] - e.offset_nt[1], stored_nt[2] - e.offset_nt[2]];
         let mag = (alt[0] * alt[0] + alt[1] * alt[1] + alt[2] * alt[2]).sqrt();
         let g = tuning.gate_sigma;
         let mut misfit = !((mag - r.field_nt).abs() < g * r.field_sigma_nt);
@@ -220,14 +239,8 @@ impl<T: Real> OnlineIntegrity<T> {
         let a = (dt / tuning.misfit_tau_s).min(T::ONE);
         self.shadow_misfit += a * (if misfit { T::ONE } else { T::ZERO } - self.shadow_misfit);
         self.shadow_seen_s += dt;
-        if self.applied {
-            if self.monitor.cal_invalid() {
-                self.swap(false, cal, None);
-            }
-        } else if let Some(e) = estimate {
-            if self.monitor.cal_invalid() && self.shadow_seen_s >= T::from_f64(3.0) * tuning.misfit_tau_s && self.shadow_misfit < tuning.misfit_exit {
-                self.try_apply(&e, cal, sin_incl);
-            }
+        if self.shadow_seen_s >= T::from_f64(3.0) * tuning.misfit_tau_s && self.shadow_misfit < tuning.misfit_exit {
+            self.try_apply(&e, cal, sin_incl);
         }
     }
 
@@ -239,30 +252,33 @@ impl<T: Real> OnlineIntegrity<T> {
         let sigma_max = e.sigma_nt[0].max(e.sigma_nt[1]).max(e.sigma_nt[2]);
         let stored_sigma_rad = ((r.field_sigma_nt / hh) * (r.field_sigma_nt / hh) + r.heading_sigma_rad * r.heading_sigma_rad).sqrt();
         let sigma_rad = sigma_max / hh;
-        if sigma_rad <= stored_sigma_rad && e.residual_rms_z <= T::from_f64(2.0) {
-            self.swap(true, cal, Some((e, sigma_rad)));
+        if !(sigma_rad <= stored_sigma_rad && e.residual_rms_z <= T::from_f64(2.0)) {
+            return;
         }
-    }
-
-    /// Applies (`on`) or withdraws the estimate; the monitor takes over the
-    /// shadow's misfit fraction and the shadow the monitor's.
-    fn swap(&mut self, on: bool, cal: &Calibration<T>, estimate: Option<(&HardIron<T>, T)>) {
-        if on {
-            let Some((e, sigma_rad)) = estimate else { return };
-            let Some(inv) = inverse3(&cal.field.matrix) else { return };
-            self.applied_raw = mul_mat_vec(&inv, e.offset_nt);
-            self.applied_nt = e.offset_nt;
-            self.applied_sigma_rad = sigma_rad;
-            self.health.hard_iron_applied = self.health.hard_iron_applied.wrapping_add(1);
-        }
-        self.applied = on;
-        let monitor_misfit = self.monitor.misfit_fraction();
+        let Some(inv) = inverse3(&cal.field.matrix) else { return };
+        self.applied_raw = mul_mat_vec(&inv, e.offset_nt);
+        self.applied_nt = e.offset_nt;
+        self.applied_sigma_rad = sigma_rad;
+        self.health.hard_iron_applied = self.health.hard_iron_applied.wrapping_add(1);
+        self.applied = true;
+        // The monitor goes on with the corrected field's misfit fraction.
         self.monitor.switch_field(self.shadow_misfit);
-        self.shadow_misfit = monitor_misfit;
         self.shadow_seen_s = T::ZERO;
     }
 
-    fn count(&mut self, state: IntegrityState, dt_s: T) {
+    /// The corrected field misfits for a sustained time: the estimate is
+    /// withdrawn and the stored calibration taken back as invalid (its
+    /// fit was not checked while the estimate was applied), and a new
+    /// estimate starts.
+    fn withdraw(&mut self) {
+        self.applied = false;
+        self.monitor.switch_field(T::ONE);
+        self.restart_estimate();
+    }
+
+    /// Counts the sample; `dt` already checked ([`positive_dt`]).
+    #[inline(always)]
+    fn count(&mut self, state: IntegrityState, dt: T) {
         let h = &mut self.health;
         let i = state as usize;
         if let Some(c) = h.samples_per_state.get_mut(i) {
@@ -270,9 +286,7 @@ impl<T: Real> OnlineIntegrity<T> {
         }
         match state {
             IntegrityState::Disturbed | IntegrityState::CalInvalid => {
-                if dt_s.is_finite() && dt_s > T::ZERO {
-                    h.current_disturbance_s += dt_s;
-                }
+                h.current_disturbance_s += dt;
                 h.longest_disturbance_s = h.longest_disturbance_s.max(h.current_disturbance_s);
             }
             _ => h.current_disturbance_s = T::ZERO,

@@ -158,15 +158,69 @@ mod bench {
         acc
     }
 
-    /// The device's path with integrity: `OnlineIntegrity::process` (the
-    /// same `apply_tilt`, then the monitor, and the hard-iron estimator
-    /// every `BOARD_ESTIMATOR_EVERY`-th sample), gyro rates given.
+    /// The device's path with integrity on the tumble (a field the
+    /// calibration does not fit: after a few samples the stored calibration
+    /// is judged invalid and the hard-iron estimator runs every sample, the
+    /// costliest path); counts the samples judged `cal_invalid` into `invalid`.
     #[inline(never)]
-    fn integrity_loop(online: &mut OnlineIntegrity<f32>, cal: &Calibration<f32>, samples: &[[f32; 3]; 64], tilts: &[Tilt<f32>; 4]) -> f32 {
+    fn integrity_loop(online: &mut OnlineIntegrity<f32>, cal: &Calibration<f32>, samples: &[[f32; 3]; 64], tilts: &[Tilt<f32>; 4], invalid: &mut u32) -> f32 {
         let mut acc = 0.0;
         for (k, s) in samples.iter().enumerate() {
             let j = online.process(cal, *s, Some(&tilts[k % 4]), Some([0.01, -0.02, 0.2]), 0.02);
             acc += j.heading_rad.unwrap_or(0.0) + j.field_nt[0] + j.verdict.heading_sigma_rad;
+            *invalid += u32::from(j.verdict.state == calib_core::integrity::IntegrityState::CalInvalid);
+        }
+        acc
+    }
+
+    /// A vehicle turning a full circle in 64 output samples at 10 Hz
+    /// (0.98 rad/s) at a steady 6° roll and 3° pitch, in a 50 000 nT field
+    /// of 60° dip: the raw samples the calibration `cal` maps back to that
+    /// field, the attitude and the body rates the gyro would give. The
+    /// integrity's usual path: every sample fits, the gyro agrees.
+    struct Turn {
+        samples: [[f32; 3]; 64],
+        tilt: Tilt<f32>,
+        rate_rad_s: [f32; 3],
+    }
+
+    fn turn(cal: &Calibration<f32>) -> Option<Turn> {
+        use calib_core::heading::{ned_field, ned_to_body};
+        let (roll, pitch) = (0.1f32, 0.05f32);
+        let yaw_rate = core::f32::consts::TAU / 6.4;
+        let inverse = calib_core::linalg::inverse3(&cal.field.matrix)?;
+        let ned = ned_field(50_000.0f32, 60f32.to_radians(), cal.declination_rad);
+        let mut samples = [[0.0f32; 3]; 64];
+        for (k, s) in samples.iter_mut().enumerate() {
+            let h = ned_to_body(ned, roll, pitch, yaw_rate * 0.1 * k as f32);
+            let r = calib_core::linalg::mul_mat_vec(&inverse, h);
+            *s = [r[0] + cal.field.bias[0], r[1] + cal.field.bias[1], r[2] + cal.field.bias[2]];
+        }
+        let t = Tilt::new(roll, pitch);
+        let rate_rad_s = [-t.sin_pitch * yaw_rate, t.sin_roll * t.cos_pitch * yaw_rate, t.cos_roll * t.cos_pitch * yaw_rate];
+        Some(Turn { samples, tilt: t, rate_rad_s })
+    }
+
+    /// The device's path with integrity on the [`Turn`]; counts the samples
+    /// judged `ok` into `ok`.
+    #[inline(never)]
+    fn integrity_turn_loop(online: &mut OnlineIntegrity<f32>, cal: &Calibration<f32>, turn: &Turn, ok: &mut u32) -> f32 {
+        let mut acc = 0.0;
+        for s in turn.samples.iter() {
+            let j = online.process(cal, *s, Some(&turn.tilt), Some(turn.rate_rad_s), 0.1);
+            acc += j.heading_rad.unwrap_or(0.0) + j.field_nt[0] + j.verdict.heading_sigma_rad;
+            *ok += u32::from(j.verdict.state == calib_core::integrity::IntegrityState::Ok);
+        }
+        acc
+    }
+
+    /// The plain path on the [`Turn`] (the baseline the integrity adds to).
+    #[inline(never)]
+    fn apply_turn_loop(cal: &Calibration<f32>, turn: &Turn) -> f32 {
+        let mut acc = 0.0;
+        for s in turn.samples.iter() {
+            let o = cal.apply_tilt(*s, &turn.tilt);
+            acc += o.true_heading_rad + o.field_nt[0];
         }
         acc
     }
@@ -227,29 +281,46 @@ mod bench {
         let apply_env = t.instructions(s0, reps);
 
         // The same samples judged by the integrity (`device::pipeline`): a
-        // warm-up pass (inclination learned), then the measured pass.
+        // warm-up pass, then the measured pass, all `cal_invalid`.
         let Ok(mut online) = OnlineIntegrity::<f32>::for_stored_field(50_000.0) else {
             debug::exit(debug::EXIT_FAILURE);
             loop {
                 cortex_m::asm::wfi();
             }
         };
-        acc += integrity_loop(&mut online, &cal, &samples, &tilts);
+        let mut invalid = 0;
+        acc += integrity_loop(&mut online, &cal, &samples, &tilts, &mut invalid);
+        let mut invalid = 0;
         let s0 = t.start();
-        acc += integrity_loop(&mut online, &cal, &samples, &tilts);
-        let integrity = t.instructions(s0, reps);
-        // The monitor alone (the estimator once in 255 samples).
-        let Ok(online) = OnlineIntegrity::<f32>::for_stored_field(50_000.0) else {
+        acc += integrity_loop(&mut online, &cal, &samples, &tilts, &mut invalid);
+        let integrity_invalid = t.instructions(s0, reps);
+
+        // The usual path: a turn the calibration fits, judged `ok` after a
+        // warm-up circle (inclination learned, the gyro anchored).
+        let cal_turn = Calibration { swing: Swing::zero(), ..cal };
+        let Some(turn) = turn(&cal_turn) else {
             debug::exit(debug::EXIT_FAILURE);
             loop {
                 cortex_m::asm::wfi();
             }
         };
-        let mut monitor_only = online.with_estimator_every(255);
-        acc += integrity_loop(&mut monitor_only, &cal, &samples, &tilts);
         let s0 = t.start();
-        acc += integrity_loop(&mut monitor_only, &cal, &samples, &tilts);
-        let integrity_monitor = t.instructions(s0, reps);
+        acc += apply_turn_loop(&cal_turn, &turn);
+        let apply_turn = t.instructions(s0, reps);
+        let Ok(mut online) = OnlineIntegrity::<f32>::for_stored_field(50_000.0) else {
+            debug::exit(debug::EXIT_FAILURE);
+            loop {
+                cortex_m::asm::wfi();
+            }
+        };
+        let mut ok = 0;
+        for _ in 0..4 {
+            acc += integrity_turn_loop(&mut online, &cal_turn, &turn, &mut ok);
+        }
+        let mut ok = 0;
+        let s0 = t.start();
+        acc += integrity_turn_loop(&mut online, &cal_turn, &turn, &mut ok);
+        let integrity_turn = t.instructions(s0, reps);
 
         let norm = Normalization { centre: [0.0; 3], scale: 50_000.0 };
         let mut full = FullRls::<f32>::new(norm);
@@ -309,8 +380,11 @@ mod bench {
         }
         hprintln!("apply_heading_instructions {}", apply);
         hprintln!("apply_env_heading_instructions {}", apply_env);
-        hprintln!("integrity_heading_instructions {}", integrity);
-        hprintln!("integrity_monitor_heading_instructions {}", integrity_monitor);
+        hprintln!("integrity_cal_invalid_instructions {}", integrity_invalid);
+        hprintln!("integrity_cal_invalid_samples {}", invalid);
+        hprintln!("apply_heading_turn_instructions {}", apply_turn);
+        hprintln!("integrity_ok_turn_instructions {}", integrity_turn);
+        hprintln!("integrity_ok_turn_samples_ok {}", ok);
         hprintln!("rls_axis_update_instructions {}", rls_axis);
         hprintln!("rls_full_update_instructions {}", rls_full);
         hprintln!("rls_swing_update_instructions {}", rls_swing);
