@@ -169,6 +169,25 @@ pub fn recalibrate_text(e: &RecalibrateEvidence, rows_are: &str) -> String {
     format!("RECALIBRATE: the calibration does not fit this vehicle any more: {}", why.join("; "))
 }
 
+/// The counts in words: samples per state, the longest stretches, the
+/// on-line hard iron ("1520 ok, 0 disturbed, 100 cal_invalid, 0
+/// no_attitude; longest disturbance 1.0 s, longest cal_invalid 1.0 s; no
+/// on-line hard-iron estimate").
+pub fn integrity_text(c: &IntegrityCounts) -> String {
+    let n = &c.states;
+    let cal_invalid = c.longest_cal_invalid_s.map_or(String::new(), |t| format!(", longest cal_invalid {t:.1} s"));
+    let hard_iron = match (c.hard_iron_applied, c.hard_iron_nt) {
+        (None, _) => "the on-line hard iron not read".to_string(),
+        (Some(a), Some(h)) => format!("on-line hard iron ({:.0}, {:.0}, {:.0}) nT, {}", h[0], h[1], h[2], if a { "applied" } else { "not applied" }),
+        (Some(true), None) => "the on-line hard iron applied".to_string(),
+        (Some(false), None) => "no on-line hard-iron estimate".to_string(),
+    };
+    format!(
+        "{} ok, {} disturbed, {} cal_invalid, {} no_attitude; longest disturbance {:.1} s{cal_invalid}; {hard_iron}",
+        n.ok, n.disturbed, n.cal_invalid, n.no_attitude, c.longest_disturbance_s
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -8,7 +8,7 @@ use std::time::Duration;
 
 use anyhow::{bail, Result};
 use host_tools::board::log::{create_log_file, log_board, LogEnd, LogError, LogOptions, LogSummary, LOGGED_SAMPLES};
-use host_tools::integrity_evidence::recalibrate_text;
+use host_tools::integrity_evidence::{integrity_text, recalibrate_text};
 use host_tools::board::BoardClient;
 use host_tools::session::Progress;
 
@@ -90,7 +90,7 @@ pub fn run(a: Args) -> Result<()> {
         }
     };
     eprintln!("{}", describe(&s));
-    eprintln!("{}", describe_integrity(&s));
+    eprintln!("integrity: {}", integrity_text(&s.integrity));
     if let Some(e) = &s.recalibrate {
         eprintln!("{}", recalibrate_text(e, LOGGED_SAMPLES));
     }
@@ -130,18 +130,3 @@ fn describe(s: &LogSummary) -> String {
     )
 }
 
-/// The board's integrity states of the logged samples in words.
-fn describe_integrity(s: &LogSummary) -> String {
-    let c = &s.integrity;
-    let n = &c.states;
-    let cal_invalid = c.longest_cal_invalid_s.map_or(String::new(), |t| format!(", longest cal_invalid {t:.1} s"));
-    let hard_iron = match (c.hard_iron_applied, c.hard_iron_nt) {
-        (None, _) => "the board's hard iron not read at the end".to_string(),
-        (Some(a), Some(h)) => format!("on-line hard iron ({:.0}, {:.0}, {:.0}) nT, {}", h[0], h[1], h[2], if a { "applied" } else { "not applied" }),
-        (Some(a), None) => format!("no on-line hard-iron estimate{}", if a { " (applied)" } else { "" }),
-    };
-    format!(
-        "integrity: {} ok, {} disturbed, {} cal_invalid, {} no_attitude; longest disturbance {:.1} s{cal_invalid}; {hard_iron}",
-        n.ok, n.disturbed, n.cal_invalid, n.no_attitude, c.longest_disturbance_s
-    )
-}
