@@ -485,16 +485,16 @@ fn predicted_heading_rms<T: Real>(x: &[T; UNKNOWNS], n: &Normalised<T>, rms: T, 
         (-(h[1] - c[1])).atan2(h[0] - c[0])
     };
     let mut total = T::ZERO;
-    let steps = 36;
+    let steps: u32 = 36;
     for step in 0..steps {
-        let psi = T::from_f64(f64::from(step) * 10.0f64.to_radians());
+        let psi = T::from_u32(step) * T::from_f64(10.0f64.to_radians());
         let h = [horizontal * psi.cos(), -horizontal * psi.sin(), z];
         let raw = mul_mat_vec(&inv, [h[0] + n.c[0], h[1] + n.c[1], h[2] + n.c[2]]);
         let sigma = crate::uncertainty::angle_sigma(x, cov, |xx| heading(xx, raw));
         let var = sigma * sigma;
         total += var * sigma2;
     }
-    (total / T::from_f64(f64::from(steps))).max(T::ZERO).sqrt()
+    (total / T::from_u32(steps)).max(T::ZERO).sqrt()
 }
 
 /// Most Gauss–Newton passes for the gyro bias and lag per alternation.

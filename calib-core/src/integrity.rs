@@ -267,6 +267,7 @@ impl<T: Real> GyroHeading<T> {
         self.p11 -= k1 * p01;
     }
 
+    #[inline(never)]
     fn anchor(&mut self, heading_rad: T, var_rad2: T) {
         self.heading_rad = wrap_near(heading_rad);
         self.p00 = var_rad2;

@@ -198,6 +198,7 @@ impl<T: Real> OnlineIntegrity<T> {
     }
 
     /// Forgets the estimate in progress and its shadow check.
+    #[inline(never)]
     fn restart_estimate(&mut self) {
         self.estimator.reset();
         self.shadow_misfit = T::ZERO;
@@ -210,6 +211,7 @@ impl<T: Real> OnlineIntegrity<T> {
     /// `alt_every`-th sample, over the time accumulated since), checks the
     /// field it corrects (the shadow), and applies the estimate when the
     /// shadow has fitted long enough and the guard passes.
+    #[inline(never)]
     fn track_estimate(&mut self, stored_nt: Vec3<T>, tilt: Option<&Tilt<T>>, rate_rad_s: Option<Vec3<T>>, dt: T, cal: &Calibration<T>) {
         self.alt_dt_s += dt;
         self.alt_count = self.alt_count.saturating_add(1);
@@ -270,6 +272,7 @@ impl<T: Real> OnlineIntegrity<T> {
     /// withdrawn and the stored calibration taken back as invalid (its
     /// fit was not checked while the estimate was applied), and a new
     /// estimate starts.
+    #[inline(never)]
     fn withdraw(&mut self) {
         self.applied = false;
         self.monitor.switch_field(T::ONE);

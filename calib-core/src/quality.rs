@@ -38,9 +38,9 @@ impl CoverageMask {
             return None;
         }
         let z = (v[2] / n).max(-T::ONE).min(T::ONE);
-        let band = ((z + T::ONE) / T::from_f64(2.0) * T::from_f64(f64::from(COVERAGE_BANDS))).to_f64() as u32;
+        let band = ((z + T::ONE) / T::from_f64(2.0) * T::from_u32(COVERAGE_BANDS)).to_u32();
         let lon = v[1].atan2(v[0]) + T::PI; // [0, 2π]
-        let sector = (lon / T::TAU * T::from_f64(f64::from(COVERAGE_SECTORS))).to_f64() as u32;
+        let sector = (lon / T::TAU * T::from_u32(COVERAGE_SECTORS)).to_u32();
         Some(band.min(COVERAGE_BANDS - 1) * COVERAGE_SECTORS + sector.min(COVERAGE_SECTORS - 1))
     }
 

@@ -35,6 +35,12 @@ pub trait Real:
     fn from_f64(v: f64) -> Self;
     /// Widens to `f64` (exact for both implementations).
     fn to_f64(self) -> f64;
+    /// From a count (exact below 2²⁴ for `f32`), without passing through
+    /// `f64` (software arithmetic on the Cortex-M4F).
+    fn from_u32(n: u32) -> Self;
+    /// Truncates towards zero to a `u32`, saturating (NaN → 0), without
+    /// passing through `f64`.
+    fn to_u32(self) -> u32;
     /// Square root (NaN for negative input).
     fn sqrt(self) -> Self;
     /// Sine of an angle in radians.
@@ -75,6 +81,14 @@ macro_rules! impl_real {
             #[inline]
             fn to_f64(self) -> f64 {
                 self as f64
+            }
+            #[inline]
+            fn from_u32(n: u32) -> Self {
+                n as $t
+            }
+            #[inline]
+            fn to_u32(self) -> u32 {
+                self as u32
             }
             #[inline]
             fn sqrt(self) -> Self {
