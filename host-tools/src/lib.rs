@@ -12,7 +12,9 @@
 //! * [`session`]: the calibration session for any vehicle;
 //! * [`report`]: figures and an HTML page;
 //! * [`procedure`]: the field procedure's limits (the session's gates, the
-//!   report's marks), a leaf both import.
+//!   report's marks), a leaf both import;
+//! * [`integrity_evidence`]: the "recalibrate" rule on a run's per-sample
+//!   integrity, a leaf the session and `magcal log` both call.
 //!
 //! The `magcal` binary (crate `magcal`) is a thin clap front end over this
 //! library, and the field-test simulator is a crate of its own
@@ -27,6 +29,7 @@ pub mod compute;
 pub mod data;
 pub mod export;
 pub mod geomag;
+pub mod integrity_evidence;
 pub mod procedure;
 pub mod report;
 pub mod session;

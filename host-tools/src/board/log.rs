@@ -11,7 +11,11 @@
 //!   show as a gap in `t`, the first sample after it carries
 //!   [`HEALTH_AFTER_GAP`], and the gaps are listed in the [`LogSummary`];
 //! * the board's `Health` counters before and after give what the board
-//!   produced and dropped on its side.
+//!   produced and dropped on its side;
+//! * the board's integrity state of every sample is counted
+//!   ([`IntegrityTally`]), with the on-line hard iron from its `Health` at
+//!   the end, and the session's "recalibrate" rule
+//!   ([`crate::integrity_evidence::recalibrate_evidence`]) judges them.
 
 use std::io::{self, Read, Write};
 use std::path::PathBuf;
@@ -24,9 +28,14 @@ use serde::{Deserialize, Serialize};
 use super::client::{BoardClient, ClientError};
 use super::reconnect::{reconnect_at, Resume};
 use crate::data::board_log::{self, HEALTH_AFTER_GAP, HEALTH_SATURATED};
+use crate::data::results::RecalibrateEvidence;
+use crate::integrity_evidence::{recalibrate_evidence, IntegrityCounts, IntegrityTally, RECALIBRATE_CAL_INVALID_FRACTION};
 
 /// Samples written between flushes and progress updates, at most.
 const BATCH: usize = 64;
+
+/// What the "recalibrate" line of a log calls its samples.
+pub const LOGGED_SAMPLES: &str = "logged samples";
 
 /// The board log's header (`docs/INTERFACES.md`, "Board log"; its one
 /// home is [`crate::data::board_log`]).
@@ -153,6 +162,17 @@ pub struct LogSummary {
     pub board_tx_dropped: Option<u32>,
     /// Pairs the board saw saturated, over the same span.
     pub board_saturated_pairs: Option<u32>,
+    /// The board's integrity states of the rows written, the longest
+    /// stretches not `ok` and `cal_invalid` on its clock, and its on-line
+    /// hard iron from its `Health` at the end (`hard_iron_applied` `None`
+    /// when the last `Status` could not be read).
+    #[serde(default)]
+    pub integrity: IntegrityCounts,
+    /// "Recalibrate" with the evidence, by the session's rule
+    /// ([`crate::integrity_evidence::recalibrate_evidence`]); absent when
+    /// the calibration fits.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub recalibrate: Option<RecalibrateEvidence>,
     /// Why logging ended.
     pub ended: LogEnd,
     /// Host time spent logging, s.
@@ -365,6 +385,8 @@ struct Logger<W: Write> {
     interval_ms: f64,
     /// The board time of the last row written, ms.
     last_ms: Option<u64>,
+    /// The board's integrity states so far.
+    tally: IntegrityTally,
     s: LogSummary,
 }
 
@@ -389,10 +411,12 @@ impl<W: Write> Logger<W> {
             board_samples_produced: None,
             board_tx_dropped: None,
             board_saturated_pairs: None,
+            integrity: IntegrityCounts::default(),
+            recalibrate: None,
             ended: LogEnd::Interrupted,
             wall_s: 0.0,
         };
-        let mut log = Self { out: io::LineWriter::new(out), out_path, clock: BoardClock::default(), interval_ms: 1000.0 / f64::from(rate_hz), last_ms: None, s };
+        let mut log = Self { out: io::LineWriter::new(out), out_path, clock: BoardClock::default(), interval_ms: 1000.0 / f64::from(rate_hz), last_ms: None, tally: IntegrityTally::default(), s };
         writeln!(log.out, "{LOG_HEADER}").map_err(|e| log.io_err(e))?;
         log.out.flush().map_err(|e| log.io_err(e))?;
         Ok(log)
@@ -452,6 +476,7 @@ impl<W: Write> Logger<W> {
         )
         .map_err(|e| self.io_err(e))?;
         self.s.samples += 1;
+        self.tally.push(sample.integrity.state(), t_s);
         self.s.saturated_samples += u64::from(sample.saturated);
         self.s.samples_with_temp += u64::from(temp.is_some());
         self.s.first_t_s.get_or_insert(t_s);
@@ -491,7 +516,13 @@ impl<W: Write> Logger<W> {
             if let (Some(a), Some(b)) = (health_start, health_end) {
                 (self.s.board_samples_produced, self.s.board_tx_dropped, self.s.board_saturated_pairs) = health_deltas(&a, &b);
             }
+            if let Some(b) = &health_end {
+                let (applied, estimate_nt) = hard_iron_over_log(health_start.as_ref(), b);
+                self.tally.set_hard_iron(applied, estimate_nt);
+            }
         }
+        self.s.integrity = self.tally.counts();
+        self.s.recalibrate = recalibrate_evidence(&self.s.integrity, RECALIBRATE_CAL_INVALID_FRACTION);
         Ok(self.s)
     }
 }
@@ -503,6 +534,16 @@ fn health_deltas(a: &Health, b: &Health) -> (Option<u32>, Option<u32>, Option<u3
         return (None, None, None);
     }
     (Some(b.samples.wrapping_sub(a.samples)), Some(b.tx_dropped.wrapping_sub(a.tx_dropped)), Some(b.saturated.wrapping_sub(a.saturated)))
+}
+
+/// The board's on-line hard iron over a log, from its `Health` at the
+/// start (if read) and at the end: applied when it is applied now or was
+/// applied again since the start (any application since a restart between
+/// the two), and the estimate at the end, nT.
+pub fn hard_iron_over_log(start: Option<&Health>, end: &Health) -> (Option<bool>, Option<[f64; 3]>) {
+    let before = start.filter(|a| a.uptime_ms <= end.uptime_ms).map_or(0, |a| a.hard_iron_applications);
+    let applied = end.hard_iron_applied || end.hard_iron_applications > before;
+    (Some(applied), end.hard_iron_nt.map(|h| h.map(f64::from)))
 }
 
 #[cfg(test)]

@@ -16,6 +16,7 @@ use calib_core::online::{Health, OnlineIntegrity};
 use serde::Serialize;
 
 use crate::data::{CalDoc, Recording};
+use crate::integrity_evidence::{IntegrityCounts, StateCounts};
 
 /// The field's scatter about `F` taken when the document reports none, as a
 /// fraction of `F` (the board's: calib-core's
@@ -86,6 +87,27 @@ pub struct Applied {
     pub applied_offset_nt: Option<[f64; 3]>,
     /// The health counters.
     pub health: Health<f64>,
+}
+
+impl Applied {
+    /// What the "recalibrate" rule reads of this run
+    /// ([`crate::integrity_evidence::recalibrate_evidence`]): the rows per
+    /// state, the monitor's longest disturbance, whether the on-line hard
+    /// iron was applied (ever, or at the end) and its estimate. The longest
+    /// `cal_invalid` stretch is left out (the rows carry no clock).
+    pub fn integrity_counts(&self) -> IntegrityCounts {
+        let mut states = StateCounts::default();
+        for r in &self.rows {
+            states.add(r.integrity);
+        }
+        IntegrityCounts {
+            states,
+            longest_disturbance_s: self.health.longest_disturbance_s,
+            longest_cal_invalid_s: None,
+            hard_iron_applied: Some(self.health.hard_iron_applied > 0 || self.applied_offset_nt.is_some()),
+            hard_iron_nt: self.hard_iron.map(|h| h.offset_nt),
+        }
+    }
 }
 
 /// The reference a document gives the monitor: `F`, the scatter (the fit's

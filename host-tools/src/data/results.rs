@@ -429,8 +429,10 @@ pub struct SessionSummary {
     pub session_dir: std::path::PathBuf,
 }
 
-/// Why a session says "recalibrate": what the validation run's per-sample
-/// integrity found with the final calibration.
+/// Why a session or `magcal log` says "recalibrate": what the run's
+/// per-sample integrity found with the calibration (the session's validation
+/// run with the final calibration; the board's streamed states for `magcal
+/// log`). The rule is [`crate::integrity_evidence::recalibrate_evidence`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct RecalibrateEvidence {
     /// Rows of the validation run.
@@ -447,6 +449,10 @@ pub struct RecalibrateEvidence {
     pub hard_iron_nt: Option<[f64; 3]>,
     /// Longest run of rows not `ok`, s.
     pub longest_disturbance_s: f64,
+    /// Longest run of rows `cal_invalid`, s (`magcal log`, which has the
+    /// board's clock per sample; absent from a session's summary).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub longest_cal_invalid_s: Option<f64>,
 }
 
 /// What a session saves as `settings.json`: enough to reproduce it offline.

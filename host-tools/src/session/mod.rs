@@ -28,10 +28,10 @@ use magcal_protocol::{FitReport, Sample, StreamMode};
 use crate::board::coefficients::{doc_from_coefficients, to_coefficients};
 use crate::board::{BoardClient, ClientError};
 use crate::compute::{self, truth, Chain, ChainOptions, ComputeError, FirstStep};
-use crate::compute::apply::{apply_recording, Applied, ApplyOptions};
+use crate::compute::apply::{apply_recording, ApplyOptions};
 use crate::data::results::{OnboardFitSummary, RecalibrateEvidence, SessionSettings, SessionSummary, ValidationMetrics};
-use calib_core::integrity::IntegrityState;
 use crate::data::CalDoc;
+pub use crate::integrity_evidence::{recalibrate_evidence, recalibrate_text, RECALIBRATE_CAL_INVALID_FRACTION};
 use crate::geomag::Site;
 
 pub mod coverage;
@@ -228,11 +228,8 @@ fn session_summary(chain: &Chain, validation: Option<ValidationMetrics>, recalib
     })
 }
 
-/// Share of the validation run judged `cal_invalid` above which the session
-/// says "recalibrate": `cal_invalid` needs a misfit sustained for seconds,
-/// so a pier or hull passed at a few metres gives a short stretch of it;
-/// a tenth of the run is no passing object.
-pub const RECALIBRATE_CAL_INVALID_FRACTION: f64 = 0.10;
+/// What the session's "recalibrate" line calls its samples.
+pub const VALIDATION_ROWS: &str = "validation rows";
 
 /// The final calibration applied to the validation recording by the board's
 /// own per-sample code, and what it says: `Some` evidence when it says
@@ -241,9 +238,9 @@ pub const RECALIBRATE_CAL_INVALID_FRACTION: f64 = 0.10;
 fn validation_integrity(recording: &crate::data::Recording, final_doc: &CalDoc) -> Option<RecalibrateEvidence> {
     match apply_recording(recording, final_doc, &ApplyOptions::default()) {
         Ok(applied) => {
-            let evidence = recalibrate_evidence(&applied, RECALIBRATE_CAL_INVALID_FRACTION);
+            let evidence = recalibrate_evidence(&applied.integrity_counts(), RECALIBRATE_CAL_INVALID_FRACTION);
             if let Some(e) = &evidence {
-                eprintln!("session: {}", recalibrate_text(e));
+                eprintln!("session: {}", recalibrate_text(e, VALIDATION_ROWS));
             }
             evidence
         }
@@ -252,37 +249,6 @@ fn validation_integrity(recording: &crate::data::Recording, final_doc: &CalDoc) 
             None
         }
     }
-}
-
-/// "Recalibrate" when more than `max_cal_invalid_fraction` of the rows are
-/// `cal_invalid` or the on-line hard iron was applied, with the evidence;
-/// `None` otherwise (and for an empty run).
-pub fn recalibrate_evidence(applied: &Applied, max_cal_invalid_fraction: f64) -> Option<RecalibrateEvidence> {
-    let rows = applied.rows.len();
-    let cal_invalid_rows = applied.rows.iter().filter(|r| r.integrity == IntegrityState::CalInvalid).count();
-    let cal_invalid_fraction = if rows > 0 { cal_invalid_rows as f64 / rows as f64 } else { 0.0 };
-    let hard_iron_applied = applied.health.hard_iron_applied > 0 || applied.applied_offset_nt.is_some();
-    (rows > 0 && (cal_invalid_fraction > max_cal_invalid_fraction || hard_iron_applied)).then(|| RecalibrateEvidence {
-        rows,
-        cal_invalid_rows,
-        cal_invalid_fraction,
-        hard_iron_applied,
-        hard_iron_nt: applied.hard_iron.map(|h| h.offset_nt),
-        longest_disturbance_s: applied.health.longest_disturbance_s,
-    })
-}
-
-/// The printed line: "recalibrate" and why.
-pub fn recalibrate_text(e: &RecalibrateEvidence) -> String {
-    let mut why = vec![format!("{} of {} validation rows ({:.1} %) cal_invalid", e.cal_invalid_rows, e.rows, 100.0 * e.cal_invalid_fraction)];
-    if e.hard_iron_applied {
-        why.push(match e.hard_iron_nt {
-            Some(h) => format!("the on-line hard iron was applied ({:.0}, {:.0}, {:.0} nT)", h[0], h[1], h[2]),
-            None => "the on-line hard iron was applied".into(),
-        });
-    }
-    why.push(format!("longest disturbance {:.1} s", e.longest_disturbance_s));
-    format!("RECALIBRATE: the calibration does not fit this vehicle any more: {}", why.join("; "))
 }
 
 fn begin(vehicle: &mut dyn Vehicle, phase: Phase) -> Result<(), SessionError> {

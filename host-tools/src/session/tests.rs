@@ -6,6 +6,8 @@ use std::collections::VecDeque;
 use std::io;
 use std::rc::Rc;
 
+use calib_core::integrity::IntegrityState;
+
 use firmware::device::{BoardCounters, Boot, CoefficientStore, Device};
 use firmware::link::{DeviceInfo, LinkEvent, LinkServer};
 use magcal_protocol::{CoefficientSource, Platform};
@@ -43,6 +45,8 @@ struct Board {
     roll_rad: f32,
     /// The last motor current received (AttitudeEnv), A.
     current_a: f32,
+    /// The integrity state streamed with the sample at a board time, ms.
+    integrity_at: fn(u32) -> magcal_protocol::Integrity,
 }
 
 struct MemStore {
@@ -111,7 +115,7 @@ impl Read for Conn {
             let mut board = self.board.borrow_mut();
             if board.streaming {
                 board.clock_ms += 10;
-                let s = magcal_protocol::Sample { t_ms: board.clock_ms, raw: Some([board.roll_rad * 1000.0, 2.0 + board.current_a * 100.0, 3.0]), field_nt: None, heading_rad: None, saturated: false, feed_seq: None, temp_c: Some(21.5), heading_sigma_deg: Some(1.25), integrity: magcal_protocol::Integrity::Disturbed };
+                let s = magcal_protocol::Sample { t_ms: board.clock_ms, raw: Some([board.roll_rad * 1000.0, 2.0 + board.current_a * 100.0, 3.0]), field_nt: None, heading_rad: None, saturated: false, feed_seq: None, temp_c: Some(21.5), heading_sigma_deg: Some(1.25), integrity: (board.integrity_at)(board.clock_ms) };
                 if let Some(f) = board.link.reply(None, magcal_protocol::ResponseBody::Sample(s)) {
                     self.out.extend(f);
                 }
@@ -139,7 +143,7 @@ impl Read for Conn {
 }
 
 fn board() -> Rc<RefCell<Board>> {
-    Rc::new(RefCell::new(Board { link: LinkServer::new(), device: Device::new(Boot { stored: None, challenge: 42 }), store: MemStore { saves: 0 }, streaming: false, clock_ms: 5000, roll_rad: 0.0, current_a: 0.0 }))
+    Rc::new(RefCell::new(Board { link: LinkServer::new(), device: Device::new(Boot { stored: None, challenge: 42 }), store: MemStore { saves: 0 }, streaming: false, clock_ms: 5000, roll_rad: 0.0, current_a: 0.0, integrity_at: |_| magcal_protocol::Integrity::Disturbed }))
 }
 
 fn coefficients() -> Coefficients {
@@ -385,7 +389,7 @@ fn a_payload_switched_on_during_validation_says_recalibrate_with_the_evidence() 
     // disturbance 9.9 s, the estimate (8002, 99, −36) nT.
     let rec = turning_recording(1200, 400, [8000.0, 0.0, 0.0]);
     let applied = apply_recording(&rec, &identity_doc(), &ApplyOptions::default()).unwrap();
-    let e = recalibrate_evidence(&applied, RECALIBRATE_CAL_INVALID_FRACTION).expect("recalibrate");
+    let e = recalibrate_evidence(&applied.integrity_counts(), RECALIBRATE_CAL_INVALID_FRACTION).expect("recalibrate");
     assert_eq!(e.rows, 1200);
     assert!(e.hard_iron_applied, "{e:?}");
     let h = e.hard_iron_nt.expect("the estimate");
@@ -396,7 +400,7 @@ fn a_payload_switched_on_during_validation_says_recalibrate_with_the_evidence() 
     assert!((20..=400).contains(&e.cal_invalid_rows), "{e:?}");
     assert!((e.cal_invalid_fraction - e.cal_invalid_rows as f64 / 1200.0).abs() < 1e-12);
     assert!(e.longest_disturbance_s > 2.0 && e.longest_disturbance_s < 40.0, "{e:?}");
-    let text = recalibrate_text(&e);
+    let text = recalibrate_text(&e, VALIDATION_ROWS);
     assert!(text.starts_with("RECALIBRATE") && text.contains(&format!("{} of 1200 validation rows", e.cal_invalid_rows)) && text.contains("hard iron was applied"), "{text}");
     // Typed in the summary's JSON.
     let json = serde_json::to_value(e).unwrap();
@@ -404,7 +408,7 @@ fn a_payload_switched_on_during_validation_says_recalibrate_with_the_evidence() 
     // The same run without the payload: the calibration fits, nothing said.
     let clean = apply_recording(&turning_recording(1200, 1200, [0.0; 3]), &identity_doc(), &ApplyOptions::default()).unwrap();
     assert!(clean.rows.iter().all(|r| r.integrity == IntegrityState::Ok));
-    assert_eq!(recalibrate_evidence(&clean, RECALIBRATE_CAL_INVALID_FRACTION), None);
+    assert_eq!(recalibrate_evidence(&clean.integrity_counts(), RECALIBRATE_CAL_INVALID_FRACTION), None);
 }
 
 #[test]
@@ -415,22 +419,22 @@ fn recalibrate_needs_more_than_the_fraction_or_the_hard_iron_applied() {
     for r in applied.rows.iter_mut().take(100) {
         r.integrity = IntegrityState::CalInvalid;
     }
-    assert_eq!(recalibrate_evidence(&applied, 0.10), None);
+    assert_eq!(recalibrate_evidence(&applied.integrity_counts(), 0.10), None);
     applied.rows[100].integrity = IntegrityState::CalInvalid;
-    let e = recalibrate_evidence(&applied, 0.10).expect("101 rows > 10 %");
+    let e = recalibrate_evidence(&applied.integrity_counts(), 0.10).expect("101 rows > 10 %");
     assert_eq!((e.cal_invalid_rows, e.hard_iron_applied), (101, false));
     assert!((e.cal_invalid_fraction - 0.101).abs() < 1e-12);
     // Disturbed rows (a passing object) are not evidence.
     for r in applied.rows.iter_mut().take(500) {
         r.integrity = IntegrityState::Disturbed;
     }
-    assert_eq!(recalibrate_evidence(&applied, 0.10), None);
+    assert_eq!(recalibrate_evidence(&applied.integrity_counts(), 0.10), None);
     // The on-line hard iron applied is evidence on its own.
     applied.health.hard_iron_applied = 1;
-    let e = recalibrate_evidence(&applied, 0.10).expect("hard iron applied");
+    let e = recalibrate_evidence(&applied.integrity_counts(), 0.10).expect("hard iron applied");
     assert!(e.hard_iron_applied && e.cal_invalid_rows == 0);
-    assert!(recalibrate_text(&e).contains("on-line hard iron was applied"));
+    assert!(recalibrate_text(&e, VALIDATION_ROWS).contains("on-line hard iron was applied"));
     // An empty run says nothing.
     applied.rows.clear();
-    assert_eq!(recalibrate_evidence(&applied, 0.10), None);
+    assert_eq!(recalibrate_evidence(&applied.integrity_counts(), 0.10), None);
 }

@@ -7,7 +7,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use anyhow::{bail, Result};
-use host_tools::board::log::{create_log_file, log_board, LogEnd, LogError, LogOptions, LogSummary};
+use host_tools::board::log::{create_log_file, log_board, LogEnd, LogError, LogOptions, LogSummary, LOGGED_SAMPLES};
+use host_tools::integrity_evidence::{integrity_text, recalibrate_text};
 use host_tools::board::BoardClient;
 use host_tools::session::Progress;
 
@@ -89,6 +90,10 @@ pub fn run(a: Args) -> Result<()> {
         }
     };
     eprintln!("{}", describe(&s));
+    eprintln!("integrity: {}", integrity_text(&s.integrity));
+    if let Some(e) = &s.recalibrate {
+        eprintln!("{}", recalibrate_text(e, LOGGED_SAMPLES));
+    }
     if s.ended == LogEnd::BoardRestarted {
         eprintln!("warning: the board restarted (its clock went back): the log ends there; start another log for what follows");
     }
@@ -124,3 +129,4 @@ fn describe(s: &LogSummary) -> String {
         s.ended
     )
 }
+

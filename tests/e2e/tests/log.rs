@@ -50,6 +50,11 @@ fn the_board_stream_is_logged_on_its_clock_and_ctrl_c_ends_it_cleanly() {
     assert!((i64::from(produced) - s.samples as i64).abs() <= 3, "board produced {produced}, logged {}", s.samples);
     assert_eq!(s.board_tx_dropped, Some(0));
     assert!(log.mag.iter().all(|m| m.iter().all(|v| v.is_finite())));
+    // Every row's integrity state counted; the board's Health read at the
+    // end gives the on-line hard iron (none applied on a fresh board), and
+    // nothing says "recalibrate".
+    assert_eq!(s.integrity.states.total(), s.samples, "{s:?}");
+    assert_eq!((s.integrity.hard_iron_applied, s.recalibrate), (Some(false), None), "{s:?}");
 
     // Ctrl-C: an open-ended log interrupted; the file is complete.
     std::fs::remove_file(&out_csv).unwrap();

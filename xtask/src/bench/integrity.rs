@@ -10,12 +10,22 @@
 //! (mean fraction of good rows kept ok plus mean fraction of bad rows not
 //! ok), reported on the trial left out. The standard tuning's numbers are
 //! printed beside it.
+//!
+//! Seaglider SG236 (`tests/data/seaglider-sg236`, no gyro, a sample every
+//! 5–9 s) has no independent heading reference (GPS at the surface only; its
+//! `onboard_heading_deg` is the same compass with the glider's own
+//! calibration): its row ([`glider`]) gives what can be judged without one —
+//! the states with the glider's own calibration and the field's magnitude
+//! and dip against IGRF-14 on the rows below 3 m, `ok` and not — and takes
+//! no part in the leave-one-out choice.
 
 use std::path::Path;
 
 use calib_core::cal::{FieldCal, ModelKind};
+use calib_core::heading::level;
+use calib_core::integrity::IntegrityState;
 use calib_core::integrity::Tuning;
-use host_tools::compute::apply::{apply_recording, score, ApplyOptions, IntegrityScore};
+use host_tools::compute::apply::{apply_recording, score, Applied, ApplyOptions, IntegrityScore};
 use host_tools::compute::card::read_reference_column;
 use host_tools::data::results::Quality;
 use host_tools::data::{CalDoc, Recording};
@@ -25,7 +35,7 @@ use serde_json::json;
 const TRIALS: [(&str, &str, &str); 6] = [
     ("broad-30", "broad-30/broad_30.csv", "broad-30/broad_30.truth.json"),
     ("broad-33", "broad-33/broad_33.csv", "broad-33/broad_33.truth.json"),
-    ("broad-02", "broad-02-limited/02_validate.csv", "broad-02-limited/02.truth.json"),
+    ("broad-02-limited", "broad-02-limited/02_validate.csv", "broad-02-limited/02.truth.json"),
     ("broad-03", "broad-03/03_validate.csv", "broad-03/03.truth.json"),
     ("broad-05", "broad-05/05_validate.csv", "broad-05/05.truth.json"),
     ("broad-09", "broad-09/09_validate.csv", "broad-09/09.truth.json"),
@@ -98,6 +108,114 @@ fn row(s: &IntegrityScore) -> serde_json::Value {
     })
 }
 
+/// The glider's site (its README): IGRF-14 at 46.902° N, −124.894° E,
+/// 2023-06-01, sea level.
+const GLIDER_FIELD_NT: f64 = 52_203.0;
+/// See [`GLIDER_FIELD_NT`], degrees.
+const GLIDER_INCLINATION_DEG: f64 = 67.82;
+/// The glider is judged below this depth (its README's rule: at the
+/// surface it pitches −60…−75° beside its antenna's electronics).
+const GLIDER_JUDGE_DEPTH_M: f64 = 3.0;
+
+/// The glider's validation dives with its own calibration
+/// (`onboard_calibration.json`, as the real-data bench's floor).
+struct Glider {
+    rec: Recording,
+    depth_m: Vec<f64>,
+    doc: CalDoc,
+}
+
+fn load_glider(dir: &Path) -> Option<Glider> {
+    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("onboard_calibration.json")).ok()?).ok()?;
+    let bias: [f64; 3] = serde_json::from_value(v["bias"].clone()).ok()?;
+    let matrix: [[f64; 3]; 3] = serde_json::from_value(v["matrix"].clone()).ok()?;
+    let doc = CalDoc::new(ModelKind::Full, &FieldCal { bias, matrix }, v["field_nt"].as_f64()?, Quality::default());
+    let path = dir.join("sg236_validate.csv");
+    Some(Glider { rec: Recording::read(&path).ok()?, depth_m: read_reference_column(&path, "depth_m").ok()??, doc })
+}
+
+/// Mean, 1σ and RMS about a reference of `v` (NaN when empty).
+fn spread(v: &[f64], reference: f64) -> (f64, f64, f64) {
+    let n = v.len() as f64;
+    let mean = v.iter().sum::<f64>() / n;
+    let sd = (v.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / (n - 1.0).max(1.0)).sqrt();
+    let rms = (v.iter().map(|x| (x - reference) * (x - reference)).sum::<f64>() / n).sqrt();
+    (mean, sd, rms)
+}
+
+/// |F| and dip of the calibrated field on the rows `keep`: mean, 1σ and
+/// RMS about IGRF-14's, as JSON.
+fn field_residuals(applied: &Applied, rec: &Recording, keep: &[usize]) -> serde_json::Value {
+    let (Some(roll), Some(pitch)) = (rec.roll_deg.as_ref(), rec.pitch_deg.as_ref()) else { return json!(null) };
+    let (mut mag, mut dip) = (vec![], vec![]);
+    for &i in keep {
+        let h = applied.rows[i].field_nt;
+        let l = level(h, roll[i].to_radians(), pitch[i].to_radians());
+        mag.push((h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt());
+        dip.push(l[2].atan2(l[0].hypot(l[1])).to_degrees());
+    }
+    let (m_mean, m_sd, m_rms) = spread(&mag, GLIDER_FIELD_NT);
+    let (d_mean, d_sd, d_rms) = spread(&dip, GLIDER_INCLINATION_DEG);
+    json!({
+        "rows": keep.len(),
+        "field_mean_nt": m_mean, "field_sd_pct": 100.0 * m_sd / m_mean, "field_rms_vs_igrf_nt": m_rms,
+        "dip_mean_deg": d_mean, "dip_sd_deg": d_sd, "dip_rms_vs_igrf_deg": d_rms,
+    })
+}
+
+/// The glider's row: the states (all rows, and below 3 m), the field's
+/// magnitude and dip residuals on the `ok` rows and the others below 3 m,
+/// the σ the board would stream on the `ok` rows — and no observed heading
+/// error, for want of a reference.
+fn glider(data: &Path) -> Option<serde_json::Value> {
+    let g = load_glider(&data.join("seaglider-sg236"))?;
+    let applied = apply_recording(&g.rec, &g.doc, &ApplyOptions::default()).ok()?;
+    let below: Vec<usize> = (0..applied.rows.len()).filter(|&i| g.depth_m.get(i).is_some_and(|d| *d > GLIDER_JUDGE_DEPTH_M)).collect();
+    let count = |rows: &mut dyn Iterator<Item = usize>| {
+        let mut c = [0usize; 4];
+        for i in rows {
+            c[applied.rows[i].integrity as usize] += 1;
+        }
+        json!({"ok": c[0], "disturbed": c[1], "cal_invalid": c[2], "no_attitude": c[3]})
+    };
+    let (ok, not_ok): (Vec<usize>, Vec<usize>) = below.iter().partition(|&&i| applied.rows[i].integrity == IntegrityState::Ok);
+    let sigma: Vec<f64> = ok.iter().filter_map(|&i| applied.rows[i].heading_sigma_deg).collect();
+    let predicted = (sigma.iter().map(|s| s * s).sum::<f64>() / sigma.len() as f64).sqrt();
+    let v = json!({
+        "calibration": "the glider's own (onboard_calibration.json)",
+        "heading_reference": null,
+        "note": "no independent heading reference (GPS at the surface only; onboard_heading_deg is the same compass): no observed heading error, no observed/predicted sigma",
+        "rows": applied.rows.len(),
+        "states": count(&mut (0..applied.rows.len())),
+        "ok_pct": 100.0 * applied.rows.iter().filter(|r| r.integrity == IntegrityState::Ok).count() as f64 / applied.rows.len() as f64,
+        "below_3m": {"rows": below.len(), "states": count(&mut below.iter().copied()), "ok_pct": 100.0 * ok.len() as f64 / below.len() as f64},
+        "ok_predicted_deg": predicted,
+        "inclination_in_use_deg": applied.inclination_deg,
+        "field_sigma_nt": applied.reference.field_sigma_nt,
+        "residuals_below_3m": {"ok": field_residuals(&applied, &g.rec, &ok), "not_ok": field_residuals(&applied, &g.rec, &not_ok), "all": field_residuals(&applied, &g.rec, &below)},
+    });
+    let b = &v["below_3m"];
+    let r = &v["residuals_below_3m"];
+    eprintln!(
+        "| seaglider-sg236 | standard, the glider's own calibration | {} | {:.1} (below 3 m: {:.1} of {}) | no heading reference | — | — | {:.2} | — |",
+        applied.rows.len(),
+        v["ok_pct"].as_f64().unwrap_or(f64::NAN),
+        b["ok_pct"].as_f64().unwrap_or(f64::NAN),
+        below.len(),
+        predicted
+    );
+    for part in ["ok", "not_ok", "all"] {
+        let x = &r[part];
+        eprintln!(
+            "  glider below 3 m, {part} rows ({}): |F| {:.0} nT (1σ {:.2} %, RMS vs IGRF {:.0} nT), dip {:.2}° (1σ {:.2}°, RMS vs IGRF {:.2}°)",
+            x["rows"], x["field_mean_nt"].as_f64().unwrap_or(f64::NAN), x["field_sd_pct"].as_f64().unwrap_or(f64::NAN), x["field_rms_vs_igrf_nt"].as_f64().unwrap_or(f64::NAN),
+            x["dip_mean_deg"].as_f64().unwrap_or(f64::NAN), x["dip_sd_deg"].as_f64().unwrap_or(f64::NAN), x["dip_rms_vs_igrf_deg"].as_f64().unwrap_or(f64::NAN)
+        );
+    }
+    eprintln!("  glider states (all rows): {}; below 3 m: {}", v["states"], b["states"]);
+    Some(v)
+}
+
 /// The section: per trial, the standard tuning's numbers and the
 /// leave-one-out choice's. `root` is the workspace.
 pub fn section(root: &Path) -> serde_json::Value {
@@ -145,6 +263,9 @@ pub fn section(root: &Path) -> serde_json::Value {
         }
         out.insert(name.to_string(), serde_json::Value::Object(entry));
     }
+    if let Some(g) = glider(&data) {
+        out.insert("seaglider-sg236".into(), g);
+    }
     serde_json::Value::Object(out)
 }
 
@@ -157,6 +278,6 @@ mod tests {
         let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
         let v = super::section(&root);
         eprintln!("{}", serde_json::to_string_pretty(&v).unwrap_or_default());
-        assert_eq!(v.as_object().map(|o| o.len()), Some(6), "{v}");
+        assert_eq!(v.as_object().map(|o| o.len()), Some(7), "{v}");
     }
 }

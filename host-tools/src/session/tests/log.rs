@@ -154,3 +154,65 @@ fn a_port_without_a_board_and_a_port_that_cannot_open_are_refused() {
     let e = log_board(&mut missing, &mut out, "board.csv".into(), &LogOptions { rate_hz: 0, ..opts() }, &stop, |_| {}).unwrap_err();
     assert!(matches!(e, LogError::RateOutOfRange(0)), "{e:?}");
 }
+
+/// The board's integrity states counted as they are logged, and the
+/// session's "recalibrate" rule on them: a second of `cal_invalid` in a
+/// log of about four seconds says "recalibrate" with the evidence; the
+/// same log all `ok` says nothing.
+#[test]
+fn the_logged_integrity_states_are_counted_and_judged_by_the_sessions_rule() {
+    let b = board();
+    // Board time 5.5 s to 6.5 s cal_invalid: 100 samples at its 10 ms.
+    b.borrow_mut().integrity_at = |t_ms| if (5500..6500).contains(&t_ms) { magcal_protocol::Integrity::CalInvalid } else { magcal_protocol::Integrity::Ok };
+    let mut connect = connector(&b, vec![]);
+    let (s, log, text) = log_until(400, &mut connect, |_| {});
+    assert!(log.t_s[0] < 5.5 && *log.t_s.last().unwrap() > 6.5, "the log spans the stretch: {s:?}");
+    // The counts against the file's own integrity column.
+    let column = |word: &str| text.lines().skip(1).filter(|l| l.ends_with(&format!(",{word}"))).count() as u64;
+    let c = &s.integrity;
+    assert_eq!((c.states.ok, c.states.cal_invalid, c.states.disturbed, c.states.no_attitude), (column("ok"), column("cal_invalid"), 0, 0));
+    assert_eq!((c.states.cal_invalid, c.states.total()), (100, s.samples));
+    // 100 steps of 10 ms on the board's clock, both stretches.
+    assert!((c.longest_cal_invalid_s.unwrap() - 1.0).abs() < 1e-6 && (c.longest_disturbance_s - 1.0).abs() < 1e-6, "{c:?}");
+    // The mock board has no calibration: no on-line hard iron, read from
+    // its Health at the end.
+    assert_eq!((c.hard_iron_applied, c.hard_iron_nt), (Some(false), None));
+    let e = s.recalibrate.expect("100 of about 400 samples cal_invalid");
+    assert_eq!((e.rows as u64, e.cal_invalid_rows, e.hard_iron_applied), (s.samples, 100, false));
+    assert!(e.cal_invalid_fraction > 0.10 && e.cal_invalid_fraction < 0.30, "{e:?}");
+    let line = crate::integrity_evidence::recalibrate_text(&e, crate::board::log::LOGGED_SAMPLES);
+    let counts = crate::integrity_evidence::integrity_text(c);
+    assert_eq!(counts, format!("{} ok, 0 disturbed, 100 cal_invalid, 0 no_attitude; longest disturbance 1.0 s, longest cal_invalid 1.0 s; no on-line hard-iron estimate", s.samples - 100));
+    assert!(line.starts_with("RECALIBRATE") && line.contains(&format!("100 of {} logged samples", s.samples)) && line.contains("longest cal_invalid stretch 1.0 s"), "{line}");
+    // In the JSON summary, typed.
+    let json = serde_json::to_value(&s).unwrap();
+    assert_eq!((json["integrity"]["states"]["cal_invalid"].as_u64(), json["recalibrate"]["cal_invalid_rows"].as_u64()), (Some(100), Some(100)));
+
+    // The same log all ok: nothing said.
+    let clean = board();
+    clean.borrow_mut().integrity_at = |_| magcal_protocol::Integrity::Ok;
+    let (s, _, _) = log_until(400, &mut connector(&clean, vec![]), |_| {});
+    assert_eq!((s.integrity.states.ok, s.recalibrate), (s.samples, None));
+    assert!(serde_json::to_value(&s).unwrap().get("recalibrate").is_none());
+    // All disturbed (a passing object, the mock board's default): not evidence.
+    let (s, _, _) = log_until(200, &mut connector(&board(), vec![]), |_| {});
+    assert_eq!((s.integrity.states.disturbed, s.recalibrate), (s.samples, None));
+}
+
+/// The on-line hard iron over a log, from the board's `Health` at its two
+/// ends: applied now, or applied (again) since the start, counts.
+#[test]
+fn the_hard_iron_over_a_log_is_read_from_the_boards_health() {
+    use crate::board::log::hard_iron_over_log;
+    let base = Device::new(Boot { stored: None, challenge: 42 }).health(1000, &BoardCounters::default());
+    assert_eq!(hard_iron_over_log(Some(&base), &base), (Some(false), None));
+    let end = magcal_protocol::Health { uptime_ms: 9000, hard_iron_nt: Some([800.0, -50.0, 0.5]), hard_iron_applications: 1, ..base };
+    assert_eq!(hard_iron_over_log(Some(&base), &end), (Some(true), Some([800.0, -50.0, 0.5])));
+    // Applied before the log and not since: not this log's evidence.
+    let start = magcal_protocol::Health { hard_iron_applications: 1, ..base };
+    assert_eq!(hard_iron_over_log(Some(&start), &end).0, Some(false));
+    // Applied now.
+    assert_eq!(hard_iron_over_log(Some(&start), &magcal_protocol::Health { hard_iron_applied: true, ..end }).0, Some(true));
+    // The board restarted (its uptime went back): applications since then count.
+    assert_eq!(hard_iron_over_log(Some(&magcal_protocol::Health { uptime_ms: 20_000, ..start }), &end).0, Some(true));
+}
