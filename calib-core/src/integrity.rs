@@ -31,10 +31,11 @@
 //! vehicle: [`IntegrityState::CalInvalid`], until the fraction falls below
 //! `Tuning::misfit_exit`.
 //!
-//! The heading's 1σ of a sample is `√(σ_cal² + (σ_F / H_h)²)` when ok (the
-//! calibration's own heading error and the field's noise across the
-//! measured horizontal intensity `H_h`); a sample not ok adds its innovation
-//! and the size of its field misfit across `H_h`.
+//! The heading's 1σ of a sample is `√(σ_cal² + (σ_n / H_h)²)` when ok (the
+//! calibration's own heading error and the field's noise `σ_n` across the
+//! measured horizontal intensity `H_h`; `σ_n` is `σ_F` unless the
+//! calibration knows better, [`Reference::noise_nt`]); a sample not ok adds
+//! its innovation and the size of its field misfit across `H_h`.
 //!
 //! No allocation; the state is a few dozen bytes
 //! (`size_of::<Monitor<f32>>()`, tested); a sample costs two square roots,
@@ -93,8 +94,15 @@ pub struct Reference<T> {
     /// Reference intensity `F` (the document's `field_nt`), nT.
     pub field_nt: T,
     /// Scatter of `|h|` about `F` the calibration left (its fit residual),
-    /// nT; also taken as each component's noise.
+    /// nT: the magnitude and dip gates' σ.
     pub field_sigma_nt: T,
+    /// Each component's noise after calibration, nT: the heading's σ
+    /// across the horizontal field, `noise_nt / H_h`. The scatter of `|h|`
+    /// when nothing better is known (the board); smaller when the
+    /// calibration's own heading error (`heading_sigma_rad`) already holds
+    /// its slowly varying residuals (a back-stepped calibration: its
+    /// per-axis residual).
+    pub noise_nt: T,
     /// Inclination (dip, positive down), radians; `None`: learned from the
     /// samples judged ok.
     pub inclination_rad: Option<T>,
@@ -116,7 +124,8 @@ impl<T: Real> Reference<T> {
     /// learned, no heading σ of its own. The board and `magcal apply` both
     /// start from this, so they judge alike.
     pub fn from_field_nt(field_nt: T) -> Self {
-        Self { field_nt, field_sigma_nt: T::from_f64(DEFAULT_FIELD_SIGMA_REL) * field_nt, inclination_rad: None, heading_sigma_rad: T::ZERO }
+        let sigma = T::from_f64(DEFAULT_FIELD_SIGMA_REL) * field_nt;
+        Self { field_nt, field_sigma_nt: sigma, noise_nt: sigma, inclination_rad: None, heading_sigma_rad: T::ZERO }
     }
 }
 
@@ -185,8 +194,8 @@ impl<T: Real> Tuning<T> {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum IntegrityError {
-    /// The reference intensity or its scatter is not a positive finite
-    /// number, the scatter is not below the intensity, or the inclination is
+    /// The reference intensity, its scatter or the noise is not a positive
+    /// finite number, the scatter or the noise is not below the intensity, or the inclination is
     /// not within ±90°, or the heading σ is negative.
     BadReference,
     /// A tuning constant is not positive and finite, or the misfit
@@ -315,7 +324,7 @@ impl<T: Real> Monitor<T> {
         let pos = |v: T| v.is_finite() && v > T::ZERO;
         let r = &reference;
         let incl_ok = r.inclination_rad.is_none_or(|i| i.is_finite() && i.abs() < T::PI / T::from_f64(2.0));
-        if !(pos(r.field_nt) && pos(r.field_sigma_nt) && r.field_sigma_nt < r.field_nt && incl_ok && r.heading_sigma_rad.is_finite() && r.heading_sigma_rad >= T::ZERO) {
+        if !(pos(r.field_nt) && pos(r.field_sigma_nt) && r.field_sigma_nt < r.field_nt && pos(r.noise_nt) && r.noise_nt < r.field_nt && incl_ok && r.heading_sigma_rad.is_finite() && r.heading_sigma_rad >= T::ZERO) {
             return Err(IntegrityError::BadReference);
         }
         let t = &tuning;
@@ -402,7 +411,7 @@ impl<T: Real> Monitor<T> {
     /// The heading variance of a sample with horizontal intensity `hh_nt`.
     #[inline(always)]
     fn sample_var(&self, hh_nt: T) -> T {
-        let s = self.reference.field_sigma_nt / hh_nt.max(self.reference.field_sigma_nt);
+        let s = self.reference.noise_nt / hh_nt.max(self.reference.noise_nt);
         s * s + self.reference.heading_sigma_rad * self.reference.heading_sigma_rad
     }
 

@@ -258,9 +258,9 @@ impl<T: Real> OnlineIntegrity<T> {
     fn guard(&self, e: &HardIron<T>, sin_incl: Option<T>) -> Option<T> {
         let r = *self.monitor.reference();
         let cos_incl = sin_incl.map_or(T::ONE, |s| (T::ONE - s * s).max(T::EPSILON).sqrt());
-        let hh = (r.field_nt * cos_incl).max(r.field_sigma_nt);
+        let hh = (r.field_nt * cos_incl).max(r.noise_nt);
         let sigma_max = e.sigma_nt[0].max(e.sigma_nt[1]).max(e.sigma_nt[2]);
-        let stored_sigma_rad = ((r.field_sigma_nt / hh) * (r.field_sigma_nt / hh) + r.heading_sigma_rad * r.heading_sigma_rad).sqrt();
+        let stored_sigma_rad = ((r.noise_nt / hh) * (r.noise_nt / hh) + r.heading_sigma_rad * r.heading_sigma_rad).sqrt();
         let sigma_rad = sigma_max / hh;
         (sigma_rad <= stored_sigma_rad && e.residual_rms_z <= T::from_f64(2.0)).then_some(sigma_rad)
     }

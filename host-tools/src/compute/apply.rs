@@ -133,7 +133,15 @@ pub fn reference_of(doc: &CalDoc, opts: &ApplyOptions) -> Result<Reference<f64>,
             .or_else(|| q.gyro.as_ref().map(|g| (g.vertical_nt / f).clamp(-1.0, 1.0).asin())),
     };
     let heading_sigma_rad = q.predicted_heading_rms_deg.unwrap_or(0.0).to_radians();
-    let r = Reference { field_nt: f, field_sigma_nt: scatter, inclination_rad, heading_sigma_rad };
+    // The per-component noise behind the heading's σ: a back-stepped
+    // calibration's per-axis residual on the run (its slowly varying errors
+    // are in the predicted heading error already); else the scatter.
+    let noise_nt = opts
+        .field_sigma_nt
+        .or_else(|| q.backstep.as_ref().and_then(|b| b.estimates.as_ref()).map(|e| e.residual_rms_nt))
+        .filter(|s| *s > 0.0)
+        .unwrap_or(scatter);
+    let r = Reference { field_nt: f, field_sigma_nt: scatter, noise_nt, inclination_rad, heading_sigma_rad };
     calib_core::integrity::Monitor::new(r, opts.tuning.unwrap_or_else(Tuning::standard)).map_err(|e| match e {
         IntegrityError::BadReference => ApplyError::Reference("the field's scatter must be positive and below field_nt, the inclination within ±90°"),
         IntegrityError::BadTuning => ApplyError::Reference("a tuning constant is not positive, or the misfit thresholds not 0 < exit < enter < 1"),
@@ -221,8 +229,10 @@ pub struct ApplySummary {
     pub rows_per_state: BTreeMap<&'static str, usize>,
     /// The reference intensity, its scatter and the inclination used (deg).
     pub field_nt: f64,
-    /// The field's expected scatter, nT.
+    /// The field's expected scatter, nT (the magnitude and dip gates' σ).
     pub field_sigma_nt: f64,
+    /// Each component's noise behind the heading's σ, nT.
+    pub noise_nt: f64,
     /// The inclination in use at the end (given or learned), degrees.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub inclination_deg: Option<f64>,
@@ -276,6 +286,7 @@ pub fn summarize(applied: &Applied, reference: Option<(&str, &[f64])>) -> ApplyS
         rows_per_state: per_state,
         field_nt: applied.reference.field_nt,
         field_sigma_nt: applied.reference.field_sigma_nt,
+        noise_nt: applied.reference.noise_nt,
         inclination_deg: applied.inclination_deg,
         longest_disturbance_s: applied.health.longest_disturbance_s,
         hard_iron_nt: applied.hard_iron.map(|h| h.offset_nt),
