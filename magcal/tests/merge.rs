@@ -223,3 +223,39 @@ fn a_5_hz_swing_test_is_merged_within_20_ms_with_an_honest_sigma() {
     assert!((0.5..=2.0).contains(&ratio), "error / σ {ratio}");
 }
 
+
+/// A navigation computer's own export (issue 24's leftover): semicolons,
+/// its own column names, attitude in radians — merged with `--nav-columns`
+/// as the project's log is; without the mapping, the refusal says to give
+/// one.
+#[test]
+fn a_navigation_log_under_its_own_names_and_units_merges_with_nav_columns() {
+    let sim = field_test::swing(&SensorModel::paper_like(), &paper_site(), 7, 50.0).unwrap();
+    let (board, nav) = split(&sim, -33.3, 50.0, 5, (5.0, 5.0), 7);
+    let dir = tempfile::tempdir().unwrap();
+    write_logs(dir.path(), &board, &nav);
+    let p = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let heading = nav.heading_deg.as_ref().expect("the AHRS heading");
+    let mut text = String::from("Time (s);Roll (rad);Pitch (rad);Yaw (rad)\n");
+    for i in 0..nav.t_s.len() {
+        text.push_str(&format!("{};{};{};{}\n", nav.t_s[i], nav.roll_deg[i].to_radians(), nav.pitch_deg[i].to_radians(), heading[i].to_radians()));
+    }
+    std::fs::write(p("export.csv"), text).unwrap();
+    let magcal = |args: &[&str]| std::process::Command::new(env!("CARGO_BIN_EXE_magcal")).args(args).output().unwrap();
+    let map = "t=Time (s),roll_deg=Roll (rad):rad,pitch_deg=Pitch (rad):rad,heading_deg=Yaw (rad):rad";
+    let out = magcal(&["merge", "--board", &p("board.csv"), "--nav", &p("export.csv"), "--nav-columns", map, "--out", &p("rec.csv"), "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let report: MergeReport = serde_json::from_slice(&out.stdout).expect("stdout is the report");
+    // The same offset as from the project's own log (the test above: within
+    // 4 ms of the −33.3 s put in).
+    assert!((report.offset_s + 33.3).abs() < 0.004 && report.estimated, "{report:?}");
+    let rec = Recording::read(Path::new(&p("rec.csv"))).unwrap();
+    let roll = rec.roll_deg.as_ref().unwrap();
+    // Degrees again (the simulated swing rolls by up to a few tens of degrees).
+    assert!(roll.iter().any(|r| r.abs() > 5.0) && roll.iter().all(|r| r.abs() < 90.0), "roll in degrees");
+    // Without the mapping: refused, and told how.
+    let out = magcal(&["merge", "--board", &p("board.csv"), "--nav", &p("export.csv"), "--out", &p("rec2.csv")]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("--nav-columns") && err.contains("missing column"), "{err}");
+    assert!(!dir.path().join("rec2.csv").exists());
+}

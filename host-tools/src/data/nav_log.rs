@@ -5,7 +5,7 @@
 use std::path::Path;
 
 use super::recording::RecordingError;
-use super::table::{col, read_table, write_table};
+use super::table::{col, read_table_mapped, write_table, ColumnMap, TableError};
 
 /// `t`: seconds on the navigation clock.
 pub const T: &str = col::T;
@@ -57,8 +57,16 @@ impl NavLog {
     /// Reads a navigation log: `t, roll_deg, pitch_deg` required; the rest
     /// optional (see `docs/INTERFACES.md`).
     pub fn read(path: &Path) -> Result<Self, RecordingError> {
+        Self::read_mapped(path, &ColumnMap::default())
+    }
+
+    /// [`NavLog::read`] of a log under its own column names and units
+    /// (`--nav-columns`: a navigation computer's or another tool's export),
+    /// cells separated by comma, semicolon, tab or spaces.
+    pub fn read_mapped(path: &Path, map: &ColumnMap) -> Result<Self, RecordingError> {
         let optional = [HEADING_DEG, REF_HEADING_DEG, LAT_DEG, LON_DEG, GYRO[0], GYRO[1], GYRO[2], SPEED_MPS, MOTOR_CURRENT_A];
-        let mut t = read_table(path, &[T, ROLL_DEG, PITCH_DEG], &optional)?;
+        let file = std::fs::File::open(path).map_err(|source| TableError::Io { path: path.into(), source })?;
+        let mut t = read_table_mapped(file, path, &[T, ROLL_DEG, PITCH_DEG], &optional, map)?;
         let gyro = match GYRO.map(|c| t.take(c)) {
             [Some(x), Some(y), Some(z)] => Some([x, y, z]),
             _ => None,

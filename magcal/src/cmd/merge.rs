@@ -1,10 +1,12 @@
 //! `magcal merge`: one recording from the board's field log and the
 //! navigation log, kept on different clocks (`host_tools::data::merge`).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
-use host_tools::data::merge::{merge_files, Clock};
+use host_tools::data::merge::{merge_files_mapped, Clock, MergeError};
+use host_tools::data::RecordingError;
+use host_tools::data::table::ColumnMap;
 
 /// Arguments of `magcal merge`.
 #[derive(clap::Args)]
@@ -18,6 +20,11 @@ pub struct Args {
     /// The merged recording (CSV), `t` on the navigation clock.
     #[arg(long)]
     out: PathBuf,
+    /// The navigation log's own names (and units) for its columns, as
+    /// `--columns` elsewhere: `t=Time (s),roll_deg=Roll:rad,pitch_deg=Pitch:rad,...`
+    /// (cells may be separated by comma, semicolon, tab or spaces).
+    #[arg(long, value_name = "COLUMN=NAME[:UNIT],...")]
+    nav_columns: Option<ColumnMap>,
     /// The clock offset, navigation − board, s, at the board log's first
     /// sample (instead of estimating it).
     #[arg(long, allow_hyphen_values = true)]
@@ -45,6 +52,18 @@ fn same_file(out: &std::path::Path, input: &std::path::Path) -> bool {
     }
 }
 
+/// The navigation log missing a column, read without a mapping: say how to
+/// give one.
+fn hint_nav_columns(e: MergeError, nav: &Path, mapped: bool) -> anyhow::Error {
+    let nav_missing = matches!(&e, MergeError::Log(RecordingError::MissingColumn { path, .. }) if path == nav);
+    let e = anyhow::Error::new(e);
+    if nav_missing && !mapped {
+        e.context("the navigation log lacks a column merge needs: give its own names with --nav-columns (e.g. --nav-columns \"t=Time,roll_deg=Roll:rad,pitch_deg=Pitch:rad\")")
+    } else {
+        e
+    }
+}
+
 /// Runs `magcal merge`.
 pub fn run(a: Args) -> Result<()> {
     for (what, input) in [("--board", &a.board), ("--nav", &a.nav)] {
@@ -56,7 +75,8 @@ pub fn run(a: Args) -> Result<()> {
         Some(offset_s) => Clock::Given { offset_s, drift_ppm: a.drift_ppm },
         None => Clock::Estimate { center_s: a.approx_offset_s, max_offset_s: a.max_offset_s },
     };
-    let merged = merge_files(&a.board, &a.nav, clock)?;
+    let mapped = a.nav_columns.is_some();
+    let merged = merge_files_mapped(&a.board, &a.nav, &a.nav_columns.unwrap_or_default(), clock).map_err(|e| hint_nav_columns(e, &a.nav, mapped))?;
     merged.write(&a.out).with_context(|| format!("writing {}", a.out.display()))?;
     let r = &merged.report;
     eprintln!(

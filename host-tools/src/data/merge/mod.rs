@@ -18,6 +18,7 @@ pub use super::board_log::{BoardLog, HEALTH_AFTER_GAP, HEALTH_SATURATED};
 pub use super::nav_log::NavLog;
 use super::pairing::ClockMap;
 use super::recording::RecordingError;
+use super::table::ColumnMap;
 use super::Recording;
 
 mod align;
@@ -242,7 +243,13 @@ impl Merged {
 
 /// Reads both logs and merges them (see [`merge`]).
 pub fn merge_files(board: &Path, nav: &Path, clock: Clock) -> Result<Merged, MergeError> {
-    let (b, n) = (BoardLog::read(board)?, NavLog::read(nav)?);
+    merge_files_mapped(board, nav, &ColumnMap::default(), clock)
+}
+
+/// [`merge_files`] with the navigation log under its own column names and
+/// units (`nav_columns`).
+pub fn merge_files_mapped(board: &Path, nav: &Path, nav_columns: &ColumnMap, clock: Clock) -> Result<Merged, MergeError> {
+    let (b, n) = (BoardLog::read(board)?, NavLog::read_mapped(nav, nav_columns)?);
     merge(&b, &n, clock)
 }
 
