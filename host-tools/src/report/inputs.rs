@@ -15,6 +15,9 @@ pub struct Validation<'a> {
     pub recording: &'a Recording,
     /// The true heading of each row, degrees from true north (NaN: unknown).
     pub truth_deg: &'a [f64],
+    /// The column it came from (`true_heading_deg`; `ref_heading_deg`, a
+    /// GPS course, is a reference, not the truth, and the headline says so).
+    pub truth_column: &'a str,
 }
 
 /// What to put in a report. Every part is optional: a section whose input

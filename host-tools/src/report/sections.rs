@@ -125,7 +125,15 @@ pub(crate) fn headline(page: &mut Page, cx: &Context<'_>) {
         (None, Some(_)) => "not given (no coefficients before; the card's “before” is the uncalibrated heading)".to_string(),
         _ => fmt_opt(before_rms, 2, "°"),
     };
-    row("True-heading RMS on validation, before → after", format!("{before_text} → {}", fmt_opt(after_rms, 2, "°")));
+    // Against a truth column the calibration's own error; against a GPS
+    // course (`--truth-column ref_heading_deg`) also the reference's.
+    let label = match inputs.validation.as_ref().map(|v| v.truth_column) {
+        Some(c) if inputs.summary.and_then(|s| s.validation).is_none() && !(c.contains("true") || c.contains("truth")) => {
+            format!("Heading RMS against `{}` on validation, before → after ({})", escape(c), crate::compute::card::reference_note(c))
+        }
+        _ => "True-heading RMS on validation, before → after".to_string(),
+    };
+    row(&label, format!("{before_text} → {}", fmt_opt(after_rms, 2, "°")));
     row("Predicted heading error (from the fit's covariance only: what the data's noise leaves uncertain, not what the model leaves out)", fmt_opt(predicted, 2, "° RMS"));
     if let (Some(p), Some(after)) = (predicted, after_rms) {
         if p > 0.0 {

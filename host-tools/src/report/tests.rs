@@ -72,7 +72,7 @@ fn a_full_report_has_every_section_the_card_and_the_physics_numbers() {
     let inputs = ReportInputs {
         run: Some(&run),
         swing: Some(&swing),
-        validation: Some(Validation { recording: &val, truth_deg: &vh }),
+        validation: Some(Validation { recording: &val, truth_deg: &vh, truth_column: "true_heading_deg" }),
         cals: vec![("raw".into(), &raw), ("final".into(), &fixed)],
         before: Some(&raw),
         field_nt: Some(44_721.4),
@@ -172,7 +172,7 @@ fn inputs_that_lack_a_column_leave_their_section_saying_why() {
     let inputs = ReportInputs {
         run: Some(&run),
         swing: Some(&swing),
-        validation: Some(Validation { recording: &val, truth_deg: &truth }),
+        validation: Some(Validation { recording: &val, truth_deg: &truth, truth_column: "true_heading_deg" }),
         cals: vec![("final".into(), &fixed)],
         before: None,
         field_nt: None,
@@ -188,7 +188,7 @@ fn inputs_that_lack_a_column_leave_their_section_saying_why() {
     assert!(out.card.is_none());
     // A truth column of the wrong length is bad input, refused.
     let short = vec![0.0; 99];
-    let inputs = ReportInputs { validation: Some(Validation { recording: &val, truth_deg: &short }), ..inputs };
+    let inputs = ReportInputs { validation: Some(Validation { recording: &val, truth_deg: &short, truth_column: "true_heading_deg" }), ..inputs };
     assert!(matches!(write_report(dir.path(), &inputs), Err(ReportError::TruthLength { truth_rows: 99, recording_rows: 100 })));
 }
 
@@ -211,7 +211,7 @@ fn the_integrity_section_shows_a_disturbance_on_the_validation_run() {
     let inputs = ReportInputs {
         run: None,
         swing: None,
-        validation: Some(Validation { recording: &val, truth_deg: &h }),
+        validation: Some(Validation { recording: &val, truth_deg: &h, truth_column: "true_heading_deg" }),
         cals: vec![("final".into(), &fixed)],
         before: None,
         field_nt: None,
@@ -253,9 +253,41 @@ fn the_integrity_section_without_its_inputs_says_so() {
     let mut val = recording(&h, &[0.0; 100], &[0.0; 100]);
     val.ref_heading_deg = None;
     let truth = vec![f64::NAN; 100];
-    let inputs = ReportInputs { validation: Some(Validation { recording: &val, truth_deg: &truth }), ..inputs };
+    let inputs = ReportInputs { validation: Some(Validation { recording: &val, truth_deg: &truth, truth_column: "true_heading_deg" }), ..inputs };
     let out = write_report(dir.path(), &inputs).unwrap();
     assert!(out.missing.iter().any(|m| m.starts_with("integrity figure")), "{:?}", out.missing);
     let html = std::fs::read_to_string(&out.index).unwrap();
     assert!(html.contains("<td class=\"l\">ok</td><td>100</td>"));
+}
+
+/// Issue 24's leftover: a validation heading from a GPS course
+/// (`--truth-column ref_heading_deg`) is not the truth, and the headline
+/// says so; a truth column keeps the "true-heading" label.
+#[test]
+fn the_headline_names_a_reference_that_is_not_the_truth() {
+    let (_, fixed) = docs();
+    let h: Vec<f64> = (0..100).map(|i| f64::from(i) * 3.6).collect();
+    let val = recording(&h, &[0.0; 100], &[0.0; 100]);
+    let headline = |column: &str| {
+        let dir = tempfile::tempdir().unwrap();
+        let inputs = ReportInputs {
+            run: None,
+            swing: None,
+            validation: Some(Validation { recording: &val, truth_deg: &h, truth_column: column }),
+            cals: vec![("final".into(), &fixed)],
+            before: None,
+            field_nt: None,
+            site: None,
+            summary: None,
+            settings: None,
+        };
+        let out = write_report(dir.path(), &inputs).unwrap();
+        let html = std::fs::read_to_string(&out.index).unwrap();
+        html.split("<table class=\"headline\">").nth(1).unwrap().split("</table>").next().unwrap().to_string()
+    };
+    let gps = headline("ref_heading_deg");
+    assert!(gps.contains("Heading RMS against `ref_heading_deg`") && gps.contains("not the truth") && gps.contains("crab angle"), "{gps}");
+    assert!(!gps.contains("True-heading RMS"), "{gps}");
+    let truth = headline("true_heading_deg");
+    assert!(truth.contains("True-heading RMS on validation") && !truth.contains("not the truth"), "{truth}");
 }

@@ -351,7 +351,7 @@ fn write_report(chain: &Chain, swing: &Recorded, run: &Recorded, validation: Opt
     let inputs = crate::report::ReportInputs {
         run: Some(&run.recording),
         swing: Some(&swing.recording),
-        validation: validation.map(|v| crate::report::Validation { recording: &v.recording, truth_deg: &v.true_heading_deg }),
+        validation: validation.map(|v| crate::report::Validation { recording: &v.recording, truth_deg: &v.true_heading_deg, truth_column: crate::data::table::col::TRUE_HEADING_DEG }),
         cals,
         before: Some(before),
         field_nt: None,

@@ -125,7 +125,7 @@ pub fn run(a: Args) -> Result<()> {
     let inputs = ReportInputs {
         run: run.as_ref(),
         swing: swing.as_ref(),
-        validation: validation.as_ref().map(|(recording, truth_deg)| Validation { recording, truth_deg }),
+        validation: validation.as_ref().map(|(recording, truth_deg)| Validation { recording, truth_deg, truth_column: &a.truth_column }),
         cals: labels.zip(docs.iter()).collect(),
         before: before.as_ref(),
         field_nt: a.field_nt,
