@@ -213,24 +213,34 @@ impl<T: Real> OnlineIntegrity<T> {
         self.alt_dt_s = T::ZERO;
     }
 
+    /// Feeds the estimator the stored calibration's field of this sample,
+    /// every `alt_every`-th sample over the time accumulated since; returns
+    /// that time step, or `None` when this sample was not fed.
+    fn feed_estimator(&mut self, stored_nt: Vec3<T>, tilt: Option<&Tilt<T>>, rate_rad_s: Option<Vec3<T>>, dt: T) -> Option<T> {
+        self.alt_dt_s += dt;
+        self.alt_count = self.alt_count.saturating_add(1);
+        if self.alt_count < self.alt_every {
+            return None;
+        }
+        let dt = self.alt_dt_s;
+        self.alt_count = 0;
+        self.alt_dt_s = T::ZERO;
+        let r = *self.monitor.reference();
+        let sin_incl = self.monitor.sin_inclination();
+        self.estimator.update(stored_nt, tilt, rate_rad_s, dt, r.field_nt, r.field_sigma_nt, sin_incl, self.monitor.tuning().max_gap_s);
+        Some(dt)
+    }
+
     /// While the stored calibration is invalid: feeds the estimator (every
     /// `alt_every`-th sample, over the time accumulated since), checks the
     /// field it corrects (the shadow), and applies the estimate when the
     /// shadow has fitted long enough and the guard passes.
     #[inline(never)]
     fn track_estimate(&mut self, stored_nt: Vec3<T>, tilt: Option<&Tilt<T>>, rate_rad_s: Option<Vec3<T>>, dt: T, cal: &Calibration<T>) {
-        self.alt_dt_s += dt;
-        self.alt_count = self.alt_count.saturating_add(1);
-        if self.alt_count < self.alt_every {
-            return;
-        }
-        let dt = self.alt_dt_s;
-        self.alt_count = 0;
-        self.alt_dt_s = T::ZERO;
+        let Some(dt) = self.feed_estimator(stored_nt, tilt, rate_rad_s, dt) else { return };
         let r = *self.monitor.reference();
         let tuning = *self.monitor.tuning();
         let sin_incl = self.monitor.sin_inclination();
-        self.estimator.update(stored_nt, tilt, rate_rad_s, dt, r.field_nt, r.field_sigma_nt, sin_incl, tuning.max_gap_s);
         let Some(e) = self.estimator.estimate() else {
             self.shadow_seen_s = T::ZERO;
             return;
@@ -294,17 +304,10 @@ impl<T: Real> OnlineIntegrity<T> {
     /// field meanwhile, and withdraws it if it misfits).
     #[inline(never)]
     fn refine_applied(&mut self, stored_nt: Vec3<T>, tilt: Option<&Tilt<T>>, rate_rad_s: Option<Vec3<T>>, dt: T, cal: &Calibration<T>) {
-        self.alt_dt_s += dt;
-        self.alt_count = self.alt_count.saturating_add(1);
-        if self.alt_count < self.alt_every {
+        if self.feed_estimator(stored_nt, tilt, rate_rad_s, dt).is_none() {
             return;
         }
-        let dt = self.alt_dt_s;
-        self.alt_count = 0;
-        self.alt_dt_s = T::ZERO;
-        let r = *self.monitor.reference();
         let sin_incl = self.monitor.sin_inclination();
-        self.estimator.update(stored_nt, tilt, rate_rad_s, dt, r.field_nt, r.field_sigma_nt, sin_incl, self.monitor.tuning().max_gap_s);
         if let Some(e) = self.estimator.estimate() {
             if let Some(sigma_rad) = self.guard(&e, sin_incl) {
                 self.use_estimate(&e, sigma_rad, cal);

@@ -20,6 +20,10 @@
 //! does not contract). Beyond 8192 rad the result is NaN, which every
 //! validation in the stack refuses, instead of a number.
 
+// The polynomials' coefficients as Cephes publishes them (rounded to f32 by
+// the compiler).
+#![allow(clippy::excessive_precision)]
+
 /// The largest |x| reduced.
 pub const MAX_ARG_RAD: f32 = 8192.0;
 

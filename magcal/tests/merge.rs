@@ -237,8 +237,8 @@ fn a_navigation_log_under_its_own_names_and_units_merges_with_nav_columns() {
     let p = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
     let heading = nav.heading_deg.as_ref().expect("the AHRS heading");
     let mut text = String::from("Time (s);Roll (rad);Pitch (rad);Yaw (rad)\n");
-    for i in 0..nav.t_s.len() {
-        text.push_str(&format!("{};{};{};{}\n", nav.t_s[i], nav.roll_deg[i].to_radians(), nav.pitch_deg[i].to_radians(), heading[i].to_radians()));
+    for (((t, roll), pitch), yaw) in nav.t_s.iter().zip(&nav.roll_deg).zip(&nav.pitch_deg).zip(heading) {
+        text.push_str(&format!("{t};{};{};{}\n", roll.to_radians(), pitch.to_radians(), yaw.to_radians()));
     }
     std::fs::write(p("export.csv"), text).unwrap();
     let magcal = |args: &[&str]| std::process::Command::new(env!("CARGO_BIN_EXE_magcal")).args(args).output().unwrap();

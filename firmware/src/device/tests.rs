@@ -534,7 +534,7 @@ fn a_disturbed_stream_is_flagged_with_calib_cores_bits() {
         let out = d.on_raw_sample(raw, now).unwrap();
         // calib-core on the host, with the same inputs.
         let RequestBody::Motion { roll_rad, pitch_rad, rate_rad_s } = *motion else { unreachable!() };
-        let dt = if k == 0 { f32::NAN } else { 100u32 as f32 * 1e-3 };
+        let dt = if k == 0 { f32::NAN } else { 100.0f32 * 1e-3 };
         let corrected = cal.env.correct_raw(raw.field_counts, &calib_core::cal::Environment { current_a: 0.0, temp_c: sensor.t0_c as f32 });
         let j = reference.process(&cal, corrected, Some(&calib_core::heading::Tilt::new(roll_rad, pitch_rad)), Some(rate_rad_s), dt);
         assert_eq!(out.field_nt.unwrap().map(f32::to_bits), j.field_nt.map(f32::to_bits), "sample {k}");
