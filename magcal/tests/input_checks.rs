@@ -218,6 +218,15 @@ fn positions_far_from_the_site_are_refused_and_near_ones_warned() {
     let out = magcal(&[&["fit", "--input", p(&input), "--model", "axis"][..], &site[..]].concat());
     assert!(out.status.success(), "{}", stderr(&out));
     assert!(stderr(&out).contains("warning: ") && stderr(&out).contains(" 33 km from the site"), "{}", stderr(&out));
+    // The report checks the same (issue 24's leftover): the antipode
+    // refused before any page is written.
+    rec.lat_deg = Some(vec![-36.9; n]);
+    rec.lon_deg = Some(vec![-129.4; n]);
+    rec.write(&input).unwrap();
+    let out_dir = dir.path().join("report");
+    let e = refused(&magcal(&[&["report", "--run", p(&input), "--out", p(&out_dir)][..], &site[..]].concat()));
+    assert!(e.contains("20015 km") && e.contains("--lat 36.9 --lon 50.6"), "{e}");
+    assert!(!out_dir.join("index.html").exists());
 }
 
 #[test]

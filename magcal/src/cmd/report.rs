@@ -92,7 +92,6 @@ pub fn run(a: Args) -> Result<()> {
         bail!("nothing to report: give --session DIR (a session's folder) or at least one of --run, --swing-input, --validation, --cal");
     }
 
-
     let run = run_path.as_deref().map(|p| a.columns.read(p)).transpose()?;
     let swing = swing_path.as_deref().map(|p| a.columns.read(p)).transpose()?;
     let validation = match &validation_path {
@@ -122,6 +121,16 @@ pub fn run(a: Args) -> Result<()> {
         None if a.site.any() => bail!("give all of --lat, --lon and --date (or none)"),
         None => settings.as_ref().map(|s| Site { lat_deg: s.lat_deg, lon_deg: s.lon_deg, decimal_year: s.decimal_year }),
     };
+    // The recordings' own positions against the site whose field and
+    // declination the report shows (as `fit` and `backstep` check them).
+    if let Some(s) = &site {
+        let recordings = [(&run_path, run.as_ref()), (&swing_path, swing.as_ref()), (&validation_path, validation.as_ref().map(|(r, _)| r))];
+        for (path, rec) in recordings {
+            if let (Some(p), Some(r)) = (path, rec) {
+                super::check_positions(r, p, s.lat_deg, s.lon_deg)?;
+            }
+        }
+    }
     let inputs = ReportInputs {
         run: run.as_ref(),
         swing: swing.as_ref(),
