@@ -208,17 +208,7 @@ fn the_integrity_section_shows_a_disturbance_on_the_validation_run() {
     for m in &mut val.mag[300..340] {
         m[0] += 5000.0;
     }
-    let inputs = ReportInputs {
-        run: None,
-        swing: None,
-        validation: Some(Validation { recording: &val, truth_deg: &h, truth_column: "true_heading_deg" }),
-        cals: vec![("final".into(), &fixed)],
-        before: None,
-        field_nt: None,
-        site: None,
-        summary: None,
-        settings: None,
-    };
+    let inputs = validation_only(&val, &h, "true_heading_deg", &fixed);
     let out = write_report(dir.path(), &inputs).unwrap();
     let html = std::fs::read_to_string(&out.index).unwrap();
     let section = html.split("<section id=\"integrity\">").nth(1).expect("the section").split("</section>").next().unwrap();
@@ -270,18 +260,7 @@ fn the_headline_names_a_reference_that_is_not_the_truth() {
     let val = recording(&h, &[0.0; 100], &[0.0; 100]);
     let headline = |column: &str| {
         let dir = tempfile::tempdir().unwrap();
-        let inputs = ReportInputs {
-            run: None,
-            swing: None,
-            validation: Some(Validation { recording: &val, truth_deg: &h, truth_column: column }),
-            cals: vec![("final".into(), &fixed)],
-            before: None,
-            field_nt: None,
-            site: None,
-            summary: None,
-            settings: None,
-        };
-        let out = write_report(dir.path(), &inputs).unwrap();
+        let out = write_report(dir.path(), &validation_only(&val, &h, column, &fixed)).unwrap();
         let html = std::fs::read_to_string(&out.index).unwrap();
         html.split("<table class=\"headline\">").nth(1).unwrap().split("</table>").next().unwrap().to_string()
     };
@@ -290,4 +269,20 @@ fn the_headline_names_a_reference_that_is_not_the_truth() {
     assert!(!gps.contains("True-heading RMS"), "{gps}");
     let truth = headline("true_heading_deg");
     assert!(truth.contains("True-heading RMS on validation") && !truth.contains("not the truth"), "{truth}");
+}
+
+/// Inputs with only a validation run (its truth from `column`) and one
+/// final calibration.
+fn validation_only<'a>(val: &'a Recording, truth_deg: &'a [f64], column: &'a str, fixed: &'a CalDoc) -> ReportInputs<'a> {
+    ReportInputs {
+        run: None,
+        swing: None,
+        validation: Some(Validation { recording: val, truth_deg, truth_column: column }),
+        cals: vec![("final".into(), fixed)],
+        before: None,
+        field_nt: None,
+        site: None,
+        summary: None,
+        settings: None,
+    }
 }
