@@ -81,8 +81,9 @@ pub struct OnlineIntegrity<T> {
     /// has been tracked, s.
     shadow_misfit: T,
     shadow_seen_s: T,
-    /// While estimating, the estimator and shadow run every `alt_every`-th
-    /// sample, over the time accumulated since.
+    /// While estimating (the stored calibration invalid, or the estimate
+    /// applied), the estimator runs every `alt_every`-th sample, over the
+    /// time accumulated since.
     alt_every: u8,
     alt_count: u8,
     alt_dt_s: T,
@@ -92,8 +93,8 @@ pub struct OnlineIntegrity<T> {
 /// The on-line hard iron's memory, s.
 pub const HARD_IRON_TAU_S: f64 = 60.0;
 
-/// While the stored calibration is invalid, the board runs the hard-iron
-/// estimator and its shadow check every this many output samples
+/// While the stored calibration is invalid or the estimate applied, the
+/// board runs the hard-iron estimator every this many output samples
 /// ([`OnlineIntegrity::with_estimator_every`]); `magcal apply` uses the
 /// same, so it gives the board's bits. Every sample: at the board's default
 /// 10 Hz a larger `n` would join gyro rows more than `Tuning::max_gap_s`
@@ -147,7 +148,9 @@ impl<T: Real> OnlineIntegrity<T> {
         &self.health
     }
 
-    /// The on-line hard-iron estimate (reported whether applied or not).
+    /// The on-line hard-iron estimate (reported whether applied or not;
+    /// `None` until the stored calibration has been judged invalid, and
+    /// from then on the last one formed).
     pub fn hard_iron(&self) -> Option<HardIron<T>> {
         self.estimator.estimate()
     }
