@@ -247,10 +247,29 @@ pub enum ColumnUnit {
     Degrees,
     /// Radians.
     Radians,
+    /// Radians per second (a gyro's rate).
+    RadiansPerSecond,
+    /// Degrees per second.
+    DegreesPerSecond,
+    /// Seconds (a time column).
+    Seconds,
+    /// Milliseconds.
+    Milliseconds,
+    /// Microseconds (e.g. ArduPilot's `TimeUS`).
+    Microseconds,
+}
+
+/// What a unit measures: it fits only columns of the same kind.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum UnitKind {
+    Field,
+    Angle,
+    Rate,
+    Time,
 }
 
 /// The units a mapping may name, as written.
-pub const COLUMN_UNITS: &str = "nT, uT, µT, gauss, mG, counts (field); deg, rad (angles)";
+pub const COLUMN_UNITS: &str = "nT, uT, µT, gauss, mG, counts (field); deg, rad (angles); rad/s, deg/s (gx, gy, gz); s, ms, us (t, t_board)";
 
 impl ColumnUnit {
     /// From its name (any case): `None` when unknown.
@@ -263,24 +282,38 @@ impl ColumnUnit {
             "counts" | "raw" => Self::Counts,
             "deg" | "degrees" => Self::Degrees,
             "rad" | "radians" => Self::Radians,
+            "rad/s" | "rads" | "rad_s" => Self::RadiansPerSecond,
+            "deg/s" | "dps" | "deg_s" => Self::DegreesPerSecond,
+            "s" | "sec" | "seconds" => Self::Seconds,
+            "ms" | "milliseconds" => Self::Milliseconds,
+            "us" | "µs" | "μs" | "microseconds" => Self::Microseconds,
             _ => return None,
         })
     }
 
-    /// The factor to the project's unit (nT, degrees; counts stay counts).
+    /// The factor to the project's unit (nT, degrees, rad/s, s; counts
+    /// stay counts).
     fn factor(self) -> f64 {
         match self {
-            Self::Nanotesla | Self::Counts | Self::Degrees => 1.0,
+            Self::Nanotesla | Self::Counts | Self::Degrees | Self::RadiansPerSecond | Self::Seconds => 1.0,
             Self::Microtesla => 1e3,
             Self::Gauss => 1e5,
             Self::Milligauss => 100.0,
             Self::Radians => 180.0 / std::f64::consts::PI,
+            Self::DegreesPerSecond => std::f64::consts::PI / 180.0,
+            Self::Milliseconds => 1e-3,
+            Self::Microseconds => 1e-6,
         }
     }
 
-    /// A unit of the magnetic field (else of an angle).
-    fn is_field(self) -> bool {
-        !matches!(self, Self::Degrees | Self::Radians)
+    /// What it measures.
+    fn kind(self) -> UnitKind {
+        match self {
+            Self::Nanotesla | Self::Microtesla | Self::Gauss | Self::Milligauss | Self::Counts => UnitKind::Field,
+            Self::Degrees | Self::Radians => UnitKind::Angle,
+            Self::RadiansPerSecond | Self::DegreesPerSecond => UnitKind::Rate,
+            Self::Seconds | Self::Milliseconds | Self::Microseconds => UnitKind::Time,
+        }
     }
 }
 
@@ -310,7 +343,7 @@ pub enum ColumnMapError {
     UnknownUnit(String, String),
     /// A unit given for a column it does not fit (a field unit for an angle,
     /// any unit for a column other than the field's and the angles').
-    #[error("column mapping `{0}`: a unit fits only mx, my, mz (nT, uT, gauss, mG, counts) and angle columns (deg, rad)")]
+    #[error("column mapping `{0}`: a unit fits only mx, my, mz (nT, uT, gauss, mG, counts), angle columns (deg, rad), gx, gy, gz (rad/s, deg/s) and t, t_board (s, ms, us)")]
     WrongUnit(String),
     /// A column mapped twice.
     #[error("column mapping: `{0}` is mapped twice")]
@@ -345,7 +378,18 @@ impl std::str::FromStr for ColumnMap {
                 return Err(ColumnMapError::Syntax(entry.into()));
             }
             if let Some(u) = unit {
-                let fits = if col::MAG.contains(&column) { u.is_field() } else { ANGLE_COLUMNS.contains(&column) && !u.is_field() };
+                let kind = if col::MAG.contains(&column) {
+                    Some(UnitKind::Field)
+                } else if ANGLE_COLUMNS.contains(&column) {
+                    Some(UnitKind::Angle)
+                } else if col::GYRO.contains(&column) {
+                    Some(UnitKind::Rate)
+                } else if column == col::T || column == col::T_BOARD {
+                    Some(UnitKind::Time)
+                } else {
+                    None
+                };
+                let fits = kind == Some(u.kind());
                 if !fits {
                     return Err(ColumnMapError::WrongUnit(entry.into()));
                 }
@@ -651,6 +695,15 @@ mod tests {
         assert_eq!(t.take("my"), Some(vec![-1_250.0]));
         assert!((t.take("mz").unwrap()[0] - 20_000.0).abs() < 1e-9);
         assert!((t.take("roll_deg").unwrap()[0] - 28.647_889_756).abs() < 1e-8);
+        // A gyro in degrees per second and a time in microseconds (other
+        // tools' logs: ArduPilot's TimeUS, an IMU's deg/s): 90 deg/s =
+        // π/2 rad/s; 1 500 000 µs = 1.5 s.
+        let text = "TimeUS,MagX,MagY,MagZ,GyrX,GyrY,GyrZ\n1500000,1,2,3,90,-45,0\n";
+        let map = "t=TimeUS:us,mx=MagX,my=MagY,mz=MagZ,gx=GyrX:deg/s,gy=GyrY:deg/s,gz=GyrZ:deg/s".parse().unwrap();
+        let mut t = read_table_mapped(text.as_bytes(), Path::new("x.csv"), &col::MAG, &[col::T, col::GYRO[0], col::GYRO[1], col::GYRO[2]], &map).unwrap();
+        assert_eq!(t.take("t"), Some(vec![1.5]));
+        assert!((t.take("gx").unwrap()[0] - std::f64::consts::FRAC_PI_2).abs() < 1e-15);
+        assert!((t.take("gy").unwrap()[0] + std::f64::consts::FRAC_PI_4).abs() < 1e-15);
         // An angle in radians is range-checked after conversion: 3.2 rad > 180°.
         let e = mapped("mx,my,mz,r\n1,2,3,3.2\n", "roll_deg=r:rad").unwrap_err();
         assert!(matches!(e, TableError::OutOfRange { line: 2, .. }), "{e}");
@@ -668,6 +721,9 @@ mod tests {
         assert!(matches!(parse("mx=a:deg"), ColumnMapError::WrongUnit(_)));
         assert!(matches!(parse("roll_deg=a:uT"), ColumnMapError::WrongUnit(_)));
         assert!(matches!(parse("t=a:rad"), ColumnMapError::WrongUnit(_)));
+        assert!(matches!(parse("gx=a:deg"), ColumnMapError::WrongUnit(_)));
+        assert!(matches!(parse("roll_deg=a:deg/s"), ColumnMapError::WrongUnit(_)));
+        assert!(matches!(parse("speed_mps=a:ms"), ColumnMapError::WrongUnit(_)));
         assert!(matches!(parse("mx=a,MX=b"), ColumnMapError::Duplicate(_)));
     }
 

@@ -32,7 +32,9 @@ pub struct InputColumns {
     /// their units: `mx=Magnetometer X (uT):uT,my=...,roll_deg=Roll:rad`
     /// (names any case, may hold spaces; units nT, uT, µT, gauss, mG,
     /// counts for mx/my/mz, converted to nT; deg, rad for angles, converted
-    /// to degrees). Cells may be separated by comma, semicolon, tab or spaces.
+    /// to degrees; rad/s, deg/s for gx/gy/gz, converted to rad/s; s, ms, us
+    /// for t, converted to s). Cells may be separated by comma, semicolon,
+    /// tab or spaces.
     #[arg(long, value_name = "COLUMN=NAME[:UNIT],...")]
     pub columns: Option<ColumnMap>,
 }
