@@ -232,6 +232,14 @@ fn wrap_near<T: Real>(a: T) -> T {
     }
 }
 
+/// The most one sample moves the misfit fraction (its weight in the
+/// exponential average): at a slow sampling rate (a glider's 5–9 s, longer
+/// than `Tuning::misfit_tau_s`) one misfitting sample would otherwise make
+/// the calibration invalid; with it, three in a row do (0.25, 0.44, 0.58 >
+/// 0.5), and eight passing ones clear it. At 10 Hz (a step of 0.05) it
+/// changes nothing.
+pub const MAX_MISFIT_STEP: f64 = 0.25;
+
 /// Samples of a learned inclination averaged in at once.
 pub const INCLINATION_BLOCK: u8 = 8;
 
@@ -521,7 +529,7 @@ impl<T: Real> Monitor<T> {
     #[inline(always)]
     fn track_misfit(&mut self, misfit: bool, dt: T) -> T {
         let tau = self.tuning.misfit_tau_s;
-        let a = (dt / tau).min(T::ONE);
+        let a = (dt / tau).min(T::from_f64(MAX_MISFIT_STEP));
         // At least one sample's weight, so the first samples count.
         let a = a.max(T::from_f64(1e-3));
         let x = if misfit { T::ONE } else { T::ZERO };

@@ -21,8 +21,9 @@
 //! estimate has passed every test a heading with the stored calibration
 //! must pass, with a σ at least as large.
 //!
-//! While applied, the estimator goes on and the offset in use follows its
-//! estimate whenever that passes the guard.
+//! While applied, the estimator goes on over the samples judged `ok`, and
+//! the offset in use follows its estimate whenever that passes the guard's
+//! σ and residual tests.
 //!
 //! **Cost.** The estimator runs only while the stored calibration is judged
 //! invalid or its estimate is applied; a sample the stored calibration fits
@@ -148,9 +149,10 @@ impl<T: Real> OnlineIntegrity<T> {
         &self.health
     }
 
-    /// The on-line hard-iron estimate (reported whether applied or not;
-    /// `None` until the stored calibration has been judged invalid, and
-    /// from then on the last one formed).
+    /// The on-line hard-iron estimate (reported whether applied or not):
+    /// `None` until the stored calibration is judged invalid, restarted at
+    /// each onset and withdrawal, and left as it was when the calibration
+    /// fits again (the last estimate formed, not a current one).
     pub fn hard_iron(&self) -> Option<HardIron<T>> {
         self.estimator.estimate()
     }
@@ -191,7 +193,9 @@ impl<T: Real> OnlineIntegrity<T> {
             verdict.heading_sigma_rad = (verdict.heading_sigma_rad * verdict.heading_sigma_rad + self.applied_sigma_rad * self.applied_sigma_rad).sqrt();
             if self.monitor.cal_invalid() {
                 self.withdraw();
-            } else {
+            } else if verdict.state == IntegrityState::Ok {
+                // Only samples the corrected field passes on teach it: a
+                // structure passed must not pull the offset in use.
                 self.refine_applied(stored_nt, tilt, rate_rad_s, dt, cal);
             }
         } else if self.monitor.cal_invalid() {
@@ -301,10 +305,11 @@ impl<T: Real> OnlineIntegrity<T> {
         self.shadow_seen_s = T::ZERO;
     }
 
-    /// While the estimate is applied: the estimator goes on (every
-    /// `alt_every`-th sample), and the offset in use follows its estimate
-    /// whenever that passes the guard (the monitor judges the corrected
-    /// field meanwhile, and withdraws it if it misfits).
+    /// While the estimate is applied, on a sample judged `ok`: the
+    /// estimator goes on (every `alt_every`-th such sample), and the offset
+    /// in use follows its estimate whenever that passes the guard's σ and
+    /// residual tests (the monitor judges the corrected field meanwhile, and
+    /// withdraws it if it misfits).
     #[inline(never)]
     fn refine_applied(&mut self, stored_nt: Vec3<T>, tilt: Option<&Tilt<T>>, rate_rad_s: Option<Vec3<T>>, dt: T, cal: &Calibration<T>) {
         if self.feed_estimator(stored_nt, tilt, rate_rad_s, dt).is_none() {
