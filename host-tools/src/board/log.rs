@@ -517,7 +517,9 @@ impl<W: Write> Logger<W> {
                 (self.s.board_samples_produced, self.s.board_tx_dropped, self.s.board_saturated_pairs) = health_deltas(&a, &b);
             }
             if let Some(b) = &health_end {
-                let (applied, estimate_nt) = hard_iron_over_log(health_start.as_ref(), b);
+                // After a restart the start's counters were another run's.
+                let start = health_start.as_ref().filter(|_| !matches!(ended, LogEnd::BoardRestarted));
+                let (applied, estimate_nt) = hard_iron_over_log(start, b);
                 self.tally.set_hard_iron(applied, estimate_nt);
             }
         }
@@ -537,11 +539,12 @@ fn health_deltas(a: &Health, b: &Health) -> (Option<u32>, Option<u32>, Option<u3
 }
 
 /// The board's on-line hard iron over a log, from its `Health` at the
-/// start (if read) and at the end: applied when it is applied now or was
-/// applied again since the start (any application since a restart between
-/// the two), and the estimate at the end, nT.
+/// start (if read, and the board not restarted since) and at the end:
+/// applied when it is applied now or was applied again since the start
+/// (any application since a restart between the two: the uptime or the
+/// sample counter went back), and the estimate at the end, nT.
 pub fn hard_iron_over_log(start: Option<&Health>, end: &Health) -> (Option<bool>, Option<[f64; 3]>) {
-    let before = start.filter(|a| a.uptime_ms <= end.uptime_ms).map_or(0, |a| a.hard_iron_applications);
+    let before = start.filter(|a| a.uptime_ms <= end.uptime_ms && a.samples <= end.samples).map_or(0, |a| a.hard_iron_applications);
     let applied = end.hard_iron_applied || end.hard_iron_applications > before;
     (Some(applied), end.hard_iron_nt.map(|h| h.map(f64::from)))
 }

@@ -115,11 +115,18 @@ fn default_reference() -> String {
     "ref_heading_deg".to_string()
 }
 
+/// Whether a column's name says it holds the true heading (`true_heading_deg`,
+/// `TRUE_HEADING`, `truth`: any case).
+pub fn is_truth_column(column: &str) -> bool {
+    let c = column.to_ascii_lowercase();
+    c.contains("true") || c.contains("truth")
+}
+
 /// What the card's numbers measure, said beside them: against a truth column
 /// the calibration's own error; against `ref_heading_deg` (GPS course over
 /// ground or the navigation's heading) also the reference's own errors.
 pub fn reference_note(column: &str) -> &'static str {
-    if column.contains("true") || column.contains("truth") {
+    if is_truth_column(column) {
         "the true heading: the calibration's own error"
     } else {
         "a reference heading, not the truth: a GPS course over ground also holds the water current's crab angle and the GPS delay, so these are not the calibration's error alone"

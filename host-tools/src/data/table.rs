@@ -282,7 +282,7 @@ impl ColumnUnit {
             "counts" | "raw" => Self::Counts,
             "deg" | "degrees" => Self::Degrees,
             "rad" | "radians" => Self::Radians,
-            "rad/s" | "rads" | "rad_s" => Self::RadiansPerSecond,
+            "rad/s" | "rad_s" => Self::RadiansPerSecond,
             "deg/s" | "dps" | "deg_s" => Self::DegreesPerSecond,
             "s" | "sec" | "seconds" => Self::Seconds,
             "ms" | "milliseconds" => Self::Milliseconds,

@@ -128,7 +128,7 @@ pub(crate) fn headline(page: &mut Page, cx: &Context<'_>) {
     // Against a truth column the calibration's own error; against a GPS
     // course (`--truth-column ref_heading_deg`) also the reference's.
     let label = match inputs.validation.as_ref().map(|v| v.truth_column) {
-        Some(c) if inputs.summary.and_then(|s| s.validation).is_none() && !(c.contains("true") || c.contains("truth")) => {
+        Some(c) if inputs.summary.and_then(|s| s.validation).is_none() && !crate::compute::card::is_truth_column(c) => {
             format!("Heading RMS against `{}` on validation, before → after ({})", escape(c), crate::compute::card::reference_note(c))
         }
         _ => "True-heading RMS on validation, before → after".to_string(),

@@ -267,8 +267,10 @@ fn the_headline_names_a_reference_that_is_not_the_truth() {
     let gps = headline("ref_heading_deg");
     assert!(gps.contains("Heading RMS against `ref_heading_deg`") && gps.contains("not the truth") && gps.contains("crab angle"), "{gps}");
     assert!(!gps.contains("True-heading RMS"), "{gps}");
-    let truth = headline("true_heading_deg");
-    assert!(truth.contains("True-heading RMS on validation") && !truth.contains("not the truth"), "{truth}");
+    for column in ["true_heading_deg", "TRUE_HEADING"] {
+        let truth = headline(column);
+        assert!(truth.contains("True-heading RMS on validation") && !truth.contains("not the truth"), "{column}: {truth}");
+    }
 }
 
 /// Inputs with only a validation run (its truth from `column`) and one

@@ -215,4 +215,8 @@ fn the_hard_iron_over_a_log_is_read_from_the_boards_health() {
     assert_eq!(hard_iron_over_log(Some(&start), &magcal_protocol::Health { hard_iron_applied: true, ..end }).0, Some(true));
     // The board restarted (its uptime went back): applications since then count.
     assert_eq!(hard_iron_over_log(Some(&magcal_protocol::Health { uptime_ms: 20_000, ..start }), &end).0, Some(true));
+    // A restart the uptime hides (the end's uptime past the start's): its
+    // sample counter went back, and the applications since count too.
+    let long_run = magcal_protocol::Health { samples: 5_000, ..start };
+    assert_eq!(hard_iron_over_log(Some(&long_run), &magcal_protocol::Health { samples: 40, ..end }).0, Some(true));
 }
