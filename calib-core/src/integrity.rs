@@ -39,8 +39,9 @@
 //!
 //! No allocation; the state is about 130 bytes in `f32`
 //! (`size_of::<Monitor<f32>>()`, tested); the levelled field is the
-//! heading's (`Monitor::step_levelled`), so a usual sample adds about 250
-//! Cortex-M4F instructions to the heading's (`cargo xtask bench`).
+//! heading's (`Monitor::step_levelled`), so the monitor adds about 250
+//! Cortex-M4F instructions to a usual sample's heading, and with
+//! `OnlineIntegrity`'s bookkeeping 315 (`cargo xtask bench`).
 
 use crate::heading::{Tilt, Vec3};
 use crate::Real;
@@ -453,7 +454,8 @@ impl<T: Real> Monitor<T> {
     /// (the heading needs it too): the calibrated field levelled with the
     /// attitude `tilt` ([`Tilt::level`]), its horizontal intensity
     /// `√(l₀² + l₁²)`, the heading, the body rates and the time step. The
-    /// board's per-sample path; inlined into it.
+    /// form the per-sample path uses (`OnlineIntegrity::process`, through
+    /// its time-checked twin); inlined into it.
     #[inline(always)]
     pub fn step_levelled(&mut self, levelled_nt: Vec3<T>, horizontal_nt: T, heading_rad: T, tilt: &Tilt<T>, rate_rad_s: Option<Vec3<T>>, dt_s: T) -> Verdict<T> {
         self.judge_levelled(levelled_nt, horizontal_nt, heading_rad, tilt, rate_rad_s, positive_dt(dt_s))

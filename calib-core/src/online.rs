@@ -97,10 +97,11 @@ pub const HARD_IRON_TAU_S: f64 = 60.0;
 /// While the stored calibration is invalid or the estimate applied, the
 /// board runs the hard-iron estimator every this many output samples
 /// ([`OnlineIntegrity::with_estimator_every`]); `magcal apply` uses the
-/// same, so it gives the board's bits. Every sample: at the board's default
-/// 10 Hz a larger `n` would join gyro rows more than `Tuning::max_gap_s`
-/// (0.2 s) apart, and the estimator would never see a rotation (its cost
-/// is reported by `cargo xtask bench`, `integrity_cal_invalid_instructions`).
+/// same, so for the board's reference it gives the board's bits. Every
+/// sample: at the board's default 10 Hz, `n` = 2 joins gyro rows exactly
+/// `Tuning::max_gap_s` (0.2 s) apart, the limit, and a larger `n` more, so
+/// the estimator would see no rotation (its cost is reported by
+/// `cargo xtask bench`, `integrity_cal_invalid_instructions`).
 pub const BOARD_ESTIMATOR_EVERY: u8 = 1;
 
 impl<T: Real> OnlineIntegrity<T> {

@@ -148,7 +148,8 @@ pub const fn model_codes_per_nt() -> f64 {
 /// [`model_codes_per_nt`] rounded to `f32` at compile time: the model
 /// converts in `f32` (the Cortex-M4F's FPU; `f64` would link ~2.6 KiB of
 /// software arithmetic into the board image). A code is 0.028 nT; `f32`'s
-/// rounding of the product is under 0.2 code at 100 000 nT.
+/// roundings (the constant, the product, the sum with the offset) stay
+/// under one code (0.03 nT) at 100 000 nT.
 const CODES_PER_NT_F32: f32 = model_codes_per_nt() as f32;
 
 /// CRC-16-CCITT, polynomial 0x1021, initial 0xFFFF, MSB first (SBAS890

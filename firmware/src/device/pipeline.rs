@@ -7,7 +7,10 @@
 //! it knows nothing of [`super::Device`].
 //!
 //! Every output sample is judged by calib-core's [`OnlineIntegrity`] (f32,
-//! the same bits as `magcal apply` on the host): the heading's 1σ and the
+//! the same code as `magcal apply` on the host, and the same bits for a
+//! document that gives only `field_nt`; a host document's fit residual,
+//! inclination and predicted error, which the board does not store, make
+//! `apply`'s gates and σ its own): the heading's 1σ and the
 //! integrity state go out with the sample, the on-line hard iron is
 //! applied under its guard, and the counters feed `Health`. The reference
 //! is the stored set's `field_nt` ([`OnlineIntegrity::for_stored_field`]);

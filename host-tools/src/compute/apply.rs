@@ -143,7 +143,7 @@ pub fn reference_of(doc: &CalDoc, opts: &ApplyOptions) -> Result<Reference<f64>,
         .unwrap_or(scatter);
     let r = Reference { field_nt: f, field_sigma_nt: scatter, noise_nt, inclination_rad, heading_sigma_rad };
     calib_core::integrity::Monitor::new(r, opts.tuning.unwrap_or_else(Tuning::standard)).map_err(|e| match e {
-        IntegrityError::BadReference => ApplyError::Reference("the field's scatter must be positive and below field_nt, the inclination within ±90°"),
+        IntegrityError::BadReference => ApplyError::Reference("the field's scatter and noise must be positive and below field_nt, the inclination within ±90°"),
         IntegrityError::BadTuning => ApplyError::Reference("a tuning constant is not positive, or the misfit thresholds not 0 < exit < enter < 1"),
     })?;
     Ok(r)
