@@ -41,7 +41,7 @@
 //! (`size_of::<Monitor<f32>>()`, tested); the levelled field is the
 //! heading's (`Monitor::step_levelled`), so the monitor adds about 250
 //! Cortex-M4F instructions to a usual sample's heading, and with
-//! `OnlineIntegrity`'s bookkeeping 315 (`cargo xtask bench`).
+//! `OnlineIntegrity`'s bookkeeping about 315 (`cargo xtask bench`).
 
 use crate::heading::{Tilt, Vec3};
 use crate::Real;

@@ -173,6 +173,29 @@ fn the_report_shows_the_integrity_along_a_validation_run_past_the_pier() {
     assert!((ratio - observed / predicted).abs() <= rounding, "{ratio} vs {observed}/{predicted}");
     // Honest: the 0.5–2.
     assert!(ratio > 0.5 && ratio < 2.0, "observed ÷ predicted {ratio}");
+    // Where: the rows not ok are the pier's passage. `magcal apply` judges
+    // the rows as the report did; every one not ok lies within 5 s of a row
+    // where the simulator's truth puts more than 300 nT of the pier at the
+    // sensor (measured: t 498–507 s, 580–2 290 nT).
+    let out = magcal(&["apply", "--input", &f("validation.csv"), "--cal", &f("cal3.json"), "--out", &f("applied.csv")]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let column = |path: &str, name: &str| -> Vec<String> {
+        let text = std::fs::read_to_string(path).unwrap();
+        let mut lines = text.lines();
+        let k = lines.next().unwrap().split(',').position(|c| c == name).unwrap_or_else(|| panic!("{path}: no {name}"));
+        lines.map(|l| l.split(',').nth(k).unwrap_or("").to_string()).collect()
+    };
+    let t: Vec<f64> = column(&f("validation.csv"), "t").iter().map(|v| v.parse().unwrap()).collect();
+    let pier: Vec<f64> = column(&f("validation.csv"), "truth_disturbance_nt").iter().map(|v| v.parse().unwrap_or(0.0)).collect();
+    let states = column(&f("applied.csv"), "integrity");
+    assert_eq!(states.len(), t.len());
+    let near_pier: Vec<f64> = t.iter().zip(&pier).filter(|(_, d)| **d > 300.0).map(|(t, _)| *t).collect();
+    assert!(!near_pier.is_empty());
+    let flagged: Vec<f64> = t.iter().zip(&states).filter(|(_, s)| s.as_str() != "ok").map(|(t, _)| *t).collect();
+    assert_eq!(flagged.len() as f64, not_ok);
+    for tf in &flagged {
+        assert!(near_pier.iter().any(|tp| (tp - tf).abs() <= 5.0), "a row not ok at {tf} s, away from the pier ({:?} s)", (near_pier.first(), near_pier.last()));
+    }
     let longest = cell("Longest disturbance");
     assert!(longest > 2.0 && longest < 40.0, "longest disturbance {longest} s");
     // The figure: the heading error coloured by state.

@@ -331,9 +331,14 @@ fn cpu_budget(mcu: &serde_json::Value) -> serde_json::Value {
     let pair_us: f64 = per_pair_us.iter().map(|(_, v)| v).sum();
     let sample_us: f64 = per_sample_us.iter().map(|(_, v)| v).sum();
     let busy_pct = (pair_rate * pair_us + OUTPUT_RATE_HZ * sample_us) * 1e-6 * 100.0;
+    // The worst case: every sample with the stored calibration invalid (or
+    // the on-line hard iron applied), the estimator running.
+    let estimating_extra_us = (get("integrity_cal_invalid_instructions") - get("integrity_ok_turn_instructions")).max(0.0) / SYSCLK_HZ * 1e6;
+    let busy_estimating_pct = busy_pct + OUTPUT_RATE_HZ * estimating_extra_us * 1e-6 * 100.0;
     let breakdown = |rows: &[(&str, f64)]| rows.iter().map(|(k, v)| ((*k).to_string(), json!((v * 100.0).round() / 100.0))).collect::<serde_json::Map<_, _>>();
     json!({
         "cpu_busy_pct_at_pair_rate": (busy_pct * 100.0).round() / 100.0,
+        "cpu_busy_pct_at_pair_rate_estimating": (busy_estimating_pct * 100.0).round() / 100.0,
         "pair_rate_hz": PAIR_RATE_HZ,
         "output_rate_hz": OUTPUT_RATE_HZ,
         "spi_sclk_hz": SPI_SCLK_HZ,

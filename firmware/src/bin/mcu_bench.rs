@@ -392,6 +392,12 @@ mod bench {
         hprintln!("rls_swing_update_instructions {}", rls_swing);
         hprintln!("acquisition_cycle_instructions {}", pair);
         hprintln!("scale_check_20000_instructions {}", check);
+        // The two integrity paths measured what they say: every sample of
+        // the turn `ok`, every sample of the tumble `cal_invalid`.
+        if ok != 64 || invalid != 64 {
+            hprintln!("integrity paths not as measured: {} ok, {} cal_invalid of 64", ok, invalid);
+            debug::exit(debug::EXIT_FAILURE);
+        }
         debug::exit(debug::EXIT_SUCCESS);
         loop {
             cortex_m::asm::wfi();

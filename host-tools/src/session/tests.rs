@@ -393,8 +393,14 @@ fn a_payload_switched_on_during_validation_says_recalibrate_with_the_evidence() 
     assert_eq!(e.rows, 1200);
     assert!(e.hard_iron_applied, "{e:?}");
     let h = e.hard_iron_nt.expect("the estimate");
-    // Against the injected step (8000, 0, 0) nT.
-    assert!(((h[0] - 8000.0).powi(2) + h[1].powi(2) + h[2].powi(2)).sqrt() < 1000.0, "{h:?}");
+    // Against the injected step (8000, 0, 0) nT: the estimate, and the
+    // offset actually in use at the end (measured: both 106 nT off; the
+    // offset frozen at its application was 1 246 nT off).
+    let off = |v: [f64; 3]| ((v[0] - 8000.0).powi(2) + v[1].powi(2) + v[2].powi(2)).sqrt();
+    assert!(off(h) < 300.0, "{h:?}");
+    let used = applied.applied_offset_nt.expect("applied at the end");
+    eprintln!("estimate {h:?} off {:.0} nT; in use {used:?} off {:.0} nT", off(h), off(used));
+    assert!(off(used) < 300.0, "{used:?}");
     // Not before the step: the first 400 rows fit.
     assert!(applied.rows[..400].iter().all(|r| r.integrity == IntegrityState::Ok));
     assert!((20..=400).contains(&e.cal_invalid_rows), "{e:?}");
