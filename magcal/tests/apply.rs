@@ -146,3 +146,37 @@ fn apply_refuses_to_overwrite_its_input_and_says_why_on_bad_input() {
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("--inclination-deg"));
 }
+
+/// Another tool's calibration keeps its own scale: here trial 05's (an
+/// undisturbed BROAD trial) with its matrix 6 % larger, so |h| runs 6 %
+/// above the document's `field_nt`, 5σ of the 1.2 % scatter. Judged against
+/// `field_nt` the calibration is invalid; told the intensity it reproduces
+/// (`--field-nt`), the rows are ok as with the unscaled calibration.
+#[test]
+fn apply_takes_the_intensity_a_foreign_calibration_reproduces() {
+    let dir = tempfile::tempdir().unwrap();
+    let t: Truth = serde_json::from_str(&std::fs::read_to_string(data("broad-05/05.truth.json")).unwrap()).unwrap();
+    let scaled = t.matrix.map(|row| row.map(|v| v * 1.06));
+    let cal = dir.path().join("foreign.json");
+    std::fs::write(&cal, serde_json::json!({"model": "full", "bias": t.bias, "matrix": scaled, "field_nt": t.field_nt}).to_string()).unwrap();
+    let input = data("broad-05/05_validate.csv");
+    let ok = |extra: &[&str]| {
+        let out = dir.path().join("out.csv");
+        let o = magcal(&[&["apply", "--input", p(&input), "--cal", p(&cal), "--out", p(&out), "--json"][..], extra].concat());
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let s: Summary = serde_json::from_slice(&o.stdout).unwrap();
+        s.rows_per_state["ok"] as f64 / s.rows as f64
+    };
+    let against_doc = ok(&[]);
+    let level = format!("{}", t.field_nt * 1.06);
+    let told = ok(&["--field-nt", &level]);
+    // Measured: 0.0 % ok against field_nt; 99.7 % with --field-nt (as the
+    // unscaled calibration, `bench::integrity`).
+    eprintln!("ok against field_nt {:.1} %, with --field-nt {:.1} %", 100.0 * against_doc, 100.0 * told);
+    assert!(against_doc < 0.2, "{against_doc}");
+    assert!(told > 0.95, "{told}");
+    // A number that is no geomagnetic intensity is refused, saying which unit it looks like.
+    let o = magcal(&["apply", "--input", p(&input), "--cal", p(&cal), "--out", p(&dir.path().join("x.csv")), "--field-nt", "48.5"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("--field-nt 48.5 nT") && err.contains("µT"), "{err}");
+}

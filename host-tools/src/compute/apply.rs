@@ -49,6 +49,10 @@ pub enum ApplyError {
 /// Options beyond the document.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct ApplyOptions {
+    /// The reference intensity the calibration reproduces, nT (otherwise
+    /// the document's `field_nt`): for a calibration from another tool
+    /// whose scale is its own.
+    pub field_nt: Option<f64>,
     /// The local inclination, degrees (otherwise the document's, or learned).
     pub inclination_deg: Option<f64>,
     /// The field's expected scatter, nT (otherwise the document's fit
@@ -115,7 +119,7 @@ impl Applied {
 /// gyro fit's vertical), the predicted heading error.
 pub fn reference_of(doc: &CalDoc, opts: &ApplyOptions) -> Result<Reference<f64>, ApplyError> {
     let q = &doc.quality;
-    let f = doc.field_nt;
+    let f = opts.field_nt.unwrap_or(doc.field_nt);
     let scatter = opts
         .field_sigma_nt
         .or_else(|| q.fit.as_ref().map(|x| x.residual_rms_nt))

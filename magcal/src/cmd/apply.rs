@@ -30,6 +30,11 @@ pub struct Args {
     /// heading_deg, heading_sigma_deg, integrity); never the input.
     #[arg(long)]
     out: PathBuf,
+    /// The intensity the calibration reproduces, nT (default: the
+    /// document's field_nt): for a calibration made by another tool whose
+    /// scale is its own (the magnitude check judges |h| against it).
+    #[arg(long)]
+    field_nt: Option<f64>,
     /// The local inclination, degrees (default: the document's, or learned
     /// from the samples judged ok).
     #[arg(long, allow_hyphen_values = true)]
@@ -51,6 +56,9 @@ pub fn run(a: Args) -> Result<()> {
             bail!("--inclination-deg must be within ±90, not {d}");
         }
     }
+    if let Some(f) = a.field_nt {
+        super::check_field_nt(f, "--field-nt")?;
+    }
     if let Some(s) = a.field_sigma_nt {
         if !(s.is_finite() && s > 0.0) {
             bail!("--field-sigma-nt must be a positive number of nT, not {s}");
@@ -58,7 +66,7 @@ pub fn run(a: Args) -> Result<()> {
     }
     let doc = CalDoc::load(&a.cal)?;
     let rec = a.columns.read(&a.input)?;
-    let opts = ApplyOptions { inclination_deg: a.inclination_deg, field_sigma_nt: a.field_sigma_nt, tuning: None };
+    let opts = ApplyOptions { field_nt: a.field_nt, inclination_deg: a.inclination_deg, field_sigma_nt: a.field_sigma_nt, tuning: None };
     let applied = apply_recording(&rec, &doc, &opts).with_context(|| format!("{}", a.input.display()))?;
     write_applied(&a.out, &a.input, rec.t_s.as_deref(), &applied).map_err(|e| hinted(e, |e| matches!(e, ApplyError::OverwritesInput(_)).then_some("give --out another file")))?;
     eprintln!("wrote {}", a.out.display());
