@@ -246,7 +246,7 @@ pub const INCLINATION_BLOCK: u8 = 8;
 
 /// The cosine of an angle in ±90° from its sine (clamped, never 0).
 #[inline(always)]
-fn cos_of_sin<T: Real>(sin: T) -> T {
+pub(crate) fn cos_of_sin<T: Real>(sin: T) -> T {
     let s = sin.max(-T::ONE).min(T::ONE);
     (T::ONE - s * s).max(T::EPSILON).sqrt()
 }
@@ -587,10 +587,9 @@ impl<T: Real> Monitor<T> {
         let n = T::from_u32(u32::from(self.incl_pending));
         self.incl_weight = (self.incl_weight + n).min(self.tuning.inclination_memory.max(n));
         // A weighted mean of values in [−1, 1] stays there (up to rounding,
-        // which the floor under cos² absorbs).
+        // which `cos_of_sin` absorbs).
         self.sin_incl += (self.incl_sum - n * self.sin_incl) / self.incl_weight;
-        let cos2 = (T::ONE - self.sin_incl * self.sin_incl).max(T::EPSILON);
-        self.dip_gain = self.reference.field_nt / (self.reference.field_sigma_nt * cos2.sqrt());
+        self.dip_gain = self.reference.field_nt / (self.reference.field_sigma_nt * cos_of_sin(self.sin_incl));
         self.incl_sum = T::ZERO;
         self.incl_pending = 0;
     }

@@ -33,7 +33,7 @@
 use crate::cal::Calibration;
 use crate::hardiron::{HardIron, HardIronEstimator};
 use crate::heading::{Tilt, Vec3};
-use crate::integrity::{positive_dt, IntegrityError, IntegrityState, Monitor, Reference, Tuning, Verdict};
+use crate::integrity::{cos_of_sin, positive_dt, IntegrityError, IntegrityState, Monitor, Reference, Tuning, Verdict};
 use crate::linalg::{inverse3, mul_mat_vec};
 use crate::Real;
 
@@ -258,7 +258,7 @@ impl<T: Real> OnlineIntegrity<T> {
         let g = tuning.gate_sigma;
         let mut misfit = !((mag - r.field_nt).abs() < g * r.field_sigma_nt);
         if let (Some(t), Some(s)) = (tilt, sin_incl) {
-            let c = (T::ONE - s * s).max(T::EPSILON).sqrt();
+            let c = cos_of_sin(s);
             let dip_z = (t.level(alt)[2] / mag.max(r.field_sigma_nt) - s) / c * r.field_nt / r.field_sigma_nt;
             misfit |= !(dip_z.abs() < g);
         }
@@ -275,7 +275,7 @@ impl<T: Real> OnlineIntegrity<T> {
     /// calibration's σ does, and the offset model explains the misfit.
     fn guard(&self, e: &HardIron<T>, sin_incl: Option<T>) -> Option<T> {
         let r = *self.monitor.reference();
-        let cos_incl = sin_incl.map_or(T::ONE, |s| (T::ONE - s * s).max(T::EPSILON).sqrt());
+        let cos_incl = sin_incl.map_or(T::ONE, cos_of_sin);
         let hh = (r.field_nt * cos_incl).max(r.noise_nt);
         let sigma_max = e.sigma_nt[0].max(e.sigma_nt[1]).max(e.sigma_nt[2]);
         let stored_sigma_rad = ((r.noise_nt / hh) * (r.noise_nt / hh) + r.heading_sigma_rad * r.heading_sigma_rad).sqrt();

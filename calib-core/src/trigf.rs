@@ -58,15 +58,9 @@ fn cos_poly(y: f32) -> f32 {
     ((2.443_315_711_809_948e-5 * z - 1.388_731_625_493_765e-3) * z + 4.166_664_568_298_827e-2) * z * z - 0.5 * z + 1.0
 }
 
-/// |x| as bits (no `fabsf` call).
-#[inline(always)]
-fn abs(x: f32) -> f32 {
-    f32::from_bits(x.to_bits() & 0x7fff_ffff)
-}
-
 /// sin x for |x| ≤ [`MAX_ARG_RAD`]; NaN beyond, and for NaN or ±∞.
 pub fn sinf(x: f32) -> f32 {
-    let ax = abs(x);
+    let ax = x.abs();
     if !(ax <= MAX_ARG_RAD) {
         return f32::NAN;
     }
@@ -83,7 +77,7 @@ pub fn sinf(x: f32) -> f32 {
 
 /// cos x for |x| ≤ [`MAX_ARG_RAD`]; NaN beyond, and for NaN or ±∞.
 pub fn cosf(x: f32) -> f32 {
-    let ax = abs(x);
+    let ax = x.abs();
     if !(ax <= MAX_ARG_RAD) {
         return f32::NAN;
     }

@@ -120,11 +120,12 @@ impl Applied {
 pub fn reference_of(doc: &CalDoc, opts: &ApplyOptions) -> Result<Reference<f64>, ApplyError> {
     let q = &doc.quality;
     let f = opts.field_nt.unwrap_or(doc.field_nt);
+    let backstep_residual_nt = q.backstep.as_ref().and_then(|b| b.estimates.as_ref()).map(|e| e.residual_rms_nt);
     let scatter = opts
         .field_sigma_nt
         .or_else(|| q.fit.as_ref().map(|x| x.residual_rms_nt))
         .or_else(|| q.gyro.as_ref().map(|g| g.residual_rms_nt))
-        .or_else(|| q.backstep.as_ref().and_then(|b| b.estimates.as_ref()).map(|e| e.residual_rms_nt))
+        .or(backstep_residual_nt)
         .filter(|s| *s > 0.0)
         .unwrap_or(DEFAULT_FIELD_SIGMA_REL * f);
     let inclination_rad = match opts.inclination_deg {
@@ -142,7 +143,7 @@ pub fn reference_of(doc: &CalDoc, opts: &ApplyOptions) -> Result<Reference<f64>,
     // are in the predicted heading error already); else the scatter.
     let noise_nt = opts
         .field_sigma_nt
-        .or_else(|| q.backstep.as_ref().and_then(|b| b.estimates.as_ref()).map(|e| e.residual_rms_nt))
+        .or(backstep_residual_nt)
         .filter(|s| *s > 0.0)
         .unwrap_or(scatter);
     let r = Reference { field_nt: f, field_sigma_nt: scatter, noise_nt, inclination_rad, heading_sigma_rad };
