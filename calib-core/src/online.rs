@@ -34,7 +34,6 @@ use crate::cal::Calibration;
 use crate::hardiron::{HardIron, HardIronEstimator};
 use crate::heading::{Tilt, Vec3};
 use crate::integrity::{cos_of_sin, positive_dt, IntegrityError, IntegrityState, Monitor, Reference, Tuning, Verdict};
-use crate::linalg::{inverse3, mul_mat_vec};
 use crate::Real;
 
 /// Samples per state and the longest disturbance.
@@ -71,9 +70,8 @@ pub struct Judged<T> {
 pub struct OnlineIntegrity<T> {
     monitor: Monitor<T>,
     estimator: HardIronEstimator<T>,
-    /// The applied offset in raw units (`M⁻¹ δ`), its value in nT and its
-    /// heading σ, radians.
-    applied_raw: Vec3<T>,
+    /// The applied offset, nT (subtracted from the stored calibration's
+    /// field), and its heading σ, radians.
     applied_nt: Vec3<T>,
     applied_sigma_rad: T,
     applied: bool,
@@ -110,7 +108,6 @@ impl<T: Real> OnlineIntegrity<T> {
         Ok(Self {
             monitor: Monitor::new(reference, tuning)?,
             estimator: HardIronEstimator::new(T::from_f64(HARD_IRON_TAU_S)),
-            applied_raw: [T::ZERO; 3],
             applied_nt: [T::ZERO; 3],
             applied_sigma_rad: T::ZERO,
             applied: false,
@@ -175,9 +172,9 @@ impl<T: Real> OnlineIntegrity<T> {
     /// before is lost) or its estimate is applied.
     pub fn process(&mut self, cal: &Calibration<T>, raw: Vec3<T>, tilt: Option<&Tilt<T>>, rate_rad_s: Option<Vec3<T>>, dt_s: T) -> Judged<T> {
         let stored_nt = cal.field.apply(raw);
-        // The field through the stored calibration, or through it with the
-        // applied hard iron: one matrix product a sample either way.
-        let field_nt = if self.applied { cal.field.apply([raw[0] - self.applied_raw[0], raw[1] - self.applied_raw[1], raw[2] - self.applied_raw[2]]) } else { stored_nt };
+        // The field through the stored calibration, less the applied hard
+        // iron (an offset of the calibrated field, nT).
+        let field_nt = if self.applied { [stored_nt[0] - self.applied_nt[0], stored_nt[1] - self.applied_nt[1], stored_nt[2] - self.applied_nt[2]] } else { stored_nt };
         let was_invalid = self.monitor.cal_invalid();
         let dt = positive_dt(dt_s);
         let (heading_rad, mut verdict) = match tilt {
@@ -197,7 +194,7 @@ impl<T: Real> OnlineIntegrity<T> {
             } else if verdict.state == IntegrityState::Ok {
                 // Only samples the corrected field passes on teach it: a
                 // structure passed must not pull the offset in use.
-                self.refine_applied(stored_nt, tilt, rate_rad_s, dt, cal);
+                self.refine_applied(stored_nt, tilt, rate_rad_s, dt);
             }
         } else if self.monitor.cal_invalid() {
             if !was_invalid {
@@ -205,7 +202,7 @@ impl<T: Real> OnlineIntegrity<T> {
                 // to the old vehicle.
                 self.restart_estimate();
             }
-            self.track_estimate(stored_nt, tilt, rate_rad_s, dt, cal);
+            self.track_estimate(stored_nt, tilt, rate_rad_s, dt);
         }
         self.count(verdict.state, dt);
         Judged { field_nt, heading_rad, verdict, hard_iron_applied: applied_here }
@@ -244,7 +241,7 @@ impl<T: Real> OnlineIntegrity<T> {
     /// field it corrects (the shadow), and applies the estimate when the
     /// shadow has fitted long enough and the guard passes.
     #[inline(never)]
-    fn track_estimate(&mut self, stored_nt: Vec3<T>, tilt: Option<&Tilt<T>>, rate_rad_s: Option<Vec3<T>>, dt: T, cal: &Calibration<T>) {
+    fn track_estimate(&mut self, stored_nt: Vec3<T>, tilt: Option<&Tilt<T>>, rate_rad_s: Option<Vec3<T>>, dt: T) {
         let Some(dt) = self.feed_estimator(stored_nt, tilt, rate_rad_s, dt) else { return };
         let r = *self.monitor.reference();
         let tuning = *self.monitor.tuning();
@@ -266,7 +263,7 @@ impl<T: Real> OnlineIntegrity<T> {
         self.shadow_misfit += a * (if misfit { T::ONE } else { T::ZERO } - self.shadow_misfit);
         self.shadow_seen_s += dt;
         if self.shadow_seen_s >= T::from_f64(3.0) * tuning.misfit_tau_s && self.shadow_misfit < tuning.misfit_exit {
-            self.try_apply(&e, cal, sin_incl);
+            self.try_apply(&e, sin_incl);
         }
     }
 
@@ -283,22 +280,16 @@ impl<T: Real> OnlineIntegrity<T> {
         (sigma_rad <= stored_sigma_rad && e.residual_rms_z <= T::from_f64(2.0)).then_some(sigma_rad)
     }
 
-    /// Puts the estimate in use (its offset in raw units through the stored
-    /// matrix's inverse); `false` if that matrix cannot be inverted.
-    fn use_estimate(&mut self, e: &HardIron<T>, sigma_rad: T, cal: &Calibration<T>) -> bool {
-        let Some(inv) = inverse3(&cal.field.matrix) else { return false };
-        self.applied_raw = mul_mat_vec(&inv, e.offset_nt);
+    /// Puts the estimate in use.
+    fn use_estimate(&mut self, e: &HardIron<T>, sigma_rad: T) {
         self.applied_nt = e.offset_nt;
         self.applied_sigma_rad = sigma_rad;
-        true
     }
 
     /// Applies the estimate if it passes the guard.
-    fn try_apply(&mut self, e: &HardIron<T>, cal: &Calibration<T>, sin_incl: Option<T>) {
+    fn try_apply(&mut self, e: &HardIron<T>, sin_incl: Option<T>) {
         let Some(sigma_rad) = self.guard(e, sin_incl) else { return };
-        if !self.use_estimate(e, sigma_rad, cal) {
-            return;
-        }
+        self.use_estimate(e, sigma_rad);
         self.health.hard_iron_applied = self.health.hard_iron_applied.wrapping_add(1);
         self.applied = true;
         // The monitor goes on with the corrected field's misfit fraction.
@@ -312,14 +303,14 @@ impl<T: Real> OnlineIntegrity<T> {
     /// residual tests (the monitor judges the corrected field meanwhile, and
     /// withdraws it if it misfits).
     #[inline(never)]
-    fn refine_applied(&mut self, stored_nt: Vec3<T>, tilt: Option<&Tilt<T>>, rate_rad_s: Option<Vec3<T>>, dt: T, cal: &Calibration<T>) {
+    fn refine_applied(&mut self, stored_nt: Vec3<T>, tilt: Option<&Tilt<T>>, rate_rad_s: Option<Vec3<T>>, dt: T) {
         if self.feed_estimator(stored_nt, tilt, rate_rad_s, dt).is_none() {
             return;
         }
         let sin_incl = self.monitor.sin_inclination();
         if let Some(e) = self.estimator.estimate() {
             if let Some(sigma_rad) = self.guard(&e, sin_incl) {
-                self.use_estimate(&e, sigma_rad, cal);
+                self.use_estimate(&e, sigma_rad);
             }
         }
     }
