@@ -39,7 +39,7 @@
 //!
 //! No allocation; the state is about 130 bytes in `f32`
 //! (`size_of::<Monitor<f32>>()`, tested); the levelled field is the
-//! heading's (`Monitor::step_levelled`), so the monitor adds about 250
+//! heading's (`OnlineIntegrity::process` levels once), so the monitor adds about 250
 //! Cortex-M4F instructions to a usual sample's heading, and with
 //! `OnlineIntegrity`'s bookkeeping about 315 (`cargo xtask bench`).
 
@@ -430,39 +430,34 @@ impl<T: Real> Monitor<T> {
     /// body rates (rad/s; `None`: no gyro) and the time since the previous
     /// sample (s).
     pub fn step(&mut self, field_nt: Vec3<T>, heading_rad: T, tilt: Option<&Tilt<T>>, rate_rad_s: Option<Vec3<T>>, dt_s: T) -> Verdict<T> {
+        let dt = positive_dt(dt_s);
         match tilt {
             Some(t) => {
                 let l = t.level(field_nt);
                 let hh = (l[0] * l[0] + l[1] * l[1]).sqrt();
-                self.step_levelled(l, hh, heading_rad, t, rate_rad_s, dt_s)
+                self.judge_levelled(l, hh, heading_rad, t, rate_rad_s, dt)
             }
-            None => self.step_without_attitude(field_nt, dt_s),
+            None => self.judge_without_attitude(field_nt, dt),
         }
     }
 
-    /// Judges a sample without attitude: only its magnitude counts towards
-    /// the misfit; the state is [`IntegrityState::NoAttitude`].
-    pub fn step_without_attitude(&mut self, field_nt: Vec3<T>, dt_s: T) -> Verdict<T> {
+    /// Judges a sample without attitude (`dt` already checked,
+    /// [`positive_dt`]): only its magnitude counts towards the misfit; the
+    /// state is [`IntegrityState::NoAttitude`].
+    pub(crate) fn judge_without_attitude(&mut self, field_nt: Vec3<T>, dt: T) -> Verdict<T> {
         let mag = (field_nt[0] * field_nt[0] + field_nt[1] * field_nt[1] + field_nt[2] * field_nt[2]).sqrt();
         let field_z = (mag - self.reference.field_nt) / self.reference.field_sigma_nt;
-        self.track_misfit(!(field_z.abs() < self.tuning.gate_sigma), positive_dt(dt_s));
+        self.track_misfit(!(field_z.abs() < self.tuning.gate_sigma), dt);
         self.gyro.anchored = false;
         Verdict { state: IntegrityState::NoAttitude, heading_sigma_rad: T::NAN, field_z, dip_z: T::ZERO }
     }
 
     /// [`Monitor::step`] for a caller that has levelled the field already
-    /// (the heading needs it too): the calibrated field levelled with the
-    /// attitude `tilt` ([`Tilt::level`]), its horizontal intensity
-    /// `√(l₀² + l₁²)`, the heading, the body rates and the time step. The
-    /// form the per-sample path uses (`OnlineIntegrity::process`, through
-    /// its time-checked twin); inlined into it.
-    #[inline(always)]
-    pub fn step_levelled(&mut self, levelled_nt: Vec3<T>, horizontal_nt: T, heading_rad: T, tilt: &Tilt<T>, rate_rad_s: Option<Vec3<T>>, dt_s: T) -> Verdict<T> {
-        self.judge_levelled(levelled_nt, horizontal_nt, heading_rad, tilt, rate_rad_s, positive_dt(dt_s))
-    }
-
-    /// [`Monitor::step_levelled`] with the time step already checked
-    /// ([`positive_dt`]).
+    /// (the heading needs it too) and checked the time step
+    /// ([`positive_dt`]): the calibrated field levelled with the attitude
+    /// `tilt` ([`Tilt::level`]), its horizontal intensity `√(l₀² + l₁²)`,
+    /// the heading, the body rates and the time step. The per-sample path
+    /// (`OnlineIntegrity::process`) calls it; inlined there.
     #[inline(always)]
     pub(crate) fn judge_levelled(&mut self, levelled_nt: Vec3<T>, horizontal_nt: T, heading_rad: T, tilt: &Tilt<T>, rate_rad_s: Option<Vec3<T>>, dt: T) -> Verdict<T> {
         let g = self.tuning.gate_sigma;

@@ -184,7 +184,7 @@ impl<T: Real> OnlineIntegrity<T> {
                 let heading_rad = cal.true_heading_of_levelled(l, hh);
                 (Some(heading_rad), self.monitor.judge_levelled(l, hh, heading_rad, t, rate_rad_s, dt))
             }
-            None => (None, self.monitor.step_without_attitude(field_nt, dt)),
+            None => (None, self.monitor.judge_without_attitude(field_nt, dt)),
         };
         let applied_here = self.applied;
         if self.applied {
