@@ -52,16 +52,13 @@ fn same_file(out: &std::path::Path, input: &std::path::Path) -> bool {
     }
 }
 
-/// The navigation log missing a column, read without a mapping: say how to
-/// give one.
+/// The navigation log missing a column, read without a mapping: the
+/// refusal says how to give one (the commands' one hint mechanism).
 fn hint_nav_columns(e: MergeError, nav: &Path, mapped: bool) -> anyhow::Error {
-    let nav_missing = matches!(&e, MergeError::Log(RecordingError::MissingColumn { path, .. }) if path == nav);
-    let e = anyhow::Error::new(e);
-    if nav_missing && !mapped {
-        e.context("the navigation log lacks a column merge needs: give its own names with --nav-columns (e.g. --nav-columns \"t=Time,roll_deg=Roll:rad,pitch_deg=Pitch:rad\")")
-    } else {
-        e
-    }
+    super::hinted(e, |e| {
+        let nav_missing = matches!(e, MergeError::Log(RecordingError::MissingColumn { path, .. }) if path == nav);
+        (nav_missing && !mapped).then_some("give the navigation log's own names with --nav-columns (e.g. --nav-columns \"t=Time,roll_deg=Roll:rad,pitch_deg=Pitch:rad\")")
+    })
 }
 
 /// Runs `magcal merge`.
