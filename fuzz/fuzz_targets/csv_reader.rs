@@ -10,7 +10,7 @@ fuzz_target!(|data: &[u8]| {
     if let Ok(rec) = Recording::from_reader(data, std::path::Path::new("fuzz.csv")) {
         // The gyro model too: arbitrary t, gx, gy, gz columns reach it.
         for model in [ModelKind::Sphere, ModelKind::Axis, ModelKind::Full, ModelKind::Gyro] {
-            let _ = fit_recording(&rec, &FitOptions { model, field_nt: 48_730.0, saturation: Some(1e9), allow_weak: false, gyro_lag: host_tools::compute::GyroLag::Given(0.0) });
+            let _ = fit_recording(&rec, &FitOptions { model, field_nt: 48_730.0, saturation: Some(1e9), allow_weak: false, gyro_lag: host_tools::compute::GyroLag::Given(0.0), reference: None });
         }
     }
 });

@@ -58,7 +58,7 @@ fn peer() -> FieldCal<f64> {
 }
 
 fn opts(model: ModelKind) -> FitOptions {
-    FitOptions { model, field_nt: FIELD_NT, saturation: None, allow_weak: false, gyro_lag: host_tools::compute::GyroLag::Given(0.0) }
+    FitOptions { model, field_nt: FIELD_NT, saturation: None, allow_weak: false, gyro_lag: host_tools::compute::GyroLag::Given(0.0), reference: None }
 }
 
 #[test]

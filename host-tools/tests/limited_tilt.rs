@@ -52,7 +52,7 @@ fn validation_heading_rms_deg(cal: &FieldCal<f64>) -> f64 {
 }
 
 fn opts(model: ModelKind) -> FitOptions {
-    FitOptions { model, field_nt: LAB_FIELD_NT, saturation: None, allow_weak: false, gyro_lag: host_tools::compute::GyroLag::Given(0.0) }
+    FitOptions { model, field_nt: LAB_FIELD_NT, saturation: None, allow_weak: false, gyro_lag: host_tools::compute::GyroLag::Given(0.0), reference: None }
 }
 
 #[test]

@@ -170,7 +170,7 @@ fn bazhin_agrees_with_li_griffiths() {
 fn xio_partial_coverage_is_refused_with_its_reason() {
     let s = load("xio-fusion/sensor_data.csv", ["Magnetometer X (uT)", "Magnetometer Y (uT)", "Magnetometer Z (uT)"]);
     let rec = Recording { mag: s.clone(), ..Recording::default() };
-    let r = fit_recording(&rec, &FitOptions { model: ModelKind::Full, field_nt: 45_000.0 / 1000.0, saturation: None, allow_weak: false, gyro_lag: host_tools::compute::GyroLag::Given(0.0) });
+    let r = fit_recording(&rec, &FitOptions { model: ModelKind::Full, field_nt: 45_000.0 / 1000.0, saturation: None, allow_weak: false, gyro_lag: host_tools::compute::GyroLag::Given(0.0), reference: None });
     match r {
         Err(ComputeError::Coverage { covered_pct, .. }) => {
             eprintln!("xio-fusion: full fit refused, {covered_pct} % of directions covered");

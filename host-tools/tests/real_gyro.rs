@@ -49,7 +49,7 @@ fn trial(name: &str, id: &str) -> (f64, f64) {
     let floor = heading(&FieldCal { bias: t.bias, matrix: t.matrix });
     // `magcal fit --model gyro` without options: no lag given (the fit
     // estimates the remaining sub-sample lag itself).
-    let opts = FitOptions { model: ModelKind::Gyro, field_nt: t.field_nt, saturation: None, allow_weak: true, gyro_lag: host_tools::compute::GyroLag::Given(0.0) };
+    let opts = FitOptions { model: ModelKind::Gyro, field_nt: t.field_nt, saturation: None, allow_weak: true, gyro_lag: host_tools::compute::GyroLag::Given(0.0), reference: None };
     let fit = fit_recording(&calib, &opts).unwrap();
     let rms = heading(&fit.field_cal());
     eprintln!("{name}: gyro {rms:.3}°, floor {floor:.3}°");

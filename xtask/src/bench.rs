@@ -213,7 +213,7 @@ fn limited_tilt(root: &Path) -> (serde_json::Value, String) {
         rows.push(("the true calibration (the floor)".into(), Some(heading(&FieldCal { bias: t.bias, matrix: t.matrix })), String::new()));
     }
     rows.push(("none (raw counts)".into(), Some(heading(&FieldCal::identity())), String::new()));
-    let opts = |model| FitOptions { model, field_nt: lab_field_nt, saturation: None, allow_weak: false, gyro_lag: host_tools::compute::GyroLag::Given(0.0) };
+    let opts = |model| FitOptions { model, field_nt: lab_field_nt, saturation: None, allow_weak: false, gyro_lag: host_tools::compute::GyroLag::Given(0.0), reference: None };
     let started = std::time::Instant::now();
     match fit_recording(&calib, &opts(ModelKind::Gyro)) {
         Ok(doc) => {

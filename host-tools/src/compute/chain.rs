@@ -104,7 +104,7 @@ pub fn heading_noise_deg(rec: &Recording, doc: &CalDoc) -> Result<Option<f64>, C
 /// with the site's declination.
 pub fn axis_step(swing: &Recording, site: &Site) -> Result<CalDoc, ComputeError> {
     let field = site.field()?;
-    let mut step1 = fit_recording(swing, &FitOptions { model: ModelKind::Axis, field_nt: field.total_nt(), saturation: None, allow_weak: false, gyro_lag: GyroLag::Given(0.0) })?;
+    let mut step1 = fit_recording(swing, &FitOptions { model: ModelKind::Axis, field_nt: field.total_nt(), saturation: None, allow_weak: false, gyro_lag: GyroLag::Given(0.0), reference: None })?;
     step1.declination_deg = Some(field.declination_deg());
     Ok(step1)
 }
@@ -113,7 +113,7 @@ pub fn axis_step(swing: &Recording, site: &Site) -> Result<CalDoc, ComputeError>
 /// IGRF's intensity at the site, with the site's declination.
 pub fn gyro_step(swing: &Recording, site: &Site) -> Result<CalDoc, ComputeError> {
     let field = site.field()?;
-    let mut step1 = fit_recording(swing, &FitOptions { model: ModelKind::Gyro, field_nt: field.total_nt(), saturation: None, allow_weak: false, gyro_lag: GyroLag::Given(0.0) })?;
+    let mut step1 = fit_recording(swing, &FitOptions { model: ModelKind::Gyro, field_nt: field.total_nt(), saturation: None, allow_weak: false, gyro_lag: GyroLag::Given(0.0), reference: None })?;
     step1.declination_deg = Some(field.declination_deg());
     Ok(step1)
 }

@@ -70,6 +70,13 @@ pub enum ComputeError {
         /// What to do with this recording.
         advice: String,
     },
+    /// The calibrated field disagrees with the independent reference (the
+    /// world model at the site) beyond its allowance.
+    #[error("the calibration disagrees with the reference field: {disagreement}")]
+    Disagrees {
+        /// The numbers, in words.
+        disagreement: String,
+    },
     /// The attitude-aided fit cannot use the recording.
     #[error("{0}")]
     Attitude(String),

@@ -13,9 +13,10 @@ use super::units::units_guess;
 use super::error::ComputeError;
 use crate::data::results::{FitQuality, Quality as ResultsQuality};
 use crate::data::{CalDoc, Recording};
+use super::reference::{Reference, ReferenceSource};
 
 /// Options of a field fit.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct FitOptions {
     /// Which model.
     pub model: ModelKind,
@@ -27,6 +28,11 @@ pub struct FitOptions {
     pub allow_weak: bool,
     /// Gyro model: the magnetometer's lag behind the gyro.
     pub gyro_lag: GyroLag,
+    /// The world model's field at the site ([`Reference::world_model`]):
+    /// its inclination is the attitude-aided fit's prior, and the result is
+    /// checked against it (refused beyond the allowance unless `allow_weak`).
+    /// `None`: only the intensity `field_nt` is known.
+    pub reference: Option<Reference>,
 }
 
 fn fit_quality(q: &Quality<f64>, skipped_rows: usize, warnings: Vec<String>, units: String) -> FitQuality {
@@ -57,18 +63,24 @@ pub fn fit_recording(rec: &Recording, opts: &FitOptions) -> Result<CalDoc, Compu
     let mut warnings = Vec::new();
     let mut gyro_quality = None;
     let mut attitude_predicted_deg = None;
+    // The dip the fit itself estimated, with its 1σ, degrees.
+    let mut fit_dip: Option<(f64, f64)> = None;
     let cal = match opts.model {
         ModelKind::Sphere => fit_batch::<Sphere, 4, f64>(&samples, opts.field_nt),
         ModelKind::Axis => fit_batch::<Axis, 6, f64>(&samples, opts.field_nt),
         ModelKind::Full | ModelKind::Triangular => fit_batch::<Full, 9, f64>(&samples, opts.field_nt),
         ModelKind::Gyro => {
             let (cal, q) = super::gyro::fit_gyro_recording(rec, opts.field_nt, opts.gyro_lag)?;
+            fit_dip = Some(((q.vertical_nt / opts.field_nt).clamp(-1.0, 1.0).asin().to_degrees(), 0.0));
             warnings.extend(q.weakly_determined.iter().cloned());
             gyro_quality = Some(q);
             Ok(cal)
         }
         ModelKind::Attitude => {
-            let est = super::attitude::fit_attitude_recording(rec, opts.field_nt, &AttitudeConfig::new())?;
+            let mut cfg = AttitudeConfig::new();
+            cfg.dip_prior = opts.reference.as_ref().filter(|r| r.independent_inclination()).and_then(|r| Some((r.inclination_deg?.to_radians(), r.inclination_sigma_deg?.to_radians())));
+            let est = super::attitude::fit_attitude_recording(rec, opts.field_nt, &cfg)?;
+            fit_dip = Some((est.dip_rad.to_degrees(), est.dip_sigma_rad.to_degrees()));
             warnings.extend(super::attitude::weakly_determined(&est, opts.field_nt));
             attitude_predicted_deg = Some(est.predicted_heading_rms_rad.to_degrees());
             Ok(est.cal)
@@ -83,6 +95,7 @@ pub fn fit_recording(rec: &Recording, opts: &FitOptions) -> Result<CalDoc, Compu
         }
         warnings.push(format!("quality gate failed, kept because weak results were allowed: {e}"));
     }
+    let reference = judge_against_reference(&cal, rec, opts, fit_dip, &mut warnings)?;
     let skipped = rec.len() - samples.len();
     if skipped > 0 {
         warnings.push(format!("{skipped} rows without a complete mx, my, mz were skipped"));
@@ -98,8 +111,41 @@ pub fn fit_recording(rec: &Recording, opts: &FitOptions) -> Result<CalDoc, Compu
     let units = units_guess(radius, opts.field_nt);
     let predicted_heading_rms_deg = gyro_quality.as_ref().map(|g| g.predicted_heading_rms_deg).or(attitude_predicted_deg);
     let quality = ResultsQuality { fit: Some(fit_quality(&q, skipped, warnings, units)), gyro: gyro_quality, predicted_heading_rms_deg, ..Default::default() };
-    Ok(CalDoc::new(kind, &cal, opts.field_nt, quality))
+    let mut doc = CalDoc::new(kind, &cal, opts.field_nt, quality);
+    doc.reference = Some(reference);
+    Ok(doc)
 }
+
+/// The reference the fit is judged against and written with: the world
+/// model's at the site when given (a disagreement beyond the allowance
+/// refuses the fit, or with `allow_weak` is kept as a warning and in the
+/// document), else the user's intensity with the dip the calibrated
+/// recording shows (the monitor's reference for later recordings).
+fn judge_against_reference(cal: &calib_core::cal::FieldCal<f64>, rec: &Recording, opts: &FitOptions, fit_dip: Option<(f64, f64)>, warnings: &mut Vec<String>) -> Result<Reference, ComputeError> {
+    let mut reference = match &opts.reference {
+        Some(r) => r.clone(),
+        None => Reference::user_intensity(opts.field_nt),
+    };
+    let check = reference.check_calibration(cal, rec, fit_dip);
+    if !check.agrees {
+        if !opts.allow_weak {
+            return Err(ComputeError::Disagrees { disagreement: check.disagreement });
+        }
+        warnings.push(format!("kept because weak results were allowed: {}", check.disagreement));
+    }
+    if reference.inclination_deg.is_none() {
+        if let Some(dip) = check.inclination_deg {
+            reference.source = ReferenceSource::CalibrationData;
+            reference.inclination_deg = Some(dip);
+            reference.inclination_sigma_deg = Some(fit_dip.map_or(0.0, |d| d.1).max(MIN_DATA_DIP_SIGMA_DEG));
+        }
+    }
+    Ok(reference)
+}
+
+/// The smallest 1σ given to a dip estimated from the calibration recording,
+/// degrees (the fits' covariances go far below what a later recording can hold to).
+const MIN_DATA_DIP_SIGMA_DEG: f64 = 0.1;
 
 /// A coverage refusal names the models that do not rest on coverage and
 /// that the recording's columns allow: the attitude-aided one when it has

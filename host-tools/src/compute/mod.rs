@@ -10,6 +10,7 @@
 //! * [`chain`]: the whole calibration from a swing test and a run;
 //! * [`truth`]: heading and field errors against a known heading (validation);
 //! * [`card`]: the deviation card, heading error by heading before and after;
+//! * [`reference`]: the world model's field at the site, the independent reference a fit is judged by;
 //! * [`error`]: [`ComputeError`], why a computation refused a recording.
 
 pub mod apply;
@@ -21,6 +22,7 @@ pub mod error;
 pub mod fit;
 pub mod gyro;
 pub mod ortho;
+pub mod reference;
 pub mod swing;
 pub mod truth;
 pub mod units;

@@ -8,6 +8,7 @@ use calib_core::cal::{CalError, Calibration, EnvTerms, FieldCal, ModelKind, Swin
 use serde::{Deserialize, Serialize};
 
 use super::results::{Quality, TraceEntry};
+use crate::compute::reference::Reference;
 
 /// Largest |bias| accepted in a document, raw units (far beyond any sensor
 /// range in counts, nT or µT; catches corrupted files).
@@ -94,6 +95,11 @@ pub struct CalDoc {
     /// Temperature compensation.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub temperature: Option<TemperatureBlock>,
+    /// The field the calibration is judged against (the world model at the
+    /// site, the user's, or the fit's own estimate), with what the
+    /// calibrated recording showed beside it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reference: Option<Reference>,
     /// Residuals, coverage, warnings of each step.
     #[serde(default)]
     pub quality: Quality,
@@ -150,6 +156,7 @@ impl CalDoc {
             swing: None,
             current: None,
             temperature: None,
+            reference: None,
             quality,
             trace: None,
         }
@@ -203,6 +210,15 @@ impl CalDoc {
         if let Some(s) = self.swing {
             if ![s.a, s.b, s.c, s.d, s.e].iter().all(|v| v.is_finite() && v.abs() < 1.0) {
                 return Err(invalid("swing coefficients must be finite and below 1 rad"));
+            }
+        }
+        if let Some(r) = &self.reference {
+            let pos = |v: f64| v.is_finite() && v > 0.0;
+            if !(pos(r.field_nt) && pos(r.field_sigma_nt) && r.field_sigma_nt < r.field_nt) {
+                return Err(invalid("reference.field_nt and field_sigma_nt must be positive numbers of nT, the σ below the intensity"));
+            }
+            if !r.inclination_deg.is_none_or(|i| i.is_finite() && i.abs() < 90.0) || !r.inclination_sigma_deg.is_none_or(|s| s.is_finite() && s > 0.0 && s < 90.0) {
+                return Err(invalid("reference.inclination_deg must be within ±90 and its σ a positive number of degrees"));
             }
         }
         if let Some(d) = self.declination_deg {

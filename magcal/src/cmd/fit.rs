@@ -10,6 +10,7 @@ use host_tools::data::Recording;
 
 use super::{check_out, check_positions, emit, hinted, reference_field, warn_all, SiteArgs};
 use host_tools::compute::{ComputeError, GyroError};
+use host_tools::compute::reference::Reference;
 
 /// `--model`: calib-core's `ModelKind` by its document name.
 fn model_parser() -> impl clap::builder::TypedValueParser<Value = ModelKind> {
@@ -68,13 +69,28 @@ pub fn run(a: Args) -> Result<()> {
     if let Some(out) = &a.out {
         check_out("--out", out, &[&a.input])?;
     }
-    let reference = reference_field(a.field_nt, &a.site)?;
+    // The site's world model judges the fit; --field-nt with a site is the
+    // local intensity the calibration is scaled to, checked against it.
+    let site = a.site.site()?;
+    let reference = match (a.field_nt, &site) {
+        (Some(f), Some(s)) => {
+            super::check_field_nt(f, "--field-nt")?;
+            let w = s.field()?;
+            let k = f / w.total_nt();
+            host_tools::geomag::Field { north_nt: k * w.north_nt, east_nt: k * w.east_nt, down_nt: k * w.down_nt }
+        }
+        _ => reference_field(a.field_nt, &a.site)?,
+    };
+    let world = match &site {
+        Some(s) => Some(Reference::world_model(*s, &s.field()?)),
+        None => None,
+    };
     let rec = a.columns.read(&a.input)?;
     if let (Some(lat), Some(lon)) = (a.site.lat, a.site.lon) {
         check_positions(&rec, &a.input, lat, lon)?;
     }
     let model = a.model;
-    let opts = FitOptions { model, field_nt: reference.total_nt(), saturation: a.saturation, allow_weak: a.allow_weak, gyro_lag: if a.estimate_gyro_lag { GyroLag::Estimate } else { GyroLag::Given(a.gyro_lag_s) } };
+    let opts = FitOptions { model, field_nt: reference.total_nt(), saturation: a.saturation, allow_weak: a.allow_weak, gyro_lag: if a.estimate_gyro_lag { GyroLag::Estimate } else { GyroLag::Given(a.gyro_lag_s) }, reference: world };
     let mut doc = compute::fit_recording(&rec, &opts).map_err(|e| hinted(e, fit_hint)).with_context(|| format!("{}: {} fit", a.input.display(), model.name()))?;
     if a.site.lat.is_some() {
         doc.declination_deg = Some(reference.declination_deg());
@@ -101,6 +117,7 @@ fn fit_hint(e: &ComputeError) -> Option<&'static str> {
     match e {
         ComputeError::NoReference => Some("give the reference field intensity with --field-nt (nT) or --lat/--lon/--date"),
         ComputeError::Gyro(GyroError::LagOutOfRange { .. }) => Some("give --gyro-lag-s within ±1 s"),
+        ComputeError::Disagrees { .. } => Some("check the site (--lat/--lon/--date), --field-nt and the roll/pitch columns' units; --allow-weak keeps the fit with the disagreement written into the document"),
         _ => None,
     }
 }

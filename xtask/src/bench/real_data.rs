@@ -13,11 +13,11 @@ use calib_core::cal::{FieldCal, ModelKind};
 use calib_core::heading::{level, magnetic_heading_rad};
 use host_tools::compute::attitude::attitude_samples;
 use host_tools::compute::{fit_recording, truth, FitOptions};
+use host_tools::compute::reference::Reference;
 use host_tools::data::Recording;
+use host_tools::geomag::Site;
 use serde_json::json;
 
-/// The glider's site field, IGRF-14 (its README).
-const GLIDER_FIELD_NT: f64 = 52_203.0;
 /// The glider is judged below this depth (the README's rule).
 const GLIDER_JUDGE_DEPTH_M: f64 = 3.0;
 
@@ -58,6 +58,8 @@ struct Dataset {
     name: String,
     calib: Recording,
     field_nt: f64,
+    /// The world model at the site, where the site is known (the gliders).
+    reference: Option<Reference>,
     judge: Judge,
     floor: FieldCal<f64>,
 }
@@ -67,13 +69,17 @@ fn std_dev(v: &[f64]) -> f64 {
     (v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (v.len().max(2) - 1) as f64).sqrt()
 }
 
-/// Seaglider SG236: dip and magnitude scatter on dives 4–5 below 3 m.
-fn glider(dir: &Path) -> Option<Dataset> {
-    let calib = Recording::read(&dir.join("sg236_calib.csv")).ok()?;
-    let vpath = dir.join("sg236_validate.csv");
+/// A real glider: dip and magnitude scatter on its validation dives below
+/// 3 m, and the dip's mean against IGRF-14 at the site (its README).
+fn glider(dir: &Path, name: &str, peer: &str, (lat, lon, date): (f64, f64, &str)) -> Option<Dataset> {
+    let calib = Recording::read(&dir.join(format!("{name}_calib.csv"))).ok()?;
+    let vpath = dir.join(format!("{name}_validate.csv"));
     let val = Recording::read(&vpath).ok()?;
     let depth = column(&vpath, "depth_m")?;
-    let floor = cal_of(&read_json(&dir.join("onboard_calibration.json"))?)?;
+    let floor = cal_of(&read_json(&dir.join(peer))?)?;
+    let site = Site::new(lat, lon, date).ok()?;
+    let world = site.field().ok()?;
+    let igrf_dip = world.inclination_deg();
     let judge = move |cal: &FieldCal<f64>| {
         let (Some(roll), Some(pitch)) = (val.roll_deg.as_ref(), val.pitch_deg.as_ref()) else { return (f64::NAN, String::new()) };
         let (mut dip, mut mag) = (vec![], vec![]);
@@ -85,9 +91,11 @@ fn glider(dir: &Path) -> Option<Dataset> {
         }
         let mag_pct = 100.0 * std_dev(&mag) / (mag.iter().sum::<f64>() / mag.len() as f64);
         let d = std_dev(&dip);
-        (d, format!("dip {d:.2}°, |F| {mag_pct:.2} %"))
+        let mean = dip.iter().sum::<f64>() / dip.len() as f64;
+        (d, format!("dip {d:.2}°, mean {:+.2}° off IGRF, |F| {mag_pct:.2} %", mean - igrf_dip))
     };
-    Some(Dataset { name: "seaglider-sg236".into(), calib, field_nt: GLIDER_FIELD_NT, judge: Box::new(judge), floor })
+    let reference = Some(Reference::world_model(site, &world));
+    Some(Dataset { name: format!("seaglider-{name}"), calib, field_nt: world.total_nt(), reference, judge: Box::new(judge), floor })
 }
 
 /// A BROAD trial: heading RMS on the validation part after one offset.
@@ -104,14 +112,17 @@ fn broad(dir: &Path, n: &str) -> Option<Dataset> {
         (rms, format!("heading {rms:.2}°"))
     };
     let name = dir.file_name().map_or(n.to_string(), |f| f.to_string_lossy().into_owned());
-    Some(Dataset { name, calib, field_nt: t["field_nt"].as_f64()?, judge: Box::new(judge), floor: cal_of(&t)? })
+    Some(Dataset { name, calib, field_nt: t["field_nt"].as_f64()?, reference: None, judge: Box::new(judge), floor: cal_of(&t)? })
 }
 
 /// The datasets present under `tests/data`.
 fn datasets(root: &Path) -> Vec<Dataset> {
     let data: PathBuf = root.join("tests/data");
-    let mut out: Vec<Dataset> = glider(&data.join("seaglider-sg236")).into_iter().collect();
-    for (d, n) in [("broad-02-limited", "02"), ("broad-03", "03"), ("broad-05", "05"), ("broad-09", "09")] {
+    let mut out: Vec<Dataset> = Vec::new();
+    out.extend(glider(&data.join("seaglider-sg236"), "sg236", "onboard_calibration.json", (46.902, -124.894, "2023-06-01")));
+    // SG180 flew its validation dives (5–6) with the pilot's new calibration: that is its peer.
+    out.extend(glider(&data.join("seaglider-sg180"), "sg180", "onboard_calibration_dives5-6.json", (47.749, -122.408, "2026-07-01")));
+    for (d, n) in [("broad-02-limited", "02"), ("broad-03", "03"), ("broad-05", "05"), ("broad-06", "06"), ("broad-09", "09")] {
         out.extend(broad(&data.join(d), n));
     }
     out
@@ -154,14 +165,18 @@ pub fn real_data(root: &Path) -> (serde_json::Value, String) {
     let mut rows = Vec::new();
     for d in &sets {
         let (_, floor) = (d.judge)(&d.floor);
-        for model in MODELS {
-            let opts = FitOptions { model, field_nt: d.field_nt, saturation: None, allow_weak: false, gyro_lag: host_tools::compute::GyroLag::Given(0.0) };
+        // Where the site is known, the attitude-aided fit without it too:
+        // what the world model's dip prior changes.
+        let without_site = d.reference.as_ref().map(|_| (ModelKind::Attitude, None, " (no site)"));
+        let runs = MODELS.iter().map(|&m| (m, d.reference.clone(), "")).chain(without_site);
+        for (model, reference, label) in runs {
+            let opts = FitOptions { model, field_nt: d.field_nt, saturation: None, allow_weak: false, gyro_lag: host_tools::compute::GyroLag::Given(0.0), reference };
             let (verdict, result, predicted) = match fit_recording(&d.calib, &opts) {
                 Ok(doc) => ("accepted".to_string(), (d.judge)(&doc.field_cal()).1, doc.quality.predicted_heading_rms_deg.map_or("—".into(), |p| format!("{p:.2}°"))),
                 Err(e) => (format!("refused: {e}"), "—".to_string(), "—".to_string()),
             };
-            let _ = writeln!(md, "| {} | {} | {verdict} | {result} | {floor} | {predicted} |", d.name, model.name());
-            rows.push(json!({"dataset": d.name, "model": model.name(), "verdict": verdict, "result": result, "floor": floor, "predicted": predicted}));
+            let _ = writeln!(md, "| {} | {}{label} | {verdict} | {result} | {floor} | {predicted} |", d.name, model.name());
+            rows.push(json!({"dataset": d.name, "model": format!("{}{label}", model.name()), "verdict": verdict, "result": result, "floor": floor, "predicted": predicted}));
         }
     }
     let loo = attitude_leave_one_out(&sets, &mut md);
@@ -177,6 +192,6 @@ mod tests {
         let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
         let (v, md) = super::real_data(&root);
         eprintln!("{md}");
-        assert_eq!(v["table"].as_array().map(Vec::len), Some(5 * super::MODELS.len()), "{v}");
+        assert_eq!(v["table"].as_array().map(Vec::len), Some(7 * super::MODELS.len() + 2), "{v}");
     }
 }
