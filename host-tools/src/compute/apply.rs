@@ -114,29 +114,58 @@ impl Applied {
     }
 }
 
-/// The reference a document gives the monitor: `F`, the scatter (the fit's
-/// residual), the inclination (the joint back-stepping's local field or the
-/// gyro fit's vertical), the predicted heading error.
+/// Where the monitor's inclination came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum InclinationSource {
+    /// `--inclination-deg`.
+    User,
+    /// The document's: the back-stepping's local field, the dip the
+    /// calibration showed on its own recording (checked against the world
+    /// model when the site was given), or the gyro fit's vertical.
+    Document,
+    /// The world model at the site given to `apply` (`--lat/--lon/--date`).
+    Site,
+    /// None independent of the recording judged: learned from its samples
+    /// judged ok.
+    Learned,
+}
+
+/// The inclination a document holds, degrees: the back-stepping's local
+/// field, else the dip the calibration showed on its recording (its
+/// `reference.check`), else the reference's own, else the gyro fit's
+/// vertical over `field_nt`.
+pub fn document_inclination_deg(doc: &CalDoc, field_nt: f64) -> Option<f64> {
+    let q = &doc.quality;
+    q.backstep
+        .as_ref()
+        .and_then(|b| b.estimates.as_ref())
+        .map(|e| e.local_hz_nt[1].atan2(e.local_hz_nt[0]).to_degrees())
+        .or_else(|| doc.reference.as_ref().and_then(|r| r.check.as_ref().and_then(|c| c.inclination_deg).or(r.inclination_deg)))
+        .or_else(|| q.gyro.as_ref().map(|g| (g.vertical_nt / field_nt).clamp(-1.0, 1.0).asin().to_degrees()))
+}
+
+/// The reference a document gives the monitor: `F`, the scatter (the
+/// latest step's residual: a back-stepped calibration's per-axis residual
+/// with its intensity's 1σ, else the fit's), the inclination
+/// ([`document_inclination_deg`], or `opts`), the predicted heading error.
 pub fn reference_of(doc: &CalDoc, opts: &ApplyOptions) -> Result<Reference<f64>, ApplyError> {
     let q = &doc.quality;
     let f = opts.field_nt.unwrap_or(doc.field_nt);
-    let backstep_residual_nt = q.backstep.as_ref().and_then(|b| b.estimates.as_ref()).map(|e| e.residual_rms_nt);
+    let estimates = q.backstep.as_ref().and_then(|b| b.estimates.as_ref());
+    let backstep_residual_nt = estimates.map(|e| e.residual_rms_nt);
+    // The back-stepping replaced the first step's matrix: its residual on
+    // the run, with the uncertainty of the intensity it found, is the
+    // scatter |h| keeps (the first step's fit residual is a stale one).
+    let backstep_scatter_nt = estimates.map(|e| e.residual_rms_nt.hypot(e.intensity_sigma_nt));
     let scatter = opts
         .field_sigma_nt
+        .or(backstep_scatter_nt)
         .or_else(|| q.fit.as_ref().map(|x| x.residual_rms_nt))
         .or_else(|| q.gyro.as_ref().map(|g| g.residual_rms_nt))
-        .or(backstep_residual_nt)
         .filter(|s| *s > 0.0)
         .unwrap_or(DEFAULT_FIELD_SIGMA_REL * f);
-    let inclination_rad = match opts.inclination_deg {
-        Some(d) => Some(d.to_radians()),
-        None => q
-            .backstep
-            .as_ref()
-            .and_then(|b| b.estimates.as_ref())
-            .map(|e| e.local_hz_nt[1].atan2(e.local_hz_nt[0]))
-            .or_else(|| q.gyro.as_ref().map(|g| (g.vertical_nt / f).clamp(-1.0, 1.0).asin())),
-    };
+    let inclination_rad = opts.inclination_deg.or_else(|| document_inclination_deg(doc, f)).map(f64::to_radians);
     let heading_sigma_rad = q.predicted_heading_rms_deg.unwrap_or(0.0).to_radians();
     // The per-component noise behind the heading's σ: a back-stepped
     // calibration's per-axis residual on the run (its slowly varying errors
@@ -241,6 +270,9 @@ pub struct ApplySummary {
     /// The inclination in use at the end (given or learned), degrees.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub inclination_deg: Option<f64>,
+    /// Where the inclination came from (set by the caller that chose it).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub inclination_source: Option<InclinationSource>,
     /// Longest run not ok, s.
     pub longest_disturbance_s: f64,
     /// The on-line hard-iron estimate at the end, nT, with its 1σ.
@@ -293,6 +325,7 @@ pub fn summarize(applied: &Applied, reference: Option<(&str, &[f64])>) -> ApplyS
         field_sigma_nt: applied.reference.field_sigma_nt,
         noise_nt: applied.reference.noise_nt,
         inclination_deg: applied.inclination_deg,
+        inclination_source: None,
         longest_disturbance_s: applied.health.longest_disturbance_s,
         hard_iron_nt: applied.hard_iron.map(|h| h.offset_nt),
         hard_iron_sigma_nt: applied.hard_iron.map(|h| h.sigma_nt),

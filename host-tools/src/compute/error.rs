@@ -77,6 +77,13 @@ pub enum ComputeError {
         /// The numbers, in words.
         disagreement: String,
     },
+    /// `fit --model auto`: no candidate was accepted with a held-out error
+    /// below the limit.
+    #[error("no model fits this recording with a held-out error below {limit}° ({table})", limit = super::auto::MAX_HELD_OUT_DEG)]
+    NoModel {
+        /// Every candidate and why it was not kept.
+        table: String,
+    },
     /// The attitude-aided fit cannot use the recording.
     #[error("{0}")]
     Attitude(String),

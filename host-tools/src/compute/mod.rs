@@ -3,6 +3,7 @@
 //! step, and one [`chain`] (axis fit → back-stepping → swing fit) that the
 //! session, the simulator's scenario harness, the bench and the CLI all call.
 //!
+//! * [`auto`]: `fit --model auto`, every allowed model judged on held-out blocks;
 //! * [`fit`]: field (ellipsoid) fits; [`attitude`]: the attitude-aided fit (no gyro, no tumble); [`units`]: the recording's units;
 //! * [`backstep`]: the out-and-back refinement (the paper's and ours);
 //! * [`swing`]: the Fourier heading fit against a reference heading;
@@ -14,6 +15,7 @@
 //! * [`error`]: [`ComputeError`], why a computation refused a recording.
 
 pub mod apply;
+pub mod auto;
 pub mod attitude;
 pub mod backstep;
 pub mod card;

@@ -29,6 +29,9 @@ pub struct Quality {
     /// predicts, degrees (`docs/INTERFACES.md`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub predicted_heading_rms_deg: Option<f64>,
+    /// `fit --model auto`: the candidates, their held-out errors and the choice.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub auto: Option<crate::compute::auto::AutoChoice>,
 }
 
 /// What the gyro-aided fit determined, and how well.

@@ -6,7 +6,7 @@
 use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
-use host_tools::compute::apply::{apply_recording, summarize, write_applied, ApplyError, ApplyOptions};
+use host_tools::compute::apply::{apply_recording, document_inclination_deg, summarize, write_applied, ApplyError, ApplyOptions, InclinationSource};
 use host_tools::compute::card::read_reference_column;
 use host_tools::data::CalDoc;
 
@@ -39,6 +39,11 @@ pub struct Args {
     /// from the samples judged ok).
     #[arg(long, allow_hyphen_values = true)]
     inclination_deg: Option<f64>,
+    /// The site, for a document without a reference inclination: IGRF-14's
+    /// there is the monitor's (otherwise it is learned from the recording
+    /// it judges, and said so).
+    #[command(flatten)]
+    site: super::SiteArgs,
     /// The field's expected scatter about field_nt, nT (default: the
     /// document's fit residual, or 1.2 % of field_nt).
     #[arg(long)]
@@ -66,7 +71,23 @@ pub fn run(a: Args) -> Result<()> {
     }
     let doc = CalDoc::load(&a.cal)?;
     let rec = a.columns.read(&a.input)?;
-    let opts = ApplyOptions { field_nt: a.field_nt, inclination_deg: a.inclination_deg, field_sigma_nt: a.field_sigma_nt, tuning: None };
+    let doc_field_nt = a.field_nt.unwrap_or(doc.field_nt);
+    let (inclination_deg, source) = match (a.inclination_deg, document_inclination_deg(&doc, doc_field_nt), a.site.site()?) {
+        (Some(d), _, _) => (Some(d), InclinationSource::User),
+        (None, Some(d), _) => (Some(d), InclinationSource::Document),
+        (None, None, Some(s)) => (Some(s.field()?.inclination_deg()), InclinationSource::Site),
+        (None, None, None) => {
+            eprintln!(
+                "warning: {} holds no reference inclination: the monitor learns the dip from the recording it judges, so a wrong calibration can pass it; give --lat/--lon/--date (IGRF-14 at the site) or --inclination-deg",
+                a.cal.display()
+            );
+            (None, InclinationSource::Learned)
+        }
+    };
+    if a.site.any() && source != InclinationSource::Site {
+        eprintln!("note: --lat/--lon/--date not used: the inclination is the {}", if source == InclinationSource::User { "one given" } else { "document's" });
+    }
+    let opts = ApplyOptions { field_nt: a.field_nt, inclination_deg, field_sigma_nt: a.field_sigma_nt, tuning: None };
     let applied = apply_recording(&rec, &doc, &opts).with_context(|| format!("{}", a.input.display()))?;
     write_applied(&a.out, &a.input, rec.t_s.as_deref(), &applied).map_err(|e| hinted(e, |e| matches!(e, ApplyError::OverwritesInput(_)).then_some("give --out another file")))?;
     eprintln!("wrote {}", a.out.display());
@@ -76,7 +97,8 @@ pub fn run(a: Args) -> Result<()> {
         (None, Some(r)) => Some(("ref_heading_deg", r.as_slice())),
         _ => None,
     };
-    let summary = summarize(&applied, reference);
+    let mut summary = summarize(&applied, reference);
+    summary.inclination_source = Some(source);
     if a.json {
         println!("{}", serde_json::to_string_pretty(&summary)?);
     } else {

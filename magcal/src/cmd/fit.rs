@@ -12,10 +12,20 @@ use super::{check_out, check_positions, emit, hinted, reference_field, warn_all,
 use host_tools::compute::{ComputeError, GyroError};
 use host_tools::compute::reference::Reference;
 
-/// `--model`: calib-core's `ModelKind` by its document name.
-fn model_parser() -> impl clap::builder::TypedValueParser<Value = ModelKind> {
+/// `--model`: `auto` or one model.
+#[derive(Debug, Clone, Copy)]
+enum ModelArg {
+    /// Every allowed model judged on held-out data.
+    Auto,
+    /// This model.
+    Kind(ModelKind),
+}
+
+/// `--model`: `auto` or calib-core's `ModelKind` by its document name.
+fn model_parser() -> impl clap::builder::TypedValueParser<Value = ModelArg> {
     use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
     PossibleValuesParser::new([
+        PossibleValue::new("auto").help("Every model the recording's columns allow, each judged on held-out time blocks of the recording; the best kept (the default)"),
         PossibleValue::new("sphere").help("Bias and one scale"),
         PossibleValue::new("axis").help("Bias and three axis scales (paper 000, eqs 12–17)"),
         PossibleValue::new("full").help("Bias and a symmetric soft-iron matrix"),
@@ -23,7 +33,7 @@ fn model_parser() -> impl clap::builder::TypedValueParser<Value = ModelKind> {
         PossibleValue::new("attitude").help("Attitude-aided: bias and soft-iron matrix from the levelled field's constant vertical and horizontal parts (needs roll_deg, pitch_deg; no gyro) — for gliders, AUVs and boats that cannot tumble"),
         PossibleValue::new("gyro").help("Gyro-aided: bias and symmetric soft iron from how the readings rotate (needs t, gx, gy, gz; roll_deg, pitch_deg help) — for vehicles that cannot tumble"),
     ])
-    .try_map(|name| model_kind(&name).ok_or_else(|| format!("unknown model `{name}`")))
+    .try_map(|name| if name == "auto" { Ok(ModelArg::Auto) } else { model_kind(&name).map(ModelArg::Kind).ok_or_else(|| format!("unknown model `{name}`")) })
 }
 
 /// Arguments of `magcal fit`.
@@ -35,9 +45,9 @@ pub struct Args {
     /// Recording (CSV with mx, my, mz).
     #[arg(long)]
     input: PathBuf,
-    /// Calibration model.
-    #[arg(long, value_parser = model_parser())]
-    model: ModelKind,
+    /// Calibration model (default `auto`).
+    #[arg(long, value_parser = model_parser(), default_value = "auto")]
+    model: ModelArg,
     /// Reference field intensity, nT.
     #[arg(long)]
     field_nt: Option<f64>,
@@ -89,9 +99,21 @@ pub fn run(a: Args) -> Result<()> {
     if let (Some(lat), Some(lon)) = (a.site.lat, a.site.lon) {
         check_positions(&rec, &a.input, lat, lon)?;
     }
-    let model = a.model;
-    let opts = FitOptions { model, field_nt: reference.total_nt(), saturation: a.saturation, allow_weak: a.allow_weak, gyro_lag: if a.estimate_gyro_lag { GyroLag::Estimate } else { GyroLag::Given(a.gyro_lag_s) }, reference: world };
-    let mut doc = compute::fit_recording(&rec, &opts).map_err(|e| hinted(e, fit_hint)).with_context(|| format!("{}: {} fit", a.input.display(), model.name()))?;
+    let opts = FitOptions { model: match a.model { ModelArg::Kind(m) => m, ModelArg::Auto => ModelKind::Attitude }, field_nt: reference.total_nt(), saturation: a.saturation, allow_weak: a.allow_weak, gyro_lag: if a.estimate_gyro_lag { GyroLag::Estimate } else { GyroLag::Given(a.gyro_lag_s) }, reference: world };
+    let mut doc = match a.model {
+        ModelArg::Kind(model) => compute::fit_recording(&rec, &opts).map_err(|e| hinted(e, fit_hint)).with_context(|| format!("{}: {} fit", a.input.display(), model.name()))?,
+        ModelArg::Auto => {
+            let (doc, choice) = compute::auto::fit_auto(&rec, &opts).map_err(|e| hinted(e, fit_hint)).with_context(|| format!("{}: model auto", a.input.display()))?;
+            eprintln!("model auto: held-out errors against {}:", basis_words(choice.basis));
+            for row in &choice.candidates {
+                let held = row.held_out_deg.map_or("—".to_string(), |h| format!("{h:.2}°"));
+                let predicted = row.predicted_deg.map_or("—".to_string(), |p| format!("{p:.2}°"));
+                eprintln!("  {:<9} held-out {held:>7}  covariance {predicted:>7}  {}", row.model, row.refused.as_deref().unwrap_or(""));
+            }
+            eprintln!("  kept {} (the least held-out error)", choice.chosen);
+            doc
+        }
+    };
     if a.site.lat.is_some() {
         doc.declination_deg = Some(reference.declination_deg());
     }
@@ -110,6 +132,15 @@ pub fn run(a: Args) -> Result<()> {
         None => format!("{} fit: bias {:?}", doc.model.name(), doc.bias),
     };
     emit(&doc, &a.input, a.out.as_ref(), a.json, &summary)
+}
+
+/// What the held-out errors of `auto` are measured against, in words.
+fn basis_words(b: compute::auto::HeldOutBasis) -> &'static str {
+    match b {
+        compute::auto::HeldOutBasis::ReferenceHeading => "the recording's ref_heading_deg (one constant offset removed)",
+        compute::auto::HeldOutBasis::FieldAndDip => "the reference field (each held-out sample's dip and horizontal intensity)",
+        compute::auto::HeldOutBasis::Intensity => "the reference intensity (no roll and pitch)",
+    }
 }
 
 /// What to change on this command line when the fit refuses.

@@ -1,0 +1,238 @@
+//! `fit --model auto` (the default): every model the recording's columns
+//! allow, each judged on held-out stretches of the same recording, the one
+//! with the best held-out consistency kept.
+//!
+//! The recording is cut into [`FOLDS`] contiguous blocks of rows (time
+//! blocks, so correlated neighbours do not leak from the fit into its
+//! judge). Each candidate is fitted [`FOLDS`] times with one block's
+//! readings blanked (rows kept, so the gyro fit's time windows stay whole)
+//! and judged on that block only:
+//!
+//! * with a reference heading column (`ref_heading_deg`): the heading error
+//!   against it, one constant offset removed (a declination or a mounting
+//!   offset);
+//! * otherwise, by the field against the reference: each held-out sample's
+//!   dip against the reference inclination (the world model's at the site,
+//!   else the fold's own fitted dip) and its horizontal intensity against
+//!   `F cos I` (relative, in radians: a hard-iron or scale error moves the
+//!   heading by about as much as it moves the horizontal intensity, over
+//!   the headings visited); without roll and pitch, `|h|` against `F`.
+//!
+//! The held-out RMS (degrees) ranks the candidates and is the prediction
+//! written into the document when it exceeds the covariance's own
+//! ([`crate::data::results::Quality::predicted_heading_rms_deg`]). A model
+//! whose full fit is refused keeps its reason in the table; when no
+//! candidate's held-out error is below [`MAX_HELD_OUT_DEG`] the fit is
+//! refused.
+
+use calib_core::cal::{FieldCal, ModelKind};
+use calib_core::heading::{level, magnetic_heading_rad};
+use serde::{Deserialize, Serialize};
+
+use super::error::ComputeError;
+use super::fit::{fit_recording, FitOptions};
+use super::truth::heading_rms_after_offset_deg;
+use crate::data::{CalDoc, Recording};
+
+/// Contiguous blocks of the held-out judgement.
+pub const FOLDS: usize = 5;
+/// No candidate with a held-out error above this is kept, degrees.
+pub const MAX_HELD_OUT_DEG: f64 = 5.0;
+
+/// The models `auto` tries, in the order of the table (the triangular form
+/// is the full model re-expressed, so it is not tried apart).
+pub const CANDIDATES: [ModelKind; 5] = [ModelKind::Attitude, ModelKind::Gyro, ModelKind::Full, ModelKind::Axis, ModelKind::Sphere];
+
+/// One candidate's row of the table.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CandidateRow {
+    /// The model's document name.
+    pub model: String,
+    /// Held-out RMS, degrees (heading, or the field's consistency), when the full fit was accepted.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub held_out_deg: Option<f64>,
+    /// The covariance's own prediction, degrees.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub predicted_deg: Option<f64>,
+    /// Why the model was not fitted or not judged.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub refused: Option<String>,
+}
+
+/// What the held-out judgement compares with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum HeldOutBasis {
+    /// The recording's `ref_heading_deg`.
+    ReferenceHeading,
+    /// The dip and horizontal intensity against the reference field.
+    FieldAndDip,
+    /// The intensity alone (no roll and pitch).
+    Intensity,
+}
+
+/// The choice and its table (the document's `quality.auto`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct AutoChoice {
+    /// The model kept.
+    pub chosen: String,
+    /// What the held-out errors are measured against.
+    pub basis: HeldOutBasis,
+    /// Every candidate.
+    pub candidates: Vec<CandidateRow>,
+}
+
+fn basis_of(rec: &Recording) -> HeldOutBasis {
+    if rec.ref_heading_deg.as_ref().is_some_and(|r| r.iter().any(|v| v.is_finite())) && rec.roll_deg.is_some() && rec.pitch_deg.is_some() {
+        HeldOutBasis::ReferenceHeading
+    } else if rec.roll_deg.is_some() && rec.pitch_deg.is_some() {
+        HeldOutBasis::FieldAndDip
+    } else {
+        HeldOutBasis::Intensity
+    }
+}
+
+/// Whether the recording's columns allow a model at all.
+fn allowed(model: ModelKind, rec: &Recording) -> Result<(), String> {
+    match model {
+        ModelKind::Attitude if rec.roll_deg.is_none() || rec.pitch_deg.is_none() => Err("needs roll_deg, pitch_deg".into()),
+        ModelKind::Gyro if rec.t_s.is_none() || rec.gyro_rad_s().is_none() => Err("needs t, gx, gy, gz".into()),
+        _ => Ok(()),
+    }
+}
+
+/// The recording with the readings of rows `lo..hi` blanked.
+fn without_block(rec: &Recording, lo: usize, hi: usize) -> Recording {
+    let mut r = rec.clone();
+    for m in &mut r.mag[lo..hi] {
+        *m = [f64::NAN; 3];
+    }
+    r
+}
+
+/// Per-row held-out errors (radians) of `cal` on rows `lo..hi`; `dip_deg`
+/// the reference inclination, `field_nt` the intensity. For the reference
+/// heading basis the raw heading differences are returned (the offset is
+/// removed over all folds together).
+fn held_out_errors(cal: &FieldCal<f64>, rec: &Recording, lo: usize, hi: usize, basis: HeldOutBasis, dip_deg: Option<f64>, field_nt: f64, out: &mut Vec<(f64, f64)>) {
+    let at = |c: &Option<Vec<f64>>, i: usize| c.as_ref().and_then(|v| v.get(i).copied()).filter(|v| v.is_finite());
+    for i in lo..hi {
+        let raw = rec.mag[i];
+        if !raw.iter().all(|v| v.is_finite()) {
+            continue;
+        }
+        let h = cal.apply(raw);
+        match basis {
+            HeldOutBasis::ReferenceHeading => {
+                if let (Some(r), Some(p), Some(reference)) = (at(&rec.roll_deg, i), at(&rec.pitch_deg, i), at(&rec.ref_heading_deg, i)) {
+                    out.push((magnetic_heading_rad(h, r.to_radians(), p.to_radians()), reference));
+                }
+            }
+            HeldOutBasis::FieldAndDip => {
+                let (Some(r), Some(p), Some(dip)) = (at(&rec.roll_deg, i), at(&rec.pitch_deg, i), dip_deg) else { continue };
+                let l = level(h, r.to_radians(), p.to_radians());
+                let hh = l[0].hypot(l[1]);
+                let e_dip = l[2].atan2(hh) - dip.to_radians();
+                let e_h = hh / (field_nt * dip.to_radians().cos()) - 1.0;
+                out.push((e_dip, e_h));
+            }
+            HeldOutBasis::Intensity => {
+                let m = (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt();
+                out.push((m / field_nt - 1.0, 0.0));
+            }
+        }
+    }
+}
+
+/// The held-out RMS of a candidate, degrees; `None` when a fold's fit is refused.
+fn held_out_deg(model: ModelKind, rec: &Recording, opts: &FitOptions, basis: HeldOutBasis) -> Result<f64, String> {
+    let n = rec.len();
+    let mut pairs = Vec::new();
+    for k in 0..FOLDS {
+        let (lo, hi) = (k * n / FOLDS, (k + 1) * n / FOLDS);
+        let train = without_block(rec, lo, hi);
+        let fold_opts = FitOptions { model, allow_weak: true, ..opts.clone() };
+        let doc = fit_recording(&train, &fold_opts).map_err(|e| format!("fold {} of {FOLDS}: {e}", k + 1))?;
+        let dip = doc.reference.as_ref().and_then(|r| r.inclination_deg);
+        held_out_errors(&doc.field_cal(), rec, lo, hi, basis, dip, opts.field_nt, &mut pairs);
+    }
+    if pairs.is_empty() {
+        return Err("no held-out sample could be judged".into());
+    }
+    Ok(match basis {
+        HeldOutBasis::ReferenceHeading => heading_rms_after_offset_deg(pairs.into_iter()).0.rms,
+        // The dip's error and the horizontal intensity's (the part of a
+        // calibration error that turns the heading) in quadrature.
+        HeldOutBasis::FieldAndDip => trimmed_rms(pairs.iter().map(|(d, h)| d * d + h * h).collect()).to_degrees(),
+        HeldOutBasis::Intensity => trimmed_rms(pairs.iter().map(|(m, _)| m * m).collect()).to_degrees(),
+    })
+}
+
+/// The share of the largest squared errors left out of the field's
+/// held-out RMS: samples whose attitude is a glitch (a real glider's roll
+/// sample at −122°, the surface's wave motion) say nothing of the
+/// calibration, and one of them outweighs a thousand good ones.
+pub const TRIM_FRACTION: f64 = 0.05;
+
+/// RMS of the smallest `1 − TRIM_FRACTION` of squared errors.
+fn trimmed_rms(mut squares: Vec<f64>) -> f64 {
+    squares.sort_by(f64::total_cmp);
+    let keep = ((squares.len() as f64 * (1.0 - TRIM_FRACTION)).ceil() as usize).clamp(1, squares.len());
+    (squares[..keep].iter().sum::<f64>() / keep as f64).sqrt()
+}
+
+/// Fits every candidate, judges each on held-out blocks, keeps the best.
+/// `opts.model` is ignored. The kept document's predicted heading error is
+/// the larger of its covariance's and its held-out error.
+pub fn fit_auto(rec: &Recording, opts: &FitOptions) -> Result<(CalDoc, AutoChoice), ComputeError> {
+    let basis = basis_of(rec);
+    let mut rows = Vec::new();
+    let mut best: Option<(f64, CalDoc)> = None;
+    for model in CANDIDATES {
+        let mut row = CandidateRow { model: model.name().to_string(), held_out_deg: None, predicted_deg: None, refused: None };
+        if let Err(why) = allowed(model, rec) {
+            row.refused = Some(why);
+            rows.push(row);
+            continue;
+        }
+        match fit_recording(rec, &FitOptions { model, ..opts.clone() }) {
+            Err(e) => row.refused = Some(e.to_string()),
+            Ok(doc) => {
+                row.predicted_deg = doc.quality.predicted_heading_rms_deg;
+                match held_out_deg(model, rec, opts, basis) {
+                    Err(why) => row.refused = Some(format!("not judged on held-out data: {why}")),
+                    Ok(h) => {
+                        row.held_out_deg = Some(h);
+                        if best.as_ref().is_none_or(|(b, _)| h < *b) {
+                            best = Some((h, doc));
+                        }
+                    }
+                }
+            }
+        }
+        rows.push(row);
+    }
+    let Some((held_out, mut doc)) = best else {
+        return Err(ComputeError::NoModel { table: table_text(&rows) });
+    };
+    if !(held_out <= MAX_HELD_OUT_DEG) && !opts.allow_weak {
+        return Err(ComputeError::NoModel { table: table_text(&rows) });
+    }
+    let predicted = doc.quality.predicted_heading_rms_deg.map_or(held_out, |p| p.max(held_out));
+    doc.quality.predicted_heading_rms_deg = Some(predicted);
+    let choice = AutoChoice { chosen: doc.model.name().to_string(), basis, candidates: rows };
+    doc.quality.auto = Some(choice.clone());
+    Ok((doc, choice))
+}
+
+/// The candidates' table in words, one line each.
+pub fn table_text(rows: &[CandidateRow]) -> String {
+    rows.iter()
+        .map(|r| match (&r.refused, r.held_out_deg) {
+            (Some(why), _) => format!("{}: {why}", r.model),
+            (None, Some(h)) => format!("{}: held-out {h:.2}°", r.model),
+            (None, None) => format!("{}: not judged", r.model),
+        })
+        .collect::<Vec<_>>()
+        .join("; ")
+}
