@@ -156,7 +156,7 @@ fn the_report_shows_the_integrity_along_a_validation_run_past_the_pier() {
     // The validation file's rows, all judged.
     let total = std::fs::read_to_string(f("validation.csv")).unwrap().lines().count() as f64 - 1.0;
     assert_eq!(ok + disturbed + cal_invalid + no_attitude, total);
-    // The pier's passage is not ok (19 rows measured), the rest is.
+    // The pier's passage is not ok (39 rows measured), the rest is.
     let not_ok = disturbed + cal_invalid;
     assert!((8.0..=80.0).contains(&not_ok), "{not_ok} rows not ok");
     assert!(ok / total > 0.97 && no_attitude == 0.0, "{ok} of {total} ok");
@@ -193,9 +193,14 @@ fn the_report_shows_the_integrity_along_a_validation_run_past_the_pier() {
     assert!(!near_pier.is_empty());
     let flagged: Vec<f64> = t.iter().zip(&states).filter(|(_, s)| s.as_str() != "ok").map(|(t, _)| *t).collect();
     assert_eq!(flagged.len() as f64, not_ok);
-    for tf in &flagged {
-        assert!(near_pier.iter().any(|tp| (tp - tf).abs() <= 5.0), "a row not ok at {tf} s, away from the pier ({:?} s)", (near_pier.first(), near_pier.last()));
-    }
+    // Away from the pier at most three rows in a thousand (false alarms):
+    // measured 4 of 3 180 (at 254, 261, 1 171 and 1 402 s) since a back-stepped document's gates
+    // use its own run residual ⊕ its intensity's 1σ (139 nT on the README's
+    // chain) instead of the first step's 378 nT, which let a bias 300
+    // counts off pass as ok at 1.93° (magcal/tests/reference.rs); none
+    // with the stale scatter.
+    let away: Vec<f64> = flagged.iter().copied().filter(|tf| !near_pier.iter().any(|tp| (tp - tf).abs() <= 5.0)).collect();
+    assert!(away.len() as f64 <= 3e-3 * total, "rows not ok away from the pier at {away:?} s ({:?} s)", (near_pier.first(), near_pier.last()));
     let longest = cell("Longest disturbance");
     assert!(longest > 2.0 && longest < 40.0, "longest disturbance {longest} s");
     // The figure: the heading error coloured by state.
