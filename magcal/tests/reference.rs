@@ -166,7 +166,23 @@ fn a_fit_that_disagrees_with_the_world_model_is_refused_with_the_numbers_or_kept
     let o = magcal(&args);
     assert!(!o.status.success());
     let e = String::from_utf8_lossy(&o.stderr);
-    assert!(e.contains("dip is 89.") && e.contains("roll/pitch columns' units"), "{e}");
+    assert!(e.contains("look like radians"), "{e}");
+    // Without a site too, and by default: refused by what the field shows
+    // levelled both ways (before: accepted, predicting 0.15°).
+    for model in ["attitude", "auto"] {
+        let o = magcal(&["fit", "--model", model, "--input", p(&rad_path), "--field-nt", "52203", "--out", p(&out)]);
+        assert!(!o.status.success());
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert!(e.contains("look like radians"), "{model}: {e}");
+    }
+    // Said to be radians, they are read as such (measured 623 nT residual).
+    ok(&magcal(&["fit", "--model", "attitude", "--input", p(&rad_path), "--field-nt", "52203", "--out", p(&out), "--columns", "roll_deg=roll_deg:rad,pitch_deg=pitch_deg:rad"]));
+    // Degrees of a vehicle that stays within ±3° (the simulator's swing
+    // test with small rolls and pitches): not taken for radians.
+    let small = dir.path().join("small.csv");
+    ok(&magcal(&["simulate", "swing", "--seed", "4", "--roll-amp-deg", "2.5", "--pitch-amp-deg", "1.5", "--out", p(&small)]));
+    let o = magcal(&["fit", "--model", "attitude", "--input", p(&small), "--field-nt", "48000", "--out", p(&out)]);
+    ok(&o);
 }
 
 #[test]

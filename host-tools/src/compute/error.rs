@@ -87,6 +87,21 @@ pub enum ComputeError {
     /// The attitude-aided fit cannot use the recording.
     #[error("{0}")]
     Attitude(String),
+    /// The fitted coefficients are no sensor's (refused before any document).
+    #[error("the fitted coefficients are unusable: {0}")]
+    Unusable(&'static str),
+    /// `roll_deg`, `pitch_deg` hold radians.
+    #[error(
+        "roll_deg and pitch_deg look like radians: every angle is within ±{max_abs:.2}, and levelled with them read as radians the field is consistent to {as_radians_nt:.0} nT where read as degrees it is {as_degrees_nt:.0} nT (inf: no plausible calibration)"
+    )]
+    AnglesLookLikeRadians {
+        /// Largest |angle| in the columns.
+        max_abs: f64,
+        /// The attitude fit's robust residual with the angles as degrees, nT.
+        as_degrees_nt: f64,
+        /// The same as radians, nT.
+        as_radians_nt: f64,
+    },
     /// The reference field could not be computed.
     #[error("{0}")]
     Geomag(#[from] crate::geomag::GeomagError),

@@ -60,6 +60,9 @@ pub fn fit_recording(rec: &Recording, opts: &FitOptions) -> Result<CalDoc, Compu
         return Err(ComputeError::NoSamples);
     }
     calib_core::fit::check_samples(&samples, 1, opts.saturation)?;
+    if matches!(opts.model, ModelKind::Attitude | ModelKind::Gyro) {
+        super::attitude::check_attitude_units(rec, opts.field_nt)?;
+    }
     let mut warnings = Vec::new();
     let mut gyro_quality = None;
     let mut attitude_predicted_deg = None;
@@ -87,6 +90,7 @@ pub fn fit_recording(rec: &Recording, opts: &FitOptions) -> Result<CalDoc, Compu
         }
     }
     .map_err(|e| with_advice(explain_failure(e, &samples, opts), rec))?;
+    cal.validate(crate::data::caldoc::MAX_BIAS_ABS).map_err(|e| ComputeError::Unusable(crate::data::caldoc::cal_error_text(e)))?;
     let q = assess(&cal, &samples, opts.field_nt);
     if let Err(e) = Gates::for_model(opts.model).check(&q) {
         let e = with_advice(e, rec);

@@ -135,7 +135,8 @@ pub fn model_kind(name: &str) -> Option<ModelKind> {
     }
 }
 
-fn cal_error_text(e: CalError) -> &'static str {
+/// Why a calibration's coefficients are unusable, in words.
+pub(crate) fn cal_error_text(e: CalError) -> &'static str {
     match e {
         CalError::NonFinite => "a coefficient is NaN or infinite",
         CalError::NotOrientationPreserving => "the matrix is singular or mirrors the field (determinant ≤ 0)",
