@@ -18,9 +18,10 @@
 //!   heading by about as much as it moves the horizontal intensity, over
 //!   the headings visited); without roll and pitch, `|h|` against `F`.
 //!
-//! The held-out RMS (degrees) ranks the candidates and is the prediction
-//! written into the document when it exceeds the covariance's own
-//! ([`crate::data::results::Quality::predicted_heading_rms_deg`]). A model
+//! The held-out RMS (degrees) ranks the candidates and is the expected
+//! heading error written into the document when it exceeds the one from the
+//! covariance and the heading noise
+//! ([`crate::data::results::Quality::expected_heading_rms_deg`]). A model
 //! whose full fit is refused keeps its reason in the table; when no
 //! candidate's held-out error is below [`MAX_HELD_OUT_DEG`] the fit is
 //! refused.
@@ -182,8 +183,8 @@ fn trimmed_rms(mut squares: Vec<f64>) -> f64 {
 }
 
 /// Fits every candidate, judges each on held-out blocks, keeps the best.
-/// `opts.model` is ignored. The kept document's predicted heading error is
-/// the larger of its covariance's and its held-out error.
+/// `opts.model` is ignored. The kept document's expected heading error is
+/// the larger of its own and its held-out error.
 pub fn fit_auto(rec: &Recording, opts: &FitOptions) -> Result<(CalDoc, AutoChoice), ComputeError> {
     let basis = basis_of(rec);
     let mut rows = Vec::new();
@@ -218,8 +219,8 @@ pub fn fit_auto(rec: &Recording, opts: &FitOptions) -> Result<(CalDoc, AutoChoic
     if !(held_out <= MAX_HELD_OUT_DEG) && !opts.allow_weak {
         return Err(ComputeError::NoModel { table: table_text(&rows) });
     }
-    let predicted = doc.quality.predicted_heading_rms_deg.map_or(held_out, |p| p.max(held_out));
-    doc.quality.predicted_heading_rms_deg = Some(predicted);
+    let expected = doc.quality.expected_heading_rms_deg.map_or(held_out, |p| p.max(held_out));
+    doc.quality.expected_heading_rms_deg = Some(expected);
     let choice = AutoChoice { chosen: doc.model.name().to_string(), basis, candidates: rows };
     doc.quality.auto = Some(choice.clone());
     Ok((doc, choice))

@@ -245,6 +245,12 @@ pub fn backstep_recording(rec: &Recording, doc: &CalDoc, opts: &BackstepOptions)
         estimates,
     });
     out.trace = Some(trace);
+    // The reference goes on, judged again on the run with the new matrix.
+    if let Some(mut r) = doc.reference.clone() {
+        r.check_calibration(&out.field_cal(), rec, None);
+        out.reference = Some(r);
+    }
+    out.quality.expected_heading_rms_deg = super::apply::expected_heading_rms_deg(&out);
     Ok((out, BackstepReport { turnaround_s: turnaround, before, after, joint }))
 }
 

@@ -90,7 +90,6 @@ pub fn fit_recording(rec: &Recording, opts: &FitOptions) -> Result<CalDoc, Compu
         }
     }
     .map_err(|e| with_advice(explain_failure(e, &samples, opts), rec))?;
-    cal.validate(crate::data::caldoc::MAX_BIAS_ABS).map_err(|e| ComputeError::Unusable(crate::data::caldoc::cal_error_text(e)))?;
     let q = assess(&cal, &samples, opts.field_nt);
     if let Err(e) = Gates::for_model(opts.model).check(&q) {
         let e = with_advice(e, rec);
@@ -99,6 +98,7 @@ pub fn fit_recording(rec: &Recording, opts: &FitOptions) -> Result<CalDoc, Compu
         }
         warnings.push(format!("quality gate failed, kept because weak results were allowed: {e}"));
     }
+    cal.validate(crate::data::caldoc::MAX_BIAS_ABS).map_err(|e| ComputeError::Unusable(crate::data::caldoc::cal_error_text(e)))?;
     let reference = judge_against_reference(&cal, rec, opts, fit_dip, &mut warnings)?;
     let skipped = rec.len() - samples.len();
     if skipped > 0 {
@@ -117,6 +117,7 @@ pub fn fit_recording(rec: &Recording, opts: &FitOptions) -> Result<CalDoc, Compu
     let quality = ResultsQuality { fit: Some(fit_quality(&q, skipped, warnings, units)), gyro: gyro_quality, predicted_heading_rms_deg, ..Default::default() };
     let mut doc = CalDoc::new(kind, &cal, opts.field_nt, quality);
     doc.reference = Some(reference);
+    doc.quality.expected_heading_rms_deg = super::apply::expected_heading_rms_deg(&doc);
     Ok(doc)
 }
 

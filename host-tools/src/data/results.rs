@@ -29,6 +29,15 @@ pub struct Quality {
     /// predicts, degrees (`docs/INTERFACES.md`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub predicted_heading_rms_deg: Option<f64>,
+    /// The heading RMS a recording should show with this calibration against
+    /// a true heading, degrees: the calibration's own predicted error
+    /// (`predicted_heading_rms_deg`) and each sample's noise across the
+    /// horizontal field (the latest step's residual over `F cos I`) in
+    /// quadrature (`compute::apply::expected_heading_rms_deg`); for `fit
+    /// --model auto` at least the held-out error. What a validation run's
+    /// heading RMS is compared with.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub expected_heading_rms_deg: Option<f64>,
     /// `fit --model auto`: the candidates, their held-out errors and the choice.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub auto: Option<crate::compute::auto::AutoChoice>,

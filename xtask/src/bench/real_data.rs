@@ -161,7 +161,7 @@ fn attitude_leave_one_out(sets: &[Dataset], md: &mut String) -> serde_json::Valu
 /// The table and the leave-one-out choice, as JSON and markdown.
 pub fn real_data(root: &Path) -> (serde_json::Value, String) {
     let sets = datasets(root);
-    let mut md = String::from("\nReal recordings, every model: calibration part in, validation part out (BROAD: heading RMS against the optical reference after one constant offset; the glider: 1σ scatter of the dip and of |F| on dives 4–5 below 3 m). The floor: the true calibration (BROAD), the glider's own (Seaglider MAGCAL).\n\n| dataset | model | verdict | result | floor | predicted heading 1σ |\n|---|---|---|---|---|---|\n");
+    let mut md = String::from("\nReal recordings, every model: calibration part in, validation part out (BROAD: heading RMS against the optical reference after one constant offset; the glider: 1σ scatter of the dip and of |F| on dives 4–5 below 3 m). The floor: the true calibration (BROAD), the glider's own (Seaglider MAGCAL).\n\n| dataset | model | verdict | result | floor | predicted heading 1σ / expected with the noise |\n|---|---|---|---|---|---|\n");
     let mut rows = Vec::new();
     for d in &sets {
         let (_, floor) = (d.judge)(&d.floor);
@@ -172,14 +172,18 @@ pub fn real_data(root: &Path) -> (serde_json::Value, String) {
         for (model, reference, label) in runs {
             let opts = FitOptions { model, field_nt: d.field_nt, saturation: None, allow_weak: false, gyro_lag: host_tools::compute::GyroLag::Given(0.0), reference };
             let (verdict, result, predicted) = match fit_recording(&d.calib, &opts) {
-                Ok(doc) => ("accepted".to_string(), (d.judge)(&doc.field_cal()).1, doc.quality.predicted_heading_rms_deg.map_or("—".into(), |p| format!("{p:.2}°"))),
+                Ok(doc) => (
+                    "accepted".to_string(),
+                    (d.judge)(&doc.field_cal()).1,
+                    format!("{} / {}", doc.quality.predicted_heading_rms_deg.map_or("—".into(), |p| format!("{p:.2}°")), doc.quality.expected_heading_rms_deg.map_or("—".into(), |p| format!("{p:.2}°"))),
+                ),
                 Err(e) => (format!("refused: {e}"), "—".to_string(), "—".to_string()),
             };
             let _ = writeln!(md, "| {} | {}{label} | {verdict} | {result} | {floor} | {predicted} |", d.name, model.name());
             rows.push(json!({"dataset": d.name, "model": format!("{}{label}", model.name()), "verdict": verdict, "result": result, "floor": floor, "predicted": predicted}));
         }
     }
-    let _ = writeln!(md, "\n`fit` without `--model` (auto: every allowed model judged on {} held-out time blocks of the calibration part, the least held-out error kept; its prediction the larger of the held-out error and the covariance's):\n\n| dataset | kept | result on the validation part | floor | predicted | held-out table |\n|---|---|---|---|---|---|", host_tools::compute::auto::FOLDS);
+    let _ = writeln!(md, "\n`fit` without `--model` (auto: every allowed model judged on {} held-out time blocks of the calibration part, the least held-out error kept; expected: the larger of the held-out error and the covariance's prediction ⊕ the heading's white noise):\n\n| dataset | kept | result on the validation part | floor | expected | held-out table |\n|---|---|---|---|---|---|", host_tools::compute::auto::FOLDS);
     for d in &sets {
         let (_, floor) = (d.judge)(&d.floor);
         let opts = FitOptions { model: ModelKind::Attitude, field_nt: d.field_nt, saturation: None, allow_weak: false, gyro_lag: host_tools::compute::GyroLag::Given(0.0), reference: d.reference.clone() };
@@ -187,7 +191,7 @@ pub fn real_data(root: &Path) -> (serde_json::Value, String) {
             Ok((doc, choice)) => (
                 choice.chosen.clone(),
                 (d.judge)(&doc.field_cal()).1,
-                doc.quality.predicted_heading_rms_deg.map_or("—".into(), |p| format!("{p:.2}°")),
+                doc.quality.expected_heading_rms_deg.map_or("—".into(), |p| format!("{p:.2}°")),
                 host_tools::compute::auto::table_text(&choice.candidates.iter().filter(|c| c.held_out_deg.is_some()).cloned().collect::<Vec<_>>()),
             ),
             Err(e) => ("refused".into(), e.to_string(), "—".into(), String::new()),
