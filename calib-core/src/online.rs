@@ -134,7 +134,15 @@ impl<T: Real> OnlineIntegrity<T> {
     /// `field_nt` ([`Reference::from_field_nt`], [`Tuning::standard`], the
     /// estimator every [`BOARD_ESTIMATOR_EVERY`] samples).
     pub fn for_stored_field(field_nt: T) -> Result<Self, IntegrityError> {
-        Ok(Self::new(Reference::from_field_nt(field_nt), Tuning::standard())?.with_estimator_every(BOARD_ESTIMATOR_EVERY))
+        Self::for_stored(field_nt, None)
+    }
+
+    /// The same with the stored reference inclination (radians; `None`:
+    /// learned from the samples judged ok), as the board runs it and `magcal
+    /// apply` replays a document giving only `field_nt` and an inclination.
+    pub fn for_stored(field_nt: T, inclination_rad: Option<T>) -> Result<Self, IntegrityError> {
+        let reference = Reference { inclination_rad, ..Reference::from_field_nt(field_nt) };
+        Ok(Self::new(reference, Tuning::standard())?.with_estimator_every(BOARD_ESTIMATOR_EVERY))
     }
 
     /// Runs the hard-iron estimator and its shadow check only every `n`-th

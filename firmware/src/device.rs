@@ -119,7 +119,7 @@ impl Device {
             staged: None,
             lock: WriteLock::new(boot.challenge),
             inputs: Inputs::default(),
-            pipeline: Pipeline::new(coefficients.field_nt),
+            pipeline: Pipeline::new(coefficients.field_nt, coefficients.inclination()),
             fit: None,
             last_error,
         }

@@ -40,15 +40,16 @@ use embedded_storage::nor_flash::NorFlash;
 /// Commit marker.
 pub const MAGIC: u32 = 0x4C41_434D; // "MCAL" little-endian
 /// Record format version: 2 since the payload (the protocol's
-/// `Coefficients`) carries the current and temperature terms. Records of
-/// version 1 still load (`device::decode_coefficients` reads them with no
-/// such terms); a save always writes this version.
-pub const VERSION: u16 = 2;
+/// `Coefficients`) carries the current and temperature terms, 3 since it
+/// carries the reference inclination. Records of versions 1 and 2 still
+/// load (`device::decode_coefficients` reads them without what they lack);
+/// a save always writes this version.
+pub const VERSION: u16 = 3;
 /// The oldest record version still read.
 pub const OLDEST_VERSION: u16 = 1;
 /// Largest payload stored: an encoded coefficient set
-/// ([`magcal_protocol::Coefficients::MAX_ENCODED_LEN`], 104 bytes; a
-/// version-1 record's set is shorter).
+/// ([`magcal_protocol::Coefficients::MAX_ENCODED_LEN`], 108 bytes; a
+/// version-1 or -2 record's set is shorter).
 pub const MAX_PAYLOAD: usize = magcal_protocol::Coefficients::MAX_ENCODED_LEN;
 const HEADER: usize = 16;
 // Bit by bit, as the protocol's (no 1 KiB table in flash for a rare save).

@@ -14,8 +14,9 @@ use crate::error::FrameError;
 /// `AttitudeEnv` request (postcard has no field tags, so a version-2 peer
 /// would misread these). Version 4 appended the heading's σ and integrity
 /// to `Sample`, the integrity counters and the on-line hard iron to
-/// `Health`, and the `Nmea` stream mode.
-pub const PROTOCOL_VERSION: u8 = 4;
+/// `Health`, and the `Nmea` stream mode. Version 5 appended the reference
+/// inclination to `Coefficients`.
+pub const PROTOCOL_VERSION: u8 = 5;
 
 /// Longest decoded frame (version byte, postcard payload and CRC).
 pub const MAX_DECODED_LEN: usize = 250;

@@ -222,6 +222,12 @@ pub struct Coefficients {
     pub temp_ref_c: f32,
     /// Relative gain change per °C, per axis (`temperature.gain_per_c`).
     pub temp_gain_per_c: [f32; 3],
+    /// The inclination the integrity monitor judges the field's dip against,
+    /// radians, positive down (the document's reference: the world model at
+    /// the site or the calibration's own verified dip);
+    /// [`Coefficients::NO_INCLINATION`]: none, the board learns it from the
+    /// samples it judges (protocol 5).
+    pub inclination_rad: f32,
 }
 
 impl Coefficients {
@@ -230,11 +236,20 @@ impl Coefficients {
         calib_core::cal::EnvTerms { bias_per_a: self.current_bias_per_a, ref_c: self.temp_ref_c, gain_per_c: self.temp_gain_per_c }
     }
 
+    /// "No reference inclination": beyond ±π/2, so no dip, and an exact
+    /// value, so sets compare equal (a NaN would not) and read back alike.
+    pub const NO_INCLINATION: f32 = 4.0;
+
+    /// The reference inclination, radians (`None` for [`Self::NO_INCLINATION`]: learned).
+    pub fn inclination(&self) -> Option<f32> {
+        (self.inclination_rad != Self::NO_INCLINATION).then_some(self.inclination_rad)
+    }
+
     /// Bytes of the postcard encoding of any set. postcard writes an `f32`
     /// as its 4 little-endian bytes and a fixed-size array as its elements,
     /// with no length (postcard wire format, "f32" and "array"), and every
     /// field here is an `f32` or an array of them: the encoding is the
-    /// struct's size (26 × 4 = 104 bytes, no padding between `f32`s).
+    /// struct's size (27 × 4 = 108 bytes, no padding between `f32`s).
     /// The firmware's commit buffer and the store's record capacity are this
     /// constant; a test pins it against the encoding of the extreme sets.
     pub const MAX_ENCODED_LEN: usize = core::mem::size_of::<Self>();

@@ -187,6 +187,7 @@ fn the_largest_messages_fit_in_a_frame() {
         current_bias_per_a: [f32::MAX; 3],
         temp_ref_c: f32::MIN,
         temp_gain_per_c: [f32::MAX; 3],
+        inclination_rad: Coefficients::NO_INCLINATION,
     };
     let big = [
         Response { seq: Some(u16::MAX), body: ResponseBody::Coefficients { coefficients: c, source: CoefficientSource::Stored, seq: u32::MAX } },
@@ -246,6 +247,7 @@ fn version_3_appends_to_the_version_2_layout() {
         current_bias_per_a: [0.5, -0.25, 2.0],
         temp_ref_c: 20.0,
         temp_gain_per_c: [-0.003, -0.003, -0.0031],
+        inclination_rad: Coefficients::NO_INCLINATION,
     };
     let golden_v2: [&[u8]; 2] = [
         &[5, 2, 7, 6, 2, 8, 90, 62, 71, 207, 50, 111, 134, 0],
@@ -272,7 +274,7 @@ fn version_3_appends_to_the_version_2_layout() {
     // The appended terms are the last 28 bytes of the coefficients (7 f32 LE).
     let mut cb = [0u8; 128];
     let bytes = postcard::to_slice(&c, &mut cb).unwrap();
-    assert_eq!(bytes.len(), 26 * 4);
+    assert_eq!(bytes.len(), 27 * 4);
     assert_eq!(&bytes[76..80], &0.5f32.to_le_bytes());
     assert_eq!(&bytes[88..92], &20.0f32.to_le_bytes());
 }
@@ -280,11 +282,11 @@ fn version_3_appends_to_the_version_2_layout() {
 /// Every coefficient set encodes within [`Coefficients::MAX_ENCODED_LEN`]:
 /// postcard writes each `f32` as 4 fixed bytes whatever its value (no
 /// varint for floats), so the extremes — largest, smallest, NaN, infinities,
-/// subnormals — all take the same 26 × 4 bytes (26 `f32` fields counted in
-/// the ICD: 3 + 9 + 5 + 1 + 1 + 3 + 1 + 3).
+/// subnormals — all take the same 27 × 4 bytes (27 `f32` fields counted in
+/// the ICD: 3 + 9 + 5 + 1 + 1 + 3 + 1 + 3 + 1).
 #[test]
 fn the_largest_coefficient_set_encodes_within_max_encoded_len() {
-    assert_eq!(Coefficients::MAX_ENCODED_LEN, 26 * 4);
+    assert_eq!(Coefficients::MAX_ENCODED_LEN, 27 * 4);
     let set = |x: f32| Coefficients {
         bias: [x; 3],
         matrix: [[x; 3]; 3],
@@ -294,6 +296,7 @@ fn the_largest_coefficient_set_encodes_within_max_encoded_len() {
         current_bias_per_a: [x; 3],
         temp_ref_c: x,
         temp_gain_per_c: [x; 3],
+        inclination_rad: Coefficients::NO_INCLINATION,
     };
     for x in [f32::MAX, f32::MIN, f32::NAN, f32::INFINITY, f32::NEG_INFINITY, f32::MIN_POSITIVE / 2.0, -0.0, 0.0] {
         let mut buf = [0u8; Coefficients::MAX_ENCODED_LEN];
@@ -304,7 +307,7 @@ fn the_largest_coefficient_set_encodes_within_max_encoded_len() {
 
 proptest! {
     #[test]
-    fn any_coefficient_set_encodes_in_max_encoded_len(bits in any::<[u32; 26]>()) {
+    fn any_coefficient_set_encodes_in_max_encoded_len(bits in any::<[u32; 27]>()) {
         let f = bits.map(f32::from_bits);
         let c = Coefficients {
             bias: [f[0], f[1], f[2]],
@@ -315,6 +318,7 @@ proptest! {
             current_bias_per_a: [f[19], f[20], f[21]],
             temp_ref_c: f[22],
             temp_gain_per_c: [f[23], f[24], f[25]],
+            inclination_rad: f[26],
         };
         let mut buf = [0u8; Coefficients::MAX_ENCODED_LEN];
         let bytes = postcard::to_slice(&c, &mut buf).unwrap();

@@ -1,5 +1,5 @@
 //! The coefficient sets: the physical checks, the nominal set, the store's
-//! encoding (record versions 1 and 2), and the read / write / commit
+//! encoding (record versions 1, 2 and 3), and the read / write / commit
 //! requests (the unlock they need is [`super::unlock`]'s).
 
 use calib_core::cal::{Calibration, EnvTerms, FieldCal, Swing};
@@ -56,6 +56,7 @@ pub fn default_coefficients() -> Coefficients {
         current_bias_per_a: none.bias_per_a,
         temp_ref_c: none.ref_c,
         temp_gain_per_c: none.gain_per_c,
+        inclination_rad: magcal_protocol::Coefficients::NO_INCLINATION,
     }
 }
 
@@ -66,9 +67,11 @@ pub fn validate(c: &Coefficients) -> Result<Calibration<f32>, DeviceError> {
     let swing_ok = c.swing.iter().all(|v| v.is_finite() && v.abs() < 1.0);
     let decl_ok = c.declination_rad.is_finite() && c.declination_rad.abs() <= core::f32::consts::PI;
     let field_ok = c.field_nt >= FIELD_RANGE_NT.0 && c.field_nt <= FIELD_RANGE_NT.1;
+    // None, or a dip strictly between the horizon and the vertical.
+    let incl_ok = c.inclination().is_none_or(|i| i.abs() < core::f32::consts::FRAC_PI_2);
     // A gain far from the chain's means the set was made for another sensor.
     let gain = (c.matrix[0][0].abs() + c.matrix[1][1].abs() + c.matrix[2][2].abs()) / 3.0 * COUNTS_PER_NT;
-    if !(swing_ok && decl_ok && field_ok && gain > 0.2 && gain < 5.0) {
+    if !(swing_ok && decl_ok && field_ok && incl_ok && gain > 0.2 && gain < 5.0) {
         return Err(DeviceError::InvalidCoefficients);
     }
     let env = c.env_terms();
@@ -87,15 +90,23 @@ pub fn encode_coefficients(c: &Coefficients, buf: &mut [u8]) -> Option<usize> {
 /// postcard encoding of a struct is that of the tuple of its fields.
 type CoefficientsV1 = ([f32; 3], [[f32; 3]; 3], [f32; 5], f32, f32);
 
+/// A set as store record version 2 held it (protocol 3 and 4, before the
+/// reference inclination).
+type CoefficientsV2 = ([f32; 3], [[f32; 3]; 3], [f32; 5], f32, f32, [f32; 3], f32, [f32; 3]);
+
 /// Decodes and validates a stored set of store record `version`
 /// ([`crate::store::VERSION`]; a version-1 record loads with no current or
-/// temperature terms).
+/// temperature terms, a version-1 or -2 record with no reference inclination).
 pub fn decode_coefficients(bytes: &[u8], version: u16) -> Option<(Coefficients, Calibration<f32>)> {
     let c: Coefficients = match version {
         1 => {
             let (bias, matrix, swing, declination_rad, field_nt): CoefficientsV1 = postcard::from_bytes(bytes).ok()?;
             let none = EnvTerms::<f32>::none();
-            Coefficients { bias, matrix, swing, declination_rad, field_nt, current_bias_per_a: none.bias_per_a, temp_ref_c: none.ref_c, temp_gain_per_c: none.gain_per_c }
+            Coefficients { bias, matrix, swing, declination_rad, field_nt, current_bias_per_a: none.bias_per_a, temp_ref_c: none.ref_c, temp_gain_per_c: none.gain_per_c, inclination_rad: magcal_protocol::Coefficients::NO_INCLINATION }
+        }
+        2 => {
+            let (bias, matrix, swing, declination_rad, field_nt, current_bias_per_a, temp_ref_c, temp_gain_per_c): CoefficientsV2 = postcard::from_bytes(bytes).ok()?;
+            Coefficients { bias, matrix, swing, declination_rad, field_nt, current_bias_per_a, temp_ref_c, temp_gain_per_c, inclination_rad: magcal_protocol::Coefficients::NO_INCLINATION }
         }
         crate::store::VERSION => postcard::from_bytes(bytes).ok()?,
         _ => return None,
@@ -149,7 +160,7 @@ impl Device {
             Ok(seq) => {
                 self.coefficients = pending.staged;
                 self.calibration = pending.calibration;
-                self.pipeline.restart_integrity(pending.staged.field_nt);
+                self.pipeline.restart_integrity(pending.staged.field_nt, pending.staged.inclination());
                 self.source = CoefficientSource::Stored;
                 self.seq = seq;
                 self.staged = None;

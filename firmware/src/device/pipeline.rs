@@ -13,7 +13,7 @@
 //! `apply`'s gates and σ its own): the heading's 1σ and the
 //! integrity state go out with the sample, the on-line hard iron is
 //! applied under its guard, and the counters feed `Health`. The reference
-//! is the stored set's `field_nt` ([`OnlineIntegrity::for_stored_field`]);
+//! is the stored set's `field_nt` and reference inclination ([`OnlineIntegrity::for_stored`]);
 //! a new set starts a new judgement ([`Pipeline::restart_integrity`]).
 
 use calib_core::cal::{Calibration, Environment};
@@ -43,15 +43,16 @@ pub(super) struct Pipeline {
 }
 
 impl Pipeline {
-    /// Nothing streamed, 10 Hz; the integrity judged against `field_nt`.
-    pub(super) fn new(field_nt: f32) -> Self {
+    /// Nothing streamed, 10 Hz; the integrity judged against `field_nt`
+    /// and the stored reference inclination (learned when `None`).
+    pub(super) fn new(field_nt: f32, inclination_rad: Option<f32>) -> Self {
         Self {
             stream: StreamMode::Off,
             output_rate_hz: 10,
             last_temp_c: None,
             env_degraded: false,
             counters: DeviceCounters::default(),
-            integrity: OnlineIntegrity::for_stored_field(field_nt).ok(),
+            integrity: OnlineIntegrity::for_stored(field_nt, inclination_rad).ok(),
             last_ms: None,
         }
     }
@@ -59,8 +60,8 @@ impl Pipeline {
     /// A new calibration (of intensity `field_nt`) is in use: its integrity
     /// starts afresh (the old one's counters, learned inclination and
     /// hard-iron estimate belonged to the old set).
-    pub(super) fn restart_integrity(&mut self, field_nt: f32) {
-        self.integrity = OnlineIntegrity::for_stored_field(field_nt).ok();
+    pub(super) fn restart_integrity(&mut self, field_nt: f32, inclination_rad: Option<f32>) {
+        self.integrity = OnlineIntegrity::for_stored(field_nt, inclination_rad).ok();
     }
 }
 

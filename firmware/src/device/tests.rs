@@ -34,6 +34,7 @@ fn good() -> Coefficients {
         current_bias_per_a: [0.0; 3],
         temp_ref_c: 20.0,
         temp_gain_per_c: [0.0; 3],
+        inclination_rad: magcal_protocol::Coefficients::NO_INCLINATION,
     }
 }
 
@@ -350,6 +351,7 @@ impl EnvSensor {
             current_bias_per_a: if with_env { f(self.c) } else { [0.0; 3] },
             temp_ref_c: self.t0_c as f32,
             temp_gain_per_c: if with_env { f(self.k) } else { [0.0; 3] },
+            inclination_rad: magcal_protocol::Coefficients::NO_INCLINATION,
         }
     }
 }
@@ -482,9 +484,19 @@ fn a_record_of_the_previous_version_loads_without_terms() {
     assert_eq!((back.bias, back.matrix, back.swing, back.declination_rad, back.field_nt), (c.bias, c.matrix, c.swing, c.declination_rad, c.field_nt));
     assert!(cal.env.is_none());
     assert_eq!(back.env_terms(), EnvTerms::none());
-    // The same bytes are not a version-2 record (too short), nor version 9.
+    // The same bytes are not a version-2 or -3 record (too short), nor version 9.
+    assert!(decode_coefficients(&v1, 2).is_none());
     assert!(decode_coefficients(&v1, crate::store::VERSION).is_none());
     assert!(decode_coefficients(&v1, 9).is_none());
+    // A version-2 record (protocol 3 and 4: the current and temperature
+    // terms, no inclination) loads with no reference inclination.
+    let mut v2 = v1.clone();
+    for x in c.current_bias_per_a.iter().chain([c.temp_ref_c].iter()).chain(c.temp_gain_per_c.iter()) {
+        v2.extend_from_slice(&x.to_le_bytes());
+    }
+    let (back, _) = decode_coefficients(&v2, 2).unwrap();
+    assert_eq!(back, Coefficients { inclination_rad: Coefficients::NO_INCLINATION, ..c });
+    assert_eq!(back.inclination(), None);
 }
 
 /// A vehicle turning at 0.2 rad/s with a gently rocking attitude, the AHRS
@@ -564,4 +576,47 @@ fn a_disturbed_stream_is_flagged_with_calib_cores_bits() {
     // (measured 7.0 s).
     assert!((6_500..=7_500).contains(&h.longest_disturbance_ms), "{} ms", h.longest_disturbance_ms);
     assert!(!h.hard_iron_applied, "the stored calibration still fits");
+}
+
+/// The stored reference inclination (protocol 5, the document's reference)
+/// is what the board judges the dip against, with calib-core's
+/// `OnlineIntegrity::for_stored` bit for bit: the true dip (64.2°) keeps the
+/// stream `ok`; a reference 15° off — a calibration that does not fit this
+/// field — is never `ok` after the first 2 s, where with none the board
+/// would learn the dip from the stream it judges and pass it.
+#[test]
+fn the_stored_reference_inclination_judges_the_dip() {
+    use calib_core::online::OnlineIntegrity;
+    use magcal_protocol::Integrity;
+    let sensor = EnvSensor::new();
+    let run = turning_run(&sensor, 300, 0..0);
+    let true_dip = 1.12f32;
+    for (inclination, want_ok) in [(Some(true_dip), true), (Some(true_dip - 15f32.to_radians()), false), (None, true)] {
+        let mut c = sensor.coefficients(false);
+        c.inclination_rad = inclination.unwrap_or(Coefficients::NO_INCLINATION);
+        assert_eq!(c.inclination(), inclination);
+        let (mut d, mut s) = env_device(c);
+        let cal = validate(&c).unwrap();
+        let mut reference = OnlineIntegrity::<f32>::for_stored(c.field_nt, inclination).unwrap();
+        let mut ok = 0usize;
+        for (k, (raw, motion, _)) in run.iter().enumerate() {
+            let now = 1_000 + 100 * k as u32;
+            assert_eq!(req(&mut d, motion.clone(), now - 5, &mut s), ResponseBody::Ack);
+            let out = d.on_raw_sample(raw, now).unwrap();
+            let RequestBody::Motion { roll_rad, pitch_rad, rate_rad_s } = *motion else { unreachable!() };
+            let dt = if k == 0 { f32::NAN } else { 0.1f32 };
+            let corrected = cal.env.correct_raw(raw.field_counts, &calib_core::cal::Environment { current_a: 0.0, temp_c: sensor.t0_c as f32 });
+            let j = reference.process(&cal, corrected, Some(&calib_core::heading::Tilt::new(roll_rad, pitch_rad)), Some(rate_rad_s), dt);
+            assert_eq!(out.integrity.state(), j.verdict.state, "{inclination:?}: sample {k}");
+            if k >= 20 && out.integrity == Integrity::Ok {
+                ok += 1;
+            }
+        }
+        let frac = ok as f64 / 280.0;
+        assert!(if want_ok { frac > 0.95 } else { frac == 0.0 }, "{inclination:?}: {frac} ok");
+    }
+    // A dip at or beyond the vertical is refused before staging.
+    let mut c = sensor.coefficients(false);
+    c.inclination_rad = 1.6;
+    assert_eq!(validate(&c), Err(DeviceError::InvalidCoefficients));
 }

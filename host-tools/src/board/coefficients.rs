@@ -8,10 +8,14 @@ use crate::data::results::Quality;
 use calib_core::cal::Swing;
 
 use crate::data::caldoc::{CurrentBlock, TemperatureBlock};
+use crate::compute::reference::{Reference, ReferenceSource};
 use crate::data::CalDoc;
 
 /// The board's coefficients for a calibration document, with its current and
-/// temperature blocks (absent blocks: no terms, [`CalDoc::env_terms`]).
+/// temperature blocks (absent blocks: no terms, [`CalDoc::env_terms`]) and
+/// its reference inclination
+/// ([`crate::compute::apply::document_inclination_deg`]; NaN without one:
+/// the board then learns it).
 pub fn to_coefficients(doc: &CalDoc) -> Coefficients {
     let s = doc.swing.map(|s| [s.a, s.b, s.c, s.d, s.e]).unwrap_or([0.0; 5]);
     let env = doc.env_terms();
@@ -24,6 +28,7 @@ pub fn to_coefficients(doc: &CalDoc) -> Coefficients {
         current_bias_per_a: env.bias_per_a.map(|v| v as f32),
         temp_ref_c: env.ref_c as f32,
         temp_gain_per_c: env.gain_per_c.map(|v| v as f32),
+        inclination_rad: crate::compute::apply::document_inclination_deg(doc, doc.field_nt).map_or(Coefficients::NO_INCLINATION, |d| d.to_radians() as f32),
     }
 }
 
@@ -43,6 +48,18 @@ pub fn doc_from_coefficients(c: &Coefficients) -> CalDoc {
     }
     if c.temp_gain_per_c.iter().any(|v| *v != 0.0) {
         doc.temperature = Some(TemperatureBlock { ref_c: f64::from(c.temp_ref_c), gain_per_c: c.temp_gain_per_c.map(f64::from) });
+    }
+    if let Some(i) = c.inclination() {
+        let f = f64::from(c.field_nt);
+        doc.reference = Some(Reference {
+            source: ReferenceSource::Board,
+            site: None,
+            field_nt: f,
+            field_sigma_nt: crate::compute::reference::LOCAL_INTENSITY_SIGMA_REL * f,
+            inclination_deg: Some(f64::from(i).to_degrees()),
+            inclination_sigma_deg: None,
+            check: None,
+        });
     }
     doc
 }

@@ -52,6 +52,8 @@ pub enum ReferenceSource {
     Igrf14,
     /// Given by the user (`--field-nt`, `--inclination-deg`).
     User,
+    /// Read from a board's stored coefficients (their inclination).
+    Board,
     /// Estimated by the fit from the calibration recording (no site given):
     /// independent of any later recording judged against it, not of the
     /// calibration's own data.
@@ -175,6 +177,7 @@ impl Reference {
             (ReferenceSource::Igrf14, Some(s)) => format!("IGRF-14 at {:.3}°, {:.3}°, {:.2}", s.lat_deg, s.lon_deg, s.decimal_year),
             (ReferenceSource::Igrf14, None) => "IGRF-14".into(),
             (ReferenceSource::User, _) => "given by the user".into(),
+            (ReferenceSource::Board, _) => "the board's stored coefficients".into(),
             (ReferenceSource::CalibrationData, _) => "estimated from the calibration recording".into(),
         }
     }

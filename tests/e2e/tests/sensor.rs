@@ -29,6 +29,7 @@ fn coefficients() -> Coefficients {
         current_bias_per_a: [0.0; 3],
         temp_ref_c: 20.0,
         temp_gain_per_c: [0.0; 3],
+        inclination_rad: magcal_protocol::Coefficients::NO_INCLINATION,
     }
 }
 
