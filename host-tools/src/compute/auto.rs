@@ -58,6 +58,10 @@ pub struct CandidateRow {
     /// Why the model was not fitted or not judged.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub refused: Option<String>,
+    /// What was waived for it (the in-sample magnitude gate of the gyro-
+    /// and attitude-aided fits).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub note: Option<String>,
 }
 
 /// What the held-out judgement compares with.
@@ -190,15 +194,16 @@ pub fn fit_auto(rec: &Recording, opts: &FitOptions) -> Result<(CalDoc, AutoChoic
     let mut rows = Vec::new();
     let mut best: Option<(f64, CalDoc)> = None;
     for model in CANDIDATES {
-        let mut row = CandidateRow { model: model.name().to_string(), held_out_deg: None, predicted_deg: None, refused: None };
+        let mut row = CandidateRow { model: model.name().to_string(), held_out_deg: None, predicted_deg: None, refused: None, note: None };
         if let Err(why) = allowed(model, rec) {
             row.refused = Some(why);
             rows.push(row);
             continue;
         }
-        match fit_recording(rec, &FitOptions { model, ..opts.clone() }) {
+        match fit_candidate(rec, model, opts) {
             Err(e) => row.refused = Some(e.to_string()),
-            Ok(doc) => {
+            Ok((doc, note)) => {
+                row.note = note;
                 row.predicted_deg = doc.quality.predicted_heading_rms_deg;
                 match held_out_deg(model, rec, opts, basis) {
                     Err(why) => row.refused = Some(format!("not judged on held-out data: {why}")),
@@ -224,6 +229,32 @@ pub fn fit_auto(rec: &Recording, opts: &FitOptions) -> Result<(CalDoc, AutoChoic
     let choice = AutoChoice { chosen: doc.model.name().to_string(), basis, candidates: rows };
     doc.quality.auto = Some(choice.clone());
     Ok((doc, choice))
+}
+
+/// One candidate's fit on the whole recording. The models that do not rest
+/// on the field's magnitude (gyro-aided, attitude-aided) are not refused
+/// for their in-sample magnitude scatter: a real room's or hull's field
+/// varies along the path more than the 2 % gate allows, and their held-out
+/// error is the judge here. Every other refusal stands (coverage, the
+/// world model's disagreement, unusable coefficients).
+fn fit_candidate(rec: &Recording, model: ModelKind, opts: &FitOptions) -> Result<(CalDoc, Option<String>), ComputeError> {
+    let strict = FitOptions { model, ..opts.clone() };
+    match fit_recording(rec, &strict) {
+        Err(ComputeError::Fit(calib_core::fit::FitError::ResidualTooLarge { rms_per_mille })) if matches!(model, ModelKind::Gyro | ModelKind::Attitude) && !opts.allow_weak => {
+            let mut doc = fit_recording(rec, &FitOptions { allow_weak: true, ..strict })?;
+            if let Some(check) = doc.reference.as_ref().and_then(|r| r.check.as_ref()).filter(|c| !c.agrees) {
+                return Err(ComputeError::Disagrees { disagreement: check.disagreement.clone() });
+            }
+            let note = format!("magnitudes scatter by {:.1} % in sample: judged on held-out data instead", f64::from(rms_per_mille) / 10.0);
+            if let Some(f) = doc.quality.fit.as_mut() {
+                for w in f.warnings.iter_mut().filter(|w| w.starts_with("quality gate failed")) {
+                    w.clone_from(&note);
+                }
+            }
+            Ok((doc, Some(note)))
+        }
+        other => other.map(|d| (d, None)),
+    }
 }
 
 /// The candidates' table in words, one line each.

@@ -108,7 +108,7 @@ pub fn run(a: Args) -> Result<()> {
             for row in &choice.candidates {
                 let held = row.held_out_deg.map_or("—".to_string(), |h| format!("{h:.2}°"));
                 let predicted = row.predicted_deg.map_or("—".to_string(), |p| format!("{p:.2}°"));
-                eprintln!("  {:<9} held-out {held:>7}  covariance {predicted:>7}  {}", row.model, row.refused.as_deref().unwrap_or(""));
+                eprintln!("  {:<9} held-out {held:>7}  covariance {predicted:>7}  {}", row.model, row.refused.as_deref().or(row.note.as_deref()).unwrap_or(""));
             }
             eprintln!("  kept {} (the least held-out error)", choice.chosen);
             doc

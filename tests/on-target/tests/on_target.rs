@@ -167,7 +167,7 @@ mod tests {
             current_bias_per_a: cur,
             temp_ref_c: t0_c,
             temp_gain_per_c: k,
-            inclination_rad: f32::NAN,
+            inclination_rad: Coefficients::NO_INCLINATION,
         };
         let mut dev = Device::new(Boot { stored: Some((c, 1)), challenge: 0 });
         dev.handle(&RequestBody::SetStream(StreamMode::Both), 0, &mut NoStore, &BoardCounters::default());
