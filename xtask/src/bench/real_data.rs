@@ -158,6 +158,45 @@ fn attitude_leave_one_out(sets: &[Dataset], md: &mut String) -> serde_json::Valu
     json!(rows)
 }
 
+/// `apply` with wrong calibrations (issue 28): on every BROAD trial's
+/// validation part, the true calibration, its bias zeroed, an identity
+/// matrix on raw counts (bias zeroed too) and the matrix ×10, each as a
+/// document holding only `bias`, `matrix` and `field_nt` (no reference: the
+/// hardest case, the dip learned); the share of rows not `ok` after the
+/// first 10 s, and the heading RMS on the `ok` rows after one offset.
+fn wrong_calibrations(root: &Path, md: &mut String) -> serde_json::Value {
+    use host_tools::compute::apply::{apply_recording, score, ApplyOptions};
+    use host_tools::data::results::Quality;
+    use host_tools::data::CalDoc;
+    let _ = writeln!(md, "\n`apply` with wrong calibrations (documents with only bias, matrix, field_nt; rows after the first 10 s):\n\n| trial | calibration | not ok | ok rows' heading RMS |\n|---|---|---|---|");
+    let mut rows = Vec::new();
+    let data = root.join("tests/data");
+    for (d, n) in [("broad-02-limited", "02"), ("broad-03", "03"), ("broad-05", "05"), ("broad-06", "06"), ("broad-09", "09")] {
+        let dir = data.join(d);
+        let (Some(truth), Ok(rec)) = (read_json(&dir.join(format!("{n}.truth.json"))), Recording::read(&dir.join(format!("{n}_validate.csv")))) else { continue };
+        let (Some(right), Some(optical), Some(f)) = (cal_of(&truth), column(&dir.join(format!("{n}_validate.csv")), "truth_heading_deg"), truth["field_nt"].as_f64()) else { continue };
+        let variants = [
+            ("true", right),
+            ("bias zeroed", FieldCal { bias: [0.0; 3], ..right }),
+            ("identity", FieldCal { bias: [0.0; 3], matrix: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]] }),
+            ("matrix ×10", FieldCal { matrix: right.matrix.map(|r| r.map(|v| 10.0 * v)), ..right }),
+        ];
+        let t = rec.t_s.clone().unwrap_or_default();
+        let t0 = t.first().copied().unwrap_or(0.0);
+        for (label, cal) in variants {
+            let doc = CalDoc::new(ModelKind::Full, &cal, f, Quality::default());
+            let Ok(applied) = apply_recording(&rec, &doc, &ApplyOptions::default()) else { continue };
+            let after: Vec<bool> = applied.rows.iter().zip(&t).filter(|(_, &ti)| ti >= t0 + 10.0).map(|(r, _)| r.integrity != calib_core::integrity::IntegrityState::Ok).collect();
+            let not_ok = after.iter().filter(|b| **b).count() as f64 / after.len().max(1) as f64;
+            let s = score(&applied, &optical, 5.0);
+            let rms = if s.ok_rms_deg.is_finite() { format!("{:.2}°", s.ok_rms_deg) } else { "—".into() };
+            let _ = writeln!(md, "| {d} | {label} | {:.1} % | {rms} |", 100.0 * not_ok);
+            rows.push(json!({"trial": d, "calibration": label, "not_ok_after_10s": not_ok, "ok_rms_deg": s.ok_rms_deg}));
+        }
+    }
+    json!(rows)
+}
+
 /// The table and the leave-one-out choice, as JSON and markdown.
 pub fn real_data(root: &Path) -> (serde_json::Value, String) {
     let sets = datasets(root);
@@ -199,8 +238,9 @@ pub fn real_data(root: &Path) -> (serde_json::Value, String) {
         let _ = writeln!(md, "| {} | {kept} | {result} | {floor} | {predicted} | {table} |", d.name);
         rows.push(json!({"dataset": d.name, "model": "auto", "kept": kept, "result": result, "floor": floor, "predicted": predicted}));
     }
+    let wrong = wrong_calibrations(root, &mut md);
     let loo = attitude_leave_one_out(&sets, &mut md);
-    (json!({"table": rows, "attitude_leave_one_out": loo}), md)
+    (json!({"table": rows, "wrong_calibrations": wrong, "attitude_leave_one_out": loo}), md)
 }
 
 #[cfg(test)]
