@@ -61,6 +61,12 @@ pub enum IntegrityState {
     CalInvalid = 2,
     /// No attitude: no heading.
     NoAttitude = 3,
+    /// The field passes every check, but the inclination it was judged by
+    /// was learned from the very stream judged: no reference independent of
+    /// it (a calibration without a reference inclination). The heading is
+    /// given with its σ, but a wrong calibration can pass such checks, so
+    /// it is not called `ok`.
+    Unjudged = 4,
 }
 
 impl IntegrityState {
@@ -71,6 +77,7 @@ impl IntegrityState {
             IntegrityState::Disturbed => "disturbed",
             IntegrityState::CalInvalid => "cal_invalid",
             IntegrityState::NoAttitude => "no_attitude",
+            IntegrityState::Unjudged => "unjudged",
         }
     }
 
@@ -81,12 +88,13 @@ impl IntegrityState {
             1 => Some(IntegrityState::Disturbed),
             2 => Some(IntegrityState::CalInvalid),
             3 => Some(IntegrityState::NoAttitude),
+            4 => Some(IntegrityState::Unjudged),
             _ => None,
         }
     }
 
     /// Every state, in wire order.
-    pub const ALL: [IntegrityState; 4] = [IntegrityState::Ok, IntegrityState::Disturbed, IntegrityState::CalInvalid, IntegrityState::NoAttitude];
+    pub const ALL: [IntegrityState; 5] = [IntegrityState::Ok, IntegrityState::Disturbed, IntegrityState::CalInvalid, IntegrityState::NoAttitude, IntegrityState::Unjudged];
 }
 
 /// What the calibration says the field should look like.

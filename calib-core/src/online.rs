@@ -51,7 +51,7 @@ pub const MAX_OFFSET_REL: f64 = 0.5;
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Health<T> {
     /// Samples judged in each state, indexed by `IntegrityState as usize`.
-    pub samples_per_state: [u32; 4],
+    pub samples_per_state: [u32; 5],
     /// Longest run of samples not `ok` (disturbed or calibration invalid), s.
     pub longest_disturbance_s: T,
     /// The run in progress, s.
@@ -126,7 +126,7 @@ impl<T: Real> OnlineIntegrity<T> {
             alt_every: 1,
             alt_count: 0,
             alt_dt_s: T::ZERO,
-            health: Health { samples_per_state: [0; 4], longest_disturbance_s: T::ZERO, current_disturbance_s: T::ZERO, hard_iron_applied: 0 },
+            health: Health { samples_per_state: [0; 5], longest_disturbance_s: T::ZERO, current_disturbance_s: T::ZERO, hard_iron_applied: 0 },
         })
     }
 
@@ -221,6 +221,10 @@ impl<T: Real> OnlineIntegrity<T> {
                 self.restart_estimate();
             }
             self.track_estimate(stored_nt, tilt, rate_rad_s, dt);
+        }
+        // Ok only against a reference the stream did not teach itself.
+        if verdict.state == IntegrityState::Ok && self.monitor.reference().inclination_rad.is_none() {
+            verdict.state = IntegrityState::Unjudged;
         }
         self.count(verdict.state, dt);
         Judged { field_nt, heading_rad, verdict, hard_iron_applied: applied_here }

@@ -32,6 +32,9 @@ pub struct StateCounts {
     pub cal_invalid: u64,
     /// `no_attitude`.
     pub no_attitude: u64,
+    /// `unjudged` (no reference inclination independent of the stream).
+    #[serde(default)]
+    pub unjudged: u64,
 }
 
 impl StateCounts {
@@ -47,6 +50,7 @@ impl StateCounts {
             IntegrityState::Disturbed => self.disturbed,
             IntegrityState::CalInvalid => self.cal_invalid,
             IntegrityState::NoAttitude => self.no_attitude,
+            IntegrityState::Unjudged => self.unjudged,
         }
     }
 
@@ -56,12 +60,13 @@ impl StateCounts {
             IntegrityState::Disturbed => &mut self.disturbed,
             IntegrityState::CalInvalid => &mut self.cal_invalid,
             IntegrityState::NoAttitude => &mut self.no_attitude,
+            IntegrityState::Unjudged => &mut self.unjudged,
         }
     }
 
     /// All samples.
     pub fn total(&self) -> u64 {
-        self.ok + self.disturbed + self.cal_invalid + self.no_attitude
+        self.ok + self.disturbed + self.cal_invalid + self.no_attitude + self.unjudged
     }
 }
 
@@ -183,8 +188,8 @@ pub fn integrity_text(c: &IntegrityCounts) -> String {
         (Some(false), None) => "no on-line hard-iron estimate".to_string(),
     };
     format!(
-        "{} ok, {} disturbed, {} cal_invalid, {} no_attitude; longest disturbance {:.1} s{cal_invalid}; {hard_iron}",
-        n.ok, n.disturbed, n.cal_invalid, n.no_attitude, c.longest_disturbance_s
+        "{} ok, {} disturbed, {} cal_invalid, {} no_attitude, {} unjudged; longest disturbance {:.1} s{cal_invalid}; {hard_iron}",
+        n.ok, n.disturbed, n.cal_invalid, n.no_attitude, n.unjudged, c.longest_disturbance_s
     )
 }
 
@@ -205,7 +210,7 @@ mod tests {
             t.push(*s, i as f64 * 0.1);
         }
         let c = t.counts();
-        assert_eq!(c.states, StateCounts { ok: 10, disturbed: 5, cal_invalid: 13, no_attitude: 1 });
+        assert_eq!(c.states, StateCounts { ok: 10, disturbed: 5, cal_invalid: 13, no_attitude: 1, unjudged: 0 });
         assert_eq!(c.states.total(), 29);
         assert!((c.longest_disturbance_s - 1.5).abs() < 1e-9, "{c:?}");
         assert!((c.longest_cal_invalid_s.unwrap() - 1.0).abs() < 1e-9, "{c:?}");

@@ -15,6 +15,7 @@ use std::path::{Path, PathBuf};
 use calib_core::cal::{FieldCal, ModelKind};
 use host_tools::compute::apply::{apply_recording, score, ApplyOptions, IntegrityScore};
 use host_tools::compute::card::read_reference_column;
+use host_tools::compute::reference::Reference;
 use host_tools::data::results::Quality;
 use host_tools::data::{CalDoc, Recording};
 
@@ -29,10 +30,19 @@ struct Truth {
     field_nt: f64,
 }
 
-/// The stored calibration as a document: bias, matrix, field_nt.
+/// The BROAD lab's inclination, degrees: the mean of `lab_inclination_deg`
+/// over the four undisturbed B/C trials' READMEs (02 69.361, 03 68.050,
+/// 05 69.513, 09 68.947), measured with the optical reference — the
+/// independent reference the monitor judges the dip against (issue 28).
+const LAB_INCLINATION_DEG: f64 = 68.968;
+
+/// The stored calibration as a document: bias, matrix, field_nt, and the
+/// lab's inclination as its reference.
 fn doc(truth_json: &str) -> CalDoc {
     let t: Truth = serde_json::from_str(&std::fs::read_to_string(data(truth_json)).unwrap()).unwrap();
-    CalDoc::new(ModelKind::Full, &FieldCal { bias: t.bias, matrix: t.matrix }, t.field_nt, Quality::default())
+    let mut doc = CalDoc::new(ModelKind::Full, &FieldCal { bias: t.bias, matrix: t.matrix }, t.field_nt, Quality::default());
+    doc.reference = Some(Reference { inclination_deg: Some(LAB_INCLINATION_DEG), ..Reference::user_intensity(t.field_nt) });
+    doc
 }
 
 fn judge(csv: &str, truth_json: &str) -> IntegrityScore {

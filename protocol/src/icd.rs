@@ -160,6 +160,9 @@ pub enum Integrity {
     CalInvalid,
     /// No fresh attitude (or a needed current is stale): no heading.
     NoAttitude,
+    /// Every check passed, but against an inclination learned from the
+    /// stream itself: the stored set has no reference inclination (protocol 5).
+    Unjudged,
 }
 
 impl Integrity {
@@ -171,6 +174,7 @@ impl Integrity {
             S::Disturbed => Integrity::Disturbed,
             S::CalInvalid => Integrity::CalInvalid,
             S::NoAttitude => Integrity::NoAttitude,
+            S::Unjudged => Integrity::Unjudged,
         }
     }
 
@@ -182,11 +186,12 @@ impl Integrity {
             Integrity::Disturbed => S::Disturbed,
             Integrity::CalInvalid => S::CalInvalid,
             Integrity::NoAttitude => S::NoAttitude,
+            Integrity::Unjudged => S::Unjudged,
         }
     }
 
     /// The word used in CSV, JSON and the `$PMAGI` sentence (`ok`,
-    /// `disturbed`, `cal_invalid`, `no_attitude`).
+    /// `disturbed`, `cal_invalid`, `no_attitude`, `unjudged`).
     pub fn name(self) -> &'static str {
         self.state().name()
     }
@@ -369,8 +374,8 @@ pub struct Health {
     pub env_degraded: bool,
     /// Output samples judged in each [`Integrity`] state since boot (or
     /// since the coefficients in use were set), indexed by the state's wire
-    /// tag (`ok`, `disturbed`, `cal_invalid`, `no_attitude`).
-    pub integrity_samples: [u32; 4],
+    /// tag (`ok`, `disturbed`, `cal_invalid`, `no_attitude`, `unjudged`).
+    pub integrity_samples: [u32; 5],
     /// Longest run of samples not `ok` (disturbed or calibration invalid), ms.
     pub longest_disturbance_ms: u32,
     /// The on-line hard-iron estimate, nT in the body frame (`None` before

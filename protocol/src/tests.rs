@@ -203,7 +203,7 @@ fn the_largest_messages_fit_in_a_frame() {
                 unlock_challenge: u32::MAX, coefficient_source: CoefficientSource::Default, coefficient_seq: u32::MAX,
                 last_error: Some(DeviceError::Frame(FrameError::UnsupportedVersion { got: 255 })), output_rate_hz: 100, stream: StreamMode::Both, feed_updates: u32::MAX, max_acq_gap_ms: u32::MAX, store_saves: u32::MAX, max_store_ms: u32::MAX,
                 current_stale: u32::MAX, temp_missing: u32::MAX, temp_c: Some(f32::MIN), env_degraded: true,
-                integrity_samples: [u32::MAX; 4], longest_disturbance_ms: u32::MAX, hard_iron_nt: Some([f32::MIN; 3]), hard_iron_applied: true, hard_iron_applications: u32::MAX,
+                integrity_samples: [u32::MAX; 5], longest_disturbance_ms: u32::MAX, hard_iron_nt: Some([f32::MIN; 3]), hard_iron_applied: true, hard_iron_applications: u32::MAX,
             }),
         },
         Response { seq: None, body: ResponseBody::Sample(Sample { t_ms: u32::MAX, raw: Some([1.0; 3]), field_nt: Some([2.0; 3]), heading_rad: Some(3.0), saturated: true, feed_seq: Some(u32::MAX), temp_c: Some(f32::MIN), heading_sigma_deg: Some(f32::MAX), integrity: Integrity::NoAttitude }) },

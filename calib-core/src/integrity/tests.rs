@@ -157,7 +157,7 @@ fn no_attitude_is_its_own_state_and_bad_references_are_refused() {
     for s in IntegrityState::ALL {
         assert_eq!(IntegrityState::from_u8(s as u8), Some(s));
     }
-    assert_eq!(IntegrityState::from_u8(4), None);
+    assert_eq!(IntegrityState::from_u8(5), None);
 }
 
 #[test]
@@ -350,4 +350,33 @@ fn at_a_slow_sampling_rate_one_misfit_is_a_disturbance_not_an_invalid_calibratio
     // Eight passing samples bring the fraction under a tenth again.
     let back = (23..40).position(|k| step(k, 0.0) != IntegrityState::CalInvalid).expect("valid again");
     assert!((6..=9).contains(&back), "{back}");
+}
+
+/// A sample is `ok` only against an inclination the stream did not teach
+/// itself (issue 28): the same undisturbed turning stream is `ok` with the
+/// reference's inclination and `unjudged` — never `ok` — with none, the
+/// dip learned all the same (the σ and the field checks are the same).
+#[test]
+fn without_a_reference_inclination_nothing_is_ok() {
+    let cal = Calibration { field: FieldCal { bias: [0.0; 3], matrix: identity3() }, swing: Swing::zero(), declination_rad: 0.0, env: EnvTerms::none() };
+    let ned = ned_field(F_NT, DIP_RAD, 0.0);
+    for (incl, want) in [(Some(DIP_RAD), IntegrityState::Ok), (None, IntegrityState::Unjudged)] {
+        let mut online = OnlineIntegrity::new(reference(incl), Tuning::standard()).unwrap();
+        let mut noise = Noise(5);
+        let mut states = std::vec::Vec::new();
+        for k in 0..600 {
+            let t = k as f64 * DT_S;
+            let (att, w) = motion(t);
+            let b = ned_to_body(ned, att[0], att[1], att[2]);
+            let raw = [0, 1, 2].map(|i| b[i] + SIGMA_NT * noise.next());
+            states.push(online.process(&cal, raw, Some(&Tilt::new(att[0], att[1])), Some(w), DT_S).verdict.state);
+        }
+        let of = |s: IntegrityState| states[50..].iter().filter(|x| **x == s).count() as f64 / 550.0;
+        assert!(of(want) > 0.95, "{incl:?}: {}", of(want));
+        if incl.is_none() {
+            assert_eq!(of(IntegrityState::Ok), 0.0);
+            // The dip was learned all the same (within a degree).
+            assert!((online.monitor().inclination_rad().unwrap() - DIP_RAD).abs() < 1f64.to_radians());
+        }
+    }
 }

@@ -534,10 +534,12 @@ fn a_disturbed_stream_is_flagged_with_calib_cores_bits() {
     use calib_core::online::OnlineIntegrity;
     use magcal_protocol::Integrity;
     let sensor = EnvSensor::new();
-    let c = sensor.coefficients(false);
+    // With the stored reference inclination (the run's true dip, 1.12 rad):
+    // without one nothing is `ok` (`unjudged`).
+    let c = Coefficients { inclination_rad: 1.12, ..sensor.coefficients(false) };
     let (mut d, mut s) = env_device(c);
     let cal = validate(&c).unwrap();
-    let mut reference = OnlineIntegrity::<f32>::for_stored_field(c.field_nt).unwrap();
+    let mut reference = OnlineIntegrity::<f32>::for_stored(c.field_nt, c.inclination()).unwrap();
     let run = turning_run(&sensor, 400, 200..230);
     let mut states = Vec::new();
     for (k, (raw, motion, yaw)) in run.iter().enumerate() {
@@ -582,8 +584,8 @@ fn a_disturbed_stream_is_flagged_with_calib_cores_bits() {
 /// is what the board judges the dip against, with calib-core's
 /// `OnlineIntegrity::for_stored` bit for bit: the true dip (64.2°) keeps the
 /// stream `ok`; a reference 15° off — a calibration that does not fit this
-/// field — is never `ok` after the first 2 s, where with none the board
-/// would learn the dip from the stream it judges and pass it.
+/// field — is never `ok` after the first 2 s; with none the board learns
+/// the dip from the stream it judges and says `unjudged`, never `ok`.
 #[test]
 fn the_stored_reference_inclination_judges_the_dip() {
     use calib_core::online::OnlineIntegrity;
@@ -591,14 +593,14 @@ fn the_stored_reference_inclination_judges_the_dip() {
     let sensor = EnvSensor::new();
     let run = turning_run(&sensor, 300, 0..0);
     let true_dip = 1.12f32;
-    for (inclination, want_ok) in [(Some(true_dip), true), (Some(true_dip - 15f32.to_radians()), false), (None, true)] {
+    for (inclination, want_ok) in [(Some(true_dip), true), (Some(true_dip - 15f32.to_radians()), false), (None, false)] {
         let mut c = sensor.coefficients(false);
         c.inclination_rad = inclination.unwrap_or(Coefficients::NO_INCLINATION);
         assert_eq!(c.inclination(), inclination);
         let (mut d, mut s) = env_device(c);
         let cal = validate(&c).unwrap();
         let mut reference = OnlineIntegrity::<f32>::for_stored(c.field_nt, inclination).unwrap();
-        let mut ok = 0usize;
+        let (mut ok, mut unjudged) = (0usize, 0usize);
         for (k, (raw, motion, _)) in run.iter().enumerate() {
             let now = 1_000 + 100 * k as u32;
             assert_eq!(req(&mut d, motion.clone(), now - 5, &mut s), ResponseBody::Ack);
@@ -611,9 +613,16 @@ fn the_stored_reference_inclination_judges_the_dip() {
             if k >= 20 && out.integrity == Integrity::Ok {
                 ok += 1;
             }
+            if k >= 20 && out.integrity == Integrity::Unjudged {
+                unjudged += 1;
+            }
         }
         let frac = ok as f64 / 280.0;
         assert!(if want_ok { frac > 0.95 } else { frac == 0.0 }, "{inclination:?}: {frac} ok");
+        if inclination.is_none() {
+            // Without a reference the stream passes its own checks: unjudged.
+            assert!(unjudged as f64 / 280.0 > 0.95, "{unjudged}");
+        }
     }
     // A dip at or beyond the vertical is refused before staging.
     let mut c = sensor.coefficients(false);

@@ -463,7 +463,7 @@ pub(crate) fn coefficients(page: &mut Page, cx: &Context<'_>) {
 }
 
 /// The colour of each integrity state in the figure (ok green, disturbed
-/// orange, calibration invalid red, no attitude grey), in
+/// orange, calibration invalid red, no attitude grey, unjudged blue), in
 /// [`IntegrityState::ALL`]'s order.
 fn state_colour(state: IntegrityState) -> plotters::style::RGBColor {
     match state {
@@ -471,6 +471,7 @@ fn state_colour(state: IntegrityState) -> plotters::style::RGBColor {
         IntegrityState::Disturbed => plot::color(3),
         IntegrityState::CalInvalid => plot::color(1),
         IntegrityState::NoAttitude => plot::color(7),
+        IntegrityState::Unjudged => plot::color(4),
     }
 }
 

@@ -28,6 +28,9 @@ fn docs() -> (CalDoc, CalDoc) {
     let raw = CalDoc::new(ModelKind::Sphere, &FieldCal::identity(), 44_721.4, Default::default());
     let mut fixed = CalDoc::new(ModelKind::Sphere, &FieldCal { bias: BIAS, matrix: FieldCal::<f64>::identity().matrix }, 44_721.4, Default::default());
     fixed.quality.predicted_heading_rms_deg = Some(0.25);
+    // The reference the integrity judges against: the test field's dip,
+    // atan(40 000 / 20 000).
+    fixed.reference = Some(crate::compute::reference::Reference { inclination_deg: Some(2f64.atan().to_degrees()), ..crate::compute::reference::Reference::user_intensity(44_721.4) });
     (raw, fixed)
 }
 

@@ -27,9 +27,16 @@ use calib_core::integrity::IntegrityState;
 use calib_core::integrity::Tuning;
 use host_tools::compute::apply::{apply_recording, score, Applied, ApplyOptions, IntegrityScore};
 use host_tools::compute::card::read_reference_column;
+use host_tools::compute::reference::Reference;
 use host_tools::data::results::Quality;
 use host_tools::data::{CalDoc, Recording};
 use serde_json::json;
+
+/// The BROAD lab's inclination, degrees: the mean of `lab_inclination_deg`
+/// over the four undisturbed B/C trials' READMEs (02 69.361, 03 68.050,
+/// 05 69.513, 09 68.947), measured with the optical reference: the
+/// reference each stored calibration is judged against (issue 28).
+const LAB_INCLINATION_DEG: f64 = 68.968;
 
 /// The trials: name, recording, undisturbed calibration.
 const TRIALS: [(&str, &str, &str); 6] = [
@@ -55,7 +62,8 @@ fn load(data: &Path, csv: &str, truth_json: &str) -> Option<Trial> {
         field_nt: f64,
     }
     let t: Truth = serde_json::from_str(&std::fs::read_to_string(data.join(truth_json)).ok()?).ok()?;
-    let doc = CalDoc::new(ModelKind::Full, &FieldCal { bias: t.bias, matrix: t.matrix }, t.field_nt, Quality::default());
+    let mut doc = CalDoc::new(ModelKind::Full, &FieldCal { bias: t.bias, matrix: t.matrix }, t.field_nt, Quality::default());
+    doc.reference = Some(Reference { inclination_deg: Some(LAB_INCLINATION_DEG), ..Reference::user_intensity(t.field_nt) });
     Some(Trial { rec: Recording::read(&data.join(csv)).ok()?, truth_deg: read_reference_column(&data.join(csv), "truth_heading_deg").ok()??, doc })
 }
 
@@ -129,7 +137,10 @@ fn load_glider(dir: &Path) -> Option<Glider> {
     let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("onboard_calibration.json")).ok()?).ok()?;
     let bias: [f64; 3] = serde_json::from_value(v["bias"].clone()).ok()?;
     let matrix: [[f64; 3]; 3] = serde_json::from_value(v["matrix"].clone()).ok()?;
-    let doc = CalDoc::new(ModelKind::Full, &FieldCal { bias, matrix }, v["field_nt"].as_f64()?, Quality::default());
+    let mut doc = CalDoc::new(ModelKind::Full, &FieldCal { bias, matrix }, v["field_nt"].as_f64()?, Quality::default());
+    // The world model at the glider's site (its README) is the reference.
+    let site = host_tools::geomag::Site::new(46.902, -124.894, "2023-06-01").ok()?;
+    doc.reference = Some(Reference::world_model(site, &site.field().ok()?));
     let path = dir.join("sg236_validate.csv");
     Some(Glider { rec: Recording::read(&path).ok()?, depth_m: read_reference_column(&path, "depth_m").ok()??, doc })
 }
@@ -172,11 +183,11 @@ fn glider(data: &Path) -> Option<serde_json::Value> {
     let applied = apply_recording(&g.rec, &g.doc, &ApplyOptions::default()).ok()?;
     let below: Vec<usize> = (0..applied.rows.len()).filter(|&i| g.depth_m.get(i).is_some_and(|d| *d > GLIDER_JUDGE_DEPTH_M)).collect();
     let count = |rows: &mut dyn Iterator<Item = usize>| {
-        let mut c = [0usize; 4];
+        let mut c = [0usize; 5];
         for i in rows {
             c[applied.rows[i].integrity as usize] += 1;
         }
-        json!({"ok": c[0], "disturbed": c[1], "cal_invalid": c[2], "no_attitude": c[3]})
+        json!({"ok": c[0], "disturbed": c[1], "cal_invalid": c[2], "no_attitude": c[3], "unjudged": c[4]})
     };
     let (ok, not_ok): (Vec<usize>, Vec<usize>) = below.iter().partition(|&&i| applied.rows[i].integrity == IntegrityState::Ok);
     let sigma: Vec<f64> = ok.iter().filter_map(|&i| applied.rows[i].heading_sigma_deg).collect();
