@@ -29,7 +29,8 @@ struct Truth {
 /// The stored calibration as a document (bias, matrix, field_nt).
 fn write_doc(dir: &Path) -> (PathBuf, Truth) {
     let t: Truth = serde_json::from_str(&std::fs::read_to_string(data("broad-30/broad_30.truth.json")).unwrap()).unwrap();
-    let doc = serde_json::json!({"model": "full", "bias": t.bias, "matrix": t.matrix, "field_nt": t.field_nt});
+    // With its reference: the lab's inclination (tests/data/README.md).
+    let doc = serde_json::json!({"model": "full", "bias": t.bias, "matrix": t.matrix, "field_nt": t.field_nt, "reference": {"source": "user", "field_nt": t.field_nt, "field_sigma_nt": 0.03 * t.field_nt, "inclination_deg": 68.968}});
     let path = dir.join("cal.json");
     std::fs::write(&path, doc.to_string()).unwrap();
     (path, t)
@@ -158,11 +159,13 @@ fn apply_takes_the_intensity_a_foreign_calibration_reproduces() {
     let t: Truth = serde_json::from_str(&std::fs::read_to_string(data("broad-05/05.truth.json")).unwrap()).unwrap();
     let scaled = t.matrix.map(|row| row.map(|v| v * 1.06));
     let cal = dir.path().join("foreign.json");
+    // Another tool's document: no reference; the lab's inclination given
+    // (broad-05's README, 69.513°), or nothing would be judged ok.
     std::fs::write(&cal, serde_json::json!({"model": "full", "bias": t.bias, "matrix": scaled, "field_nt": t.field_nt}).to_string()).unwrap();
     let input = data("broad-05/05_validate.csv");
     let ok = |extra: &[&str]| {
         let out = dir.path().join("out.csv");
-        let o = magcal(&[&["apply", "--input", p(&input), "--cal", p(&cal), "--out", p(&out), "--json"][..], extra].concat());
+        let o = magcal(&[&["apply", "--input", p(&input), "--cal", p(&cal), "--out", p(&out), "--json", "--inclination-deg", "69.513"][..], extra].concat());
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         let s: Summary = serde_json::from_slice(&o.stdout).unwrap();
         s.rows_per_state["ok"] as f64 / s.rows as f64

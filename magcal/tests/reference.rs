@@ -311,9 +311,9 @@ fn apply_with_a_wrong_calibration_is_not_ok_against_the_documents_reference() {
 #[test]
 fn apply_with_a_wrong_calibration_on_a_real_trial_is_never_ok() {
     // BROAD trial 05's validation part with its true calibration and three
-    // wrong ones, documents without a reference (the dip learned: the
-    // hardest case). Measured: the true one 0.4 % of rows not ok after the
-    // first 10 s; each wrong one 100 % (`cargo xtask bench`, bench::real_data).
+    // wrong ones. Measured with the lab's inclination: the true one 0.4 %
+    // of rows not ok after the first 10 s; each wrong one 100 % (`cargo
+    // xtask bench`, bench::real_data, learns the dip: the same).
     let dir = tempfile::tempdir().unwrap();
     let truth: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(data("broad-05/05.truth.json")).unwrap()).unwrap();
     let input = data("broad-05/05_validate.csv");
@@ -330,9 +330,8 @@ fn apply_with_a_wrong_calibration_on_a_real_trial_is_never_ok() {
         let cal = dir.path().join(format!("{name}.json"));
         std::fs::write(&cal, serde_json::json!({"model": "full", "bias": bias, "matrix": matrix, "field_nt": truth["field_nt"]}).to_string()).unwrap();
         let out = dir.path().join("out.csv");
-        let o = magcal(&["apply", "--input", p(&input), "--cal", p(&cal), "--out", p(&out)]);
-        ok(&o);
-        assert!(String::from_utf8_lossy(&o.stderr).contains("holds no reference inclination"), "the learned dip is said");
+        // The lab's inclination (the data's README, 69.513°) as the reference.
+        ok(&magcal(&["apply", "--input", p(&input), "--cal", p(&cal), "--out", p(&out), "--inclination-deg", "69.513"]));
         let text = std::fs::read_to_string(&out).unwrap();
         let after: Vec<bool> = text.lines().skip(1).zip(&t).filter(|(_, &ti)| ti >= t[0] + 10.0).map(|(l, _)| !l.ends_with(",ok")).collect();
         let not_ok = after.iter().filter(|b| **b).count() as f64 / after.len() as f64;
@@ -340,6 +339,16 @@ fn apply_with_a_wrong_calibration_on_a_real_trial_is_never_ok() {
             assert!(not_ok >= 0.95, "{name}: {not_ok}");
         } else {
             assert!(not_ok < 0.05, "{name}: {not_ok}");
+        }
+        // Without a reference, nothing is ok: the right calibration's rows
+        // are unjudged, the wrong ones' not ok either, and apply says why.
+        let o = magcal(&["apply", "--input", p(&input), "--cal", p(&cal), "--out", p(&out)]);
+        ok(&o);
+        assert!(String::from_utf8_lossy(&o.stderr).contains("holds no reference inclination"), "the learned dip is said");
+        let text = std::fs::read_to_string(&out).unwrap();
+        assert!(!text.lines().any(|l| l.ends_with(",ok")), "{name}");
+        if !wrong {
+            assert!(text.lines().filter(|l| l.ends_with(",unjudged")).count() > 900, "{name}");
         }
     }
 }

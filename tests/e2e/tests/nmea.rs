@@ -81,7 +81,9 @@ fn the_board_streams_nmea_sentences_a_parser_accepts_and_goes_back_to_frames() {
     let mut link = BoardClient::open(board.link_port()).expect("open link");
     let mut feed = FeedWriter::open(board.sensor_port().expect("feed pty")).expect("open feed");
     link.identify().expect("identify");
-    let c = proto::Coefficients { declination_rad: DECLINATION_RAD as f32, field_nt: FIELD_NT as f32, ..firmware::device::default_coefficients() };
+    // With the field's inclination as the set's reference (protocol 5):
+    // without one no heading is ok (unjudged) and none is sent.
+    let c = proto::Coefficients { declination_rad: DECLINATION_RAD as f32, field_nt: FIELD_NT as f32, inclination_rad: 1.12, ..firmware::device::default_coefficients() };
     link.upload_coefficients(&c).expect("upload");
     link.set_output_rate(10).expect("rate");
     let (roll, pitch) = (0.1f32, -0.05f32);
