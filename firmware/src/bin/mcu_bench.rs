@@ -298,7 +298,8 @@ mod bench {
         let integrity_invalid = t.instructions(s0, reps);
 
         // The usual path: a turn the calibration fits, judged `ok` after a
-        // warm-up circle (inclination learned, the gyro anchored).
+        // warm-up circle (against the stored reference inclination, the
+        // turn's 60°; the gyro anchored).
         let cal_turn = Calibration { swing: Swing::zero(), ..cal };
         let Some(turn) = turn(&cal_turn) else {
             debug::exit(debug::EXIT_FAILURE);
@@ -309,7 +310,7 @@ mod bench {
         let s0 = t.start();
         acc += apply_turn_loop(&cal_turn, &turn);
         let apply_turn = t.instructions(s0, reps);
-        let Ok(mut online) = OnlineIntegrity::<f32>::for_stored_field(50_000.0) else {
+        let Ok(mut online) = OnlineIntegrity::<f32>::for_stored(50_000.0, Some(60f32.to_radians())) else {
             debug::exit(debug::EXIT_FAILURE);
             loop {
                 cortex_m::asm::wfi();
