@@ -39,12 +39,15 @@ use crate::Real;
 
 /// The largest on-line hard iron the guard applies, as a fraction of `F`.
 /// A payload or a magnetised part near the sensor moves the field by a few
-/// thousand nT (the simulator's payload: 2 000 nT at the sensor); an offset above
-/// half the Earth's field is not a change the stored calibration can carry
-/// but a wrong calibration (an identity matrix on raw counts needs 0.86 `F`
-/// to reach the reference intensity on the simulator's validation run, and
-/// its headings are then 53° off): it stays `cal_invalid`.
-pub const MAX_OFFSET_REL: f64 = 0.5;
+/// thousand nT (the simulator's payload: 2 000 nT at the sensor, 0.04 `F`;
+/// the tests' steps 0.15–0.18 `F`); an offset above a quarter of the
+/// Earth's field is not a change the stored calibration can carry — a part
+/// that magnetised moves the soft iron too — but a wrong calibration: it
+/// stays `cal_invalid`. On the simulator's validation run an identity
+/// matrix on raw counts needs 0.86 `F` (its headings then 53° off) and the
+/// README chain's document with its bias zeroed 0.38 `F` (its `ok` rows
+/// were 1.4° off for the first 1 000 s against a 0.27° σ).
+pub const MAX_OFFSET_REL: f64 = 0.25;
 
 /// Samples per state and the longest disturbance.
 #[derive(Debug, Clone, Copy, PartialEq)]

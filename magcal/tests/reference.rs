@@ -295,17 +295,21 @@ fn apply_with_a_wrong_calibration_is_not_ok_against_the_documents_reference() {
     }
     let (s, _) = run(&identity, true);
     assert_eq!(s.inclination_source, "site");
-    // A wrong bias: the stored calibration is found invalid and the
-    // on-line hard iron, checked against the document's dip, takes over;
-    // the rows it calls ok are within a degree (measured 0.69° and 0.23°;
-    // before, with the first step's stale 378 nT scatter, 300 counts off
-    // passed as ok at 1.93°).
-    for cal in [&zero, &b300] {
-        let (s, _) = run(cal, false);
-        let rms = s.heading_rms_ok_deg.unwrap();
-        assert!(rms < 1.0, "{}: ok rows {rms}° {:?}", cal.display(), s.rows_per_state);
-        assert!(s.rows_per_state["cal_invalid"] > 100, "{:?}", s.rows_per_state);
-    }
+    // The bias zeroed: 18 750 nT (0.38 F) of hard iron, more than the
+    // on-line estimate may carry: never ok (measured: every row after 10 s;
+    // before the guard's limit, 98 % ok at 0.69°, 1.4° in the first 1 000 s
+    // against a 0.27° σ).
+    let (s, not_ok) = run(&zero, false);
+    assert!(not_ok >= 0.95, "{not_ok} {:?}", s.rows_per_state);
+    // 300 counts off (about 1 500 nT): found invalid, and the on-line hard
+    // iron, checked against the document's dip, takes over; the rows it
+    // calls ok are as good as the right calibration's (measured 0.23°;
+    // before, with the first step's stale 378 nT scatter, it passed as ok
+    // at 1.93°).
+    let (s, _) = run(&b300, false);
+    let rms = s.heading_rms_ok_deg.unwrap();
+    assert!(rms < 0.5, "ok rows {rms}° {:?}", s.rows_per_state);
+    assert!(s.rows_per_state["cal_invalid"] > 100, "{:?}", s.rows_per_state);
 }
 
 #[test]
