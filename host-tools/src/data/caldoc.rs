@@ -118,7 +118,7 @@ mod model_name {
     }
     pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<ModelKind, D::Error> {
         let name = String::deserialize(d)?;
-        super::model_kind(&name).ok_or_else(|| D::Error::custom(format!("unknown model `{name}` (expected sphere, axis, full, triangular or gyro)")))
+        super::model_kind(&name).ok_or_else(|| D::Error::custom(format!("unknown model `{name}` (expected sphere, axis, full, triangular, gyro or attitude)")))
     }
 }
 
