@@ -31,7 +31,7 @@ use calib_core::heading::{level, magnetic_heading_rad};
 use serde::{Deserialize, Serialize};
 
 use super::error::ComputeError;
-use super::fit::{fit_recording, FitOptions};
+use super::fit::{fit_with, Checks, FitOptions};
 use super::truth::heading_rms_after_offset_deg;
 use crate::data::{CalDoc, Recording};
 
@@ -157,7 +157,7 @@ fn held_out_deg(model: ModelKind, rec: &Recording, opts: &FitOptions, basis: Hel
         let (lo, hi) = (k * n / FOLDS, (k + 1) * n / FOLDS);
         let train = without_block(rec, lo, hi);
         let fold_opts = FitOptions { model, allow_weak: true, ..opts.clone() };
-        let doc = fit_recording(&train, &fold_opts).map_err(|e| format!("fold {} of {FOLDS}: {e}", k + 1))?;
+        let doc = fit_with(&train, &fold_opts, Checks { attitude_units: false, magnitude_gate: false }).map_err(|e| format!("fold {} of {FOLDS}: {e}", k + 1))?;
         let dip = doc.reference.as_ref().and_then(|r| r.inclination_deg);
         held_out_errors(&doc.field_cal(), rec, lo, hi, basis, dip, opts.field_nt, &mut pairs);
     }
@@ -191,11 +191,15 @@ fn trimmed_rms(mut squares: Vec<f64>) -> f64 {
 /// the larger of its own and its held-out error.
 pub fn fit_auto(rec: &Recording, opts: &FitOptions) -> Result<(CalDoc, AutoChoice), ComputeError> {
     let basis = basis_of(rec);
+    // Roll and pitch in radians refuse every levelling candidate: checked
+    // once here, not in each candidate's and fold's fit.
+    let units = super::attitude::check_attitude_units(rec, opts.field_nt).map_err(|e| e.to_string());
     let mut rows = Vec::new();
     let mut best: Option<(f64, CalDoc)> = None;
     for model in CANDIDATES {
         let mut row = CandidateRow { model: model.name().to_string(), held_out_deg: None, predicted_deg: None, refused: None, note: None };
-        if let Err(why) = allowed(model, rec) {
+        let levelling = matches!(model, ModelKind::Gyro | ModelKind::Attitude);
+        if let Err(why) = allowed(model, rec).and(if levelling { units.clone() } else { Ok(()) }) {
             row.refused = Some(why);
             rows.push(row);
             continue;
@@ -235,26 +239,15 @@ pub fn fit_auto(rec: &Recording, opts: &FitOptions) -> Result<(CalDoc, AutoChoic
 /// on the field's magnitude (gyro-aided, attitude-aided) are not refused
 /// for their in-sample magnitude scatter: a real room's or hull's field
 /// varies along the path more than the 2 % gate allows, and their held-out
-/// error is the judge here. Every other refusal stands (coverage, the
-/// world model's disagreement, unusable coefficients).
+/// error is the judge here (the fit says so in its warnings and the row's
+/// note). Every other refusal stands (coverage, the world model's
+/// disagreement, unusable coefficients); the attitude columns' units were
+/// checked once for all ([`fit_auto`]).
 fn fit_candidate(rec: &Recording, model: ModelKind, opts: &FitOptions) -> Result<(CalDoc, Option<String>), ComputeError> {
-    let strict = FitOptions { model, ..opts.clone() };
-    match fit_recording(rec, &strict) {
-        Err(ComputeError::Fit(calib_core::fit::FitError::ResidualTooLarge { rms_per_mille })) if matches!(model, ModelKind::Gyro | ModelKind::Attitude) && !opts.allow_weak => {
-            let mut doc = fit_recording(rec, &FitOptions { allow_weak: true, ..strict })?;
-            if let Some(check) = doc.reference.as_ref().and_then(|r| r.check.as_ref()).filter(|c| !c.agrees) {
-                return Err(ComputeError::Disagrees { disagreement: check.disagreement.clone() });
-            }
-            let note = format!("magnitudes scatter by {:.1} % in sample: judged on held-out data instead", f64::from(rms_per_mille) / 10.0);
-            if let Some(f) = doc.quality.fit.as_mut() {
-                for w in f.warnings.iter_mut().filter(|w| w.starts_with("quality gate failed")) {
-                    w.clone_from(&note);
-                }
-            }
-            Ok((doc, Some(note)))
-        }
-        other => other.map(|d| (d, None)),
-    }
+    let magnitude_gate = !matches!(model, ModelKind::Gyro | ModelKind::Attitude);
+    let doc = fit_with(rec, &FitOptions { model, ..opts.clone() }, Checks { attitude_units: false, magnitude_gate })?;
+    let note = doc.quality.fit.as_ref().and_then(|f| f.warnings.iter().find(|w| w.contains("judged on held-out data instead")).cloned());
+    Ok((doc, note))
 }
 
 /// The candidates' table in words, one line each.

@@ -50,8 +50,30 @@ fn fit_quality(q: &Quality<f64>, skipped_rows: usize, warnings: Vec<String>, uni
     }
 }
 
+/// Which of a fit's checks a caller has made already or judges otherwise
+/// (`fit --model auto`: the attitude columns' units once for every
+/// candidate and fold, held-out data instead of the in-sample magnitude
+/// gate for the models that do not rest on the magnitude).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Checks {
+    /// Refuse roll and pitch that look like radians (levelling models).
+    pub attitude_units: bool,
+    /// Refuse an in-sample magnitude scatter above the model's gate.
+    pub magnitude_gate: bool,
+}
+
+impl Checks {
+    /// Every check: what [`fit_recording`] makes.
+    pub const ALL: Checks = Checks { attitude_units: true, magnitude_gate: true };
+}
+
 /// Fits a field calibration to a recording.
 pub fn fit_recording(rec: &Recording, opts: &FitOptions) -> Result<CalDoc, ComputeError> {
+    fit_with(rec, opts, Checks::ALL)
+}
+
+/// [`fit_recording`] with the checks `checks` leaves on.
+pub(crate) fn fit_with(rec: &Recording, opts: &FitOptions, checks: Checks) -> Result<CalDoc, ComputeError> {
     if !(opts.field_nt > 0.0 && opts.field_nt.is_finite()) {
         return Err(ComputeError::NoReference);
     }
@@ -60,7 +82,7 @@ pub fn fit_recording(rec: &Recording, opts: &FitOptions) -> Result<CalDoc, Compu
         return Err(ComputeError::NoSamples);
     }
     calib_core::fit::check_samples(&samples, 1, opts.saturation)?;
-    if matches!(opts.model, ModelKind::Attitude | ModelKind::Gyro) {
+    if checks.attitude_units && matches!(opts.model, ModelKind::Attitude | ModelKind::Gyro) {
         super::attitude::check_attitude_units(rec, opts.field_nt)?;
     }
     let mut warnings = Vec::new();
@@ -91,7 +113,12 @@ pub fn fit_recording(rec: &Recording, opts: &FitOptions) -> Result<CalDoc, Compu
     }
     .map_err(|e| with_advice(explain_failure(e, &samples, opts), rec))?;
     let q = assess(&cal, &samples, opts.field_nt);
-    if let Err(e) = Gates::for_model(opts.model).check(&q) {
+    let mut gates = Gates::for_model(opts.model);
+    if !checks.magnitude_gate && q.residual_rms_pct > gates.max_residual_pct {
+        warnings.push(format!("magnitudes scatter by {:.1} % in sample: judged on held-out data instead", q.residual_rms_pct));
+        gates.max_residual_pct = f64::INFINITY;
+    }
+    if let Err(e) = gates.check(&q) {
         let e = with_advice(e, rec);
         if !opts.allow_weak {
             return Err(e);
