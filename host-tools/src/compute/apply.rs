@@ -146,23 +146,14 @@ pub fn document_inclination_deg(doc: &CalDoc, field_nt: f64) -> Option<f64> {
 }
 
 /// The heading RMS to expect with a document against a true heading,
-/// degrees: its predicted 1σ (the calibration's own error) and each
-/// sample's noise across the horizontal field, `noise / (F cos I)`, in
-/// quadrature — what `apply` gives each row as its σ. The noise is the
-/// latest step's residual (the back-stepping's on the run, else the
-/// fit's); `None` without an inclination or a residual.
+/// degrees: the σ `apply` gives a row judged against the document's own
+/// reference ([`reference_of`]) — its predicted 1σ (the calibration's own
+/// error) and each component's noise across the horizontal field,
+/// `noise / (F cos I)`, in quadrature. `None` without an inclination.
 pub fn expected_heading_rms_deg(doc: &CalDoc) -> Option<f64> {
-    let q = &doc.quality;
-    let noise_nt = q
-        .backstep
-        .as_ref()
-        .and_then(|b| b.estimates.as_ref())
-        .map(|e| e.residual_rms_nt)
-        .or_else(|| q.gyro.as_ref().map(|g| g.residual_rms_nt))
-        .or_else(|| q.fit.as_ref().map(|f| f.residual_rms_nt))?;
-    let h_nt = doc.field_nt * document_inclination_deg(doc, doc.field_nt)?.to_radians().cos();
-    let noise_deg = (noise_nt / h_nt).to_degrees();
-    Some(q.predicted_heading_rms_deg.unwrap_or(0.0).hypot(noise_deg))
+    let r = reference_of(doc, &ApplyOptions::default()).ok()?;
+    let h_nt = r.field_nt * r.inclination_rad?.cos();
+    Some(r.heading_sigma_rad.hypot(r.noise_nt / h_nt).to_degrees())
 }
 
 /// The reference a document gives the monitor: `F`, the scatter (the
