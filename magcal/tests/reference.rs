@@ -206,7 +206,7 @@ fn fit_without_a_model_chooses_on_held_out_blocks_and_predicts_what_the_validati
     let s: Summary = serde_json::from_slice(&o.stdout).unwrap();
     let observed = (s.heading_rms_deg.powi(2) - s.constant_offset_deg.powi(2)).max(0.0).sqrt();
     // The floor (the true calibration) is 2.22° (the data's README);
-    // measured: gyro kept, 1.69° observed against 1.86° expected.
+    // measured: gyro kept, 1.69° observed against 1.81° expected.
     assert!(observed < 2.22 + 0.5, "{observed}");
     assert!((0.5..=2.0).contains(&(observed / predicted)), "observed {observed} predicted {predicted}");
 }

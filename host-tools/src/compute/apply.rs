@@ -142,7 +142,19 @@ pub fn document_inclination_deg(doc: &CalDoc, field_nt: f64) -> Option<f64> {
         .and_then(|b| b.estimates.as_ref())
         .map(|e| e.local_hz_nt[1].atan2(e.local_hz_nt[0]).to_degrees())
         .or_else(|| doc.reference.as_ref().and_then(|r| r.check.as_ref().and_then(|c| c.inclination_deg).or(r.inclination_deg)))
-        .or_else(|| q.gyro.as_ref().map(|g| (g.vertical_nt / field_nt).clamp(-1.0, 1.0).asin().to_degrees()))
+        .or_else(|| q.gyro.as_ref().map(|g| g.inclination_deg(field_nt)))
+}
+
+/// The inclination `apply` judges against and where it came from: the one
+/// given, else the document's ([`document_inclination_deg`]), else the
+/// world model's at the site, else none (learned, and no sample `ok`).
+pub fn choose_inclination(doc: &CalDoc, field_nt: f64, given_deg: Option<f64>, site_deg: Option<f64>) -> (Option<f64>, InclinationSource) {
+    match (given_deg, document_inclination_deg(doc, field_nt), site_deg) {
+        (Some(d), _, _) => (Some(d), InclinationSource::User),
+        (None, Some(d), _) => (Some(d), InclinationSource::Document),
+        (None, None, Some(d)) => (Some(d), InclinationSource::Site),
+        (None, None, None) => (None, InclinationSource::Learned),
+    }
 }
 
 /// The heading RMS to expect with a document against a true heading,

@@ -96,7 +96,7 @@ pub(crate) fn fit_with(rec: &Recording, opts: &FitOptions, checks: Checks) -> Re
         ModelKind::Full | ModelKind::Triangular => fit_batch::<Full, 9, f64>(&samples, opts.field_nt),
         ModelKind::Gyro => {
             let (cal, q) = super::gyro::fit_gyro_recording(rec, opts.field_nt, opts.gyro_lag)?;
-            fit_dip = Some(((q.vertical_nt / opts.field_nt).clamp(-1.0, 1.0).asin().to_degrees(), 0.0));
+            fit_dip = Some((q.inclination_deg(opts.field_nt), 0.0));
             warnings.extend(q.weakly_determined.iter().cloned());
             gyro_quality = Some(q);
             Ok(cal)

@@ -72,6 +72,13 @@ pub struct GyroQuality {
     pub weakly_determined: Vec<String>,
 }
 
+impl GyroQuality {
+    /// The dip the fit found, degrees: its levelled vertical over `field_nt`.
+    pub fn inclination_deg(&self, field_nt: f64) -> f64 {
+        (self.vertical_nt / field_nt).clamp(-1.0, 1.0).asin().to_degrees()
+    }
+}
+
 impl Quality {
     /// Every warning of every step, in order (fit, back-stepping, swing).
     pub fn warnings(&self) -> impl Iterator<Item = &str> {

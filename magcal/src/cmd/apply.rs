@@ -6,7 +6,7 @@
 use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
-use host_tools::compute::apply::{apply_recording, document_inclination_deg, summarize, write_applied, ApplyError, ApplyOptions, InclinationSource};
+use host_tools::compute::apply::{apply_recording, choose_inclination, summarize, write_applied, ApplyError, ApplyOptions, InclinationSource};
 use host_tools::compute::card::read_reference_column;
 use host_tools::data::CalDoc;
 
@@ -71,19 +71,17 @@ pub fn run(a: Args) -> Result<()> {
     }
     let doc = CalDoc::load(&a.cal)?;
     let rec = a.columns.read(&a.input)?;
-    let doc_field_nt = a.field_nt.unwrap_or(doc.field_nt);
-    let (inclination_deg, source) = match (a.inclination_deg, document_inclination_deg(&doc, doc_field_nt), a.site.site()?) {
-        (Some(d), _, _) => (Some(d), InclinationSource::User),
-        (None, Some(d), _) => (Some(d), InclinationSource::Document),
-        (None, None, Some(s)) => (Some(s.field()?.inclination_deg()), InclinationSource::Site),
-        (None, None, None) => {
-            eprintln!(
-                "warning: {} holds no reference inclination: the monitor learns the dip from the recording it judges, so a wrong calibration can pass it; give --lat/--lon/--date (IGRF-14 at the site) or --inclination-deg",
-                a.cal.display()
-            );
-            (None, InclinationSource::Learned)
-        }
+    let site_deg = match a.site.site()? {
+        Some(s) => Some(s.field()?.inclination_deg()),
+        None => None,
     };
+    let (inclination_deg, source) = choose_inclination(&doc, a.field_nt.unwrap_or(doc.field_nt), a.inclination_deg, site_deg);
+    if source == InclinationSource::Learned {
+        eprintln!(
+            "warning: {} holds no reference inclination: the monitor learns the dip from the recording it judges and calls no sample ok (unjudged); give --lat/--lon/--date (IGRF-14 at the site) or --inclination-deg",
+            a.cal.display()
+        );
+    }
     if a.site.any() && source != InclinationSource::Site {
         eprintln!("note: --lat/--lon/--date not used: the inclination is the {}", if source == InclinationSource::User { "one given" } else { "document's" });
     }
