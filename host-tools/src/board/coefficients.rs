@@ -14,8 +14,9 @@ use crate::data::CalDoc;
 /// The board's coefficients for a calibration document, with its current and
 /// temperature blocks (absent blocks: no terms, [`CalDoc::env_terms`]) and
 /// its reference inclination
-/// ([`crate::compute::apply::document_inclination_deg`]; NaN without one:
-/// the board then learns it).
+/// ([`crate::compute::apply::document_inclination_deg`];
+/// [`Coefficients::NO_INCLINATION`] without one: the board then learns it
+/// and calls no sample ok).
 pub fn to_coefficients(doc: &CalDoc) -> Coefficients {
     let s = doc.swing.map(|s| [s.a, s.b, s.c, s.d, s.e]).unwrap_or([0.0; 5]);
     let env = doc.env_terms();

@@ -24,7 +24,12 @@ pub fn attitude_samples(rec: &Recording) -> Result<Vec<AttitudeSample<f64>>, Com
     if roll.iter().chain(pitch).filter(|v| v.is_finite()).any(|v| v.abs() > 180.0) {
         return Err(ComputeError::Attitude("roll_deg or pitch_deg exceeds 180: the attitude columns must be in degrees".into()));
     }
-    Ok(rec.mag.iter().zip(roll).zip(pitch).map(|((&raw, r), p)| AttitudeSample { raw, tilt: Tilt::new(r.to_radians(), p.to_radians()) }).collect())
+    Ok(levelled_samples(rec, roll, pitch, 1.0))
+}
+
+/// The samples with the attitude columns read as `k` × degrees.
+fn levelled_samples(rec: &Recording, roll: &[f64], pitch: &[f64], k: f64) -> Vec<AttitudeSample<f64>> {
+    rec.mag.iter().zip(roll).zip(pitch).map(|((&raw, r), p)| AttitudeSample { raw, tilt: Tilt::new((k * r).to_radians(), (k * p).to_radians()) }).collect()
 }
 
 /// A recording's roll and pitch that look like radians under degree names:
@@ -40,10 +45,8 @@ pub fn check_attitude_units(rec: &Recording, field_nt: f64) -> Result<(), Comput
         return Ok(());
     }
     let fit = |k: f64| {
-        let samples: Vec<AttitudeSample<f64>> =
-            rec.mag.iter().zip(roll).zip(pitch).map(|((&raw, r), p)| AttitudeSample { raw, tilt: Tilt::new((k * r).to_radians(), (k * p).to_radians()) }).collect();
         // A fit that fails, or whose matrix no sensor has, is no fit.
-        fit_attitude(&samples, field_nt, &AttitudeConfig::new()).ok().filter(|e| e.cal.validate(crate::data::caldoc::MAX_BIAS_ABS).is_ok()).map(|e| e.residual_sigma_nt)
+        fit_attitude(&levelled_samples(rec, roll, pitch, k), field_nt, &AttitudeConfig::new()).ok().filter(|e| e.cal.validate(crate::data::caldoc::MAX_BIAS_ABS).is_ok()).map(|e| e.residual_sigma_nt)
     };
     let Some(as_radians) = fit(180.0 / std::f64::consts::PI) else { return Ok(()) };
     let as_degrees = fit(1.0);
