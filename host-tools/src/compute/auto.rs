@@ -149,7 +149,7 @@ fn held_out_errors(cal: &FieldCal<f64>, rec: &Recording, lo: usize, hi: usize, b
     }
 }
 
-/// The held-out RMS of a candidate, degrees; `None` when a fold's fit is refused.
+/// The held-out RMS of a candidate, degrees; why not, when a fold's fit is refused.
 fn held_out_deg(model: ModelKind, rec: &Recording, opts: &FitOptions, basis: HeldOutBasis) -> Result<f64, String> {
     let n = rec.len();
     let mut pairs = Vec::new();
