@@ -94,7 +94,13 @@ impl IntegrityState {
     }
 
     /// Every state, in wire order.
-    pub const ALL: [IntegrityState; 5] = [IntegrityState::Ok, IntegrityState::Disturbed, IntegrityState::CalInvalid, IntegrityState::NoAttitude, IntegrityState::Unjudged];
+    pub const ALL: [IntegrityState; 5] = [
+        IntegrityState::Ok,
+        IntegrityState::Disturbed,
+        IntegrityState::CalInvalid,
+        IntegrityState::NoAttitude,
+        IntegrityState::Unjudged,
+    ];
 }
 
 /// What the calibration says the field should look like.
@@ -135,7 +141,13 @@ impl<T: Real> Reference<T> {
     /// start from this, so they judge alike.
     pub fn from_field_nt(field_nt: T) -> Self {
         let sigma = T::from_f64(DEFAULT_FIELD_SIGMA_REL) * field_nt;
-        Self { field_nt, field_sigma_nt: sigma, noise_nt: sigma, inclination_rad: None, heading_sigma_rad: T::ZERO }
+        Self {
+            field_nt,
+            field_sigma_nt: sigma,
+            noise_nt: sigma,
+            inclination_rad: None,
+            heading_sigma_rad: T::ZERO,
+        }
     }
 }
 
@@ -262,7 +274,11 @@ pub(crate) fn cos_of_sin<T: Real>(sin: T) -> T {
 /// A time step, s: non-positive or non-finite taken as 0.
 #[inline(always)]
 pub(crate) fn positive_dt<T: Real>(dt_s: T) -> T {
-    if dt_s.is_finite() && dt_s > T::ZERO { dt_s } else { T::ZERO }
+    if dt_s.is_finite() && dt_s > T::ZERO {
+        dt_s
+    } else {
+        T::ZERO
+    }
 }
 
 /// The gyro-propagated heading: a two-state Kalman filter.
@@ -281,7 +297,9 @@ impl<T: Real> GyroHeading<T> {
     #[inline(always)]
     fn predict(&mut self, yaw_rate_rad_s: T, dt_s: T, tuning: &Tuning<T>) {
         self.heading_rad = wrap_near(self.heading_rad + (yaw_rate_rad_s - self.bias_rad_s) * dt_s);
-        self.p00 += dt_s * (dt_s * self.p11 - T::from_f64(2.0) * self.p01) + tuning.heading_walk_rad2_s * dt_s + tuning.scale_var_per_rad * (yaw_rate_rad_s * dt_s).abs();
+        self.p00 += dt_s * (dt_s * self.p11 - T::from_f64(2.0) * self.p01)
+            + tuning.heading_walk_rad2_s * dt_s
+            + tuning.scale_var_per_rad * (yaw_rate_rad_s * dt_s).abs();
         self.p01 -= dt_s * self.p11;
         self.p11 += tuning.bias_walk_rad2_s3 * dt_s;
     }
@@ -341,15 +359,40 @@ impl<T: Real> Monitor<T> {
     pub fn new(reference: Reference<T>, tuning: Tuning<T>) -> Result<Self, IntegrityError> {
         let pos = |v: T| v.is_finite() && v > T::ZERO;
         let r = &reference;
-        let incl_ok = r.inclination_rad.is_none_or(|i| i.is_finite() && i.abs() < T::PI / T::from_f64(2.0));
-        if !(pos(r.field_nt) && pos(r.field_sigma_nt) && r.field_sigma_nt < r.field_nt && pos(r.noise_nt) && r.noise_nt < r.field_nt && incl_ok && r.heading_sigma_rad.is_finite() && r.heading_sigma_rad >= T::ZERO) {
+        let incl_ok = r
+            .inclination_rad
+            .is_none_or(|i| i.is_finite() && i.abs() < T::PI / T::from_f64(2.0));
+        if !(pos(r.field_nt)
+            && pos(r.field_sigma_nt)
+            && r.field_sigma_nt < r.field_nt
+            && pos(r.noise_nt)
+            && r.noise_nt < r.field_nt
+            && incl_ok
+            && r.heading_sigma_rad.is_finite()
+            && r.heading_sigma_rad >= T::ZERO)
+        {
             return Err(IntegrityError::BadReference);
         }
         let t = &tuning;
-        let all_pos = [t.gate_sigma, t.heading_walk_rad2_s, t.scale_var_per_rad, t.bias_walk_rad2_s3, t.bias_sigma_rad_s, t.max_gap_s, t.exit_s, t.reanchor_s, t.misfit_tau_s, t.inclination_memory]
-            .iter()
-            .all(|&v| pos(v));
-        if !(all_pos && t.misfit_exit > T::ZERO && t.misfit_exit < t.misfit_enter && t.misfit_enter < T::ONE) {
+        let all_pos = [
+            t.gate_sigma,
+            t.heading_walk_rad2_s,
+            t.scale_var_per_rad,
+            t.bias_walk_rad2_s3,
+            t.bias_sigma_rad_s,
+            t.max_gap_s,
+            t.exit_s,
+            t.reanchor_s,
+            t.misfit_tau_s,
+            t.inclination_memory,
+        ]
+        .iter()
+        .all(|&v| pos(v));
+        if !(all_pos
+            && t.misfit_exit > T::ZERO
+            && t.misfit_exit < t.misfit_enter
+            && t.misfit_enter < T::ONE)
+        {
             return Err(IntegrityError::BadTuning);
         }
         let (sin_incl, cos_incl, incl_weight) = match r.inclination_rad {
@@ -357,7 +400,11 @@ impl<T: Real> Monitor<T> {
             None => (T::ZERO, T::ONE, T::ZERO),
         };
         // No inclination yet: no dip test (a zero gain) until one is learned.
-        let dip_gain = if r.inclination_rad.is_some() { r.field_nt / (r.field_sigma_nt * cos_incl) } else { T::ZERO };
+        let dip_gain = if r.inclination_rad.is_some() {
+            r.field_nt / (r.field_sigma_nt * cos_incl)
+        } else {
+            T::ZERO
+        };
         let bias_var = t.bias_sigma_rad_s * t.bias_sigma_rad_s;
         Ok(Self {
             reference,
@@ -367,7 +414,14 @@ impl<T: Real> Monitor<T> {
             incl_weight,
             incl_sum: T::ZERO,
             incl_pending: 0,
-            gyro: GyroHeading { heading_rad: T::ZERO, bias_rad_s: T::ZERO, p00: T::ZERO, p01: T::ZERO, p11: bias_var, anchored: false },
+            gyro: GyroHeading {
+                heading_rad: T::ZERO,
+                bias_rad_s: T::ZERO,
+                p00: T::ZERO,
+                p01: T::ZERO,
+                p11: bias_var,
+                anchored: false,
+            },
             misfit: T::ZERO,
             misfit_weight: T::ZERO,
             gyro_fail_s: T::ZERO,
@@ -413,7 +467,11 @@ impl<T: Real> Monitor<T> {
     /// The misfit fraction (0…1) behind [`IntegrityState::CalInvalid`]
     /// (0 before any sample).
     pub fn misfit_fraction(&self) -> T {
-        if self.misfit_weight > T::ZERO { self.misfit / self.misfit_weight } else { T::ZERO }
+        if self.misfit_weight > T::ZERO {
+            self.misfit / self.misfit_weight
+        } else {
+            T::ZERO
+        }
     }
 
     /// The gyro yaw-rate bias the heading filter estimated, rad/s.
@@ -437,7 +495,14 @@ impl<T: Real> Monitor<T> {
     /// computed from it (radians), the attitude (`None`: no attitude), the
     /// body rates (rad/s; `None`: no gyro) and the time since the previous
     /// sample (s).
-    pub fn step(&mut self, field_nt: Vec3<T>, heading_rad: T, tilt: Option<&Tilt<T>>, rate_rad_s: Option<Vec3<T>>, dt_s: T) -> Verdict<T> {
+    pub fn step(
+        &mut self,
+        field_nt: Vec3<T>,
+        heading_rad: T,
+        tilt: Option<&Tilt<T>>,
+        rate_rad_s: Option<Vec3<T>>,
+        dt_s: T,
+    ) -> Verdict<T> {
         let dt = positive_dt(dt_s);
         match tilt {
             Some(t) => {
@@ -453,11 +518,18 @@ impl<T: Real> Monitor<T> {
     /// [`positive_dt`]): only its magnitude counts towards the misfit; the
     /// state is [`IntegrityState::NoAttitude`].
     pub(crate) fn judge_without_attitude(&mut self, field_nt: Vec3<T>, dt: T) -> Verdict<T> {
-        let mag = (field_nt[0] * field_nt[0] + field_nt[1] * field_nt[1] + field_nt[2] * field_nt[2]).sqrt();
+        let mag =
+            (field_nt[0] * field_nt[0] + field_nt[1] * field_nt[1] + field_nt[2] * field_nt[2])
+                .sqrt();
         let field_z = (mag - self.reference.field_nt) / self.reference.field_sigma_nt;
         self.track_misfit(!(field_z.abs() < self.tuning.gate_sigma), dt);
         self.gyro.anchored = false;
-        Verdict { state: IntegrityState::NoAttitude, heading_sigma_rad: T::NAN, field_z, dip_z: T::ZERO }
+        Verdict {
+            state: IntegrityState::NoAttitude,
+            heading_sigma_rad: T::NAN,
+            field_z,
+            dip_z: T::ZERO,
+        }
     }
 
     /// [`Monitor::step`] for a caller that has levelled the field already
@@ -467,7 +539,15 @@ impl<T: Real> Monitor<T> {
     /// the heading, the body rates and the time step. The per-sample path
     /// (`OnlineIntegrity::process`) calls it; inlined there.
     #[inline(always)]
-    pub(crate) fn judge_levelled(&mut self, levelled_nt: Vec3<T>, horizontal_nt: T, heading_rad: T, tilt: &Tilt<T>, rate_rad_s: Option<Vec3<T>>, dt: T) -> Verdict<T> {
+    pub(crate) fn judge_levelled(
+        &mut self,
+        levelled_nt: Vec3<T>,
+        horizontal_nt: T,
+        heading_rad: T,
+        tilt: &Tilt<T>,
+        rate_rad_s: Option<Vec3<T>>,
+        dt: T,
+    ) -> Verdict<T> {
         let g = self.tuning.gate_sigma;
         let (f, sigma_f) = (self.reference.field_nt, self.reference.field_sigma_nt);
         let (l, hh) = (levelled_nt, horizontal_nt);
@@ -487,7 +567,14 @@ impl<T: Real> Monitor<T> {
             _ => self.gyro.anchored = false,
         }
         let anchored = self.gyro.anchored;
-        let (innovation, s) = if anchored { (wrap_near(heading_rad - self.gyro.heading_rad), self.gyro.p00 + var_m) } else { (T::ZERO, var_m) };
+        let (innovation, s) = if anchored {
+            (
+                wrap_near(heading_rad - self.gyro.heading_rad),
+                self.gyro.p00 + var_m,
+            )
+        } else {
+            (T::ZERO, var_m)
+        };
         // |innovation| / √s < g, without the square root.
         let field_ok = field_z.abs() < g && dip_z.abs() < g;
         let pass = field_ok && innovation * innovation < g * g * s;
@@ -496,7 +583,11 @@ impl<T: Real> Monitor<T> {
         if pass && anchored {
             self.gyro.update(innovation, s);
         }
-        if pass && !self.disturbed && fraction < self.tuning.misfit_exit && self.reference.inclination_rad.is_none() {
+        if pass
+            && !self.disturbed
+            && fraction < self.tuning.misfit_exit
+            && self.reference.inclination_rad.is_none()
+        {
             self.learn_inclination(sin_dip);
         }
         if pass {
@@ -515,8 +606,17 @@ impl<T: Real> Monitor<T> {
         } else {
             IntegrityState::Ok
         };
-        let heading_sigma_rad = if state == IntegrityState::Ok { var_m.sqrt() } else { self.misfit_sigma(var_m, innovation, mag, dip_z, hh) };
-        Verdict { state, heading_sigma_rad, field_z, dip_z }
+        let heading_sigma_rad = if state == IntegrityState::Ok {
+            var_m.sqrt()
+        } else {
+            self.misfit_sigma(var_m, innovation, mag, dip_z, hh)
+        };
+        Verdict {
+            state,
+            heading_sigma_rad,
+            field_z,
+            dip_z,
+        }
     }
 
     /// The heading σ of a sample not `ok`: its own variance, the gyro
@@ -554,7 +654,15 @@ impl<T: Real> Monitor<T> {
     /// Anchors the gyro heading when it is not, and re-anchors it when the
     /// field passes but the prediction has disagreed for too long.
     #[inline(always)]
-    fn track_gyro(&mut self, has_rate: bool, field_ok: bool, pass: bool, heading_rad: T, var_m: T, dt: T) {
+    fn track_gyro(
+        &mut self,
+        has_rate: bool,
+        field_ok: bool,
+        pass: bool,
+        heading_rad: T,
+        var_m: T,
+        dt: T,
+    ) {
         if !self.gyro.anchored {
             if has_rate && field_ok && heading_rad.is_finite() {
                 self.gyro.anchor(heading_rad, var_m);
@@ -592,7 +700,8 @@ impl<T: Real> Monitor<T> {
         // A weighted mean of values in [−1, 1] stays there (up to rounding,
         // which `cos_of_sin` absorbs).
         self.sin_incl += (self.incl_sum - n * self.sin_incl) / self.incl_weight;
-        self.dip_gain = self.reference.field_nt / (self.reference.field_sigma_nt * cos_of_sin(self.sin_incl));
+        self.dip_gain =
+            self.reference.field_nt / (self.reference.field_sigma_nt * cos_of_sin(self.sin_incl));
         self.incl_sum = T::ZERO;
         self.incl_pending = 0;
     }

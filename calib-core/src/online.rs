@@ -34,7 +34,9 @@
 use crate::cal::Calibration;
 use crate::hardiron::{HardIron, HardIronEstimator};
 use crate::heading::{Tilt, Vec3};
-use crate::integrity::{cos_of_sin, positive_dt, IntegrityError, IntegrityState, Monitor, Reference, Tuning, Verdict};
+use crate::integrity::{
+    cos_of_sin, positive_dt, IntegrityError, IntegrityState, Monitor, Reference, Tuning, Verdict,
+};
 use crate::Real;
 
 /// The largest on-line hard iron the guard applies, as a fraction of `F`.
@@ -129,7 +131,12 @@ impl<T: Real> OnlineIntegrity<T> {
             alt_every: 1,
             alt_count: 0,
             alt_dt_s: T::ZERO,
-            health: Health { samples_per_state: [0; 5], longest_disturbance_s: T::ZERO, current_disturbance_s: T::ZERO, hard_iron_applied: 0 },
+            health: Health {
+                samples_per_state: [0; 5],
+                longest_disturbance_s: T::ZERO,
+                current_disturbance_s: T::ZERO,
+                hard_iron_applied: 0,
+            },
         })
     }
 
@@ -144,7 +151,10 @@ impl<T: Real> OnlineIntegrity<T> {
     /// learned from the samples judged ok), as the board runs it and `magcal
     /// apply` replays a document giving only `field_nt` and an inclination.
     pub fn for_stored(field_nt: T, inclination_rad: Option<T>) -> Result<Self, IntegrityError> {
-        let reference = Reference { inclination_rad, ..Reference::from_field_nt(field_nt) };
+        let reference = Reference {
+            inclination_rad,
+            ..Reference::from_field_nt(field_nt)
+        };
         Ok(Self::new(reference, Tuning::standard())?.with_estimator_every(BOARD_ESTIMATOR_EVERY))
     }
 
@@ -191,11 +201,26 @@ impl<T: Real> OnlineIntegrity<T> {
     /// the estimator runs only while the stored calibration is judged
     /// invalid (it restarts at each onset, so nothing it would have seen
     /// before is lost) or its estimate is applied.
-    pub fn process(&mut self, cal: &Calibration<T>, raw: Vec3<T>, tilt: Option<&Tilt<T>>, rate_rad_s: Option<Vec3<T>>, dt_s: T) -> Judged<T> {
+    pub fn process(
+        &mut self,
+        cal: &Calibration<T>,
+        raw: Vec3<T>,
+        tilt: Option<&Tilt<T>>,
+        rate_rad_s: Option<Vec3<T>>,
+        dt_s: T,
+    ) -> Judged<T> {
         let stored_nt = cal.field.apply(raw);
         // The field through the stored calibration, less the applied hard
         // iron (an offset of the calibrated field, nT).
-        let field_nt = if self.applied { [stored_nt[0] - self.applied_nt[0], stored_nt[1] - self.applied_nt[1], stored_nt[2] - self.applied_nt[2]] } else { stored_nt };
+        let field_nt = if self.applied {
+            [
+                stored_nt[0] - self.applied_nt[0],
+                stored_nt[1] - self.applied_nt[1],
+                stored_nt[2] - self.applied_nt[2],
+            ]
+        } else {
+            stored_nt
+        };
         let was_invalid = self.monitor.cal_invalid();
         let dt = positive_dt(dt_s);
         let (heading_rad, mut verdict) = match tilt {
@@ -203,13 +228,19 @@ impl<T: Real> OnlineIntegrity<T> {
                 let l = t.level(field_nt);
                 let hh = (l[0] * l[0] + l[1] * l[1]).sqrt();
                 let heading_rad = cal.true_heading_of_levelled(l, hh);
-                (Some(heading_rad), self.monitor.judge_levelled(l, hh, heading_rad, t, rate_rad_s, dt))
+                (
+                    Some(heading_rad),
+                    self.monitor
+                        .judge_levelled(l, hh, heading_rad, t, rate_rad_s, dt),
+                )
             }
             None => (None, self.monitor.judge_without_attitude(field_nt, dt)),
         };
         let applied_here = self.applied;
         if self.applied {
-            verdict.heading_sigma_rad = (verdict.heading_sigma_rad * verdict.heading_sigma_rad + self.applied_sigma_rad * self.applied_sigma_rad).sqrt();
+            verdict.heading_sigma_rad = (verdict.heading_sigma_rad * verdict.heading_sigma_rad
+                + self.applied_sigma_rad * self.applied_sigma_rad)
+                .sqrt();
             if self.monitor.cal_invalid() {
                 self.withdraw();
             } else if verdict.state == IntegrityState::Ok {
@@ -226,11 +257,17 @@ impl<T: Real> OnlineIntegrity<T> {
             self.track_estimate(stored_nt, tilt, rate_rad_s, dt);
         }
         // Ok only against a reference the stream did not teach itself.
-        if verdict.state == IntegrityState::Ok && self.monitor.reference().inclination_rad.is_none() {
+        if verdict.state == IntegrityState::Ok && self.monitor.reference().inclination_rad.is_none()
+        {
             verdict.state = IntegrityState::Unjudged;
         }
         self.count(verdict.state, dt);
-        Judged { field_nt, heading_rad, verdict, hard_iron_applied: applied_here }
+        Judged {
+            field_nt,
+            heading_rad,
+            verdict,
+            hard_iron_applied: applied_here,
+        }
     }
 
     /// Forgets the estimate in progress and its shadow check.
@@ -246,7 +283,13 @@ impl<T: Real> OnlineIntegrity<T> {
     /// Feeds the estimator the stored calibration's field of this sample,
     /// every `alt_every`-th sample over the time accumulated since; returns
     /// that time step, or `None` when this sample was not fed.
-    fn feed_estimator(&mut self, stored_nt: Vec3<T>, tilt: Option<&Tilt<T>>, rate_rad_s: Option<Vec3<T>>, dt: T) -> Option<T> {
+    fn feed_estimator(
+        &mut self,
+        stored_nt: Vec3<T>,
+        tilt: Option<&Tilt<T>>,
+        rate_rad_s: Option<Vec3<T>>,
+        dt: T,
+    ) -> Option<T> {
         self.alt_dt_s += dt;
         self.alt_count = self.alt_count.saturating_add(1);
         if self.alt_count < self.alt_every {
@@ -257,7 +300,16 @@ impl<T: Real> OnlineIntegrity<T> {
         self.alt_dt_s = T::ZERO;
         let r = *self.monitor.reference();
         let sin_incl = self.monitor.sin_inclination();
-        self.estimator.update(stored_nt, tilt, rate_rad_s, dt, r.field_nt, r.field_sigma_nt, sin_incl, self.monitor.tuning().max_gap_s);
+        self.estimator.update(
+            stored_nt,
+            tilt,
+            rate_rad_s,
+            dt,
+            r.field_nt,
+            r.field_sigma_nt,
+            sin_incl,
+            self.monitor.tuning().max_gap_s,
+        );
         Some(dt)
     }
 
@@ -266,8 +318,16 @@ impl<T: Real> OnlineIntegrity<T> {
     /// field it corrects (the shadow), and applies the estimate when the
     /// shadow has fitted long enough and the guard passes.
     #[inline(never)]
-    fn track_estimate(&mut self, stored_nt: Vec3<T>, tilt: Option<&Tilt<T>>, rate_rad_s: Option<Vec3<T>>, dt: T) {
-        let Some(dt) = self.feed_estimator(stored_nt, tilt, rate_rad_s, dt) else { return };
+    fn track_estimate(
+        &mut self,
+        stored_nt: Vec3<T>,
+        tilt: Option<&Tilt<T>>,
+        rate_rad_s: Option<Vec3<T>>,
+        dt: T,
+    ) {
+        let Some(dt) = self.feed_estimator(stored_nt, tilt, rate_rad_s, dt) else {
+            return;
+        };
         let r = *self.monitor.reference();
         let tuning = *self.monitor.tuning();
         let sin_incl = self.monitor.sin_inclination();
@@ -275,19 +335,26 @@ impl<T: Real> OnlineIntegrity<T> {
             self.shadow_seen_s = T::ZERO;
             return;
         };
-        let alt = [stored_nt[0] - e.offset_nt[0], stored_nt[1] - e.offset_nt[1], stored_nt[2] - e.offset_nt[2]];
+        let alt = [
+            stored_nt[0] - e.offset_nt[0],
+            stored_nt[1] - e.offset_nt[1],
+            stored_nt[2] - e.offset_nt[2],
+        ];
         let mag = (alt[0] * alt[0] + alt[1] * alt[1] + alt[2] * alt[2]).sqrt();
         let g = tuning.gate_sigma;
         let mut misfit = !((mag - r.field_nt).abs() < g * r.field_sigma_nt);
         if let (Some(t), Some(s)) = (tilt, sin_incl) {
             let c = cos_of_sin(s);
-            let dip_z = (t.level(alt)[2] / mag.max(r.field_sigma_nt) - s) / c * r.field_nt / r.field_sigma_nt;
+            let dip_z = (t.level(alt)[2] / mag.max(r.field_sigma_nt) - s) / c * r.field_nt
+                / r.field_sigma_nt;
             misfit |= !(dip_z.abs() < g);
         }
         let a = (dt / tuning.misfit_tau_s).min(T::ONE);
         self.shadow_misfit += a * (if misfit { T::ONE } else { T::ZERO } - self.shadow_misfit);
         self.shadow_seen_s += dt;
-        if self.shadow_seen_s >= T::from_f64(3.0) * tuning.misfit_tau_s && self.shadow_misfit < tuning.misfit_exit {
+        if self.shadow_seen_s >= T::from_f64(3.0) * tuning.misfit_tau_s
+            && self.shadow_misfit < tuning.misfit_exit
+        {
             self.try_apply(&e, sin_incl);
         }
     }
@@ -300,11 +367,15 @@ impl<T: Real> OnlineIntegrity<T> {
         let cos_incl = sin_incl.map_or(T::ONE, cos_of_sin);
         let hh = (r.field_nt * cos_incl).max(r.noise_nt);
         let sigma_max = e.sigma_nt[0].max(e.sigma_nt[1]).max(e.sigma_nt[2]);
-        let stored_sigma_rad = ((r.noise_nt / hh) * (r.noise_nt / hh) + r.heading_sigma_rad * r.heading_sigma_rad).sqrt();
+        let stored_sigma_rad = ((r.noise_nt / hh) * (r.noise_nt / hh)
+            + r.heading_sigma_rad * r.heading_sigma_rad)
+            .sqrt();
         let sigma_rad = sigma_max / hh;
         let o = e.offset_nt;
-        let plausible = (o[0] * o[0] + o[1] * o[1] + o[2] * o[2]).sqrt() <= T::from_f64(MAX_OFFSET_REL) * r.field_nt;
-        (plausible && sigma_rad <= stored_sigma_rad && e.residual_rms_z <= T::from_f64(2.0)).then_some(sigma_rad)
+        let plausible = (o[0] * o[0] + o[1] * o[1] + o[2] * o[2]).sqrt()
+            <= T::from_f64(MAX_OFFSET_REL) * r.field_nt;
+        (plausible && sigma_rad <= stored_sigma_rad && e.residual_rms_z <= T::from_f64(2.0))
+            .then_some(sigma_rad)
     }
 
     /// Puts the estimate in use.
@@ -315,7 +386,9 @@ impl<T: Real> OnlineIntegrity<T> {
 
     /// Applies the estimate if it passes the guard.
     fn try_apply(&mut self, e: &HardIron<T>, sin_incl: Option<T>) {
-        let Some(sigma_rad) = self.guard(e, sin_incl) else { return };
+        let Some(sigma_rad) = self.guard(e, sin_incl) else {
+            return;
+        };
         self.use_estimate(e, sigma_rad);
         self.health.hard_iron_applied = self.health.hard_iron_applied.wrapping_add(1);
         self.applied = true;
@@ -330,8 +403,17 @@ impl<T: Real> OnlineIntegrity<T> {
     /// residual tests (the monitor judges the corrected field meanwhile, and
     /// withdraws it if it misfits).
     #[inline(never)]
-    fn refine_applied(&mut self, stored_nt: Vec3<T>, tilt: Option<&Tilt<T>>, rate_rad_s: Option<Vec3<T>>, dt: T) {
-        if self.feed_estimator(stored_nt, tilt, rate_rad_s, dt).is_none() {
+    fn refine_applied(
+        &mut self,
+        stored_nt: Vec3<T>,
+        tilt: Option<&Tilt<T>>,
+        rate_rad_s: Option<Vec3<T>>,
+        dt: T,
+    ) {
+        if self
+            .feed_estimator(stored_nt, tilt, rate_rad_s, dt)
+            .is_none()
+        {
             return;
         }
         let sin_incl = self.monitor.sin_inclination();

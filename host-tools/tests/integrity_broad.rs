@@ -20,7 +20,9 @@ use host_tools::data::results::Quality;
 use host_tools::data::{CalDoc, Recording};
 
 fn data(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data").join(rel)
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../tests/data")
+        .join(rel)
 }
 
 #[derive(serde::Deserialize)]
@@ -39,15 +41,29 @@ const LAB_INCLINATION_DEG: f64 = 68.968;
 /// The stored calibration as a document: bias, matrix, field_nt, and the
 /// lab's inclination as its reference.
 fn doc(truth_json: &str) -> CalDoc {
-    let t: Truth = serde_json::from_str(&std::fs::read_to_string(data(truth_json)).unwrap()).unwrap();
-    let mut doc = CalDoc::new(ModelKind::Full, &FieldCal { bias: t.bias, matrix: t.matrix }, t.field_nt, Quality::default());
-    doc.reference = Some(Reference { inclination_deg: Some(LAB_INCLINATION_DEG), ..Reference::user_intensity(t.field_nt) });
+    let t: Truth =
+        serde_json::from_str(&std::fs::read_to_string(data(truth_json)).unwrap()).unwrap();
+    let mut doc = CalDoc::new(
+        ModelKind::Full,
+        &FieldCal {
+            bias: t.bias,
+            matrix: t.matrix,
+        },
+        t.field_nt,
+        Quality::default(),
+    );
+    doc.reference = Some(Reference {
+        inclination_deg: Some(LAB_INCLINATION_DEG),
+        ..Reference::user_intensity(t.field_nt)
+    });
     doc
 }
 
 fn judge(csv: &str, truth_json: &str) -> IntegrityScore {
     let rec = Recording::read(&data(csv)).unwrap();
-    let truth = read_reference_column(&data(csv), "truth_heading_deg").unwrap().unwrap();
+    let truth = read_reference_column(&data(csv), "truth_heading_deg")
+        .unwrap()
+        .unwrap();
     let applied = apply_recording(&rec, &doc(truth_json), &ApplyOptions::default()).unwrap();
     let s = score(&applied, &truth, 5.0);
     println!("{csv}: {s:?} ratio {:.2}", s.sigma_ratio());
@@ -94,7 +110,11 @@ fn undisturbed_trials_stay_ok_with_an_honest_sigma() {
     // 09 moves fastest, to 290°/s, where the gyro's 2 % scale error shows)
     // and observed/predicted σ 0.87, 1.32, 1.12, 1.06.
     for (csv, truth, min_ok) in [
-        ("broad-02-limited/02_validate.csv", "broad-02-limited/02.truth.json", 0.95),
+        (
+            "broad-02-limited/02_validate.csv",
+            "broad-02-limited/02.truth.json",
+            0.95,
+        ),
         ("broad-03/03_validate.csv", "broad-03/03.truth.json", 0.90),
         ("broad-05/05_validate.csv", "broad-05/05.truth.json", 0.95),
         ("broad-09/09_validate.csv", "broad-09/09.truth.json", 0.85),

@@ -27,7 +27,11 @@ fn motion(t: f64) -> ([f64; 3], [f64; 3]) {
     let yaw = 0.3 + yaw_dot * t;
     // ZYX Euler-angle rates → body rates.
     let (sr, cr, sp, cp) = (roll.sin(), roll.cos(), pitch.sin(), pitch.cos());
-    let w = [roll_dot - sp * yaw_dot, cr * pitch_dot + sr * cp * yaw_dot, -sr * pitch_dot + cr * cp * yaw_dot];
+    let w = [
+        roll_dot - sp * yaw_dot,
+        cr * pitch_dot + sr * cp * yaw_dot,
+        -sr * pitch_dot + cr * cp * yaw_dot,
+    ];
     ([roll, pitch, yaw], w)
 }
 
@@ -35,18 +39,31 @@ fn motion(t: f64) -> ([f64; 3], [f64; 3]) {
 struct Noise(u64);
 impl Noise {
     fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         ((self.0 >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
     }
 }
 
 fn reference(incl: Option<f64>) -> Reference<f64> {
-    Reference { field_nt: F_NT, field_sigma_nt: SIGMA_NT, noise_nt: SIGMA_NT, inclination_rad: incl, heading_sigma_rad: 0.0 }
+    Reference {
+        field_nt: F_NT,
+        field_sigma_nt: SIGMA_NT,
+        noise_nt: SIGMA_NT,
+        inclination_rad: incl,
+        heading_sigma_rad: 0.0,
+    }
 }
 
 /// Runs `n` samples; `extra(t, attitude)` is a body-frame field added to the
 /// sample (a disturbance). Returns the states.
-fn run(n: usize, incl: Option<f64>, extra: impl Fn(f64, &[f64; 3]) -> [f64; 3]) -> Vec<(IntegrityState, f64)> {
+fn run(
+    n: usize,
+    incl: Option<f64>,
+    extra: impl Fn(f64, &[f64; 3]) -> [f64; 3],
+) -> Vec<(IntegrityState, f64)> {
     let mut m = Monitor::new(reference(incl), Tuning::standard()).unwrap();
     let mut noise = Noise(7);
     let ned = ned_field(F_NT, DIP_RAD, 0.0);
@@ -68,12 +85,20 @@ fn run(n: usize, incl: Option<f64>, extra: impl Fn(f64, &[f64; 3]) -> [f64; 3]) 
 #[test]
 fn a_clean_sequence_is_ok_throughout_with_the_noise_sigma() {
     let states = run(600, Some(DIP_RAD), |_, _| [0.0; 3]);
-    assert!(states.iter().all(|(s, _)| *s == IntegrityState::Ok), "{:?}", states.iter().position(|(s, _)| *s != IntegrityState::Ok));
+    assert!(
+        states.iter().all(|(s, _)| *s == IntegrityState::Ok),
+        "{:?}",
+        states.iter().position(|(s, _)| *s != IntegrityState::Ok)
+    );
     // σ = σ_F / H_h, H_h = F cos I = 21 774 nT: 0.79°.
     let want = (SIGMA_NT / (F_NT * DIP_RAD.cos())).to_degrees();
     for (_, s) in &states {
         // H_h measured through the noise: within 5 %.
-        assert!((s.to_degrees() / want - 1.0).abs() < 0.05, "{} vs {want}", s.to_degrees());
+        assert!(
+            (s.to_degrees() / want - 1.0).abs() < 0.05,
+            "{} vs {want}",
+            s.to_degrees()
+        );
     }
     // Learned inclination, from the same clean sequence: also all ok.
     let learned = run(600, None, |_, _| [0.0; 3]);
@@ -83,7 +108,13 @@ fn a_clean_sequence_is_ok_throughout_with_the_noise_sigma() {
 /// A field perpendicular to the magnetic meridian (east in NED), which
 /// neither the magnitude nor the dip sees much of: only the gyro catches it.
 fn east_disturbance(nt: f64, from_s: f64, to_s: f64) -> impl Fn(f64, &[f64; 3]) -> [f64; 3] {
-    move |t, att| if t >= from_s && t < to_s { ned_to_body([0.0, nt, 0.0], att[0], att[1], att[2]) } else { [0.0; 3] }
+    move |t, att| {
+        if t >= from_s && t < to_s {
+            ned_to_body([0.0, nt, 0.0], att[0], att[1], att[2])
+        } else {
+            [0.0; 3]
+        }
+    }
 }
 
 #[test]
@@ -100,7 +131,11 @@ fn a_passing_disturbance_is_caught_by_the_gyro_and_ends_with_hysteresis() {
         assert_eq!(states[k].0, IntegrityState::Disturbed, "sample {k}");
     }
     // Its σ says how far off: at least the 6.6° it is off by.
-    assert!(states[105].1.to_degrees() > 5.0, "{}", states[105].1.to_degrees());
+    assert!(
+        states[105].1.to_degrees() > 5.0,
+        "{}",
+        states[105].1.to_degrees()
+    );
     // The end: the first clean sample passes but is still disturbed
     // (hysteresis, exit_s = 0.1 s: one more sample), then ok.
     assert_eq!(at(11.0), IntegrityState::Disturbed);
@@ -113,15 +148,32 @@ fn a_passing_disturbance_is_caught_by_the_gyro_and_ends_with_hysteresis() {
     let d = east_disturbance(3500.0, 10.0, 11.0)(10.5, &att);
     let h = [b[0] + d[0], b[1] + d[1], b[2] + d[2]];
     let tilt = Tilt::new(att[0], att[1]);
-    let v = m.step(h, heading_of_levelled(tilt.level(h)), Some(&tilt), None, DT_S);
+    let v = m.step(
+        h,
+        heading_of_levelled(tilt.level(h)),
+        Some(&tilt),
+        None,
+        DT_S,
+    );
     assert_eq!(v.state, IntegrityState::Ok);
 }
 
 #[test]
 fn a_one_sample_glitch_is_one_disturbed_sample_not_an_invalid_calibration() {
     // 20 σ on |F| for one sample.
-    let states = run(200, Some(DIP_RAD), |t, _| if (t - 8.0).abs() < 0.01 { [0.0, 0.0, 20.0 * SIGMA_NT] } else { [0.0; 3] });
-    let bad: Vec<usize> = states.iter().enumerate().filter(|(_, (s, _))| *s != IntegrityState::Ok).map(|(k, _)| k).collect();
+    let states = run(200, Some(DIP_RAD), |t, _| {
+        if (t - 8.0).abs() < 0.01 {
+            [0.0, 0.0, 20.0 * SIGMA_NT]
+        } else {
+            [0.0; 3]
+        }
+    });
+    let bad: Vec<usize> = states
+        .iter()
+        .enumerate()
+        .filter(|(_, (s, _))| *s != IntegrityState::Ok)
+        .map(|(k, _)| k)
+        .collect();
     // The glitch and the next sample (hysteresis), nothing else.
     assert_eq!(bad, vec![80, 81]);
 }
@@ -129,16 +181,34 @@ fn a_one_sample_glitch_is_one_disturbed_sample_not_an_invalid_calibration() {
 #[test]
 fn a_new_hard_iron_makes_the_calibration_invalid_within_seconds() {
     // 6 000 nT fixed in the body from t = 20 s (a payload switched on).
-    let states = run(600, Some(DIP_RAD), |t, _| if t >= 20.0 { [6000.0, -3000.0, 2000.0] } else { [0.0; 3] });
-    let first_invalid = states.iter().position(|(s, _)| *s == IntegrityState::CalInvalid).unwrap();
+    let states = run(600, Some(DIP_RAD), |t, _| {
+        if t >= 20.0 {
+            [6000.0, -3000.0, 2000.0]
+        } else {
+            [0.0; 3]
+        }
+    });
+    let first_invalid = states
+        .iter()
+        .position(|(s, _)| *s == IntegrityState::CalInvalid)
+        .unwrap();
     let delay_s = first_invalid as f64 * DT_S - 20.0;
     // Measured 0.7 s (the bias-corrected misfit fraction crosses ½).
     assert!((0.0..3.0).contains(&delay_s), "{delay_s}");
     // From then on nothing is ok: the field rarely fits by chance.
-    let ok_after = states[first_invalid..].iter().filter(|(s, _)| *s == IntegrityState::Ok).count();
+    let ok_after = states[first_invalid..]
+        .iter()
+        .filter(|(s, _)| *s == IntegrityState::Ok)
+        .count();
     assert_eq!(ok_after, 0);
-    let invalid_after = states[first_invalid..].iter().filter(|(s, _)| *s == IntegrityState::CalInvalid).count();
-    assert!(invalid_after as f64 > 0.9 * (600 - first_invalid) as f64, "{invalid_after}");
+    let invalid_after = states[first_invalid..]
+        .iter()
+        .filter(|(s, _)| *s == IntegrityState::CalInvalid)
+        .count();
+    assert!(
+        invalid_after as f64 > 0.9 * (600 - first_invalid) as f64,
+        "{invalid_after}"
+    );
 }
 
 #[test]
@@ -148,12 +218,42 @@ fn no_attitude_is_its_own_state_and_bad_references_are_refused() {
     assert_eq!(v.state, IntegrityState::NoAttitude);
     assert!(v.heading_sigma_rad.is_nan());
     let bad = |r: Reference<f64>| Monitor::new(r, Tuning::standard()).err();
-    assert_eq!(bad(Reference { field_sigma_nt: 0.0, ..reference(None) }), Some(IntegrityError::BadReference));
-    assert_eq!(bad(Reference { field_nt: f64::NAN, ..reference(None) }), Some(IntegrityError::BadReference));
-    assert_eq!(bad(Reference { inclination_rad: Some(2.0), ..reference(None) }), Some(IntegrityError::BadReference));
-    assert_eq!(bad(Reference { noise_nt: 0.0, ..reference(None) }), Some(IntegrityError::BadReference));
-    let t = Tuning { misfit_exit: 0.6, ..Tuning::standard() };
-    assert_eq!(Monitor::new(reference(None), t).err(), Some(IntegrityError::BadTuning));
+    assert_eq!(
+        bad(Reference {
+            field_sigma_nt: 0.0,
+            ..reference(None)
+        }),
+        Some(IntegrityError::BadReference)
+    );
+    assert_eq!(
+        bad(Reference {
+            field_nt: f64::NAN,
+            ..reference(None)
+        }),
+        Some(IntegrityError::BadReference)
+    );
+    assert_eq!(
+        bad(Reference {
+            inclination_rad: Some(2.0),
+            ..reference(None)
+        }),
+        Some(IntegrityError::BadReference)
+    );
+    assert_eq!(
+        bad(Reference {
+            noise_nt: 0.0,
+            ..reference(None)
+        }),
+        Some(IntegrityError::BadReference)
+    );
+    let t = Tuning {
+        misfit_exit: 0.6,
+        ..Tuning::standard()
+    };
+    assert_eq!(
+        Monitor::new(reference(None), t).err(),
+        Some(IntegrityError::BadTuning)
+    );
     for s in IntegrityState::ALL {
         assert_eq!(IntegrityState::from_u8(s as u8), Some(s));
     }
@@ -163,13 +263,25 @@ fn no_attitude_is_its_own_state_and_bad_references_are_refused() {
 #[test]
 fn the_state_is_small_and_f32_judges_as_f64() {
     // Sizes for the firmware (f32): printed by `cargo test -- --nocapture`.
-    let (monitor, online) = (core::mem::size_of::<Monitor<f32>>(), core::mem::size_of::<OnlineIntegrity<f32>>());
-    std::println!("Monitor<f32> {monitor} B, OnlineIntegrity<f32> {online} B, HardIronEstimator<f32> {} B", core::mem::size_of::<HardIronEstimator<f32>>());
+    let (monitor, online) = (
+        core::mem::size_of::<Monitor<f32>>(),
+        core::mem::size_of::<OnlineIntegrity<f32>>(),
+    );
+    std::println!(
+        "Monitor<f32> {monitor} B, OnlineIntegrity<f32> {online} B, HardIronEstimator<f32> {} B",
+        core::mem::size_of::<HardIronEstimator<f32>>()
+    );
     // Measured: 132 B and 308 B.
     assert!(monitor <= 144 && online <= 384, "{monitor} {online}");
     // The same sequence in f32: the same states.
     let mut m32 = Monitor::<f32>::new(
-        Reference { field_nt: F_NT as f32, field_sigma_nt: SIGMA_NT as f32, noise_nt: SIGMA_NT as f32, inclination_rad: Some(DIP_RAD as f32), heading_sigma_rad: 0.0 },
+        Reference {
+            field_nt: F_NT as f32,
+            field_sigma_nt: SIGMA_NT as f32,
+            noise_nt: SIGMA_NT as f32,
+            inclination_rad: Some(DIP_RAD as f32),
+            heading_sigma_rad: 0.0,
+        },
         Tuning::standard(),
     )
     .unwrap();
@@ -184,7 +296,13 @@ fn the_state_is_small_and_f32_judges_as_f64() {
         let d = east_disturbance(3500.0, 10.0, 11.0)(t, &att);
         let h = [0, 1, 2].map(|i| (b[i] + d[i] + NOISE * SIGMA_NT * noise.next()) as f32);
         let tilt = Tilt::new(att[0] as f32, att[1] as f32);
-        let v = m32.step(h, heading_of_levelled(tilt.level(h)), Some(&tilt), Some(w.map(|x| x as f32)), DT_S as f32);
+        let v = m32.step(
+            h,
+            heading_of_levelled(tilt.level(h)),
+            Some(&tilt),
+            Some(w.map(|x| x as f32)),
+            DT_S as f32,
+        );
         differ += usize::from(v.state != *s64);
     }
     // f32 rounds differently: at the disturbance's end, where the gyro
@@ -211,8 +329,18 @@ fn the_on_line_hard_iron_every_other_sample() {
 
 fn hard_iron_case(every: u8) {
     let offset = [6000.0, -3000.0, 2000.0];
-    let cal = Calibration { field: FieldCal { bias: [0.0; 3], matrix: identity3() }, swing: Swing::zero(), declination_rad: 0.0, env: EnvTerms::none() };
-    let mut online = OnlineIntegrity::new(reference(Some(DIP_RAD)), Tuning::standard()).unwrap().with_estimator_every(every);
+    let cal = Calibration {
+        field: FieldCal {
+            bias: [0.0; 3],
+            matrix: identity3(),
+        },
+        swing: Swing::zero(),
+        declination_rad: 0.0,
+        env: EnvTerms::none(),
+    };
+    let mut online = OnlineIntegrity::new(reference(Some(DIP_RAD)), Tuning::standard())
+        .unwrap()
+        .with_estimator_every(every);
     let mut noise = Noise(11);
     let ned = ned_field(F_NT, DIP_RAD, 0.0);
     let mut applied_at = None;
@@ -246,7 +374,12 @@ fn hard_iron_case(every: u8) {
         // Within 3σ or 100 nT of the offset put in (measured, every sample:
         // 28, 11, 1 nT off, σ 33, 29, 10 nT; every other sample 16, 21,
         // 16 nT off, σ 44, 39, 14 nT).
-        assert!((e.offset_nt[i] - offset[i]).abs() < (3.0 * e.sigma_nt[i]).max(100.0), "{i}: {:?} σ {:?}", e.offset_nt, e.sigma_nt);
+        assert!(
+            (e.offset_nt[i] - offset[i]).abs() < (3.0 * e.sigma_nt[i]).max(100.0),
+            "{i}: {:?} σ {:?}",
+            e.offset_nt,
+            e.sigma_nt
+        );
     }
     // The headings called ok with it: small and within their σ (measured
     // 1 767 rows, 0.80° RMS against 0.80° predicted: the noise's 0.79°
@@ -257,7 +390,12 @@ fn hard_iron_case(every: u8) {
     let pred = (ok_errors.iter().map(|(_, s)| s * s).sum::<f64>() / n).sqrt();
     std::println!("every {every}: applied at {at} s, estimate {:?} σ {:?}, ok rows {n}, RMS {:.3}° predicted {:.3}°", e.offset_nt, e.sigma_nt, rms.to_degrees(), pred.to_degrees());
     assert!(rms.to_degrees() < 2.0, "{}", rms.to_degrees());
-    assert!(rms / pred > 0.5 && rms / pred < 2.0, "observed {} predicted {}", rms.to_degrees(), pred.to_degrees());
+    assert!(
+        rms / pred > 0.5 && rms / pred < 2.0,
+        "observed {} predicted {}",
+        rms.to_degrees(),
+        pred.to_degrees()
+    );
     let h = online.health();
     assert_eq!(h.hard_iron_applied, 1);
     assert!(h.samples_per_state[IntegrityState::CalInvalid as usize] > 0);
@@ -267,7 +405,15 @@ fn hard_iron_case(every: u8) {
 fn the_guard_refuses_an_estimate_that_does_not_explain_the_misfit() {
     // A soft-iron change (30 % gain on x), not an offset: the estimate's
     // residual stays large and it is never applied; nothing is called ok.
-    let cal = Calibration { field: FieldCal { bias: [0.0; 3], matrix: identity3() }, swing: Swing::zero(), declination_rad: 0.0, env: EnvTerms::none() };
+    let cal = Calibration {
+        field: FieldCal {
+            bias: [0.0; 3],
+            matrix: identity3(),
+        },
+        swing: Swing::zero(),
+        declination_rad: 0.0,
+        env: EnvTerms::none(),
+    };
     let mut online = OnlineIntegrity::new(reference(Some(DIP_RAD)), Tuning::standard()).unwrap();
     let ned = ned_field(F_NT, DIP_RAD, 0.0);
     let mut ok_late = 0;
@@ -294,7 +440,15 @@ fn the_guard_refuses_an_estimate_that_does_not_explain_the_misfit() {
 /// invalid.
 #[test]
 fn the_estimator_runs_only_once_the_calibration_is_invalid() {
-    let cal = Calibration { field: FieldCal { bias: [0.0; 3], matrix: identity3() }, swing: Swing::zero(), declination_rad: 0.0, env: EnvTerms::none() };
+    let cal = Calibration {
+        field: FieldCal {
+            bias: [0.0; 3],
+            matrix: identity3(),
+        },
+        swing: Swing::zero(),
+        declination_rad: 0.0,
+        env: EnvTerms::none(),
+    };
     let mut online = OnlineIntegrity::new(reference(Some(DIP_RAD)), Tuning::standard()).unwrap();
     let mut noise = Noise(3);
     let ned = ned_field(F_NT, DIP_RAD, 0.0);
@@ -303,12 +457,19 @@ fn the_estimator_runs_only_once_the_calibration_is_invalid() {
         let t = k as f64 * DT_S;
         let (att, w) = motion(t);
         let b = ned_to_body(ned, att[0], att[1], att[2]);
-        let d = if t >= 60.0 { [6000.0, -3000.0, 2000.0] } else { [0.0; 3] };
+        let d = if t >= 60.0 {
+            [6000.0, -3000.0, 2000.0]
+        } else {
+            [0.0; 3]
+        };
         let raw = [0, 1, 2].map(|i| b[i] + d[i] + NOISE * SIGMA_NT * noise.next());
         let out = online.process(&cal, raw, Some(&Tilt::new(att[0], att[1])), Some(w), DT_S);
         if t < 60.0 {
             assert_eq!(out.verdict.state, IntegrityState::Ok, "{t}");
-            assert!(online.hard_iron().is_none(), "an estimate at {t} s while the calibration fits");
+            assert!(
+                online.hard_iron().is_none(),
+                "an estimate at {t} s while the calibration fits"
+            );
         } else if first_estimate_s.is_none() && online.hard_iron().is_some() {
             first_estimate_s = Some(t);
         }
@@ -336,7 +497,8 @@ fn at_a_slow_sampling_rate_one_misfit_is_a_disturbance_not_an_invalid_calibratio
         let n = (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt();
         let h = h.map(|v| v * (1.0 + extra_nt / n));
         let tilt = Tilt::new(att[0], att[1]);
-        m.step(h, heading_of_levelled(tilt.level(h)), Some(&tilt), None, dt).state
+        m.step(h, heading_of_levelled(tilt.level(h)), Some(&tilt), None, dt)
+            .state
     };
     for k in 0..10 {
         assert_eq!(step(k, 0.0), IntegrityState::Ok, "clean sample {k}");
@@ -346,9 +508,18 @@ fn at_a_slow_sampling_rate_one_misfit_is_a_disturbance_not_an_invalid_calibratio
         assert_ne!(step(k, 0.0), IntegrityState::CalInvalid, "sample {k}");
     }
     let states: Vec<IntegrityState> = (20..23).map(|k| step(k, 10.0 * SIGMA_NT)).collect();
-    assert_eq!(states, [IntegrityState::Disturbed, IntegrityState::Disturbed, IntegrityState::CalInvalid]);
+    assert_eq!(
+        states,
+        [
+            IntegrityState::Disturbed,
+            IntegrityState::Disturbed,
+            IntegrityState::CalInvalid
+        ]
+    );
     // Eight passing samples bring the fraction under a tenth again.
-    let back = (23..40).position(|k| step(k, 0.0) != IntegrityState::CalInvalid).expect("valid again");
+    let back = (23..40)
+        .position(|k| step(k, 0.0) != IntegrityState::CalInvalid)
+        .expect("valid again");
     assert!((6..=9).contains(&back), "{back}");
 }
 
@@ -358,9 +529,20 @@ fn at_a_slow_sampling_rate_one_misfit_is_a_disturbance_not_an_invalid_calibratio
 /// dip learned all the same (the σ and the field checks are the same).
 #[test]
 fn without_a_reference_inclination_nothing_is_ok() {
-    let cal = Calibration { field: FieldCal { bias: [0.0; 3], matrix: identity3() }, swing: Swing::zero(), declination_rad: 0.0, env: EnvTerms::none() };
+    let cal = Calibration {
+        field: FieldCal {
+            bias: [0.0; 3],
+            matrix: identity3(),
+        },
+        swing: Swing::zero(),
+        declination_rad: 0.0,
+        env: EnvTerms::none(),
+    };
     let ned = ned_field(F_NT, DIP_RAD, 0.0);
-    for (incl, want) in [(Some(DIP_RAD), IntegrityState::Ok), (None, IntegrityState::Unjudged)] {
+    for (incl, want) in [
+        (Some(DIP_RAD), IntegrityState::Ok),
+        (None, IntegrityState::Unjudged),
+    ] {
         let mut online = OnlineIntegrity::new(reference(incl), Tuning::standard()).unwrap();
         let mut noise = Noise(5);
         let mut states = std::vec::Vec::new();
@@ -369,14 +551,22 @@ fn without_a_reference_inclination_nothing_is_ok() {
             let (att, w) = motion(t);
             let b = ned_to_body(ned, att[0], att[1], att[2]);
             let raw = [0, 1, 2].map(|i| b[i] + SIGMA_NT * noise.next());
-            states.push(online.process(&cal, raw, Some(&Tilt::new(att[0], att[1])), Some(w), DT_S).verdict.state);
+            states.push(
+                online
+                    .process(&cal, raw, Some(&Tilt::new(att[0], att[1])), Some(w), DT_S)
+                    .verdict
+                    .state,
+            );
         }
-        let of = |s: IntegrityState| states[50..].iter().filter(|x| **x == s).count() as f64 / 550.0;
+        let of =
+            |s: IntegrityState| states[50..].iter().filter(|x| **x == s).count() as f64 / 550.0;
         assert!(of(want) > 0.95, "{incl:?}: {}", of(want));
         if incl.is_none() {
             assert_eq!(of(IntegrityState::Ok), 0.0);
             // The dip was learned all the same (within a degree).
-            assert!((online.monitor().inclination_rad().unwrap() - DIP_RAD).abs() < 1f64.to_radians());
+            assert!(
+                (online.monitor().inclination_rad().unwrap() - DIP_RAD).abs() < 1f64.to_radians()
+            );
         }
     }
 }

@@ -108,7 +108,9 @@ impl Applied {
             states,
             longest_disturbance_s: self.health.longest_disturbance_s,
             longest_cal_invalid_s: None,
-            hard_iron_applied: Some(self.health.hard_iron_applied > 0 || self.applied_offset_nt.is_some()),
+            hard_iron_applied: Some(
+                self.health.hard_iron_applied > 0 || self.applied_offset_nt.is_some(),
+            ),
             hard_iron_nt: self.hard_iron.map(|h| h.offset_nt),
         }
     }
@@ -141,14 +143,26 @@ pub fn document_inclination_deg(doc: &CalDoc, field_nt: f64) -> Option<f64> {
         .as_ref()
         .and_then(|b| b.estimates.as_ref())
         .map(|e| e.local_hz_nt[1].atan2(e.local_hz_nt[0]).to_degrees())
-        .or_else(|| doc.reference.as_ref().and_then(|r| r.check.as_ref().and_then(|c| c.inclination_deg).or(r.inclination_deg)))
+        .or_else(|| {
+            doc.reference.as_ref().and_then(|r| {
+                r.check
+                    .as_ref()
+                    .and_then(|c| c.inclination_deg)
+                    .or(r.inclination_deg)
+            })
+        })
         .or_else(|| q.gyro.as_ref().map(|g| g.inclination_deg(field_nt)))
 }
 
 /// The inclination `apply` judges against and where it came from: the one
 /// given, else the document's ([`document_inclination_deg`]), else the
 /// world model's at the site, else none (learned, and no sample `ok`).
-pub fn choose_inclination(doc: &CalDoc, field_nt: f64, given_deg: Option<f64>, site_deg: Option<f64>) -> (Option<f64>, InclinationSource) {
+pub fn choose_inclination(
+    doc: &CalDoc,
+    field_nt: f64,
+    given_deg: Option<f64>,
+    site_deg: Option<f64>,
+) -> (Option<f64>, InclinationSource) {
     match (given_deg, document_inclination_deg(doc, field_nt), site_deg) {
         (Some(d), _, _) => (Some(d), InclinationSource::User),
         (None, Some(d), _) => (Some(d), InclinationSource::Document),
@@ -188,7 +202,10 @@ pub fn reference_of(doc: &CalDoc, opts: &ApplyOptions) -> Result<Reference<f64>,
         .or_else(|| q.gyro.as_ref().map(|g| g.residual_rms_nt))
         .filter(|s| *s > 0.0)
         .unwrap_or(DEFAULT_FIELD_SIGMA_REL * f);
-    let inclination_rad = opts.inclination_deg.or_else(|| document_inclination_deg(doc, f)).map(f64::to_radians);
+    let inclination_rad = opts
+        .inclination_deg
+        .or_else(|| document_inclination_deg(doc, f))
+        .map(f64::to_radians);
     let heading_sigma_rad = q.predicted_heading_rms_deg.unwrap_or(0.0).to_radians();
     // The per-component noise behind the heading's σ: a back-stepped
     // calibration's per-axis residual on the run (its slowly varying errors
@@ -198,7 +215,13 @@ pub fn reference_of(doc: &CalDoc, opts: &ApplyOptions) -> Result<Reference<f64>,
         .or(backstep_residual_nt)
         .filter(|s| *s > 0.0)
         .unwrap_or(scatter);
-    let r = Reference { field_nt: f, field_sigma_nt: scatter, noise_nt, inclination_rad, heading_sigma_rad };
+    let r = Reference {
+        field_nt: f,
+        field_sigma_nt: scatter,
+        noise_nt,
+        inclination_rad,
+        heading_sigma_rad,
+    };
     calib_core::integrity::Monitor::new(r, opts.tuning.unwrap_or_else(Tuning::standard)).map_err(|e| match e {
         IntegrityError::BadReference => ApplyError::Reference("the field's scatter and noise must be positive and below field_nt, the inclination within ±90°"),
         IntegrityError::BadTuning => ApplyError::Reference("a tuning constant is not positive, or the misfit thresholds not 0 < exit < enter < 1"),
@@ -207,7 +230,11 @@ pub fn reference_of(doc: &CalDoc, opts: &ApplyOptions) -> Result<Reference<f64>,
 }
 
 /// Applies the document to every row, as the board would.
-pub fn apply_recording(rec: &Recording, doc: &CalDoc, opts: &ApplyOptions) -> Result<Applied, ApplyError> {
+pub fn apply_recording(
+    rec: &Recording,
+    doc: &CalDoc,
+    opts: &ApplyOptions,
+) -> Result<Applied, ApplyError> {
     if rec.is_empty() {
         return Err(ApplyError::Empty);
     }
@@ -217,7 +244,11 @@ pub fn apply_recording(rec: &Recording, doc: &CalDoc, opts: &ApplyOptions) -> Re
         .map_err(|_| ApplyError::Reference("bad reference"))?
         .with_estimator_every(calib_core::online::BOARD_ESTIMATOR_EVERY);
     let cal = doc.calibration();
-    let col = |c: &Option<Vec<f64>>, i: usize| c.as_ref().and_then(|v| v.get(i).copied()).filter(|v| v.is_finite());
+    let col = |c: &Option<Vec<f64>>, i: usize| {
+        c.as_ref()
+            .and_then(|v| v.get(i).copied())
+            .filter(|v| v.is_finite())
+    };
     let gyro = rec.gyro_rad_s();
     let mut prev_t: Option<f64> = None;
     let mut rows = Vec::with_capacity(rec.len());
@@ -231,21 +262,34 @@ pub fn apply_recording(rec: &Recording, doc: &CalDoc, opts: &ApplyOptions) -> Re
             prev_t = t;
         }
         if !raw.iter().all(|v| v.is_finite()) {
-            rows.push(AppliedRow { field_nt: [f64::NAN; 3], heading_deg: None, heading_sigma_deg: None, integrity: IntegrityState::NoAttitude });
+            rows.push(AppliedRow {
+                field_nt: [f64::NAN; 3],
+                heading_deg: None,
+                heading_sigma_deg: None,
+                integrity: IntegrityState::NoAttitude,
+            });
             continue;
         }
-        let env = Environment { current_a: col(&rec.motor_current_a, i).unwrap_or(0.0), temp_c: col(&rec.temp_c, i).unwrap_or(cal.env.ref_c) };
+        let env = Environment {
+            current_a: col(&rec.motor_current_a, i).unwrap_or(0.0),
+            temp_c: col(&rec.temp_c, i).unwrap_or(cal.env.ref_c),
+        };
         let corrected = cal.env.correct_raw(*raw, &env);
         let tilt = match (col(&rec.roll_deg, i), col(&rec.pitch_deg, i)) {
             (Some(r), Some(p)) => Some(Tilt::new(r.to_radians(), p.to_radians())),
             _ => None,
         };
-        let rate = gyro.as_ref().and_then(|g| g.get(i).copied()).filter(|w| w.iter().all(|v| v.is_finite()) && dt.is_finite());
+        let rate = gyro
+            .as_ref()
+            .and_then(|g| g.get(i).copied())
+            .filter(|w| w.iter().all(|v| v.is_finite()) && dt.is_finite());
         let out = online.process(&cal, corrected, tilt.as_ref(), rate, dt);
         rows.push(AppliedRow {
             field_nt: out.field_nt,
             heading_deg: out.heading_rad.map(f64::to_degrees),
-            heading_sigma_deg: out.heading_rad.map(|_| out.verdict.heading_sigma_rad.to_degrees()),
+            heading_sigma_deg: out
+                .heading_rad
+                .map(|_| out.verdict.heading_sigma_rad.to_degrees()),
             integrity: out.verdict.state,
         });
     }
@@ -266,14 +310,20 @@ pub fn heading_errors_deg(applied: &Applied, reference_deg: &[f64]) -> Vec<Optio
         .rows
         .iter()
         .zip(reference_deg)
-        .map(|(r, &t)| r.heading_deg.filter(|_| t.is_finite()).map(|h| wrap_pi((h - t).to_radians()).to_degrees()))
+        .map(|(r, &t)| {
+            r.heading_deg
+                .filter(|_| t.is_finite())
+                .map(|h| wrap_pi((h - t).to_radians()).to_degrees())
+        })
         .collect()
 }
 
 /// The best constant offset of a set of heading errors (their circular
 /// mean), degrees: what a declination would remove.
 pub fn constant_offset_deg(errors_deg: &[f64]) -> f64 {
-    let (s, c) = errors_deg.iter().fold((0.0, 0.0), |(s, c), e| (s + e.to_radians().sin(), c + e.to_radians().cos()));
+    let (s, c) = errors_deg.iter().fold((0.0, 0.0), |(s, c), e| {
+        (s + e.to_radians().sin(), c + e.to_radians().cos())
+    });
     s.atan2(c).to_degrees()
 }
 
@@ -335,12 +385,22 @@ fn rms(v: impl Iterator<Item = f64>) -> Option<f64> {
 /// The summary, with the heading compared against `reference` (column name
 /// and values) when given.
 pub fn summarize(applied: &Applied, reference: Option<(&str, &[f64])>) -> ApplySummary {
-    let mut per_state: BTreeMap<&'static str, usize> = IntegrityState::ALL.iter().map(|s| (s.name(), 0)).collect();
+    let mut per_state: BTreeMap<&'static str, usize> =
+        IntegrityState::ALL.iter().map(|s| (s.name(), 0)).collect();
     for r in &applied.rows {
         *per_state.entry(r.integrity.name()).or_default() += 1;
     }
-    let ok = |i: usize| applied.rows.get(i).is_some_and(|r| r.integrity == IntegrityState::Ok);
-    let predicted = rms(applied.rows.iter().filter(|r| r.integrity == IntegrityState::Ok).filter_map(|r| r.heading_sigma_deg));
+    let ok = |i: usize| {
+        applied
+            .rows
+            .get(i)
+            .is_some_and(|r| r.integrity == IntegrityState::Ok)
+    };
+    let predicted = rms(applied
+        .rows
+        .iter()
+        .filter(|r| r.integrity == IntegrityState::Ok)
+        .filter_map(|r| r.heading_sigma_deg));
     let mut s = ApplySummary {
         rows: applied.rows.len(),
         rows_per_state: per_state,
@@ -365,24 +425,38 @@ pub fn summarize(applied: &Applied, reference: Option<(&str, &[f64])>) -> ApplyS
         let all: Vec<f64> = errors.iter().flatten().copied().collect();
         if !all.is_empty() {
             let offset = constant_offset_deg(&all);
-            let ok_errors = || errors.iter().enumerate().filter(|(i, _)| ok(*i)).filter_map(|(_, e)| *e);
+            let ok_errors = || {
+                errors
+                    .iter()
+                    .enumerate()
+                    .filter(|(i, _)| ok(*i))
+                    .filter_map(|(_, e)| *e)
+            };
             s.heading_reference = Some(name.to_string());
             s.heading_rms_deg = rms(all.iter().copied());
             s.heading_rms_ok_deg = rms(ok_errors());
             s.constant_offset_deg = Some(offset);
-            s.heading_rms_ok_offset_removed_deg = rms(ok_errors().map(|e| wrap_pi((e - offset).to_radians()).to_degrees()));
+            s.heading_rms_ok_offset_removed_deg =
+                rms(ok_errors().map(|e| wrap_pi((e - offset).to_radians()).to_degrees()));
         }
     }
     s
 }
 
 fn cell(v: Option<f64>, prec: usize) -> String {
-    v.filter(|v| v.is_finite()).map(|v| format!("{v:.prec$}")).unwrap_or_default()
+    v.filter(|v| v.is_finite())
+        .map(|v| format!("{v:.prec$}"))
+        .unwrap_or_default()
 }
 
 /// Writes `OUT.csv`: the input's `t` (when it has one) and, per row, the
 /// calibrated field, heading, σ and integrity. Refuses to overwrite `input`.
-pub fn write_applied(path: &Path, input: &Path, t_s: Option<&[f64]>, applied: &Applied) -> Result<(), ApplyError> {
+pub fn write_applied(
+    path: &Path,
+    input: &Path,
+    t_s: Option<&[f64]>,
+    applied: &Applied,
+) -> Result<(), ApplyError> {
     let same = match (std::fs::canonicalize(path), std::fs::canonicalize(input)) {
         (Ok(a), Ok(b)) => a == b,
         _ => path == input,
@@ -390,7 +464,10 @@ pub fn write_applied(path: &Path, input: &Path, t_s: Option<&[f64]>, applied: &A
     if same {
         return Err(ApplyError::OverwritesInput(path.into()));
     }
-    let io = |source| ApplyError::Io { path: path.into(), source };
+    let io = |source| ApplyError::Io {
+        path: path.into(),
+        source,
+    };
     let mut text = String::with_capacity(applied.rows.len() * 64 + 100);
     if t_s.is_some() {
         text.push_str("t,");
@@ -404,7 +481,15 @@ pub fn write_applied(path: &Path, input: &Path, t_s: Option<&[f64]>, applied: &A
             text.push(',');
         }
         let f = r.field_nt.map(|v| cell(Some(v), 1));
-        text.push_str(&format!("{},{},{},{},{},{}\n", f[0], f[1], f[2], cell(r.heading_deg, 3), cell(r.heading_sigma_deg, 3), r.integrity.name()));
+        text.push_str(&format!(
+            "{},{},{},{},{},{}\n",
+            f[0],
+            f[1],
+            f[2],
+            cell(r.heading_deg, 3),
+            cell(r.heading_sigma_deg, 3),
+            r.integrity.name()
+        ));
     }
     std::fs::write(path, text).map_err(io)
 }
@@ -441,17 +526,28 @@ pub fn score(applied: &Applied, reference_deg: &[f64], bad_deg: f64) -> Integrit
     let errors = heading_errors_deg(applied, reference_deg);
     let all: Vec<f64> = errors.iter().flatten().copied().collect();
     let offset = constant_offset_deg(&all);
-    let rows: Vec<(f64, &AppliedRow)> = errors.iter().zip(&applied.rows).filter_map(|(e, r)| e.map(|e| (wrap_pi((e - offset).to_radians()).to_degrees(), r))).collect();
+    let rows: Vec<(f64, &AppliedRow)> = errors
+        .iter()
+        .zip(&applied.rows)
+        .filter_map(|(e, r)| e.map(|e| (wrap_pi((e - offset).to_radians()).to_degrees(), r)))
+        .collect();
     let is_ok = |r: &AppliedRow| r.integrity == IntegrityState::Ok;
     let ok: Vec<&(f64, &AppliedRow)> = rows.iter().filter(|(_, r)| is_ok(r)).collect();
     let bad: Vec<&(f64, &AppliedRow)> = rows.iter().filter(|(e, _)| e.abs() > bad_deg).collect();
-    let frac = |n: usize, d: usize| if d == 0 { f64::NAN } else { n as f64 / d as f64 };
+    let frac = |n: usize, d: usize| {
+        if d == 0 {
+            f64::NAN
+        } else {
+            n as f64 / d as f64
+        }
+    };
     IntegrityScore {
         rows: rows.len(),
         ok_fraction: frac(ok.len(), rows.len()),
         bad_rows: bad.len(),
         bad_not_ok_fraction: frac(bad.iter().filter(|(_, r)| !is_ok(r)).count(), bad.len()),
         ok_rms_deg: rms(ok.iter().map(|(e, _)| *e)).unwrap_or(f64::NAN),
-        ok_predicted_deg: rms(ok.iter().filter_map(|(_, r)| r.heading_sigma_deg)).unwrap_or(f64::NAN),
+        ok_predicted_deg: rms(ok.iter().filter_map(|(_, r)| r.heading_sigma_deg))
+            .unwrap_or(f64::NAN),
     }
 }

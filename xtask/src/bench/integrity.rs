@@ -40,12 +40,36 @@ const LAB_INCLINATION_DEG: f64 = 68.968;
 
 /// The trials: name, recording, undisturbed calibration.
 const TRIALS: [(&str, &str, &str); 6] = [
-    ("broad-30", "broad-30/broad_30.csv", "broad-30/broad_30.truth.json"),
-    ("broad-33", "broad-33/broad_33.csv", "broad-33/broad_33.truth.json"),
-    ("broad-02-limited", "broad-02-limited/02_validate.csv", "broad-02-limited/02.truth.json"),
-    ("broad-03", "broad-03/03_validate.csv", "broad-03/03.truth.json"),
-    ("broad-05", "broad-05/05_validate.csv", "broad-05/05.truth.json"),
-    ("broad-09", "broad-09/09_validate.csv", "broad-09/09.truth.json"),
+    (
+        "broad-30",
+        "broad-30/broad_30.csv",
+        "broad-30/broad_30.truth.json",
+    ),
+    (
+        "broad-33",
+        "broad-33/broad_33.csv",
+        "broad-33/broad_33.truth.json",
+    ),
+    (
+        "broad-02-limited",
+        "broad-02-limited/02_validate.csv",
+        "broad-02-limited/02.truth.json",
+    ),
+    (
+        "broad-03",
+        "broad-03/03_validate.csv",
+        "broad-03/03.truth.json",
+    ),
+    (
+        "broad-05",
+        "broad-05/05_validate.csv",
+        "broad-05/05.truth.json",
+    ),
+    (
+        "broad-09",
+        "broad-09/09_validate.csv",
+        "broad-09/09.truth.json",
+    ),
 ];
 
 struct Trial {
@@ -61,14 +85,38 @@ fn load(data: &Path, csv: &str, truth_json: &str) -> Option<Trial> {
         matrix: [[f64; 3]; 3],
         field_nt: f64,
     }
-    let t: Truth = serde_json::from_str(&std::fs::read_to_string(data.join(truth_json)).ok()?).ok()?;
-    let mut doc = CalDoc::new(ModelKind::Full, &FieldCal { bias: t.bias, matrix: t.matrix }, t.field_nt, Quality::default());
-    doc.reference = Some(Reference { inclination_deg: Some(LAB_INCLINATION_DEG), ..Reference::user_intensity(t.field_nt) });
-    Some(Trial { rec: Recording::read(&data.join(csv)).ok()?, truth_deg: read_reference_column(&data.join(csv), "truth_heading_deg").ok()??, doc })
+    let t: Truth =
+        serde_json::from_str(&std::fs::read_to_string(data.join(truth_json)).ok()?).ok()?;
+    let mut doc = CalDoc::new(
+        ModelKind::Full,
+        &FieldCal {
+            bias: t.bias,
+            matrix: t.matrix,
+        },
+        t.field_nt,
+        Quality::default(),
+    );
+    doc.reference = Some(Reference {
+        inclination_deg: Some(LAB_INCLINATION_DEG),
+        ..Reference::user_intensity(t.field_nt)
+    });
+    Some(Trial {
+        rec: Recording::read(&data.join(csv)).ok()?,
+        truth_deg: read_reference_column(&data.join(csv), "truth_heading_deg").ok()??,
+        doc,
+    })
 }
 
 fn run(trial: &Trial, tuning: Tuning<f64>) -> Option<IntegrityScore> {
-    let applied = apply_recording(&trial.rec, &trial.doc, &ApplyOptions { tuning: Some(tuning), ..Default::default() }).ok()?;
+    let applied = apply_recording(
+        &trial.rec,
+        &trial.doc,
+        &ApplyOptions {
+            tuning: Some(tuning),
+            ..Default::default()
+        },
+    )
+    .ok()?;
     Some(score(&applied, &trial.truth_deg, 5.0))
 }
 
@@ -86,12 +134,23 @@ fn grid() -> Vec<(f64, f64, f64)> {
 }
 
 fn tuning((gate, scale, reanchor): (f64, f64, f64)) -> Tuning<f64> {
-    Tuning { gate_sigma: gate, scale_var_per_rad: scale * scale, reanchor_s: reanchor, ..Tuning::standard() }
+    Tuning {
+        gate_sigma: gate,
+        scale_var_per_rad: scale * scale,
+        reanchor_s: reanchor,
+        ..Tuning::standard()
+    }
 }
 
 /// Fraction of the good rows (|error| ≤ 5°) judged ok.
 fn good_ok(s: &IntegrityScore) -> f64 {
-    let ok_bad = s.bad_rows as f64 * (1.0 - if s.bad_not_ok_fraction.is_nan() { 0.0 } else { s.bad_not_ok_fraction });
+    let ok_bad = s.bad_rows as f64
+        * (1.0
+            - if s.bad_not_ok_fraction.is_nan() {
+                0.0
+            } else {
+                s.bad_not_ok_fraction
+            });
     (s.ok_fraction * s.rows as f64 - ok_bad) / (s.rows - s.bad_rows) as f64
 }
 
@@ -104,7 +163,11 @@ fn good_ok(s: &IntegrityScore) -> f64 {
 /// disturbances cannot choose its own thresholds.)
 fn objective(scores: &[&IntegrityScore]) -> f64 {
     let kept = scores.iter().map(|s| good_ok(s)).sum::<f64>() / scores.len() as f64;
-    let with_bad: Vec<f64> = scores.iter().filter(|s| s.bad_rows >= 5).map(|s| s.bad_not_ok_fraction).collect();
+    let with_bad: Vec<f64> = scores
+        .iter()
+        .filter(|s| s.bad_rows >= 5)
+        .map(|s| s.bad_not_ok_fraction)
+        .collect();
     kept + with_bad.iter().sum::<f64>() / with_bad.len().max(1) as f64
 }
 
@@ -134,15 +197,26 @@ struct Glider {
 }
 
 fn load_glider(dir: &Path) -> Option<Glider> {
-    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("onboard_calibration.json")).ok()?).ok()?;
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("onboard_calibration.json")).ok()?)
+            .ok()?;
     let bias: [f64; 3] = serde_json::from_value(v["bias"].clone()).ok()?;
     let matrix: [[f64; 3]; 3] = serde_json::from_value(v["matrix"].clone()).ok()?;
-    let mut doc = CalDoc::new(ModelKind::Full, &FieldCal { bias, matrix }, v["field_nt"].as_f64()?, Quality::default());
+    let mut doc = CalDoc::new(
+        ModelKind::Full,
+        &FieldCal { bias, matrix },
+        v["field_nt"].as_f64()?,
+        Quality::default(),
+    );
     // The world model at the glider's site (its README) is the reference.
     let site = host_tools::geomag::Site::new(46.902, -124.894, "2023-06-01").ok()?;
     doc.reference = Some(Reference::world_model(site, &site.field().ok()?));
     let path = dir.join("sg236_validate.csv");
-    Some(Glider { rec: Recording::read(&path).ok()?, depth_m: read_reference_column(&path, "depth_m").ok()??, doc })
+    Some(Glider {
+        rec: Recording::read(&path).ok()?,
+        depth_m: read_reference_column(&path, "depth_m").ok()??,
+        doc,
+    })
 }
 
 /// Mean, 1σ and RMS about a reference of `v` (NaN when empty).
@@ -150,14 +224,21 @@ fn spread(v: &[f64], reference: f64) -> (f64, f64, f64) {
     let n = v.len() as f64;
     let mean = v.iter().sum::<f64>() / n;
     let sd = (v.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / (n - 1.0).max(1.0)).sqrt();
-    let rms = (v.iter().map(|x| (x - reference) * (x - reference)).sum::<f64>() / n).sqrt();
+    let rms = (v
+        .iter()
+        .map(|x| (x - reference) * (x - reference))
+        .sum::<f64>()
+        / n)
+        .sqrt();
     (mean, sd, rms)
 }
 
 /// |F| and dip of the calibrated field on the rows `keep`: mean, 1σ and
 /// RMS about IGRF-14's, as JSON.
 fn field_residuals(applied: &Applied, rec: &Recording, keep: &[usize]) -> serde_json::Value {
-    let (Some(roll), Some(pitch)) = (rec.roll_deg.as_ref(), rec.pitch_deg.as_ref()) else { return json!(null) };
+    let (Some(roll), Some(pitch)) = (rec.roll_deg.as_ref(), rec.pitch_deg.as_ref()) else {
+        return json!(null);
+    };
     let (mut mag, mut dip) = (vec![], vec![]);
     for &i in keep {
         let h = applied.rows[i].field_nt;
@@ -181,7 +262,9 @@ fn field_residuals(applied: &Applied, rec: &Recording, keep: &[usize]) -> serde_
 fn glider(data: &Path) -> Option<serde_json::Value> {
     let g = load_glider(&data.join("seaglider-sg236"))?;
     let applied = apply_recording(&g.rec, &g.doc, &ApplyOptions::default()).ok()?;
-    let below: Vec<usize> = (0..applied.rows.len()).filter(|&i| g.depth_m.get(i).is_some_and(|d| *d > GLIDER_JUDGE_DEPTH_M)).collect();
+    let below: Vec<usize> = (0..applied.rows.len())
+        .filter(|&i| g.depth_m.get(i).is_some_and(|d| *d > GLIDER_JUDGE_DEPTH_M))
+        .collect();
     let count = |rows: &mut dyn Iterator<Item = usize>| {
         let mut c = [0usize; 5];
         for i in rows {
@@ -189,8 +272,13 @@ fn glider(data: &Path) -> Option<serde_json::Value> {
         }
         json!({"ok": c[0], "disturbed": c[1], "cal_invalid": c[2], "no_attitude": c[3], "unjudged": c[4]})
     };
-    let (ok, not_ok): (Vec<usize>, Vec<usize>) = below.iter().partition(|&&i| applied.rows[i].integrity == IntegrityState::Ok);
-    let sigma: Vec<f64> = ok.iter().filter_map(|&i| applied.rows[i].heading_sigma_deg).collect();
+    let (ok, not_ok): (Vec<usize>, Vec<usize>) = below
+        .iter()
+        .partition(|&&i| applied.rows[i].integrity == IntegrityState::Ok);
+    let sigma: Vec<f64> = ok
+        .iter()
+        .filter_map(|&i| applied.rows[i].heading_sigma_deg)
+        .collect();
     let predicted = (sigma.iter().map(|s| s * s).sum::<f64>() / sigma.len() as f64).sqrt();
     let v = json!({
         "calibration": "the glider's own (onboard_calibration.json)",
@@ -223,7 +311,10 @@ fn glider(data: &Path) -> Option<serde_json::Value> {
             x["dip_mean_deg"].as_f64().unwrap_or(f64::NAN), x["dip_sd_deg"].as_f64().unwrap_or(f64::NAN), x["dip_rms_vs_igrf_deg"].as_f64().unwrap_or(f64::NAN)
         );
     }
-    eprintln!("  glider states (all rows): {}; below 3 m: {}", v["states"], b["states"]);
+    eprintln!(
+        "  glider states (all rows): {}; below 3 m: {}",
+        v["states"], b["states"]
+    );
     Some(v)
 }
 
@@ -231,18 +322,30 @@ fn glider(data: &Path) -> Option<serde_json::Value> {
 /// leave-one-out choice's. `root` is the workspace.
 pub fn section(root: &Path) -> serde_json::Value {
     let data = root.join("tests/data");
-    let trials: Vec<(&str, Trial)> = TRIALS.iter().filter_map(|(n, c, t)| load(&data, c, t).map(|tr| (*n, tr))).collect();
+    let trials: Vec<(&str, Trial)> = TRIALS
+        .iter()
+        .filter_map(|(n, c, t)| load(&data, c, t).map(|tr| (*n, tr)))
+        .collect();
     let grid = grid();
     // scores[g][t]
-    let scores: Vec<Vec<Option<IntegrityScore>>> = grid.iter().map(|&g| trials.iter().map(|(_, tr)| run(tr, tuning(g))).collect()).collect();
-    let standard: Vec<Option<IntegrityScore>> = trials.iter().map(|(_, tr)| run(tr, Tuning::standard())).collect();
+    let scores: Vec<Vec<Option<IntegrityScore>>> = grid
+        .iter()
+        .map(|&g| trials.iter().map(|(_, tr)| run(tr, tuning(g))).collect())
+        .collect();
+    let standard: Vec<Option<IntegrityScore>> = trials
+        .iter()
+        .map(|(_, tr)| run(tr, Tuning::standard()))
+        .collect();
     let mut out = serde_json::Map::new();
     eprintln!("| trial | tuning | rows | ok % | bad rows | bad not ok % | ok RMS ° | predicted ° | ratio |");
     eprintln!("|---|---|---|---|---|---|---|---|---|");
     for (t, (name, _)) in trials.iter().enumerate() {
         let best = (0..grid.len())
             .filter_map(|g| {
-                let others: Vec<&IntegrityScore> = (0..trials.len()).filter(|&u| u != t).filter_map(|u| scores[g][u].as_ref()).collect();
+                let others: Vec<&IntegrityScore> = (0..trials.len())
+                    .filter(|&u| u != t)
+                    .filter_map(|u| scores[g][u].as_ref())
+                    .collect();
                 (others.len() + 1 == trials.len()).then(|| (g, objective(&others)))
             })
             .max_by(|a, b| a.1.total_cmp(&b.1));
@@ -266,7 +369,10 @@ pub fn section(root: &Path) -> serde_json::Value {
         if let Some((g, _)) = best {
             if let Some(s) = &scores[g][t] {
                 let (gate, scale, reanchor) = grid[g];
-                print(&format!("left out: gate {gate}σ, scale {scale}, re-anchor {reanchor} s"), s);
+                print(
+                    &format!("left out: gate {gate}σ, scale {scale}, re-anchor {reanchor} s"),
+                    s,
+                );
                 let mut r = row(s);
                 r["chosen"] = json!({"gate_sigma": gate, "scale_sigma_per_sqrt_rad": scale, "reanchor_s": reanchor});
                 entry.insert("leave_one_out".into(), r);
