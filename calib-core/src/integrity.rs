@@ -156,8 +156,14 @@ impl<T: Real> Reference<T> {
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Tuning<T> {
-    /// Gate on every normalised residual, in σ.
+    /// Gate on the field's normalised residuals (magnitude and dip), in σ,
+    /// when the gyro checks the heading too.
     pub gate_sigma: T,
+    /// The same gate for a sample without body rates: the field checks
+    /// alone then stand for the heading, so they are tighter.
+    pub no_gyro_gate_sigma: T,
+    /// Gate on the gyro innovation, in σ.
+    pub gyro_gate_sigma: T,
     /// Random walk of the gyro-propagated heading, rad²/s.
     pub heading_walk_rad2_s: T,
     /// Gyro scale uncertainty: variance added per radian turned, rad² per rad.
@@ -170,8 +176,11 @@ pub struct Tuning<T> {
     pub max_gap_s: T,
     /// Passing time that ends a disturbance (strictly more than this), s.
     pub exit_s: T,
-    /// Field passing but the gyro disagreeing this long re-anchors, s.
+    /// Field passing but the gyro disagreeing this long re-anchors, s ...
     pub reanchor_s: T,
+    /// ... if the gyro has turned at least this much meanwhile, rad (the
+    /// gyro's scale error can then explain the disagreement; 0: always).
+    pub reanchor_turn_rad: T,
     /// Time constant of the misfit fraction, s.
     pub misfit_tau_s: T,
     /// Misfit fraction above which the calibration is invalid.
@@ -180,6 +189,13 @@ pub struct Tuning<T> {
     pub misfit_exit: T,
     /// Samples over which a learned inclination is averaged (its memory).
     pub inclination_memory: T,
+    /// How far the inclination learned from the samples judged ok may move
+    /// from a reference inclination, radians (the reference's allowance):
+    /// the local field differs from the world model's (a building, the
+    /// vehicle, the crust), so the dip is learned — but only within this of
+    /// an independent reference, so a wrong calibration cannot teach the
+    /// monitor a dip of its own.
+    pub inclination_allowance_rad: T,
 }
 
 impl<T: Real> Tuning<T> {
@@ -196,18 +212,46 @@ impl<T: Real> Tuning<T> {
     pub fn standard() -> Self {
         let deg = core::f64::consts::PI / 180.0;
         Self {
-            gate_sigma: T::from_f64(3.5),
+            gate_sigma: T::from_f64(5.0),
+            no_gyro_gate_sigma: T::from_f64(3.5),
+            gyro_gate_sigma: T::from_f64(3.0),
             heading_walk_rad2_s: T::from_f64(deg * deg),
-            scale_var_per_rad: T::from_f64(0.05 * 0.05),
+            scale_var_per_rad: T::from_f64(0.08 * 0.08),
             bias_walk_rad2_s3: T::from_f64((0.01 * deg) * (0.01 * deg)),
             bias_sigma_rad_s: T::from_f64(0.5 * deg),
             max_gap_s: T::from_f64(0.2),
             exit_s: T::from_f64(0.1),
-            reanchor_s: T::from_f64(1.0),
+            reanchor_s: T::from_f64(0.5),
+            reanchor_turn_rad: T::from_f64(REANCHOR_TURN_DEG * deg),
             misfit_tau_s: T::from_f64(2.0),
             misfit_enter: T::from_f64(0.5),
             misfit_exit: T::from_f64(0.1),
             inclination_memory: T::from_f64(200.0),
+            inclination_allowance_rad: T::from_f64(INCLINATION_ALLOWANCE_DEG * deg),
+        }
+    }
+}
+
+/// The turn over which a lasting gyro disagreement may re-anchor the
+/// prediction on the field, degrees (`Tuning::reanchor_turn_rad`).
+pub const REANCHOR_TURN_DEG: f64 = 45.0;
+
+/// The reference inclination's allowance, degrees: three times its 1σ, the
+/// world model's 0.2° (the WMM reports' error model, crustal field
+/// included) ⊕ 1° local (a steel building, the vehicle; the BROAD lab's
+/// trials show 67.5–70.0° against the lab's mean 69.0°). The host's
+/// reference check refuses a fit beyond the same three σ
+/// (`host_tools::compute::reference`).
+pub const INCLINATION_ALLOWANCE_DEG: f64 = 3.06;
+
+impl<T: Real> Tuning<T> {
+    /// The field gate for a sample with body rates (`with_gyro`) or without.
+    #[inline(always)]
+    pub fn field_gate(&self, with_gyro: bool) -> T {
+        if with_gyro {
+            self.gate_sigma
+        } else {
+            self.no_gyro_gate_sigma
         }
     }
 }
@@ -340,14 +384,19 @@ pub struct Monitor<T> {
     /// mean is updated every [`INCLINATION_BLOCK`] samples).
     incl_sum: T,
     incl_pending: u8,
+    /// The bounds of a learned sin I (the reference's allowance; ±1
+    /// without a reference).
+    sin_incl_lo: T,
+    sin_incl_hi: T,
     gyro: GyroHeading<T>,
     /// Exponentially weighted fraction of samples whose field misfits, and
     /// the same average of 1 (their ratio is the bias-corrected fraction:
     /// right from the first samples, not only after a time constant).
     misfit: T,
     misfit_weight: T,
-    /// Field passing while the gyro disagrees, s.
+    /// Field passing while the gyro disagrees, s, and the turn meanwhile, rad.
     gyro_fail_s: T,
+    gyro_fail_turn_rad: T,
     /// Passing time since the last failure, s.
     pass_s: T,
     disturbed: bool,
@@ -376,6 +425,8 @@ impl<T: Real> Monitor<T> {
         let t = &tuning;
         let all_pos = [
             t.gate_sigma,
+            t.no_gyro_gate_sigma,
+            t.gyro_gate_sigma,
             t.heading_walk_rad2_s,
             t.scale_var_per_rad,
             t.bias_walk_rad2_s3,
@@ -385,10 +436,13 @@ impl<T: Real> Monitor<T> {
             t.reanchor_s,
             t.misfit_tau_s,
             t.inclination_memory,
+            t.inclination_allowance_rad,
         ]
         .iter()
         .all(|&v| pos(v));
+        let turn_ok = t.reanchor_turn_rad.is_finite() && t.reanchor_turn_rad >= T::ZERO;
         if !(all_pos
+            && turn_ok
             && t.misfit_exit > T::ZERO
             && t.misfit_exit < t.misfit_enter
             && t.misfit_enter < T::ONE)
@@ -406,6 +460,14 @@ impl<T: Real> Monitor<T> {
             T::ZERO
         };
         let bias_var = t.bias_sigma_rad_s * t.bias_sigma_rad_s;
+        let half_pi = T::PI / T::from_f64(2.0);
+        let (sin_incl_lo, sin_incl_hi) = match r.inclination_rad {
+            Some(i) => (
+                (i - t.inclination_allowance_rad).max(-half_pi).sin(),
+                (i + t.inclination_allowance_rad).min(half_pi).sin(),
+            ),
+            None => (-T::ONE, T::ONE),
+        };
         Ok(Self {
             reference,
             tuning,
@@ -414,6 +476,8 @@ impl<T: Real> Monitor<T> {
             incl_weight,
             incl_sum: T::ZERO,
             incl_pending: 0,
+            sin_incl_lo,
+            sin_incl_hi,
             gyro: GyroHeading {
                 heading_rad: T::ZERO,
                 bias_rad_s: T::ZERO,
@@ -425,6 +489,7 @@ impl<T: Real> Monitor<T> {
             misfit: T::ZERO,
             misfit_weight: T::ZERO,
             gyro_fail_s: T::ZERO,
+            gyro_fail_turn_rad: T::ZERO,
             pass_s: T::ZERO,
             disturbed: false,
             cal_invalid: false,
@@ -460,6 +525,7 @@ impl<T: Real> Monitor<T> {
         self.cal_invalid = misfit > self.tuning.misfit_enter;
         self.gyro.anchored = false;
         self.gyro_fail_s = T::ZERO;
+        self.gyro_fail_turn_rad = T::ZERO;
         self.pass_s = T::ZERO;
         self.disturbed = true;
     }
@@ -486,7 +552,7 @@ impl<T: Real> Monitor<T> {
 
     /// The heading variance of a sample with horizontal intensity `hh_nt`.
     #[inline(always)]
-    fn sample_var(&self, hh_nt: T) -> T {
+    pub(crate) fn sample_var(&self, hh_nt: T) -> T {
         let s = self.reference.noise_nt / hh_nt.max(self.reference.noise_nt);
         s * s + self.reference.heading_sigma_rad * self.reference.heading_sigma_rad
     }
@@ -522,7 +588,7 @@ impl<T: Real> Monitor<T> {
             (field_nt[0] * field_nt[0] + field_nt[1] * field_nt[1] + field_nt[2] * field_nt[2])
                 .sqrt();
         let field_z = (mag - self.reference.field_nt) / self.reference.field_sigma_nt;
-        self.track_misfit(!(field_z.abs() < self.tuning.gate_sigma), dt);
+        self.track_misfit(!(field_z.abs() < self.tuning.no_gyro_gate_sigma), dt);
         self.gyro.anchored = false;
         Verdict {
             state: IntegrityState::NoAttitude,
@@ -548,7 +614,7 @@ impl<T: Real> Monitor<T> {
         rate_rad_s: Option<Vec3<T>>,
         dt: T,
     ) -> Verdict<T> {
-        let g = self.tuning.gate_sigma;
+        let g = self.tuning.field_gate(rate_rad_s.is_some());
         let (f, sigma_f) = (self.reference.field_nt, self.reference.field_sigma_nt);
         let (l, hh) = (levelled_nt, horizontal_nt);
         // |h| = |levelled h|.
@@ -558,14 +624,18 @@ impl<T: Real> Monitor<T> {
         // 0 before an inclination is known (the gain is 0 then).
         let dip_z = (sin_dip - self.sin_incl) * self.dip_gain;
         let var_m = self.sample_var(hh);
-        // The gyro prediction.
-        match rate_rad_s {
+        // The gyro prediction, and the turn it integrated.
+        let turn = match rate_rad_s {
             Some(w) if self.gyro.anchored && dt <= self.tuning.max_gap_s => {
                 let yaw_rate = (tilt.sin_roll * w[1] + tilt.cos_roll * w[2]) / tilt.cos_pitch;
                 self.gyro.predict(yaw_rate, dt, &self.tuning);
+                (yaw_rate * dt).abs()
             }
-            _ => self.gyro.anchored = false,
-        }
+            _ => {
+                self.gyro.anchored = false;
+                T::ZERO
+            }
+        };
         let anchored = self.gyro.anchored;
         let (innovation, s) = if anchored {
             (
@@ -577,17 +647,22 @@ impl<T: Real> Monitor<T> {
         };
         // |innovation| / √s < g, without the square root.
         let field_ok = field_z.abs() < g && dip_z.abs() < g;
-        let pass = field_ok && innovation * innovation < g * g * s;
+        let gg = self.tuning.gyro_gate_sigma;
+        let pass = field_ok && innovation * innovation < gg * gg * s;
         let fraction = self.track_misfit(!field_ok, dt);
-        self.track_gyro(rate_rad_s.is_some(), field_ok, pass, heading_rad, var_m, dt);
+        self.track_gyro(
+            rate_rad_s.is_some(),
+            field_ok,
+            pass,
+            heading_rad,
+            var_m,
+            dt,
+            turn,
+        );
         if pass && anchored {
             self.gyro.update(innovation, s);
         }
-        if pass
-            && !self.disturbed
-            && fraction < self.tuning.misfit_exit
-            && self.reference.inclination_rad.is_none()
-        {
+        if pass && !self.disturbed && fraction < self.tuning.misfit_exit {
             self.learn_inclination(sin_dip);
         }
         if pass {
@@ -652,7 +727,12 @@ impl<T: Real> Monitor<T> {
     }
 
     /// Anchors the gyro heading when it is not, and re-anchors it when the
-    /// field passes but the prediction has disagreed for too long.
+    /// field passes but the prediction has disagreed for too long while
+    /// turning enough for the gyro's own error to explain it (`turn`: this
+    /// step's integrated turn, rad). Without the turn a disagreement that
+    /// lasts is a field that passes the field checks but not the gyro's —
+    /// a disturbance across the magnetic meridian — and stays disturbed
+    /// until the prediction's own walk makes it agree.
     #[inline(always)]
     fn track_gyro(
         &mut self,
@@ -662,19 +742,27 @@ impl<T: Real> Monitor<T> {
         heading_rad: T,
         var_m: T,
         dt: T,
+        turn: T,
     ) {
         if !self.gyro.anchored {
             if has_rate && field_ok && heading_rad.is_finite() {
                 self.gyro.anchor(heading_rad, var_m);
             }
             self.gyro_fail_s = T::ZERO;
+            self.gyro_fail_turn_rad = T::ZERO;
         } else if pass {
             self.gyro_fail_s = T::ZERO;
+            self.gyro_fail_turn_rad = T::ZERO;
         } else if field_ok {
             self.gyro_fail_s += dt;
-            if self.gyro_fail_s > self.tuning.reanchor_s && heading_rad.is_finite() {
+            self.gyro_fail_turn_rad += turn;
+            if self.gyro_fail_s > self.tuning.reanchor_s
+                && self.gyro_fail_turn_rad >= self.tuning.reanchor_turn_rad
+                && heading_rad.is_finite()
+            {
                 self.gyro.anchor(heading_rad, var_m);
                 self.gyro_fail_s = T::ZERO;
+                self.gyro_fail_turn_rad = T::ZERO;
             }
         }
     }
@@ -700,6 +788,7 @@ impl<T: Real> Monitor<T> {
         // A weighted mean of values in [−1, 1] stays there (up to rounding,
         // which `cos_of_sin` absorbs).
         self.sin_incl += (self.incl_sum - n * self.sin_incl) / self.incl_weight;
+        self.sin_incl = self.sin_incl.max(self.sin_incl_lo).min(self.sin_incl_hi);
         self.dip_gain =
             self.reference.field_nt / (self.reference.field_sigma_nt * cos_of_sin(self.sin_incl));
         self.incl_sum = T::ZERO;

@@ -9,7 +9,7 @@
 //! `ok`, so applying can only add `ok` samples where there were none); a
 //! shadow check of the field corrected by the estimate (the same magnitude
 //! and dip gates, the same misfit fraction) has passed below
-//! `Tuning::misfit_exit` over at least three misfit time constants; the
+//! [`SHADOW_MISFIT_MAX`] over at least three misfit time constants; the
 //! offset model explains the misfit (normalised magnitude residual RMS ≤ 2);
 //! the estimate's own uncertainty moves the heading by no more than the
 //! stored calibration's σ does (`max σ_δ / H_h ≤ σ_ψ,stored`); and the offset
@@ -101,8 +101,56 @@ pub struct OnlineIntegrity<T> {
     alt_every: u8,
     alt_count: u8,
     alt_dt_s: T,
+    /// The gyro's confirmation of the applied estimate.
+    confirm: Confirmation<T>,
     health: Health<T>,
 }
+
+/// The gyro's check of the headings the on-line hard iron gives: over a
+/// window, the change of the magnetic heading against the gyro's
+/// integrated yaw (no magnetic update in between, unlike the monitor's
+/// filter, which follows the field). A wrong offset `δ` puts a one-cycle
+/// error `δ/H · sin(ψ − ψ₀)` on the heading, which a turn shows against
+/// the gyro. Until a window of at least [`CONFIRM_TURN_RAD`] of turning
+/// has agreed, no sample with the estimate is `ok`; a window that
+/// disagrees withdraws the estimate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+struct Confirmation<T> {
+    /// A window is open: its first magnetic heading, the gyro's yaw
+    /// integrated since (bias removed), the absolute turn and the time, rad, s.
+    open: bool,
+    heading0_rad: T,
+    gyro_rad: T,
+    turned_rad: T,
+    elapsed_s: T,
+    /// A window has agreed since the estimate was applied.
+    confirmed: bool,
+}
+
+/// Turning a window must see before it confirms the applied estimate,
+/// radians (90°: a wrong offset's heading error then changes by √2 its
+/// amplitude).
+pub const CONFIRM_TURN_RAD: f64 = core::f64::consts::FRAC_PI_2;
+
+/// The longest confirmation window, s: the gyro's walk and bias make a
+/// longer one uninformative; a window this old without the turn restarts.
+pub const CONFIRM_WINDOW_S: f64 = 20.0;
+
+/// What a confirmation window says of a sample.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Check {
+    /// Nothing against the estimate (the window agrees so far).
+    Agrees,
+    /// The magnetic heading's change disagrees with the gyro's.
+    Disagrees,
+}
+
+/// The corrected field's misfit fraction below which the shadow check
+/// passes (a tenth: the guard's own strictness, apart from the monitor's
+/// exit hysteresis `Tuning::misfit_exit`, which is chosen on real data for
+/// the stored calibration's false alarms).
+pub const SHADOW_MISFIT_MAX: f64 = 0.1;
 
 /// The on-line hard iron's memory, s.
 pub const HARD_IRON_TAU_S: f64 = 60.0;
@@ -131,6 +179,14 @@ impl<T: Real> OnlineIntegrity<T> {
             alt_every: 1,
             alt_count: 0,
             alt_dt_s: T::ZERO,
+            confirm: Confirmation {
+                open: false,
+                heading0_rad: T::ZERO,
+                gyro_rad: T::ZERO,
+                turned_rad: T::ZERO,
+                elapsed_s: T::ZERO,
+                confirmed: false,
+            },
             health: Health {
                 samples_per_state: [0; 5],
                 longest_disturbance_s: T::ZERO,
@@ -223,30 +279,46 @@ impl<T: Real> OnlineIntegrity<T> {
         };
         let was_invalid = self.monitor.cal_invalid();
         let dt = positive_dt(dt_s);
-        let (heading_rad, mut verdict) = match tilt {
+        let (heading_rad, hh, mut verdict) = match tilt {
             Some(t) => {
                 let l = t.level(field_nt);
                 let hh = (l[0] * l[0] + l[1] * l[1]).sqrt();
                 let heading_rad = cal.true_heading_of_levelled(l, hh);
                 (
                     Some(heading_rad),
+                    hh,
                     self.monitor
                         .judge_levelled(l, hh, heading_rad, t, rate_rad_s, dt),
                 )
             }
-            None => (None, self.monitor.judge_without_attitude(field_nt, dt)),
+            None => (
+                None,
+                T::ZERO,
+                self.monitor.judge_without_attitude(field_nt, dt),
+            ),
         };
         let applied_here = self.applied;
         if self.applied {
             verdict.heading_sigma_rad = (verdict.heading_sigma_rad * verdict.heading_sigma_rad
                 + self.applied_sigma_rad * self.applied_sigma_rad)
                 .sqrt();
-            if self.monitor.cal_invalid() {
+            let check = self.confirm_step(heading_rad, hh, tilt, rate_rad_s, dt);
+            if check == Check::Disagrees {
+                // The gyro says the estimate's headings are wrong.
+                self.withdraw();
+                verdict.state = IntegrityState::CalInvalid;
+            } else if self.monitor.cal_invalid() {
                 self.withdraw();
             } else if verdict.state == IntegrityState::Ok {
                 // Only samples the corrected field passes on teach it: a
                 // structure passed must not pull the offset in use.
                 self.refine_applied(stored_nt, tilt, rate_rad_s, dt);
+                if !self.confirm.confirmed {
+                    // Not yet confirmed by the gyro (or no gyro): the
+                    // stored calibration is invalid and the estimate
+                    // unproven.
+                    verdict.state = IntegrityState::CalInvalid;
+                }
             }
         } else if self.monitor.cal_invalid() {
             if !was_invalid {
@@ -268,6 +340,61 @@ impl<T: Real> OnlineIntegrity<T> {
             verdict,
             hard_iron_applied: applied_here,
         }
+    }
+
+    /// One sample of the gyro's confirmation of the applied estimate
+    /// ([`Confirmation`]): `hh` is the levelled horizontal intensity.
+    #[inline(never)]
+    fn confirm_step(
+        &mut self,
+        heading_rad: Option<T>,
+        hh: T,
+        tilt: Option<&Tilt<T>>,
+        rate_rad_s: Option<Vec3<T>>,
+        dt: T,
+    ) -> Check {
+        let tuning = *self.monitor.tuning();
+        let c = &mut self.confirm;
+        let (Some(heading), Some(t), Some(w)) = (heading_rad, tilt, rate_rad_s) else {
+            c.open = false;
+            return Check::Agrees;
+        };
+        if !c.open || dt > tuning.max_gap_s || c.elapsed_s > T::from_f64(CONFIRM_WINDOW_S) {
+            *c = Confirmation {
+                open: true,
+                heading0_rad: heading,
+                gyro_rad: T::ZERO,
+                turned_rad: T::ZERO,
+                elapsed_s: T::ZERO,
+                confirmed: c.confirmed,
+            };
+            return Check::Agrees;
+        }
+        let yaw_rad = ((t.sin_roll * w[1] + t.cos_roll * w[2]) / t.cos_pitch
+            - self.monitor.gyro_bias_rad_s())
+            * dt;
+        c.gyro_rad += yaw_rad;
+        c.turned_rad += yaw_rad.abs();
+        c.elapsed_s += dt;
+        let delta = crate::heading::wrap_pi(heading - c.heading0_rad - c.gyro_rad);
+        // Both ends' noise, the gyro's scale error over the turn, its walk
+        // and its bias's 1σ over the window.
+        let bias = tuning.bias_sigma_rad_s * c.elapsed_s;
+        let var = T::from_f64(2.0) * self.monitor.sample_var(hh)
+            + tuning.scale_var_per_rad * c.turned_rad
+            + tuning.heading_walk_rad2_s * c.elapsed_s
+            + bias * bias;
+        let g = tuning.gyro_gate_sigma;
+        if delta * delta > g * g * var {
+            c.open = false;
+            c.confirmed = false;
+            return Check::Disagrees;
+        }
+        if c.turned_rad >= T::from_f64(CONFIRM_TURN_RAD) {
+            c.confirmed = true;
+            c.open = false;
+        }
+        Check::Agrees
     }
 
     /// Forgets the estimate in progress and its shadow check.
@@ -341,7 +468,7 @@ impl<T: Real> OnlineIntegrity<T> {
             stored_nt[2] - e.offset_nt[2],
         ];
         let mag = (alt[0] * alt[0] + alt[1] * alt[1] + alt[2] * alt[2]).sqrt();
-        let g = tuning.gate_sigma;
+        let g = tuning.field_gate(rate_rad_s.is_some());
         let mut misfit = !((mag - r.field_nt).abs() < g * r.field_sigma_nt);
         if let (Some(t), Some(s)) = (tilt, sin_incl) {
             let c = cos_of_sin(s);
@@ -353,7 +480,7 @@ impl<T: Real> OnlineIntegrity<T> {
         self.shadow_misfit += a * (if misfit { T::ONE } else { T::ZERO } - self.shadow_misfit);
         self.shadow_seen_s += dt;
         if self.shadow_seen_s >= T::from_f64(3.0) * tuning.misfit_tau_s
-            && self.shadow_misfit < tuning.misfit_exit
+            && self.shadow_misfit < T::from_f64(SHADOW_MISFIT_MAX)
         {
             self.try_apply(&e, sin_incl);
         }
@@ -392,6 +519,8 @@ impl<T: Real> OnlineIntegrity<T> {
         self.use_estimate(e, sigma_rad);
         self.health.hard_iron_applied = self.health.hard_iron_applied.wrapping_add(1);
         self.applied = true;
+        self.confirm.open = false;
+        self.confirm.confirmed = false;
         // The monitor goes on with the corrected field's misfit fraction.
         self.monitor.switch_field(self.shadow_misfit);
         self.shadow_seen_s = T::ZERO;

@@ -149,15 +149,16 @@ fn apply_refuses_to_overwrite_its_input_and_says_why_on_bad_input() {
 }
 
 /// Another tool's calibration keeps its own scale: here trial 05's (an
-/// undisturbed BROAD trial) with its matrix 6 % larger, so |h| runs 6 %
-/// above the document's `field_nt`, 5σ of the 1.2 % scatter. Judged against
+/// undisturbed BROAD trial) with its matrix 10 % larger, so |h| runs 10 %
+/// above the document's `field_nt`, 8σ of the 1.2 % scatter (the field
+/// gate is 5σ with a gyro). Judged against
 /// `field_nt` the calibration is invalid; told the intensity it reproduces
 /// (`--field-nt`), the rows are ok as with the unscaled calibration.
 #[test]
 fn apply_takes_the_intensity_a_foreign_calibration_reproduces() {
     let dir = tempfile::tempdir().unwrap();
     let t: Truth = serde_json::from_str(&std::fs::read_to_string(data("broad-05/05.truth.json")).unwrap()).unwrap();
-    let scaled = t.matrix.map(|row| row.map(|v| v * 1.06));
+    let scaled = t.matrix.map(|row| row.map(|v| v * 1.10));
     let cal = dir.path().join("foreign.json");
     // Another tool's document: no reference; the lab's inclination given
     // (broad-05's README, 69.513°), or nothing would be judged ok.
@@ -171,7 +172,7 @@ fn apply_takes_the_intensity_a_foreign_calibration_reproduces() {
         s.rows_per_state["ok"] as f64 / s.rows as f64
     };
     let against_doc = ok(&[]);
-    let level = format!("{}", t.field_nt * 1.06);
+    let level = format!("{}", t.field_nt * 1.10);
     let told = ok(&["--field-nt", &level]);
     // Measured: 0.0 % ok against field_nt; 99.7 % with --field-nt (as the
     // unscaled calibration, `bench::integrity`).

@@ -211,11 +211,12 @@ fn fit_without_a_model_chooses_on_held_out_blocks_and_predicts_what_the_validati
     assert!((0.5..=2.0).contains(&(observed / predicted)), "observed {observed} predicted {predicted}");
 }
 
-#[derive(serde::Deserialize)]
+#[derive(Debug, serde::Deserialize)]
 struct ApplySummary {
     rows_per_state: std::collections::BTreeMap<String, usize>,
     heading_rms_ok_deg: Option<f64>,
     inclination_source: String,
+    hard_iron_applied: bool,
 }
 
 #[test]
@@ -302,14 +303,18 @@ fn apply_with_a_wrong_calibration_is_not_ok_against_the_documents_reference() {
     let (s, not_ok) = run(&zero, false);
     assert!(not_ok >= 0.95, "{not_ok} {:?}", s.rows_per_state);
     // 300 counts off (about 1 500 nT): found invalid, and the on-line hard
-    // iron, checked against the document's dip, takes over; the rows it
-    // calls ok are as good as the right calibration's (measured 0.23°;
-    // before, with the first step's stale 378 nT scatter, it passed as ok
-    // at 1.93°).
-    let (s, _) = run(&b300, false);
-    let rms = s.heading_rms_ok_deg.unwrap();
-    assert!(rms < 0.5, "ok rows {rms}° {:?}", s.rows_per_state);
-    assert!(s.rows_per_state["cal_invalid"] > 100, "{:?}", s.rows_per_state);
+    // iron, checked against the document's dip, is applied; but the
+    // simulator's validation run logs no gyro, so nothing independent of
+    // the field confirms its headings (issue 31's guard) and no row is ok
+    // with it (measured: every row after 10 s not ok; before the guard,
+    // 0.23° on the rows it called ok, and with the first step's stale
+    // 378 nT scatter 1.93°).
+    let (s, not_ok) = run(&b300, false);
+    assert!(s.hard_iron_applied, "{s:?}");
+    assert!(not_ok >= 0.95, "{not_ok} {:?}", s.rows_per_state);
+    if let Some(rms) = s.heading_rms_ok_deg {
+        assert!(rms < 0.5, "ok rows {rms}° {:?}", s.rows_per_state);
+    }
 }
 
 #[test]

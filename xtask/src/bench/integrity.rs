@@ -38,37 +38,123 @@ use serde_json::json;
 /// reference each stored calibration is judged against (issue 28).
 const LAB_INCLINATION_DEG: f64 = 68.968;
 
-/// The trials: name, recording, undisturbed calibration.
-const TRIALS: [(&str, &str, &str); 6] = [
+/// What a trial holds, and so what the monitor should do on it (issue 31's numbers).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Kind {
+    /// A magnet fixed in the room, passed now and then: ≥ 60 % of the bad
+    /// rows flagged while ≥ 85 % of the good rows stay ok.
+    Stationary,
+    /// A magnet on the board all along: ≥ 95 % of the bad rows flagged.
+    Attached,
+    /// No magnet (undisturbed, or tapped): ≥ 95 % of the rows ok.
+    NoMagnet,
+}
+
+impl Kind {
+    fn name(self) -> &'static str {
+        match self {
+            Kind::Stationary => "stationary magnet",
+            Kind::Attached => "attached magnet",
+            Kind::NoMagnet => "no magnet",
+        }
+    }
+
+    /// How far a score falls short of the kind's numbers (0: meets them),
+    /// in fractions: the leave-one-out objective's first term.
+    fn shortfall(self, s: &IntegrityScore) -> f64 {
+        let short = |have: f64, want: f64| {
+            if have.is_nan() {
+                0.0
+            } else {
+                (want - have).max(0.0)
+            }
+        };
+        let rms = if s.ok_rms_deg.is_nan() {
+            0.0
+        } else {
+            ((s.ok_rms_deg - OK_RMS_MAX_DEG) / OK_RMS_MAX_DEG).max(0.0)
+        };
+        rms + match self {
+            Kind::Stationary => {
+                short(s.bad_not_ok_fraction, 0.60) + short(s.good_ok_fraction, 0.85)
+            }
+            Kind::Attached => short(s.bad_not_ok_fraction, 0.95),
+            Kind::NoMagnet => short(s.ok_fraction, 0.95),
+        }
+    }
+
+    /// Whether a score meets the kind's numbers.
+    fn meets(self, s: &IntegrityScore) -> bool {
+        self.shortfall(s) == 0.0
+    }
+}
+
+/// The heading RMS on rows called ok the issue allows on every trial, degrees.
+const OK_RMS_MAX_DEG: f64 = 3.0;
+
+/// The trials: name, recording, undisturbed calibration, kind. Every real
+/// trial with an optical heading: the disturbed ones whole, the undisturbed
+/// ones' validation parts.
+pub const TRIALS: [(&str, &str, &str, Kind); 10] = [
     (
         "broad-30",
         "broad-30/broad_30.csv",
         "broad-30/broad_30.truth.json",
+        Kind::Stationary,
+    ),
+    (
+        "broad-28",
+        "broad-25-28-34/broad_28.csv",
+        "broad-25-28-34/broad_28.truth.json",
+        Kind::Stationary,
     ),
     (
         "broad-33",
         "broad-33/broad_33.csv",
         "broad-33/broad_33.truth.json",
+        Kind::Attached,
+    ),
+    (
+        "broad-34",
+        "broad-25-28-34/broad_34.csv",
+        "broad-25-28-34/broad_34.truth.json",
+        Kind::Attached,
+    ),
+    (
+        "broad-25",
+        "broad-25-28-34/broad_25.csv",
+        "broad-25-28-34/broad_25.truth.json",
+        Kind::NoMagnet,
     ),
     (
         "broad-02-limited",
         "broad-02-limited/02_validate.csv",
         "broad-02-limited/02.truth.json",
+        Kind::NoMagnet,
     ),
     (
         "broad-03",
         "broad-03/03_validate.csv",
         "broad-03/03.truth.json",
+        Kind::NoMagnet,
     ),
     (
         "broad-05",
         "broad-05/05_validate.csv",
         "broad-05/05.truth.json",
+        Kind::NoMagnet,
+    ),
+    (
+        "broad-06",
+        "broad-06/06_validate.csv",
+        "broad-06/06.truth.json",
+        Kind::NoMagnet,
     ),
     (
         "broad-09",
         "broad-09/09_validate.csv",
         "broad-09/09.truth.json",
+        Kind::NoMagnet,
     ),
 ];
 
@@ -120,61 +206,145 @@ fn run(trial: &Trial, tuning: Tuning<f64>) -> Option<IntegrityScore> {
     Some(score(&applied, &trial.truth_deg, 5.0))
 }
 
-/// The grid: gate σ × gyro scale 1σ per √rad × re-anchoring time, s.
-fn grid() -> Vec<(f64, f64, f64)> {
+/// One point of the leave-one-out grid: the monitor's knobs that set its
+/// operating point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Knobs {
+    /// Field gate (magnitude and dip), σ.
+    pub field_gate: f64,
+    /// Gyro innovation gate, σ.
+    pub gyro_gate: f64,
+    /// Gyro scale 1σ per √rad turned.
+    pub scale: f64,
+    /// Re-anchoring time, s.
+    pub reanchor_s: f64,
+    /// Turn needed to re-anchor, degrees.
+    pub reanchor_turn_deg: f64,
+    /// Misfit fraction below which the calibration is valid again.
+    pub misfit_exit: f64,
+    /// Time constant of the misfit fraction, s.
+    pub misfit_tau_s: f64,
+    /// Passing time that ends a disturbance, s.
+    pub exit_s: f64,
+}
+
+impl Knobs {
+    /// The shipped point ([`Tuning::standard`]).
+    pub fn shipped() -> Self {
+        let t = Tuning::<f64>::standard();
+        Knobs {
+            field_gate: t.gate_sigma,
+            gyro_gate: t.gyro_gate_sigma,
+            scale: t.scale_var_per_rad.sqrt(),
+            reanchor_s: t.reanchor_s,
+            reanchor_turn_deg: t.reanchor_turn_rad.to_degrees().round(),
+            misfit_exit: t.misfit_exit,
+            misfit_tau_s: t.misfit_tau_s,
+            exit_s: t.exit_s,
+        }
+    }
+
+    fn tuning(self) -> Tuning<f64> {
+        Tuning {
+            gate_sigma: self.field_gate,
+            gyro_gate_sigma: self.gyro_gate,
+            scale_var_per_rad: self.scale * self.scale,
+            reanchor_s: self.reanchor_s,
+            reanchor_turn_rad: self.reanchor_turn_deg.to_radians(),
+            misfit_exit: self.misfit_exit,
+            misfit_tau_s: self.misfit_tau_s,
+            exit_s: self.exit_s,
+            ..Tuning::standard()
+        }
+    }
+
+    /// Both gates times `k` (the curve's threshold).
+    fn gates_times(self, k: f64) -> Self {
+        Knobs {
+            field_gate: self.field_gate * k,
+            gyro_gate: self.gyro_gate * k,
+            ..self
+        }
+    }
+
+    fn json(self) -> serde_json::Value {
+        json!({"field_gate_sigma": self.field_gate, "gyro_gate_sigma": self.gyro_gate, "scale_sigma_per_sqrt_rad": self.scale, "reanchor_s": self.reanchor_s, "reanchor_turn_deg": self.reanchor_turn_deg, "misfit_exit": self.misfit_exit, "misfit_tau_s": self.misfit_tau_s, "exit_s": self.exit_s})
+    }
+
+    fn label(self) -> String {
+        format!(
+            "gates {}σ/{}σ, scale {}, re-anchor {} s and {}°, misfit exit {} over {} s, exit {} s",
+            self.field_gate,
+            self.gyro_gate,
+            self.scale,
+            self.reanchor_s,
+            self.reanchor_turn_deg,
+            self.misfit_exit,
+            self.misfit_tau_s,
+            self.exit_s
+        )
+    }
+}
+
+/// The grid: 5 field gates × 4 gyro gates × 3 gyro scale errors × 3
+/// re-anchoring times × 3 re-anchoring turns × 3 exit times (1 620
+/// points). Three constants are safety floors, not tuned: the misfit exit
+/// and time constant (0.1 over 2 s: with either looser a wrong
+/// calibration re-validates itself wherever it happens to fit — a 30 %
+/// soft-iron gain error at 0.2 gets 43 rows `ok` up to 6.4° off, over 1 s
+/// 111 rows up to 10.2° off, `calib_core` test
+/// `the_guard_refuses_an_estimate_that_does_not_explain_the_misfit`; the
+/// BROAD trials alone would choose 0.3, or 1 s: trial 28's good rows
+/// 84–85 % `ok` instead of 79 %), and
+/// a re-anchoring turn of at least 45° (without one, any disturbance
+/// across the meridian that lasts longer than the re-anchoring time is
+/// taken as the truth — test
+/// `a_passing_disturbance_is_caught_by_the_gyro_and_ends_with_hysteresis`;
+/// the BROAD trials score 0° and 45° alike, within 0.2 % of one trial's
+/// good rows).
+pub fn grid() -> Vec<Knobs> {
     let mut g = Vec::new();
-    for gate in [3.0, 3.5, 4.0] {
-        for scale in [0.03, 0.05, 0.08] {
-            for reanchor in [0.5, 1.0, 2.0] {
-                g.push((gate, scale, reanchor));
+    for field_gate in [3.0, 3.5, 4.0, 4.5, 5.0] {
+        for gyro_gate in [2.5, 3.0, 3.5, 4.0] {
+            for scale in [0.03, 0.05, 0.08] {
+                for reanchor_s in [0.5, 1.0, 2.0] {
+                    for reanchor_turn_deg in [45.0, 90.0, 180.0] {
+                        for exit_s in [0.1, 0.3, 0.6] {
+                            let t = Tuning::<f64>::standard();
+                            g.push(Knobs {
+                                field_gate,
+                                gyro_gate,
+                                scale,
+                                reanchor_s,
+                                reanchor_turn_deg,
+                                misfit_exit: t.misfit_exit,
+                                misfit_tau_s: t.misfit_tau_s,
+                                exit_s,
+                            });
+                        }
+                    }
+                }
             }
         }
     }
     g
 }
 
-fn tuning((gate, scale, reanchor): (f64, f64, f64)) -> Tuning<f64> {
-    Tuning {
-        gate_sigma: gate,
-        scale_var_per_rad: scale * scale,
-        reanchor_s: reanchor,
-        ..Tuning::standard()
-    }
+/// The leave-one-out objective on a set of trials: the sum of how far
+/// each falls short of its kind's numbers ([`Kind::shortfall`]). (Issue 23
+/// maximised the mean fraction of good rows kept plus bad rows caught, on
+/// two disturbed trials: the operating point it chose on trial 30 did not
+/// carry to trials it never saw — issue 31.)
+fn objective(scores: &[(Kind, &IntegrityScore)]) -> f64 {
+    scores.iter().map(|(k, s)| k.shortfall(s)).sum::<f64>()
 }
 
-/// Fraction of the good rows (|error| ≤ 5°) judged ok.
-fn good_ok(s: &IntegrityScore) -> f64 {
-    let ok_bad = s.bad_rows as f64
-        * (1.0
-            - if s.bad_not_ok_fraction.is_nan() {
-                0.0
-            } else {
-                s.bad_not_ok_fraction
-            });
-    (s.ok_fraction * s.rows as f64 - ok_bad) / (s.rows - s.bad_rows) as f64
-}
-
-/// The objective on a set of trials: the mean fraction of good rows
-/// (|error| ≤ 5°) kept ok plus the mean fraction of bad rows not ok (over
-/// the trials with at least 5 bad rows). (Choosing instead the most bad rows
-/// caught while every trial keeps 90 % of its good rows picks the most
-/// lenient tuning when trial 30 is left out — 92.9 % ok, 32 % caught — as
-/// trial 33 is caught whatever the tuning: one trial of transient
-/// disturbances cannot choose its own thresholds.)
-fn objective(scores: &[&IntegrityScore]) -> f64 {
-    let kept = scores.iter().map(|s| good_ok(s)).sum::<f64>() / scores.len() as f64;
-    let with_bad: Vec<f64> = scores
-        .iter()
-        .filter(|s| s.bad_rows >= 5)
-        .map(|s| s.bad_not_ok_fraction)
-        .collect();
-    kept + with_bad.iter().sum::<f64>() / with_bad.len().max(1) as f64
-}
-
-fn row(s: &IntegrityScore) -> serde_json::Value {
+fn row(s: &IntegrityScore, kind: Kind) -> serde_json::Value {
     json!({
+        "kind": kind.name(), "meets": kind.meets(s),
         "rows": s.rows, "ok_pct": 100.0 * s.ok_fraction, "bad_rows": s.bad_rows,
-        "bad_not_ok_pct": 100.0 * s.bad_not_ok_fraction, "ok_rms_deg": s.ok_rms_deg,
+        "bad_not_ok_pct": 100.0 * s.bad_not_ok_fraction, "gross_rows": s.gross_rows, "gross_not_ok_pct": 100.0 * s.gross_not_ok_fraction, "good_rows": s.good_rows,
+        "good_ok_pct": 100.0 * s.good_ok_fraction, "ok_rms_deg": s.ok_rms_deg,
         "ok_predicted_deg": s.ok_predicted_deg, "sigma_ratio": s.sigma_ratio(),
     })
 }
@@ -318,72 +488,150 @@ fn glider(data: &Path) -> Option<serde_json::Value> {
     Some(v)
 }
 
-/// The section: per trial, the standard tuning's numbers and the
-/// leave-one-out choice's. `root` is the workspace.
+/// One trial's score as a table row.
+fn print_row(name: &str, kind: Kind, label: &str, s: &IntegrityScore) {
+    eprintln!(
+        "| {name} | {} | {label} | {} | {} | {:.1} | {} | {:.1} | {} | {:.1} | {:.1} | {:.2} | {:.2} | {} |",
+        kind.name(),
+        s.rows,
+        s.bad_rows,
+        100.0 * s.bad_not_ok_fraction,
+        s.gross_rows,
+        100.0 * s.gross_not_ok_fraction,
+        s.good_rows,
+        100.0 * s.good_ok_fraction,
+        100.0 * s.ok_fraction,
+        s.ok_rms_deg,
+        s.sigma_ratio(),
+        if kind.meets(s) { "yes" } else { "**no**" }
+    );
+}
+
+/// Loads every trial of [`TRIALS`] (`None` for one that does not load).
+fn load_all(data: &Path) -> Vec<(&'static str, Kind, Option<Trial>)> {
+    TRIALS
+        .iter()
+        .map(|(n, c, t, k)| (*n, *k, load(data, c, t)))
+        .collect()
+}
+
+/// The gates' scale factors of the curve.
+const CURVE: [f64; 7] = [0.5, 0.7, 0.85, 1.0, 1.2, 1.5, 2.0];
+
+/// The section: per trial, the shipped tuning's numbers, the leave-one-out
+/// choice's, and the curve over the gates. `root` is the workspace.
 pub fn section(root: &Path) -> serde_json::Value {
     let data = root.join("tests/data");
-    let trials: Vec<(&str, Trial)> = TRIALS
+    let trials = load_all(&data);
+    let missing: Vec<&str> = trials
         .iter()
-        .filter_map(|(n, c, t)| load(&data, c, t).map(|tr| (*n, tr)))
+        .filter(|(_, _, t)| t.is_none())
+        .map(|(n, _, _)| *n)
+        .collect();
+    if !missing.is_empty() {
+        return json!({"error": format!("trials that do not load: {missing:?}")});
+    }
+    let loaded: Vec<(&str, Kind, &Trial)> = trials
+        .iter()
+        .filter_map(|(n, k, t)| t.as_ref().map(|t| (*n, *k, t)))
         .collect();
     let grid = grid();
     // scores[g][t]
     let scores: Vec<Vec<Option<IntegrityScore>>> = grid
         .iter()
-        .map(|&g| trials.iter().map(|(_, tr)| run(tr, tuning(g))).collect())
+        .map(|g| {
+            loaded
+                .iter()
+                .map(|(_, _, tr)| run(tr, g.tuning()))
+                .collect()
+        })
         .collect();
-    let standard: Vec<Option<IntegrityScore>> = trials
-        .iter()
-        .map(|(_, tr)| run(tr, Tuning::standard()))
-        .collect();
+    let shipped = Knobs::shipped();
     let mut out = serde_json::Map::new();
-    eprintln!("| trial | tuning | rows | ok % | bad rows | bad not ok % | ok RMS ° | predicted ° | ratio |");
-    eprintln!("|---|---|---|---|---|---|---|---|---|");
-    for (t, (name, _)) in trials.iter().enumerate() {
-        let best = (0..grid.len())
-            .filter_map(|g| {
-                let others: Vec<&IntegrityScore> = (0..trials.len())
-                    .filter(|&u| u != t)
-                    .filter_map(|u| scores[g][u].as_ref())
-                    .collect();
-                (others.len() + 1 == trials.len()).then(|| (g, objective(&others)))
-            })
-            .max_by(|a, b| a.1.total_cmp(&b.1));
-        let print = |label: &str, s: &IntegrityScore| {
-            eprintln!(
-                "| {name} | {label} | {} | {:.1} | {} | {:.1} | {:.2} | {:.2} | {:.2} |",
-                s.rows,
-                100.0 * s.ok_fraction,
-                s.bad_rows,
-                100.0 * s.bad_not_ok_fraction,
-                s.ok_rms_deg,
-                s.ok_predicted_deg,
-                s.sigma_ratio()
-            )
-        };
+    // The choice on every trial (what ships, if the leave-one-out choices agree).
+    let on_all = best(&grid, &scores, &loaded, None);
+    out.insert("shipped".into(), shipped.json());
+    out.insert(
+        "chosen_on_all_trials".into(),
+        on_all
+            .map(|g| grid[g].json())
+            .unwrap_or(serde_json::Value::Null),
+    );
+    eprintln!(
+        "shipped: {}; chosen on all trials: {}",
+        shipped.label(),
+        on_all.map(|g| grid[g].label()).unwrap_or_default()
+    );
+    eprintln!("| trial | kind | tuning | rows | bad rows (> 5°) | flagged % | rows > 10° | flagged % | good rows (< 2°) | good ok % | all ok % | ok RMS ° | observed/predicted | meets |");
+    eprintln!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let mut trials_out = serde_json::Map::new();
+    for (t, (name, kind, tr)) in loaded.iter().enumerate() {
         let mut entry = serde_json::Map::new();
-        if let Some(s) = &standard[t] {
-            print("standard", s);
-            entry.insert("standard".into(), row(s));
+        if let Some(s) = run(tr, shipped.tuning()) {
+            print_row(name, *kind, "shipped", &s);
+            entry.insert("shipped".into(), row(&s, *kind));
         }
-        if let Some((g, _)) = best {
+        if let Some(g) = best(&grid, &scores, &loaded, Some(t)) {
             if let Some(s) = &scores[g][t] {
-                let (gate, scale, reanchor) = grid[g];
-                print(
-                    &format!("left out: gate {gate}σ, scale {scale}, re-anchor {reanchor} s"),
-                    s,
-                );
-                let mut r = row(s);
-                r["chosen"] = json!({"gate_sigma": gate, "scale_sigma_per_sqrt_rad": scale, "reanchor_s": reanchor});
+                print_row(name, *kind, &format!("left out ({})", grid[g].label()), s);
+                let mut r = row(s, *kind);
+                r["chosen"] = grid[g].json();
                 entry.insert("leave_one_out".into(), r);
             }
         }
-        out.insert(name.to_string(), serde_json::Value::Object(entry));
+        let curve: Vec<serde_json::Value> = CURVE
+            .iter()
+            .filter_map(|&k| run(tr, shipped.gates_times(k).tuning()).map(|s| json!({"gates_times": k, "shipped": k == 1.0, "flagged_pct": 100.0 * s.bad_not_ok_fraction, "good_ok_pct": 100.0 * s.good_ok_fraction, "ok_pct": 100.0 * s.ok_fraction, "ok_rms_deg": s.ok_rms_deg})))
+            .collect();
+        entry.insert("curve".into(), json!(curve));
+        trials_out.insert(name.to_string(), serde_json::Value::Object(entry));
     }
+    eprintln!("curve (both gates × k; flagged % / good ok % / ok RMS °; * the shipped point):");
+    for (name, _, _) in &loaded {
+        let c = &trials_out[*name]["curve"];
+        let cells: Vec<String> = c
+            .as_array()
+            .into_iter()
+            .flatten()
+            .map(|p| {
+                format!(
+                    "{}{:.2}: {:.0}/{:.0}/{:.1}",
+                    if p["shipped"] == true { "*" } else { "" },
+                    p["gates_times"].as_f64().unwrap_or(f64::NAN),
+                    p["flagged_pct"].as_f64().unwrap_or(f64::NAN),
+                    p["good_ok_pct"].as_f64().unwrap_or(f64::NAN),
+                    p["ok_rms_deg"].as_f64().unwrap_or(f64::NAN)
+                )
+            })
+            .collect();
+        eprintln!("  {name:17} {}", cells.join("  "));
+    }
+    out.insert("trials".into(), serde_json::Value::Object(trials_out));
     if let Some(g) = glider(&data) {
         out.insert("seaglider-sg236".into(), g);
     }
     serde_json::Value::Object(out)
+}
+
+/// The grid point that does best on every trial but `left_out` (all of
+/// them with `None`); ties go to the earlier point.
+fn best(
+    grid: &[Knobs],
+    scores: &[Vec<Option<IntegrityScore>>],
+    trials: &[(&str, Kind, &Trial)],
+    left_out: Option<usize>,
+) -> Option<usize> {
+    (0..grid.len())
+        .filter_map(|g| {
+            let others: Vec<(Kind, &IntegrityScore)> = (0..trials.len())
+                .filter(|&u| Some(u) != left_out)
+                .filter_map(|u| scores[g][u].as_ref().map(|s| (trials[u].1, s)))
+                .collect();
+            (others.len() + usize::from(left_out.is_some()) == trials.len())
+                .then(|| (g, objective(&others)))
+        })
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(g, _)| g)
 }
 
 #[cfg(test)]
@@ -395,6 +643,10 @@ mod tests {
         let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
         let v = super::section(&root);
         eprintln!("{}", serde_json::to_string_pretty(&v).unwrap_or_default());
-        assert_eq!(v.as_object().map(|o| o.len()), Some(7), "{v}");
+        assert_eq!(
+            v["trials"].as_object().map(|o| o.len()),
+            Some(super::TRIALS.len()),
+            "{v}"
+        );
     }
 }
