@@ -650,15 +650,8 @@ impl<T: Real> Monitor<T> {
         let gg = self.tuning.gyro_gate_sigma;
         let pass = field_ok && innovation * innovation < gg * gg * s;
         let fraction = self.track_misfit(!field_ok, dt);
-        self.track_gyro(
-            rate_rad_s.is_some(),
-            field_ok,
-            pass,
-            heading_rad,
-            var_m,
-            dt,
-            turn,
-        );
+        let turn = rate_rad_s.map(|_| turn);
+        self.track_gyro(turn, field_ok, pass, heading_rad, var_m, dt);
         if pass && anchored {
             self.gyro.update(innovation, s);
         }
@@ -729,23 +722,15 @@ impl<T: Real> Monitor<T> {
     /// Anchors the gyro heading when it is not, and re-anchors it when the
     /// field passes but the prediction has disagreed for too long while
     /// turning enough for the gyro's own error to explain it (`turn`: this
-    /// step's integrated turn, rad). Without the turn a disagreement that
+    /// step's integrated turn, rad, 0 when the prediction was not
+    /// propagated; `None` without body rates). Without the turn a disagreement that
     /// lasts is a field that passes the field checks but not the gyro's —
     /// a disturbance across the magnetic meridian — and stays disturbed
     /// until the prediction's own walk makes it agree.
     #[inline(always)]
-    fn track_gyro(
-        &mut self,
-        has_rate: bool,
-        field_ok: bool,
-        pass: bool,
-        heading_rad: T,
-        var_m: T,
-        dt: T,
-        turn: T,
-    ) {
+    fn track_gyro(&mut self, turn: Option<T>, field_ok: bool, pass: bool, heading_rad: T, var_m: T, dt: T) {
         if !self.gyro.anchored {
-            if has_rate && field_ok && heading_rad.is_finite() {
+            if turn.is_some() && field_ok && heading_rad.is_finite() {
                 self.gyro.anchor(heading_rad, var_m);
             }
             self.gyro_fail_s = T::ZERO;
@@ -755,7 +740,7 @@ impl<T: Real> Monitor<T> {
             self.gyro_fail_turn_rad = T::ZERO;
         } else if field_ok {
             self.gyro_fail_s += dt;
-            self.gyro_fail_turn_rad += turn;
+            self.gyro_fail_turn_rad += turn.unwrap_or(T::ZERO);
             if self.gyro_fail_s > self.tuning.reanchor_s
                 && self.gyro_fail_turn_rad >= self.tuning.reanchor_turn_rad
                 && heading_rad.is_finite()

@@ -600,3 +600,32 @@ pub fn score(applied: &Applied, reference_deg: &[f64], bad_deg: f64) -> Integrit
             .unwrap_or(f64::NAN),
     }
 }
+
+/// The gates' scale factors of [`gate_curve`] (1: the tuning given).
+pub const GATE_CURVE: [f64; 7] = [0.5, 0.7, 0.85, 1.0, 1.2, 1.5, 2.0];
+
+/// One point of [`gate_curve`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct GatePoint {
+    /// Every gate (field with and without a gyro, gyro) times this.
+    pub gates_times: f64,
+    /// The score there.
+    pub score: IntegrityScore,
+}
+
+/// How the separation of good rows from bad moves with the gates: `rec`
+/// run through `doc` with every gate of the tuning in `opts` (else
+/// [`Tuning::standard`]) times each of [`GATE_CURVE`], scored against
+/// `reference_deg` (rows off by more than `bad_deg` bad). The bench's and
+/// the report's curve, with the tuning given at × 1.
+pub fn gate_curve(rec: &Recording, doc: &CalDoc, opts: &ApplyOptions, reference_deg: &[f64], bad_deg: f64) -> Result<Vec<GatePoint>, ApplyError> {
+    let base = opts.tuning.unwrap_or_else(Tuning::standard);
+    GATE_CURVE
+        .iter()
+        .map(|&k| {
+            let tuning = Tuning { gate_sigma: base.gate_sigma * k, no_gyro_gate_sigma: base.no_gyro_gate_sigma * k, gyro_gate_sigma: base.gyro_gate_sigma * k, ..base };
+            let applied = apply_recording(rec, doc, &ApplyOptions { tuning: Some(tuning), ..*opts })?;
+            Ok(GatePoint { gates_times: k, score: score(&applied, reference_deg, bad_deg) })
+        })
+        .collect()
+}

@@ -10,7 +10,7 @@ use super::error::{io, ReportError};
 use super::inputs::{CardFiles, ReportInputs};
 use super::page::{escape, fmt_opt, Page};
 use super::plot::{self, integer_ticks, try_coverage_map, try_histogram, try_line_plot, CoverageGrid, Series};
-use crate::compute::apply::{apply_recording, heading_errors_deg, summarize, ApplyOptions, ApplySummary};
+use crate::compute::apply::{apply_recording, gate_curve, heading_errors_deg, summarize, ApplyOptions, ApplySummary, GatePoint, GOOD_DEG};
 use crate::compute::card::{deviation_card, DeviationCard};
 use calib_core::integrity::IntegrityState;
 use crate::compute::magnetic_headings;
@@ -507,6 +507,17 @@ pub(crate) fn integrity(page: &mut Page, cx: &Context<'_>) -> Result<(), ReportE
         summary.rows
     ));
     integrity_table(&mut page.body, &summary);
+    if let Some((name, values)) = reference {
+        match gate_curve(v.recording, doc, &ApplyOptions::default(), values, 5.0) {
+            Ok(points) => {
+                page.p(&format!(
+                    "How the gates separate good headings from bad on this run (against {name}, one constant offset removed; bad: off by more than 5°, good: within {GOOD_DEG}°), with every gate scaled; × 1 is what the board runs."
+                ));
+                gate_curve_table(&mut page.body, &points);
+            }
+            Err(e) => page.missing("integrity curve", &format!("the gates could not be varied: {e}")),
+        }
+    }
     match reference {
         Some((name, values)) => {
             let t: Vec<f64> = v.recording.t_s.clone().unwrap_or_else(|| (0..v.recording.len()).map(|i| i as f64).collect());
@@ -531,6 +542,30 @@ pub(crate) fn integrity(page: &mut Page, cx: &Context<'_>) -> Result<(), ReportE
     }
     page.end();
     Ok(())
+}
+
+/// The curve over the gates ([`gate_curve`]): per scale factor, the
+/// share of bad rows flagged, of good rows kept `ok`, of all rows `ok`, and
+/// the RMS on the `ok` rows; the board's point in bold.
+fn gate_curve_table(out: &mut String, points: &[GatePoint]) {
+    out.push_str("<table><tr><th class=\"l\">gates ×</th><th>bad rows (&gt; 5°)</th><th>flagged</th><th>good rows</th><th>good rows ok</th><th>all rows ok</th><th>ok rows RMS</th></tr>\n");
+    for p in points {
+        let s = &p.score;
+        let pct = |f: f64| fmt_opt(Some(100.0 * f), 1, " %");
+        let (b0, b1) = if p.gates_times == 1.0 { ("<b>", " (board)</b>") } else { ("", "") };
+        let _ = writeln!(
+            out,
+            "<tr><td class=\"l\">{b0}{}{b1}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            p.gates_times,
+            s.bad_rows,
+            pct(s.bad_not_ok_fraction),
+            s.good_rows,
+            pct(s.good_ok_fraction),
+            pct(s.ok_fraction),
+            fmt_opt(Some(s.ok_rms_deg), 2, "°")
+        );
+    }
+    out.push_str("</table>\n");
 }
 
 fn integrity_table(out: &mut String, s: &ApplySummary) {

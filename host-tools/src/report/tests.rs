@@ -231,6 +231,16 @@ fn the_integrity_section_shows_a_disturbance_on_the_validation_run() {
     // The disturbed rows' dots are orange (the state's colour) in the figure.
     assert!(section.contains("#FF7F0E") || section.contains("#D62728"));
     assert!(section.contains("Longest disturbance"));
+    // The curve over the gates (issue 31), the board's point marked.
+    let board = section.split("(board)</b></td>").nth(1).expect("the board's row").split("</tr>").next().unwrap();
+    let cells: Vec<&str> = board.split("<td>").skip(1).map(|c| c.split('<').next().unwrap()).collect();
+    // Measured: 35 rows off by more than 5°, all flagged; 98.6 % of the
+    // 560 good rows ok; 0.00° on the ok rows (noise-free).
+    assert_eq!(cells.first().copied(), Some("35"), "{cells:?}");
+    assert_eq!(cells.get(1).copied(), Some("100.0 %"), "{cells:?}");
+    let good_ok: f64 = cells.get(3).and_then(|c| c.trim_end_matches(" %").parse().ok()).unwrap_or(f64::NAN);
+    assert!(good_ok > 95.0, "{cells:?}");
+    assert_eq!(section.matches("<tr><td class=\"l\">").count() - 5, 7, "seven points and five states");
 }
 
 /// Without a validation run the section says so; with one whose truth is

@@ -25,7 +25,7 @@ use calib_core::cal::{FieldCal, ModelKind};
 use calib_core::heading::level;
 use calib_core::integrity::IntegrityState;
 use calib_core::integrity::Tuning;
-use host_tools::compute::apply::{apply_recording, score, Applied, ApplyOptions, IntegrityScore};
+use host_tools::compute::apply::{apply_recording, gate_curve, score, Applied, ApplyOptions, IntegrityScore};
 use host_tools::compute::card::read_reference_column;
 use host_tools::compute::reference::Reference;
 use host_tools::data::results::Quality;
@@ -255,15 +255,6 @@ impl Knobs {
             misfit_tau_s: self.misfit_tau_s,
             exit_s: self.exit_s,
             ..Tuning::standard()
-        }
-    }
-
-    /// Both gates times `k` (the curve's threshold).
-    fn gates_times(self, k: f64) -> Self {
-        Knobs {
-            field_gate: self.field_gate * k,
-            gyro_gate: self.gyro_gate * k,
-            ..self
         }
     }
 
@@ -515,9 +506,6 @@ fn load_all(data: &Path) -> Vec<(&'static str, Kind, Option<Trial>)> {
         .collect()
 }
 
-/// The gates' scale factors of the curve.
-const CURVE: [f64; 7] = [0.5, 0.7, 0.85, 1.0, 1.2, 1.5, 2.0];
-
 /// The section: per trial, the shipped tuning's numbers, the leave-one-out
 /// choice's, and the curve over the gates. `root` is the workspace.
 pub fn section(root: &Path) -> serde_json::Value {
@@ -579,9 +567,13 @@ pub fn section(root: &Path) -> serde_json::Value {
                 entry.insert("leave_one_out".into(), r);
             }
         }
-        let curve: Vec<serde_json::Value> = CURVE
+        let curve: Vec<serde_json::Value> = gate_curve(&tr.rec, &tr.doc, &ApplyOptions { tuning: Some(shipped.tuning()), ..Default::default() }, &tr.truth_deg, 5.0)
+            .unwrap_or_default()
             .iter()
-            .filter_map(|&k| run(tr, shipped.gates_times(k).tuning()).map(|s| json!({"gates_times": k, "shipped": k == 1.0, "flagged_pct": 100.0 * s.bad_not_ok_fraction, "good_ok_pct": 100.0 * s.good_ok_fraction, "ok_pct": 100.0 * s.ok_fraction, "ok_rms_deg": s.ok_rms_deg})))
+            .map(|p| {
+                let s = &p.score;
+                json!({"gates_times": p.gates_times, "shipped": p.gates_times == 1.0, "flagged_pct": 100.0 * s.bad_not_ok_fraction, "good_ok_pct": 100.0 * s.good_ok_fraction, "ok_pct": 100.0 * s.ok_fraction, "ok_rms_deg": s.ok_rms_deg})
+            })
             .collect();
         entry.insert("curve".into(), json!(curve));
         trials_out.insert(name.to_string(), serde_json::Value::Object(entry));
