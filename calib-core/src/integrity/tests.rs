@@ -451,8 +451,12 @@ fn an_on_line_hard_iron_the_gyro_disagrees_with_is_never_ok() {
     // Each application was withdrawn on the gyro's word.
     assert!(online.health().hard_iron_applied >= 1);
     // With a true gyro the same estimate is confirmed within a turn.
-    let (_, ok_true, _) = hard_iron_run(1, 1.0, true);
+    let (at_true, ok_true, _) = hard_iron_run(1, 1.0, true);
+    let rms = (ok_true.iter().map(|(e, _)| e * e).sum::<f64>() / ok_true.len().max(1) as f64).sqrt().to_degrees();
+    std::println!("true gyro: applied at {at_true:?} s, {} rows ok at {rms:.2}° RMS", ok_true.len());
+    // Measured: applied at 62.8 s, 1 721 rows ok at 0.80° RMS.
     assert!(ok_true.len() > 1000, "{}", ok_true.len());
+    assert!(rms < 2.0, "{rms}");
 }
 
 #[test]
