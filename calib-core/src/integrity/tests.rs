@@ -51,6 +51,19 @@ fn motion_turning(t: f64, zigzag: bool) -> ([f64; 3], [f64; 3]) {
     ([roll, pitch, yaw], w)
 }
 
+/// The stored calibration of the path tests: identity (raw in nT).
+fn identity_cal() -> Calibration<f64> {
+    Calibration {
+        field: FieldCal {
+            bias: [0.0; 3],
+            matrix: identity3(),
+        },
+        swing: Swing::zero(),
+        declination_rad: 0.0,
+        env: EnvTerms::none(),
+    }
+}
+
 /// A deterministic noise in [−1, 1) (a linear congruential generator).
 struct Noise(u64);
 impl Noise {
@@ -355,15 +368,7 @@ fn hard_iron_run(
     zigzag: bool,
 ) -> (Option<f64>, std::vec::Vec<(f64, f64)>, OnlineIntegrity<f64>) {
     let offset = [6000.0, -3000.0, 2000.0];
-    let cal = Calibration {
-        field: FieldCal {
-            bias: [0.0; 3],
-            matrix: identity3(),
-        },
-        swing: Swing::zero(),
-        declination_rad: 0.0,
-        env: EnvTerms::none(),
-    };
+    let cal = identity_cal();
     let mut online = OnlineIntegrity::new(reference(Some(DIP_RAD)), Tuning::standard())
         .unwrap()
         .with_estimator_every(every);
@@ -468,15 +473,7 @@ fn the_guard_refuses_an_estimate_that_does_not_explain_the_misfit() {
     // off at worst. (A misfit exit of 0.2 instead of 0.1: 43 rows ok up
     // to 6.4° off; a misfit time constant of 1 s instead of 2: 111 rows,
     // 10.2° off: so both are fixed, not tuned on the BROAD trials.)
-    let cal = Calibration {
-        field: FieldCal {
-            bias: [0.0; 3],
-            matrix: identity3(),
-        },
-        swing: Swing::zero(),
-        declination_rad: 0.0,
-        env: EnvTerms::none(),
-    };
+    let cal = identity_cal();
     let mut online = OnlineIntegrity::new(reference(Some(DIP_RAD)), Tuning::standard()).unwrap();
     let ned = ned_field(F_NT, DIP_RAD, 0.0);
     let mut ok_late = 0;
@@ -517,15 +514,7 @@ fn the_guard_refuses_an_estimate_that_does_not_explain_the_misfit() {
 /// invalid.
 #[test]
 fn the_estimator_runs_only_once_the_calibration_is_invalid() {
-    let cal = Calibration {
-        field: FieldCal {
-            bias: [0.0; 3],
-            matrix: identity3(),
-        },
-        swing: Swing::zero(),
-        declination_rad: 0.0,
-        env: EnvTerms::none(),
-    };
+    let cal = identity_cal();
     let mut online = OnlineIntegrity::new(reference(Some(DIP_RAD)), Tuning::standard()).unwrap();
     let mut noise = Noise(3);
     let ned = ned_field(F_NT, DIP_RAD, 0.0);
@@ -606,15 +595,7 @@ fn at_a_slow_sampling_rate_one_misfit_is_a_disturbance_not_an_invalid_calibratio
 /// dip learned all the same (the σ and the field checks are the same).
 #[test]
 fn without_a_reference_inclination_nothing_is_ok() {
-    let cal = Calibration {
-        field: FieldCal {
-            bias: [0.0; 3],
-            matrix: identity3(),
-        },
-        swing: Swing::zero(),
-        declination_rad: 0.0,
-        env: EnvTerms::none(),
-    };
+    let cal = identity_cal();
     let ned = ned_field(F_NT, DIP_RAD, 0.0);
     for (incl, want) in [
         (Some(DIP_RAD), IntegrityState::Ok),
