@@ -28,6 +28,7 @@ pub mod board;
 pub mod compute;
 pub mod data;
 pub mod export;
+pub mod files;
 pub mod geomag;
 pub mod integrity_evidence;
 pub mod procedure;

@@ -125,7 +125,7 @@ fn apply_refuses_to_overwrite_its_input_and_says_why_on_bad_input() {
     let o = magcal(&["apply", "--input", p(&input), "--cal", p(&cal), "--out", p(&same)]);
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains("is the input recording"), "{err}");
+    assert!(err.contains("is the input") && err.contains("would be overwritten"), "{err}");
     assert_eq!(std::fs::read_to_string(&input).unwrap(), original);
     // No magnetometer columns.
     let bad = dir.path().join("bad.csv");

@@ -118,6 +118,38 @@ fn an_input_is_never_overwritten_and_outputs_are_checked_before_the_work() {
     let tmp: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).filter(|n| n.to_string_lossy().ends_with("tmp")).collect();
     assert!(tmp.is_empty(), "left behind: {tmp:?}");
 
+    // Issue 30: the same file through a hard or a symbolic link, the
+    // calibration as apply's output, a device node: each refused before
+    // the work, nothing touched.
+    let hard = dir.path().join("hard.csv");
+    std::fs::hard_link(&input, &hard).unwrap();
+    let e = refused(&magcal(&["fit", "--input", p(&input), "--model", "axis", "--field-nt", "48730", "--out", p(&hard)]));
+    assert!(e.contains("would be overwritten"), "{e}");
+    let e = refused(&magcal(&["apply", "--input", p(&input), "--cal", p(&cal), "--out", p(&hard)]));
+    assert!(e.contains("would be overwritten"), "{e}");
+    let e = refused(&magcal(&["apply", "--input", p(&input), "--cal", p(&cal), "--out", p(&cal)]));
+    assert!(e.contains("would be overwritten") && e.contains("c.json"), "{e}");
+    #[cfg(unix)]
+    {
+        let soft = dir.path().join("soft.json");
+        std::os::unix::fs::symlink(&cal, &soft).unwrap();
+        let e = refused(&magcal(&["apply", "--input", p(&input), "--cal", p(&cal), "--out", p(&soft)]));
+        assert!(e.contains("would be overwritten"), "{e}");
+        let e = refused(&magcal(&["fit", "--input", p(&input), "--model", "axis", "--field-nt", "48730", "--out", "/dev/null"]));
+        assert!(e.contains("a device"), "{e}");
+        use std::os::unix::fs::FileTypeExt;
+        assert!(std::fs::metadata("/dev/null").unwrap().file_type().is_char_device(), "/dev/null is still a device");
+    }
+    assert_eq!(std::fs::read(&cal).unwrap(), doc_text, "the calibration is untouched");
+    assert_eq!(std::fs::read(&input).unwrap(), raw);
+    // An existing output is replaced, and said so on stderr.
+    let again = dir.path().join("sim.csv");
+    for round in 0..2 {
+        let o = magcal(&["simulate", "swing", "--seed", "1", "--out", p(&again)]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert_eq!(stderr(&o).contains("exists and will be replaced"), round == 1, "{}", stderr(&o));
+    }
+
     // A missing folder is said before the work: this run has no attitude,
     // so the back-stepping itself would fail — the folder is named first.
     let missing = dir.path().join("nowhere").join("cal2.json");

@@ -44,6 +44,9 @@ pub const LOG_HEADER: &str = board_log::HEADER;
 /// Why logging could not start or could not go on.
 #[derive(Debug, thiserror::Error)]
 pub enum LogError {
+    /// The output path is refused ([`crate::files`]).
+    #[error(transparent)]
+    Output(#[from] crate::files::OutputError),
     /// The output file exists (and overwriting was not asked for).
     #[error("{} exists (and overwriting it was not asked for)", .0.display())]
     Exists(PathBuf),
@@ -239,6 +242,8 @@ pub fn health_flags(s: &Sample, after_gap: bool) -> u32 {
 
 /// Opens the output for a new log: refused when it exists unless `force`.
 pub fn create_log_file(path: &std::path::Path, force: bool) -> Result<std::fs::File, LogError> {
+    // Never a directory, a device or a pipe, even with --force.
+    crate::files::check_output(path, &[])?;
     let mut o = std::fs::OpenOptions::new();
     o.write(true);
     if force {

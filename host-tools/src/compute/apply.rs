@@ -32,18 +32,12 @@ pub enum ApplyError {
     /// The document's reference cannot be checked against.
     #[error("the calibration's reference cannot be used for integrity: {0}")]
     Reference(&'static str),
+    /// The output could not be written ([`crate::files`]).
+    #[error(transparent)]
+    Output(#[from] crate::files::OutputError),
     /// The output would overwrite the input.
     #[error("{} is the input recording", .0.display())]
     OverwritesInput(PathBuf),
-    /// The output could not be written.
-    #[error("{path}: {source}")]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// What the OS said.
-        #[source]
-        source: std::io::Error,
-    },
 }
 
 /// Options beyond the document.
@@ -465,24 +459,18 @@ fn cell(v: Option<f64>, prec: usize) -> String {
 }
 
 /// Writes `OUT.csv`: the input's `t` (when it has one) and, per row, the
-/// calibrated field, heading, σ and integrity. Refuses to overwrite `input`.
+/// calibrated field, heading, σ and integrity, through
+/// [`crate::files::write_atomic`]. Refuses to overwrite `input` (also
+/// through a hard or symbolic link).
 pub fn write_applied(
     path: &Path,
     input: &Path,
     t_s: Option<&[f64]>,
     applied: &Applied,
 ) -> Result<(), ApplyError> {
-    let same = match (std::fs::canonicalize(path), std::fs::canonicalize(input)) {
-        (Ok(a), Ok(b)) => a == b,
-        _ => path == input,
-    };
-    if same {
+    if path == input || crate::files::same_file(path, input) {
         return Err(ApplyError::OverwritesInput(path.into()));
     }
-    let io = |source| ApplyError::Io {
-        path: path.into(),
-        source,
-    };
     let mut text = String::with_capacity(applied.rows.len() * 64 + 100);
     if t_s.is_some() {
         text.push_str("t,");
@@ -506,7 +494,8 @@ pub fn write_applied(
             r.integrity.name()
         ));
     }
-    std::fs::write(path, text).map_err(io)
+    crate::files::write_text_atomic(path, &text)?;
+    Ok(())
 }
 
 /// How well the integrity separates good headings from bad against a

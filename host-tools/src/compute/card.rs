@@ -13,7 +13,6 @@
 //! circular mean of its errors, its RMS that of the wrapped errors; a cell
 //! with no rows is empty (`None`), not zero.
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use calib_core::cal::Calibration;
@@ -32,6 +31,9 @@ pub const POINTS_16: [&str; 16] = ["N", "NNE", "NE", "ENE", "E", "ESE", "SE", "S
 /// Why a card could not be made.
 #[derive(Debug, thiserror::Error)]
 pub enum CardError {
+    /// The output could not be written ([`crate::files`]).
+    #[error(transparent)]
+    Output(#[from] crate::files::OutputError),
     /// The recording has no reference heading to compare with.
     #[error("the recording has no `{0}` column: the deviation card compares the magnetometer's heading with a reference (or truth) heading, so the recording needs one (`ref_heading_deg`, or name another column)")]
     NoReferenceColumn(String),
@@ -276,7 +278,6 @@ impl DeviationCard {
     /// before_mean_deg,before_rms_deg,after_n,after_mean_deg,after_rms_deg`
     /// (`table` is `heading` or `point`; empty cells are empty strings).
     pub fn write_csv(&self, path: &Path) -> Result<(), CardError> {
-        let io = |source| CardError::Io { path: path.into(), source };
         let mut out = String::from("table,label,centre_deg,width_deg,before_n,before_mean_deg,before_rms_deg,after_n,after_mean_deg,after_rms_deg\n");
         for (table, rows) in [("heading", &self.by_heading), ("point", &self.by_point)] {
             for r in rows.iter() {
@@ -294,9 +295,8 @@ impl DeviationCard {
                 ));
             }
         }
-        let tmp = path.with_extension("csv.tmp");
-        std::fs::File::create(&tmp).and_then(|mut f| f.write_all(out.as_bytes())).map_err(io)?;
-        std::fs::rename(&tmp, path).map_err(io)
+        crate::files::write_text_atomic(path, &out)?;
+        Ok(())
     }
 }
 

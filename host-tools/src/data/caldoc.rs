@@ -17,6 +17,9 @@ pub const MAX_BIAS_ABS: f64 = 1e7;
 /// Why a calibration document was refused.
 #[derive(Debug, thiserror::Error)]
 pub enum CalDocError {
+    /// The output could not be written ([`crate::files`]).
+    #[error(transparent)]
+    Output(#[from] crate::files::OutputError),
     /// The file could not be read or written.
     #[error("{path}: {source}")]
     Io {
@@ -245,16 +248,13 @@ impl CalDoc {
         Ok(doc)
     }
 
-    /// Validates and writes the document (pretty JSON). Written to a
-    /// temporary file first and renamed, so an interrupted write never leaves
-    /// a half-written calibration behind.
+    /// Validates and writes the document (pretty JSON), through
+    /// [`crate::files::write_atomic`]: an interrupted write never leaves a
+    /// half-written calibration behind.
     pub fn save(&self, path: &Path) -> Result<(), CalDocError> {
         self.validate(path)?;
-        let io = |source| CalDocError::Io { path: path.into(), source };
         let text = serde_json::to_string_pretty(self).map_err(|source| CalDocError::Parse { path: path.into(), source })?;
-        let tmp = path.with_extension("json.tmp");
-        std::fs::write(&tmp, text + "\n").map_err(io)?;
-        std::fs::rename(&tmp, path).map_err(io)?;
+        crate::files::write_text_atomic(path, &(text + "\n"))?;
         Ok(())
     }
 }

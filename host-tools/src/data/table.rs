@@ -46,6 +46,9 @@ pub mod col {
 /// Why a table (a recording, a log) could not be read or written.
 #[derive(Debug, thiserror::Error)]
 pub enum TableError {
+    /// The output could not be written ([`crate::files`]).
+    #[error(transparent)]
+    Output(#[from] crate::files::OutputError),
     /// The file could not be opened or read.
     #[error("{path}: {source}")]
     Io {
@@ -600,14 +603,19 @@ fn read_csv<R: std::io::Read>(reader: R, delimiter: u8, path: &Path, required: &
 
 /// Writes a CSV file: the header, then one row per item of `rows` (NaN as
 /// an empty cell).
+///
+/// Through [`crate::files::write_atomic`]: the old file or the new one,
+/// never half of one.
 pub(crate) fn write_table(path: &Path, header: &[&str], rows: impl Iterator<Item = Vec<f64>>) -> Result<(), TableError> {
-    let csv_err = |source| TableError::Csv { path: path.into(), source };
-    let mut w = csv::Writer::from_path(path).map_err(csv_err)?;
-    w.write_record(header).map_err(csv_err)?;
-    for row in rows {
-        w.write_record(row.into_iter().map(cell)).map_err(csv_err)?;
-    }
-    w.flush().map_err(|source| TableError::Io { path: path.into(), source })
+    crate::files::write_atomic(path, |file| {
+        let mut w = csv::Writer::from_writer(std::io::BufWriter::new(file));
+        w.write_record(header)?;
+        for row in rows {
+            w.write_record(row.into_iter().map(cell))?;
+        }
+        w.flush()
+    })?;
+    Ok(())
 }
 
 /// The columns of a line stream (a FIFO, stdin): the header line's

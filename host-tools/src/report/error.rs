@@ -8,6 +8,9 @@ use crate::compute::card::CardError;
 /// Why a report could not be written.
 #[derive(Debug, thiserror::Error)]
 pub enum ReportError {
+    /// The output could not be written ([`crate::files`]).
+    #[error(transparent)]
+    Output(#[from] crate::files::OutputError),
     /// Writing failed.
     #[error("{path}: {source}")]
     Io {

@@ -61,7 +61,7 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs<'_>) -> Result<WrittenRepo
         None => "Magnetometer calibration report".into(),
     };
     let index = dir.join("index.html");
-    std::fs::write(&index, page.html(&title)).map_err(io(&index))?;
+    crate::files::write_text_atomic(&index, &page.html(&title))?;
     Ok(WrittenReport { index, card, figures: page.figures, missing: page.missing })
 }
 

@@ -6,7 +6,7 @@ use std::path::Path;
 
 use calib_core::heading::wrap_pi;
 
-use super::error::{io, ReportError};
+use super::error::ReportError;
 use super::inputs::{CardFiles, ReportInputs};
 use super::page::{escape, fmt_opt, Page};
 use super::plot::{self, integer_ticks, try_coverage_map, try_histogram, try_line_plot, CoverageGrid, Series};
@@ -233,12 +233,12 @@ fn card_section(page: &mut Page, dir: &Path, card: &DeviationCard, against: &str
 /// Writes the card as `deviation_card.txt`, `.csv` and `.json` in `dir`.
 pub fn write_card(dir: &Path, card: &DeviationCard, against: &str) -> Result<CardFiles, ReportError> {
     let text = dir.join("deviation_card.txt");
-    std::fs::write(&text, format!("Deviation card against the {against}\n{}", card.to_text())).map_err(io(&text))?;
+    crate::files::write_text_atomic(&text, &format!("Deviation card against the {against}\n{}", card.to_text()))?;
     let csv = dir.join("deviation_card.csv");
     card.write_csv(&csv)?;
     let json = dir.join("deviation_card.json");
     let body = serde_json::to_string_pretty(card)?;
-    std::fs::write(&json, body).map_err(io(&json))?;
+    crate::files::write_text_atomic(&json, &body)?;
     Ok(CardFiles { text, csv, json, against: against.into() })
 }
 

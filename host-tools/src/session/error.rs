@@ -11,6 +11,9 @@ use crate::report::ReportError;
 /// Why a session stopped.
 #[derive(Debug, thiserror::Error)]
 pub enum SessionError {
+    /// The output could not be written ([`crate::files`]).
+    #[error(transparent)]
+    Output(#[from] crate::files::OutputError),
     /// The link failed.
     #[error("link: {0}")]
     Link(#[from] ClientError),

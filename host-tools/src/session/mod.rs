@@ -366,7 +366,7 @@ fn write_report(chain: &Chain, swing: &Recorded, run: &Recorded, validation: Opt
 fn save_json<T: serde::Serialize>(dir: &Path, name: &str, value: &T) -> Result<PathBuf, SessionError> {
     let p = dir.join(name);
     let text = serde_json::to_string_pretty(value)?;
-    std::fs::write(&p, text).map_err(|source| SessionError::File { path: p.clone(), source })?;
+    crate::files::write_text_atomic(&p, &text)?;
     Ok(p)
 }
 

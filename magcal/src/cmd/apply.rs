@@ -56,6 +56,8 @@ pub struct Args {
 
 /// Runs `magcal apply`.
 pub fn run(a: Args) -> Result<()> {
+    // Never the recording, never the calibration (also through links).
+    super::check_out("--out", &a.out, &[&a.input, &a.cal])?;
     if let Some(d) = a.inclination_deg {
         if !(d.is_finite() && d.abs() < 90.0) {
             bail!("--inclination-deg must be within ±90, not {d}");

@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use host_tools::data::merge::{merge_files_mapped, Clock, MergeError};
 use host_tools::data::RecordingError;
 use host_tools::data::table::ColumnMap;
@@ -43,15 +43,6 @@ pub struct Args {
     json: bool,
 }
 
-/// Whether `out` names the same file as `input` (an existing `out` only:
-/// a file that does not exist yet is no input).
-fn same_file(out: &std::path::Path, input: &std::path::Path) -> bool {
-    match (std::fs::canonicalize(out), std::fs::canonicalize(input)) {
-        (Ok(a), Ok(b)) => a == b,
-        _ => false,
-    }
-}
-
 /// The navigation log missing a column, read without a mapping: the
 /// refusal says how to give one (the commands' one hint mechanism).
 fn hint_nav_columns(e: MergeError, nav: &Path, mapped: bool) -> anyhow::Error {
@@ -63,11 +54,7 @@ fn hint_nav_columns(e: MergeError, nav: &Path, mapped: bool) -> anyhow::Error {
 
 /// Runs `magcal merge`.
 pub fn run(a: Args) -> Result<()> {
-    for (what, input) in [("--board", &a.board), ("--nav", &a.nav)] {
-        if same_file(&a.out, input) {
-            bail!("--out {} is the {what} log: the merged recording would overwrite it; give another --out", a.out.display());
-        }
-    }
+    super::check_out("--out", &a.out, &[&a.board, &a.nav])?;
     let clock = match a.offset_s {
         Some(offset_s) => Clock::Given { offset_s, drift_ppm: a.drift_ppm },
         None => Clock::Estimate { center_s: a.approx_offset_s, max_offset_s: a.max_offset_s },

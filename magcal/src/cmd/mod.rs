@@ -22,6 +22,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use host_tools::data::table::ColumnMap;
 use host_tools::data::{CalDoc, Recording, RecordingError};
+use host_tools::files::{self, Replaces};
 use host_tools::geomag::{self, Field, Site};
 
 /// The input recordings' own column names and units (`--columns`), shared
@@ -146,24 +147,16 @@ pub fn check_field_nt(field_nt: f64, what: &str) -> Result<()> {
     )
 }
 
-/// Checks an output path before any work is done: not a directory, in a
-/// directory that exists, and not the same file as any of `inputs` (an input
-/// is never overwritten).
+/// Checks an output path before any work is done
+/// ([`host_tools::files::check_output`]): a regular file or nothing (not a
+/// directory, a device, a pipe), in a folder that exists, and none of
+/// `inputs` — compared on disk, so a hard or symbolic link to an input is
+/// the input. An existing file it will replace is said on stderr.
 /// `flag` is the option that named it (`--out`, `--csv`).
 pub fn check_out(flag: &str, out: &Path, inputs: &[&Path]) -> Result<()> {
-    if out.is_dir() {
-        bail!("{flag} {}: is a directory (give a file name)", out.display());
-    }
-    let parent = out.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    if !parent.is_dir() {
-        bail!("{flag} {}: the folder {} does not exist", out.display(), parent.display());
-    }
-    if let Ok(out_abs) = out.canonicalize() {
-        for input in inputs {
-            if input.canonicalize().is_ok_and(|i| i == out_abs) {
-                bail!("{flag} {} is the input {}: it would be overwritten (write to another file)", out.display(), input.display());
-            }
-        }
+    match files::check_output(out, inputs).map_err(|e| anyhow::anyhow!("{flag} {e}"))? {
+        Replaces::ExistingFile => eprintln!("note: {flag} {} exists and will be replaced when the work is done", out.display()),
+        Replaces::Nothing => {}
     }
     Ok(())
 }
@@ -210,15 +203,10 @@ pub fn check_positions(rec: &Recording, path: &Path, lat_deg: f64, lon_deg: f64)
     Ok(())
 }
 
-/// Writes `text` to `path` through a temporary file beside it, renamed into
-/// place: no half-written file, and no temporary left behind on failure.
+/// Writes `text` to `path` whole ([`host_tools::files::write_text_atomic`]:
+/// a unique temporary file beside it, renamed into place).
 pub fn write_atomically(path: &Path, text: &str) -> Result<()> {
-    let tmp = path.with_extension("tmp");
-    let written = std::fs::write(&tmp, text).and_then(|()| std::fs::rename(&tmp, path));
-    if written.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    written.with_context(|| format!("{}: write", path.display()))
+    Ok(files::write_text_atomic(path, text)?)
 }
 
 /// Writes the document (`--out`) and prints it (`--json`) or the summary.

@@ -59,6 +59,9 @@ pub use truth::{AnomalyTruth, CurrentTruth, EffectsTruth, FieldSample, FieldTest
 /// Why a simulation could not be written.
 #[derive(Debug, thiserror::Error)]
 pub enum SimError {
+    /// The output could not be written ([`host_tools::files`]).
+    #[error(transparent)]
+    Output(#[from] host_tools::files::OutputError),
     /// The reference field could not be computed.
     #[error("{0}")]
     Field(#[from] GeomagError),

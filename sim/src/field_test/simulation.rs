@@ -67,7 +67,7 @@ impl Simulation {
         self.recording.write_with_extra(path, &extra)?;
         let truth_path = truth_path(path);
         let text = serde_json::to_string_pretty(&self.truth).map_err(|e| SimError::Parameter(e.to_string()))?;
-        std::fs::write(&truth_path, text).map_err(|source| SimError::Io { path: truth_path.display().to_string(), source })?;
+        host_tools::files::write_text_atomic(&truth_path, &text)?;
         Ok(())
     }
 }
