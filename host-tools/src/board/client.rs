@@ -60,6 +60,11 @@ pub enum ClientError {
     Unexpected(String),
 }
 
+/// How long a receiver may take nothing before a send gives up (beyond
+/// the bytes' own line time): a board or QEMU descheduled for seconds on a
+/// loaded host is slow, not gone.
+pub const SEND_STALL: Duration = Duration::from_secs(5);
+
 /// A request/response client over any byte stream (a serial port, a pty, a
 /// test double).
 pub struct BoardClient<P> {
@@ -71,6 +76,8 @@ pub struct BoardClient<P> {
     next_seq: u16,
     /// Per-attempt reply timeout.
     pub timeout: Duration,
+    /// How long a send waits on a receiver that takes nothing ([`SEND_STALL`]).
+    pub send_stall: Duration,
     /// Attempts per request (idempotent requests are simply resent).
     pub attempts: u32,
     /// Frames received that were damaged or answered an older request.
@@ -99,6 +106,7 @@ impl<P: Read + Write> BoardClient<P> {
             unread: VecDeque::new(),
             next_seq: 1,
             timeout: Duration::from_millis(1500),
+            send_stall: SEND_STALL,
             attempts: 3,
             discarded_frames: 0,
             samples: VecDeque::new(),
@@ -142,8 +150,33 @@ impl<P: Read + Write> BoardClient<P> {
     }
 
     /// Sends raw bytes as they are (for tests of the board's error paths).
+    ///
+    /// A write may wait on a busy receiver (a full pty while QEMU is not
+    /// scheduled, a USB adapter still draining) longer than the port's
+    /// 20 ms timeout, which paces reads: the bytes go out in as many writes
+    /// as it takes, and only when the receiver has taken nothing for
+    /// [`BoardClient::send_stall`] more than the bytes' own line time at [`BAUD_RATE`] is
+    /// the last `TimedOut` returned. (`write_all` gave up at the first
+    /// 20 ms wait: issue 30's end-to-end test that failed once under load.)
     pub fn send_raw(&mut self, bytes: &[u8]) -> Result<(), ClientError> {
-        self.port.write_all(bytes)?;
+        let line_time = Duration::from_secs_f64(bytes.len() as f64 * 10.0 / f64::from(BAUD_RATE));
+        let mut rest = bytes;
+        let mut last_progress = Instant::now();
+        while !rest.is_empty() {
+            match self.port.write(rest) {
+                Ok(0) => return Err(io::Error::from(io::ErrorKind::WriteZero).into()),
+                Ok(n) => {
+                    rest = rest.get(n..).unwrap_or_default();
+                    last_progress = Instant::now();
+                }
+                Err(e) if matches!(e.kind(), io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted) => {
+                    if last_progress.elapsed() > self.send_stall + line_time {
+                        return Err(e.into());
+                    }
+                }
+                Err(e) => return Err(e.into()),
+            }
+        }
         self.port.flush()?;
         Ok(())
     }
@@ -406,6 +439,52 @@ mod tests {
         );
         assert_eq!(link.ping(77).unwrap(), 77);
         assert_eq!(link.discarded_frames, 1);
+    }
+
+    /// A receiver that is slow to take bytes: each write first times out
+    /// `stalls_per_write` times, then takes at most `chunk` bytes.
+    struct SlowReceiver {
+        got: Vec<u8>,
+        stalls_per_write: u32,
+        stalled: u32,
+        chunk: usize,
+    }
+    impl Write for SlowReceiver {
+        fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+            if self.stalled < self.stalls_per_write {
+                self.stalled += 1;
+                return Err(io::ErrorKind::TimedOut.into());
+            }
+            self.stalled = 0;
+            let n = buf.len().min(self.chunk);
+            self.got.extend_from_slice(&buf[..n]);
+            Ok(n)
+        }
+        fn flush(&mut self) -> io::Result<()> {
+            Ok(())
+        }
+    }
+    impl Read for SlowReceiver {
+        fn read(&mut self, _: &mut [u8]) -> io::Result<usize> {
+            Err(io::ErrorKind::TimedOut.into())
+        }
+    }
+
+    /// Issue 30: a flood sent to a receiver that keeps timing out (a full
+    /// pty while QEMU is descheduled) arrives whole, in order; `write_all`
+    /// gave up at the first timeout. A receiver that takes nothing at all is
+    /// given up on after the stall allowance.
+    #[test]
+    fn a_send_waits_for_a_slow_receiver_and_gives_up_on_a_dead_one() {
+        let bytes: Vec<u8> = (0..20_000u32).map(|i| (i % 251) as u8).collect();
+        let mut c = BoardClient::new(SlowReceiver { got: Vec::new(), stalls_per_write: 3, stalled: 0, chunk: 64 });
+        c.send_raw(&bytes).expect("sent whole");
+        assert_eq!(c.port.got, bytes);
+        let mut dead = BoardClient::new(SlowReceiver { got: Vec::new(), stalls_per_write: u32::MAX, stalled: 0, chunk: 64 });
+        dead.send_stall = Duration::from_millis(30);
+        let t0 = Instant::now();
+        assert!(matches!(dead.send_raw(&[1, 2, 3]), Err(ClientError::Io(_))));
+        assert!(t0.elapsed() < Duration::from_secs(2), "{:?}", t0.elapsed());
     }
 
     #[test]
