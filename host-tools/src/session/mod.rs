@@ -43,7 +43,7 @@ pub mod vehicle;
 
 pub use error::SessionError;
 pub use coverage::{SwingCoverage, SwingTracker, PITCH_GATE_DEG, ROLL_GATE_DEG};
-pub use progress::Progress;
+pub use progress::{Progress, Working};
 pub use record::{record, Recorded};
 pub use crate::board::reconnect::Resume;
 pub use upload::upload_verified;

@@ -53,3 +53,51 @@ impl Progress {
     }
 }
 
+
+/// A spinner with the elapsed time, for work of unknown length (a fit over
+/// millions of rows, a back-stepping over a long run): on a terminal only —
+/// hidden when `show` is false (`--json`, stderr not a terminal), so logs
+/// and pipes stay clean. Cleared when dropped, whatever ends the work.
+pub struct Working(indicatif::ProgressBar);
+
+impl Working {
+    /// Starts the spinner saying `what` is being done.
+    pub fn start(what: &str, show: bool) -> Self {
+        let bar = if show { indicatif::ProgressBar::new_spinner() } else { indicatif::ProgressBar::hidden() };
+        if let Ok(style) = indicatif::ProgressStyle::with_template("{spinner} {msg} ({elapsed})") {
+            bar.set_style(style);
+        }
+        bar.set_message(what.to_string());
+        if show {
+            bar.enable_steady_tick(Duration::from_millis(250));
+        }
+        Working(bar)
+    }
+
+    /// Clears the spinner (before the command prints what it found).
+    pub fn done(&self) {
+        self.0.finish_and_clear();
+    }
+
+    /// Whether nothing is drawn.
+    pub fn is_hidden(&self) -> bool {
+        self.0.is_hidden()
+    }
+}
+
+impl Drop for Working {
+    fn drop(&mut self) {
+        self.0.finish_and_clear();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn working_is_silent_when_not_shown() {
+        let w = Working::start("fitting", false);
+        assert!(w.is_hidden());
+    }
+}

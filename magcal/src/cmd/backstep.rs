@@ -94,7 +94,9 @@ pub fn run(a: Args) -> Result<()> {
     if let Some(p) = &a.thrust_input {
         opts.thrust_test = Some(a.columns.read(p)?);
     }
+    let working = super::working(&format!("back-stepping {} rows", rec.len()), a.json);
     let (out_doc, report) = compute::backstep_recording(&rec, &doc, &opts).map_err(|e| hinted(e, backstep_hint)).with_context(|| format!("{}: back-stepping", a.input.display()))?;
+    drop(working);
     if !a.json {
         for e in out_doc.trace.iter().flatten() {
             eprintln!(

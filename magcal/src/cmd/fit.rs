@@ -100,10 +100,12 @@ pub fn run(a: Args) -> Result<()> {
         check_positions(&rec, &a.input, lat, lon)?;
     }
     let opts = FitOptions { model: match a.model { ModelArg::Kind(m) => m, ModelArg::Auto => ModelKind::Attitude }, field_nt: reference.total_nt(), saturation: a.saturation, allow_weak: a.allow_weak, gyro_lag: if a.estimate_gyro_lag { GyroLag::Estimate } else { GyroLag::Given(a.gyro_lag_s) }, reference: world };
+    let working = super::working(&format!("fitting {} rows", rec.len()), a.json);
     let mut doc = match a.model {
         ModelArg::Kind(model) => compute::fit_recording(&rec, &opts).map_err(|e| hinted(e, fit_hint)).with_context(|| format!("{}: {} fit", a.input.display(), model.name()))?,
         ModelArg::Auto => {
             let (doc, choice) = compute::auto::fit_auto(&rec, &opts).map_err(|e| hinted(e, fit_hint)).with_context(|| format!("{}: model auto", a.input.display()))?;
+            working.done();
             eprintln!("model auto: held-out errors against {}:", basis_words(choice.basis));
             for row in &choice.candidates {
                 let held = row.held_out_deg.map_or("—".to_string(), |h| format!("{h:.2}°"));
@@ -114,6 +116,7 @@ pub fn run(a: Args) -> Result<()> {
             doc
         }
     };
+    working.done();
     if a.site.lat.is_some() {
         doc.declination_deg = Some(reference.declination_deg());
     }

@@ -203,6 +203,14 @@ pub fn check_positions(rec: &Recording, path: &Path, lat_deg: f64, lon_deg: f64)
     Ok(())
 }
 
+/// A spinner with the elapsed time on stderr while `what` runs, on a
+/// terminal only (never with `--json`, never into a pipe or a log); it
+/// clears itself when dropped.
+pub fn working(what: &str, json: bool) -> host_tools::session::Working {
+    use std::io::IsTerminal;
+    host_tools::session::Working::start(what, !json && std::io::stderr().is_terminal())
+}
+
 /// Writes `text` to `path` whole ([`host_tools::files::write_text_atomic`]:
 /// a unique temporary file beside it, renamed into place).
 pub fn write_atomically(path: &Path, text: &str) -> Result<()> {
