@@ -88,6 +88,13 @@ impl<T: Real> Tilt<T> {
         [[cp, sp * sr, sp * cr], [T::ZERO, cr, -sr], [-sp, cp * sr, cp * cr]]
     }
 
+    /// The heading's rate from the body rates (ZYX Euler angles):
+    /// `ψ̇ = (sin φ ω_y + cos φ ω_z) / cos θ`, rad/s.
+    #[inline(always)]
+    pub fn yaw_rate(&self, rate_rad_s: Vec3<T>) -> T {
+        (self.sin_roll * rate_rad_s[1] + self.cos_roll * rate_rad_s[2]) / self.cos_pitch
+    }
+
     /// Levels a body-frame vector, `C2ᵀ(θ) C1ᵀ(φ) v` (eqs 6 and 23).
     pub fn level(&self, v_body: Vec3<T>) -> Vec3<T> {
         let [x, y, z] = v_body;

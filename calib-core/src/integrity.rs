@@ -642,7 +642,7 @@ impl<T: Real> Monitor<T> {
         // The gyro prediction, and the turn it integrated.
         let turn = match rate_rad_s {
             Some(w) if self.gyro.anchored && dt <= self.tuning.max_gap_s => {
-                let yaw_rate = (tilt.sin_roll * w[1] + tilt.cos_roll * w[2]) / tilt.cos_pitch;
+                let yaw_rate = tilt.yaw_rate(w);
                 self.gyro.predict(yaw_rate, dt, &self.tuning);
                 (yaw_rate * dt).abs()
             }

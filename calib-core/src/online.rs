@@ -128,6 +128,19 @@ struct Confirmation<T> {
     confirmed: bool,
 }
 
+impl<T: Real> Confirmation<T> {
+    /// A window opened at the magnetic heading `heading_rad`, keeping
+    /// whether an earlier window confirmed the estimate.
+    fn opened_at(heading_rad: T, confirmed: bool) -> Self {
+        Self { open: true, heading0_rad: heading_rad, gyro_rad: T::ZERO, turned_rad: T::ZERO, elapsed_s: T::ZERO, confirmed }
+    }
+
+    /// The same, closed: the next sample with a heading and rates opens one.
+    fn closed(self) -> Self {
+        Self { open: false, ..self }
+    }
+}
+
 /// Turning a window must see before it confirms the applied estimate,
 /// radians (90°: a wrong offset's heading error then changes by √2 its
 /// amplitude).
@@ -179,14 +192,7 @@ impl<T: Real> OnlineIntegrity<T> {
             alt_every: 1,
             alt_count: 0,
             alt_dt_s: T::ZERO,
-            confirm: Confirmation {
-                open: false,
-                heading0_rad: T::ZERO,
-                gyro_rad: T::ZERO,
-                turned_rad: T::ZERO,
-                elapsed_s: T::ZERO,
-                confirmed: false,
-            },
+            confirm: Confirmation::opened_at(T::ZERO, false).closed(),
             health: Health {
                 samples_per_state: [0; 5],
                 longest_disturbance_s: T::ZERO,
@@ -360,19 +366,10 @@ impl<T: Real> OnlineIntegrity<T> {
             return Check::Agrees;
         };
         if !c.open || dt > tuning.max_gap_s || c.elapsed_s > T::from_f64(CONFIRM_WINDOW_S) {
-            *c = Confirmation {
-                open: true,
-                heading0_rad: heading,
-                gyro_rad: T::ZERO,
-                turned_rad: T::ZERO,
-                elapsed_s: T::ZERO,
-                confirmed: c.confirmed,
-            };
+            *c = Confirmation::opened_at(heading, c.confirmed);
             return Check::Agrees;
         }
-        let yaw_rad = ((t.sin_roll * w[1] + t.cos_roll * w[2]) / t.cos_pitch
-            - self.monitor.gyro_bias_rad_s())
-            * dt;
+        let yaw_rad = (t.yaw_rate(w) - self.monitor.gyro_bias_rad_s()) * dt;
         c.gyro_rad += yaw_rad;
         c.turned_rad += yaw_rad.abs();
         c.elapsed_s += dt;

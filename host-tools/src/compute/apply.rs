@@ -6,7 +6,7 @@
 //! judged it.
 
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use calib_core::cal::Environment;
 use calib_core::hardiron::HardIron;
@@ -35,9 +35,6 @@ pub enum ApplyError {
     /// The output could not be written ([`crate::files`]).
     #[error(transparent)]
     Output(#[from] crate::files::OutputError),
-    /// The output would overwrite the input.
-    #[error("{} is the input recording", .0.display())]
-    OverwritesInput(PathBuf),
 }
 
 /// Options beyond the document.
@@ -460,17 +457,15 @@ fn cell(v: Option<f64>, prec: usize) -> String {
 
 /// Writes `OUT.csv`: the input's `t` (when it has one) and, per row, the
 /// calibrated field, heading, σ and integrity, through
-/// [`crate::files::write_atomic`]. Refuses to overwrite `input` (also
-/// through a hard or symbolic link).
+/// [`crate::files::write_atomic`], after [`crate::files::check_output`]:
+/// never over `input` (also through a hard or symbolic link).
 pub fn write_applied(
     path: &Path,
     input: &Path,
     t_s: Option<&[f64]>,
     applied: &Applied,
 ) -> Result<(), ApplyError> {
-    if path == input || crate::files::same_file(path, input) {
-        return Err(ApplyError::OverwritesInput(path.into()));
-    }
+    crate::files::check_output(path, &[input])?;
     let mut text = String::with_capacity(applied.rows.len() * 64 + 100);
     if t_s.is_some() {
         text.push_str("t,");

@@ -13,7 +13,7 @@
 //! circular mean of its errors, its RMS that of the wrapped errors; a cell
 //! with no rows is empty (`None`), not zero.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use calib_core::cal::Calibration;
 use calib_core::heading::wrap_pi;
@@ -53,15 +53,6 @@ pub enum CardError {
     /// The recording does not fit the calibration or lacks a column.
     #[error("{0}")]
     Compute(#[from] ComputeError),
-    /// Writing the CSV failed.
-    #[error("{path}: {source}")]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// What the OS said.
-        #[source]
-        source: std::io::Error,
-    },
 }
 
 /// The errors of one cell, degrees.

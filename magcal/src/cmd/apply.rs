@@ -6,11 +6,10 @@
 use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
-use host_tools::compute::apply::{apply_recording, choose_inclination, summarize, write_applied, ApplyError, ApplyOptions, InclinationSource};
+use host_tools::compute::apply::{apply_recording, choose_inclination, summarize, write_applied, ApplyOptions, InclinationSource};
 use host_tools::compute::card::read_reference_column;
 use host_tools::data::CalDoc;
 
-use super::hinted;
 
 /// Arguments of `magcal apply`.
 #[derive(clap::Args)]
@@ -89,7 +88,7 @@ pub fn run(a: Args) -> Result<()> {
     }
     let opts = ApplyOptions { field_nt: a.field_nt, inclination_deg, field_sigma_nt: a.field_sigma_nt, tuning: None };
     let applied = apply_recording(&rec, &doc, &opts).with_context(|| format!("{}", a.input.display()))?;
-    write_applied(&a.out, &a.input, rec.t_s.as_deref(), &applied).map_err(|e| hinted(e, |e| matches!(e, ApplyError::OverwritesInput(_)).then_some("give --out another file")))?;
+    write_applied(&a.out, &a.input, rec.t_s.as_deref(), &applied)?;
     eprintln!("wrote {}", a.out.display());
     let truth = read_reference_column(&a.input, "truth_heading_deg")?;
     let reference = match (&truth, &rec.ref_heading_deg) {

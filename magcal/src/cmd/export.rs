@@ -88,7 +88,7 @@ pub fn run(a: Args) -> Result<()> {
         eprintln!("warning: {}", w.message);
     }
     let text = ex.to_file_text(&a.cal, &doc);
-    super::write_atomically(&a.out, &text)?;
+    host_tools::files::write_text_atomic(&a.out, &text)?;
     eprintln!("wrote {} ({} parameters)", a.out.display(), ex.params.len());
     if a.json {
         println!("{}", serde_json::to_string_pretty(&ex)?);

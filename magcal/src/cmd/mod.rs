@@ -211,12 +211,6 @@ pub fn working(what: &str, json: bool) -> host_tools::session::Working {
     host_tools::session::Working::start(what, !json && std::io::stderr().is_terminal())
 }
 
-/// Writes `text` to `path` whole ([`host_tools::files::write_text_atomic`]:
-/// a unique temporary file beside it, renamed into place).
-pub fn write_atomically(path: &Path, text: &str) -> Result<()> {
-    Ok(files::write_text_atomic(path, text)?)
-}
-
 /// Writes the document (`--out`) and prints it (`--json`) or the summary.
 /// Without `--out` it says on stderr that nothing was saved. Coefficients
 /// refused are blamed on the `input` they were computed from, not on `--out`.

@@ -68,15 +68,6 @@ pub enum SimError {
     /// Writing the recording failed.
     #[error("{0}")]
     Recording(#[from] RecordingError),
-    /// Writing the truth file failed.
-    #[error("{path}: {source}")]
-    Io {
-        /// The file.
-        path: String,
-        /// What the OS said.
-        #[source]
-        source: std::io::Error,
-    },
     /// A parameter is out of range.
     #[error("{0}")]
     Parameter(String),
