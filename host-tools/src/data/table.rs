@@ -41,6 +41,16 @@ pub mod col {
     pub const TRUE_HEADING_DEG: &str = "true_heading_deg";
     /// `true_field_nt`: the simulator's true field magnitude, nT.
     pub const TRUE_FIELD_NT: &str = "true_field_nt";
+    /// `compass_heading_deg`: a heading-only compass's magnetic heading as
+    /// the compass gives it (its own deviation not applied), degrees.
+    pub const COMPASS_HEADING_DEG: &str = "compass_heading_deg";
+    /// `variation_deg`: the magnetic variation (declination) a log states,
+    /// degrees, east positive.
+    pub const VARIATION_DEG: &str = "variation_deg";
+    /// `course_deg`: GPS course over ground, true, degrees.
+    pub const COURSE_DEG: &str = "course_deg";
+    /// `gps_speed_mps`: GPS speed over ground, m/s.
+    pub const GPS_SPEED_MPS: &str = "gps_speed_mps";
 }
 
 /// Why a table (a recording, a log) could not be read or written.
@@ -200,7 +210,8 @@ fn angle_limit_deg(column: &str) -> Option<f64> {
     match column {
         col::ROLL_DEG => Some(180.0),
         col::PITCH_DEG => Some(90.0),
-        col::REF_HEADING_DEG => Some(360.0),
+        col::REF_HEADING_DEG | col::COMPASS_HEADING_DEG | col::COURSE_DEG => Some(360.0),
+        col::VARIATION_DEG => Some(180.0),
         _ => None,
     }
 }
@@ -323,14 +334,44 @@ impl ColumnUnit {
 /// The project's columns a mapping may name.
 fn mappable_columns() -> Vec<&'static str> {
     use col::*;
-    let mut all = vec![T, ROLL_DEG, PITCH_DEG, HEADING_DEG, REF_HEADING_DEG, LAT_DEG, LON_DEG, SPEED_MPS, MOTOR_CURRENT_A, TEMP_C, HEALTH, T_BOARD, TRUE_HEADING_DEG, TRUE_FIELD_NT];
+    let mut all = vec![
+        T,
+        ROLL_DEG,
+        PITCH_DEG,
+        HEADING_DEG,
+        REF_HEADING_DEG,
+        LAT_DEG,
+        LON_DEG,
+        SPEED_MPS,
+        MOTOR_CURRENT_A,
+        TEMP_C,
+        HEALTH,
+        T_BOARD,
+        TRUE_HEADING_DEG,
+        TRUE_FIELD_NT,
+        COMPASS_HEADING_DEG,
+        VARIATION_DEG,
+        COURSE_DEG,
+        GPS_SPEED_MPS,
+    ];
     all.extend(MAG);
     all.extend(GYRO);
     all
 }
 
 /// The project's columns whose unit may be given as an angle's.
-const ANGLE_COLUMNS: [&str; 7] = [col::ROLL_DEG, col::PITCH_DEG, col::HEADING_DEG, col::REF_HEADING_DEG, col::LAT_DEG, col::LON_DEG, col::TRUE_HEADING_DEG];
+const ANGLE_COLUMNS: [&str; 10] = [
+    col::ROLL_DEG,
+    col::PITCH_DEG,
+    col::HEADING_DEG,
+    col::REF_HEADING_DEG,
+    col::LAT_DEG,
+    col::LON_DEG,
+    col::TRUE_HEADING_DEG,
+    col::COMPASS_HEADING_DEG,
+    col::VARIATION_DEG,
+    col::COURSE_DEG,
+];
 
 /// Why a column mapping could not be understood.
 #[derive(Debug, thiserror::Error, PartialEq)]

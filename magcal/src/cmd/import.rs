@@ -46,7 +46,7 @@ pub fn run(a: Args) -> Result<()> {
         );
     }
     im.recording
-        .write_with_extra(&a.out, &[("ahrs_yaw_deg", &im.ahrs_yaw_deg), ("gps_speed_mps", &im.gps_speed_mps)])?;
+        .write_with_extra(&a.out, &[("ahrs_yaw_deg", &im.ahrs_yaw_deg), (host_tools::data::table::col::GPS_SPEED_MPS, &im.gps_speed_mps)])?;
     eprintln!("wrote {} ({} rows)", a.out.display(), r.rows);
     if a.json {
         println!("{}", serde_json::to_string_pretty(r)?);
