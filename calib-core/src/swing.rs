@@ -76,7 +76,7 @@ impl core::fmt::Display for SwingError {
             SwingError::DelayUnobservable => f.write_str(
                 "the heading hardly changes while the reference is available: the reference delay cannot be estimated; give it with --delay-s",
             ),
-            SwingError::BadDelayRange => f.write_str("delay search range must be positive"),
+            SwingError::BadDelayRange => f.write_str("the delay search range must be finite and not empty, with a positive step"),
         }
     }
 }
@@ -377,28 +377,30 @@ pub struct DelayEstimate<T> {
     pub residual_rms_rad: T,
 }
 
-/// Finds the reference delay in `[0, max_delay_s]` that minimises the swing
-/// fit's residual: a wrong delay shifts the reference against the
+/// Finds the reference delay in `[min_delay_s, max_delay_s]` that minimises
+/// the swing fit's residual: a wrong delay shifts the reference against the
 /// magnetometer while the vehicle turns, and no Fourier term can absorb that.
-/// The scan uses `step_s`; the minimum is refined by a parabola through its
-/// neighbours.
+/// A negative delay is a reference ahead of the heading: a damped compass
+/// lags a GPS course taken on straight legs. The scan uses `step_s`; the
+/// minimum is refined by a parabola through its neighbours.
 pub fn estimate_delay<T: Real>(
     mag_t: &[T],
     mag_heading: &[T],
     ref_t: &[T],
     ref_heading: &[T],
-    max_delay_s: T,
+    (min_delay_s, max_delay_s): (T, T),
     step_s: T,
     max_gap_s: T,
 ) -> Result<DelayEstimate<T>, SwingError> {
-    if !(max_delay_s > T::ZERO && step_s > T::ZERO && max_delay_s.is_finite() && step_s.is_finite()) {
+    if !(max_delay_s > min_delay_s && step_s > T::ZERO && min_delay_s.is_finite() && max_delay_s.is_finite() && step_s.is_finite()) {
         return Err(SwingError::BadDelayRange);
     }
-    let steps = (max_delay_s / step_s).to_f64().min(10_000.0) as u32;
+    let steps = ((max_delay_s - min_delay_s) / step_s).to_f64().min(10_000.0) as u32;
     let rms_at = |d: T| fit_swing(aligned_pairs(mag_t, mag_heading, ref_t, ref_heading, d, max_gap_s)).map(|f| f.residual_rms_rad);
+    let at = |k: u32| min_delay_s + step_s * T::from_f64(f64::from(k));
     let (mut best_k, mut best, mut worst) = (0u32, T::from_f64(f64::INFINITY), T::ZERO);
     for k in 0..=steps {
-        let r = rms_at(step_s * T::from_f64(f64::from(k)))?;
+        let r = rms_at(at(k))?;
         if r < best {
             best = r;
             best_k = k;
@@ -410,7 +412,7 @@ pub fn estimate_delay<T: Real>(
     if !(worst - best > T::from_f64(0.05) * best + T::from_f64(1e-4)) {
         return Err(SwingError::DelayUnobservable);
     }
-    let mut delay = step_s * T::from_f64(f64::from(best_k));
+    let mut delay = at(best_k);
     if best_k > 0 && best_k < steps {
         let (l, r) = (rms_at(delay - step_s)?, rms_at(delay + step_s)?);
         let denom = l - T::from_f64(2.0) * best + r;
@@ -552,7 +554,7 @@ mod tests {
     #[test]
     fn the_reference_delay_is_estimated() {
         let (mt, mh, rt, rh) = turning_run(2.0);
-        let est = estimate_delay(&mt, &mh, &rt, &rh, 5.0, 0.25, 1.0).unwrap();
+        let est = estimate_delay(&mt, &mh, &rt, &rh, (0.0, 5.0), 0.25, 1.0).unwrap();
         assert!((est.delay_s - 2.0).abs() < 0.05, "{est:?}");
         let fit = fit_swing(aligned_pairs(&mt, &mh, &rt, &rh, est.delay_s, 1.0)).unwrap();
         for (a, b) in fit.swing.to_array().iter().zip(PAPER.to_array()) {
@@ -564,9 +566,22 @@ mod tests {
     }
 
     #[test]
+    fn a_reference_ahead_of_the_heading_is_a_negative_delay() {
+        // The reference 1.5 s *ahead* (a damped compass behind a course):
+        // the run's reference taken at t + 1.5 s, searched over ±5 s.
+        let (mt, mh, rt, _) = turning_run(0.0);
+        let (_, _, _, rh) = turning_run(-1.5);
+        let est = estimate_delay(&mt, &mh, &rt, &rh, (-5.0, 5.0), 0.25, 1.0).unwrap();
+        assert!((est.delay_s + 1.5).abs() < 0.05, "{est:?}");
+        // Searched over [0, 5] only, the edge.
+        assert_eq!(estimate_delay(&mt, &mh, &rt, &rh, (0.0, 5.0), 0.25, 1.0).unwrap().delay_s, 0.0);
+        assert_eq!(estimate_delay(&mt, &mh, &rt, &rh, (1.0, 1.0), 0.25, 1.0), Err(SwingError::BadDelayRange));
+    }
+
+    #[test]
     fn a_straight_run_cannot_reveal_the_delay() {
         let t: Vec<f64> = (0..1000).map(|k| k as f64 * 0.1).collect();
         let h = vec![1.0; 1000];
-        assert_eq!(estimate_delay(&t, &h, &t, &h, 5.0, 0.25, 1.0), Err(SwingError::DelayUnobservable));
+        assert_eq!(estimate_delay(&t, &h, &t, &h, (0.0, 5.0), 0.25, 1.0), Err(SwingError::DelayUnobservable));
     }
 }

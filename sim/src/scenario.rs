@@ -135,7 +135,7 @@ pub fn evaluate_with(name: &str, sensor: SensorModel, seed: u64, effects: &Effec
     let validation = field_test::run_with(&sensor, &site, validation, seed + 200, 2.0, RunKind::Validation, effects)?;
 
     let step1 = compute::axis_step(&swing.recording, &site)?;
-    let delay = Delay::Estimate { max_s: 5.0 };
+    let delay = Delay::Estimate { min_s: 0.0, max_s: 5.0 };
     let paper = compute::refine(step1.clone(), &swing.recording, &run.recording, &site, &ChainOptions { method: BackstepMethod::Paper, delay, ..Default::default() })?;
     let ours = compute::refine(step1.clone(), &swing.recording, &run.recording, &site, &ChainOptions { method: BackstepMethod::Joint, delay, ..Default::default() })?;
     let (axis_swung, _, _) = compute::swing_recording(&run.recording, &step1, delay)?;

@@ -23,7 +23,9 @@ use super::truth::true_headings_rad;
 use super::units::check_units;
 use super::error::ComputeError;
 use crate::data::table::{read_column, TableError};
+use crate::data::compass::{CompassDoc, CompassLog};
 use crate::data::{CalDoc, Recording};
+use super::compass::compass_pairs;
 
 /// The 16 compass points from north, clockwise.
 pub const POINTS_16: [&str; 16] = ["N", "NNE", "NE", "ENE", "E", "ESE", "SE", "SSE", "S", "SSW", "SW", "WSW", "W", "WNW", "NW", "NNW"];
@@ -42,7 +44,7 @@ pub enum CardError {
     #[error(transparent)]
     Table(#[from] TableError),
     /// The reference column is empty everywhere.
-    #[error("no row has both a reference heading (`ref_heading_deg`) and the magnetometer, roll and pitch: nothing to put on the card")]
+    #[error("no row has both a reference heading (`ref_heading_deg`) and the heading (the magnetometer with roll and pitch, or a compass heading at its time): nothing to put on the card")]
     NoUsableRows,
     /// The sector width does not divide the circle.
     #[error("sectors of {0}° must divide 360° into whole sectors (e.g. 5, 10, 15, 22.5, 30, 45)")]
@@ -155,7 +157,7 @@ fn sector(heading_deg: f64, count: usize) -> usize {
     (((heading_deg + width / 2.0).rem_euclid(360.0) / width) as usize).min(count - 1)
 }
 
-fn rows(count: usize, label: impl Fn(usize) -> String, before: &[Acc], after: &[Acc]) -> Vec<CardRow> {
+fn rows_of(count: usize, label: impl Fn(usize) -> String, before: &[Acc], after: &[Acc]) -> Vec<CardRow> {
     let width = 360.0 / count as f64;
     (0..count).map(|i| CardRow { label: label(i), centre_deg: i as f64 * width, width_deg: width, before: before[i].cell(), after: after[i].cell() }).collect()
 }
@@ -163,14 +165,7 @@ fn rows(count: usize, label: impl Fn(usize) -> String, before: &[Acc], after: &[
 /// Makes the card for a recording and a calibration. `step_deg` must divide
 /// 360; `points` is 16 or 8.
 pub fn deviation_card(rec: &Recording, doc: &CalDoc, step_deg: f64, points: usize) -> Result<DeviationCard, CardError> {
-    let sectors = 360.0 / step_deg;
-    if !(step_deg.is_finite() && step_deg > 0.0 && step_deg <= 180.0 && (sectors - sectors.round()).abs() < 1e-9) {
-        return Err(CardError::BadStep(step_deg));
-    }
-    let sectors = sectors.round() as usize;
-    if points != 16 && points != 8 {
-        return Err(CardError::BadPoints(points));
-    }
+    let sectors = check_layout(step_deg, points)?;
     let reference = rec.ref_heading_deg.as_ref().ok_or_else(|| CardError::NoReferenceColumn("ref_heading_deg".into()))?;
     let roll = rec.roll_deg.as_ref().ok_or(ComputeError::NeedsColumn("roll_deg"))?;
     let pitch = rec.pitch_deg.as_ref().ok_or(ComputeError::NeedsColumn("pitch_deg"))?;
@@ -184,13 +179,40 @@ pub fn deviation_card(rec: &Recording, doc: &CalDoc, step_deg: f64, points: usiz
     let after = true_headings_rad(doc, rec);
     let declination_deg = doc.declination_deg.unwrap_or(0.0);
     let raw = Calibration { declination_rad: declination_deg.to_radians(), ..Calibration::identity() };
+    let rows = (0..rec.len()).map(|i| (reference[i], raw.apply(rec.mag[i], roll[i].to_radians(), pitch[i].to_radians()).true_heading_rad, after[i]));
+    card_from_rows(rows, 0, declination_deg, sectors, points)
+}
+
+/// The checked number of sectors for `step_deg`, and `points`.
+fn check_layout(step_deg: f64, points: usize) -> Result<usize, CardError> {
+    let sectors = 360.0 / step_deg;
+    if !(step_deg.is_finite() && step_deg > 0.0 && step_deg <= 180.0 && (sectors - sectors.round()).abs() < 1e-9) {
+        return Err(CardError::BadStep(step_deg));
+    }
+    if points != 16 && points != 8 {
+        return Err(CardError::BadPoints(points));
+    }
+    Ok(sectors.round() as usize)
+}
+
+/// Makes the card for a heading-only compass's log and its document: each
+/// reference sample against the compass heading at its time (less the
+/// document's delay), before (the compass plus the declination) and after
+/// the swing.
+pub fn compass_card(log: &CompassLog, doc: &CompassDoc, step_deg: f64, points: usize) -> Result<DeviationCard, CardError> {
+    let sectors = check_layout(step_deg, points)?;
+    let (pairs, missing) = compass_pairs(log, doc)?;
+    let rows = pairs.iter().map(|p| (p.reference_deg, p.before_rad, p.after_rad));
+    card_from_rows(rows, missing, doc.declination_deg.unwrap_or(0.0), sectors, points)
+}
+
+/// The card from (reference °, heading before, heading after, rad) rows;
+/// rows with a value missing are counted as skipped, beside `skipped`.
+fn card_from_rows(rows: impl Iterator<Item = (f64, f64, f64)>, mut skipped: usize, declination_deg: f64, sectors: usize, points: usize) -> Result<DeviationCard, CardError> {
     let (mut hb, mut ha, mut pb, mut pa) = (vec![Acc::default(); sectors], vec![Acc::default(); sectors], vec![Acc::default(); points], vec![Acc::default(); points]);
     let (mut all_b, mut all_a) = (Acc::default(), Acc::default());
-    let mut skipped = 0;
-    for i in 0..rec.len() {
-        let r = reference[i];
-        let before = raw.apply(rec.mag[i], roll[i].to_radians(), pitch[i].to_radians()).true_heading_rad;
-        let (eb, ea) = (wrap_pi(r.to_radians() - before), wrap_pi(r.to_radians() - after[i]));
+    for (r, before, after) in rows {
+        let (eb, ea) = (wrap_pi(r.to_radians() - before), wrap_pi(r.to_radians() - after));
         if !(eb.is_finite() && ea.is_finite()) {
             skipped += 1;
             continue;
@@ -207,6 +229,7 @@ pub fn deviation_card(rec: &Recording, doc: &CalDoc, step_deg: f64, points: usiz
         return Err(CardError::NoUsableRows);
     }
     let stride = 16 / points;
+    let step_deg = 360.0 / sectors as f64;
     Ok(DeviationCard {
         reference: default_reference(),
         samples: all_b.n,
@@ -214,8 +237,8 @@ pub fn deviation_card(rec: &Recording, doc: &CalDoc, step_deg: f64, points: usiz
         declination_deg,
         before: all_b.cell(),
         after: all_a.cell(),
-        by_heading: rows(sectors, |i| format!("{}°", fmt_deg(i as f64 * step_deg)), &hb, &ha),
-        by_point: rows(points, |i| POINTS_16[i * stride].to_string(), &pb, &pa),
+        by_heading: rows_of(sectors, |i| format!("{}°", fmt_deg(i as f64 * step_deg)), &hb, &ha),
+        by_point: rows_of(points, |i| POINTS_16[i * stride].to_string(), &pb, &pa),
     })
 }
 
@@ -252,7 +275,7 @@ impl DeviationCard {
     pub fn to_text(&self) -> String {
         let mut s = String::new();
         s.push_str(&format!(
-            "deviation card: reference − magnetometer heading, degrees; {} rows ({} skipped); declination {:.2}°\nreference: `{}`, {}\n",
+            "deviation card: reference − heading (before: uncorrected, after: calibrated), degrees; {} rows ({} skipped); declination {:.2}°\nreference: `{}`, {}\n",
             self.samples, self.skipped_rows, self.declination_deg, self.reference, reference_note(&self.reference)
         ));
         for (title, rows) in [("heading", &self.by_heading), ("point", &self.by_point)] {

@@ -49,7 +49,7 @@ impl Default for ChainOptions {
     fn default() -> Self {
         Self {
             method: BackstepMethod::Joint,
-            delay: Delay::Estimate { max_s: 5.0 },
+            delay: Delay::Estimate { min_s: 0.0, max_s: 5.0 },
             first_step: FirstStep::Axis,
             joint: JointConfig::default(),
             water_current: WaterCurrentMode::Auto,

@@ -6,7 +6,7 @@
 //! * [`auto`]: `fit --model auto`, every allowed model judged on held-out blocks;
 //! * [`fit`]: field (ellipsoid) fits; [`attitude`]: the attitude-aided fit (no gyro, no tumble); [`units`]: the recording's units;
 //! * [`backstep`]: the out-and-back refinement (the paper's and ours);
-//! * [`swing`]: the Fourier heading fit against a reference heading;
+//! * [`swing`]: the Fourier heading fit against a reference heading; [`compass`]: the same for a heading-only compass;
 //! * [`ortho`]: paper 001's non-orthogonality and gains;
 //! * [`chain`]: the whole calibration from a swing test and a run;
 //! * [`truth`]: heading and field errors against a known heading (validation);
@@ -20,6 +20,7 @@ pub mod attitude;
 pub mod backstep;
 pub mod card;
 pub mod chain;
+pub mod compass;
 pub mod error;
 pub mod fit;
 pub mod gyro;

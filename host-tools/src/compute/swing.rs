@@ -7,7 +7,7 @@ use calib_core::swing::{aligned_pairs, estimate_delay, fit_swing, SwingFit, Swin
 
 use super::units::check_units;
 use super::error::ComputeError;
-use crate::data::results::{SwingCurrent, SwingQuality};
+use crate::data::results::{HeldOutSwing, SwingCurrent, SwingQuality};
 use crate::data::{CalDoc, Recording};
 
 /// How to treat the reference's delay.
@@ -15,8 +15,12 @@ use crate::data::{CalDoc, Recording};
 pub enum Delay {
     /// Known delay, seconds.
     Given(f64),
-    /// Estimate it within `[0, max_s]`.
+    /// Estimate it within `[min_s, max_s]` (a negative delay: the
+    /// reference ahead of the heading, e.g. a damped compass behind a GPS
+    /// course).
     Estimate {
+        /// Lower bound of the search, seconds.
+        min_s: f64,
         /// Upper bound of the search, seconds.
         max_s: f64,
     },
@@ -77,8 +81,8 @@ impl GpsColumns {
     }
 }
 
-fn gps_columns(rec: &Recording, t: &[f64]) -> Result<GpsColumns, String> {
-    let (Some(lat), Some(lon)) = (rec.lat_deg.as_ref(), rec.lon_deg.as_ref()) else {
+fn gps_columns(lat_deg: Option<&[f64]>, lon_deg: Option<&[f64]>, t: &[f64]) -> Result<GpsColumns, String> {
+    let (Some(lat), Some(lon)) = (lat_deg, lon_deg) else {
         return Err("no lat_deg/lon_deg columns".into());
     };
     let Some((lat0, lon0)) = lat.iter().zip(lon).find(|(a, b)| a.is_finite() && b.is_finite()).map(|(a, b)| (*a, *b)) else {
@@ -117,7 +121,7 @@ fn turn_rate_deg_s(t: &[f64], heading_rad: &[f64], i: usize) -> f64 {
 }
 
 /// The interpolation gap allowed for a recording's sample spacing.
-fn interpolation_gap_s(t: &[f64]) -> f64 {
+pub(crate) fn interpolation_gap_s(t: &[f64]) -> f64 {
     let median = crate::data::pairing::median_step_s(t).unwrap_or(0.0);
     MAX_INTERPOLATION_GAP_S.max(2.5 * median)
 }
@@ -145,7 +149,7 @@ const DELAY_SETTLED_S: f64 = 0.02;
 /// current, alternating with the current (starting from `delay_s`, the
 /// estimate against raw course); `delay_s` unchanged when the current
 /// cannot be estimated.
-fn delay_in_current(i: &TrackInputs<'_>, gps: &GpsColumns, reference: &[f64], max_s: f64, mut delay_s: f64) -> f64 {
+fn delay_in_current(i: &TrackInputs<'_>, gps: &GpsColumns, reference: &[f64], range_s: (f64, f64), mut delay_s: f64) -> f64 {
     let TrackInputs { t, headings, speed, decl, gap, .. } = *i;
     for _ in 0..MAX_DELAY_ROUNDS {
         let track = gps.track(i, delay_s);
@@ -159,7 +163,7 @@ fn delay_in_current(i: &TrackInputs<'_>, gps: &GpsColumns, reference: &[f64], ma
             .zip(speed)
             .map(|(&r, &s)| heading_from_course(r + decl, s, c).map_or(f64::NAN, |h| h - decl))
             .collect();
-        let Ok(next) = estimate_delay(t, headings, t, &converted, max_s, 0.1, gap) else { return delay_s };
+        let Ok(next) = estimate_delay(t, headings, t, &converted, range_s, 0.1, gap) else { return delay_s };
         let moved = (next.delay_s - delay_s).abs();
         delay_s = next.delay_s;
         if moved < DELAY_SETTLED_S {
@@ -182,9 +186,51 @@ pub fn swing_recording_with(rec: &Recording, doc: &CalDoc, delay: Delay, water_c
     check_units(rec, doc)?;
     let reference_deg = rec.ref_heading_deg.as_ref().ok_or(ComputeError::NeedsColumn("ref_heading_deg"))?;
     let headings = magnetic_headings(rec, doc)?;
+    let inputs = SwingInputs {
+        t,
+        headings: &headings,
+        reference_deg,
+        declination_rad: doc.declination_deg.unwrap_or(0.0).to_radians(),
+        speed_mps: rec.speed_mps.as_deref(),
+        lat_deg: rec.lat_deg.as_deref(),
+        lon_deg: rec.lon_deg.as_deref(),
+    };
+    let (fit, quality, delay_s) = fit_swing_inputs(&inputs, delay, water_current)?;
+    let mut out = doc.clone();
+    out.swing = Some(fit.swing);
+    out.quality.swing = Some(quality);
+    Ok((out, fit, delay_s))
+}
+
+/// What the swing fit works on, row by row: the heading to correct beside
+/// the reference it is compared with.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct SwingInputs<'a> {
+    /// Row times, s (non-decreasing).
+    pub t: &'a [f64],
+    /// The magnetic heading to correct, rad (NaN where none).
+    pub headings: &'a [f64],
+    /// The reference heading, degrees true (NaN where none).
+    pub reference_deg: &'a [f64],
+    /// The declination between them, rad.
+    pub declination_rad: f64,
+    /// Speed through water, m/s, for the water current.
+    pub speed_mps: Option<&'a [f64]>,
+    /// GPS latitude, degrees.
+    pub lat_deg: Option<&'a [f64]>,
+    /// GPS longitude, degrees.
+    pub lon_deg: Option<&'a [f64]>,
+}
+
+/// The swing fit of any heading against a reference: the delay given or
+/// estimated, the water current removed from course when the data allow,
+/// the Fourier terms on steady headings, and the fit's quality (with its
+/// held-out check).
+pub(crate) fn fit_swing_inputs(i: &SwingInputs<'_>, delay: Delay, water_current: WaterCurrentMode) -> Result<(SwingFit<f64>, SwingQuality, f64), ComputeError> {
+    let SwingInputs { t, headings, reference_deg, declination_rad: decl, .. } = *i;
+    let headings = headings.to_vec();
     // The swing acts on the magnetic heading: compare with the reference
     // (true) less the declination.
-    let decl = doc.declination_deg.unwrap_or(0.0).to_radians();
     let reference: Vec<f64> = reference_deg.iter().map(|d| d.to_radians() - decl).collect();
     let gap = interpolation_gap_s(t);
     // The delay shows only while turning, so it is estimated on everything;
@@ -192,7 +238,7 @@ pub fn swing_recording_with(rec: &Recording, doc: &CalDoc, delay: Delay, water_c
     // course over ground lags and slips against the heading.
     let mut delay_s = match delay {
         Delay::Given(s) => s,
-        Delay::Estimate { max_s } => estimate_delay(t, &headings, t, &reference, max_s, 0.1, gap)?.delay_s,
+        Delay::Estimate { min_s, max_s } => estimate_delay(t, &headings, t, &reference, (min_s, max_s), 0.1, gap)?.delay_s,
     };
     let steady: Vec<f64> = reference
         .iter()
@@ -204,19 +250,40 @@ pub fn swing_recording_with(rec: &Recording, doc: &CalDoc, delay: Delay, water_c
     // the delay search against raw course then fits the crab instead of the
     // lag. So the delay and the current alternate: the current at the
     // delay, course turned into heading with it, the delay again.
-    let gps = gps_columns(rec, t);
+    let gps = gps_columns(i.lat_deg, i.lon_deg, t);
     let course_true: Vec<f64> = steady.iter().map(|r| r + decl).collect();
     let inputs = |speed| TrackInputs { t, headings: &headings, speed, course_true: &course_true, decl, gap };
-    if let (Delay::Estimate { max_s }, WaterCurrentMode::Auto, Some(speed), Ok(gps)) = (delay, water_current, rec.speed_mps.as_ref(), &gps) {
-        delay_s = delay_in_current(&inputs(speed), gps, &reference, max_s, delay_s);
+    if let (Delay::Estimate { min_s, max_s }, WaterCurrentMode::Auto, Some(speed), Ok(gps)) = (delay, water_current, i.speed_mps, &gps) {
+        delay_s = delay_in_current(&inputs(speed), gps, &reference, (min_s, max_s), delay_s);
     }
     let turning = reference.iter().zip(&steady).filter(|(r, s)| r.is_finite() && !s.is_finite()).count();
-    let mut fit = fit_swing(aligned_pairs(t, &headings, t, &steady, delay_s, gap))?;
     let mut warnings: Vec<String> = Vec::new();
+    // A swing of tight circles (a boat calibrating its compass) may have
+    // too few steady headings for the five terms: then every pair is
+    // fitted, turns included, and said so.
+    let all = fit_swing(aligned_pairs(t, &headings, t, &reference, delay_s, gap));
+    let (mut fit, steady_only) = match (fit_swing(aligned_pairs(t, &headings, t, &steady, delay_s, gap)), all) {
+        (Ok(f), Ok(a)) if a.terms.count() > f.terms.count() => {
+            warnings.push(format!(
+                "the steady headings (turning below {MAX_SWING_TURN_RATE_DEG_S}°/s) determine only {} of the terms, all {} pairs determine {}: fitted on every pair, turns included (in a turn a GPS course also holds the slip, which the fit then absorbs)",
+                f.terms.count(),
+                a.samples,
+                a.terms.count()
+            ));
+            (a, None)
+        }
+        (Ok(f), _) => (f, Some(turning)),
+        (Err(_), Ok(a)) => {
+            warnings.push(format!("no steady heading (turning below {MAX_SWING_TURN_RATE_DEG_S}°/s): fitted on all {} pairs, turns included", a.samples));
+            (a, None)
+        }
+        (Err(e), Err(_)) => return Err(e.into()),
+    };
+    let fitted = if steady_only.is_some() { &steady } else { &reference };
+    let turning = steady_only.unwrap_or(0);
     let mut current_report = None;
     if water_current == WaterCurrentMode::Auto {
-        let speed = rec.speed_mps.as_deref();
-        let refit = match (speed, &gps) {
+        let refit = match (i.speed_mps, &gps) {
             (None, _) => Err("no speed_mps column (speed through water), so the water current cannot be estimated".to_string()),
             (Some(_), Err(why)) => Err(format!("{why}, so the water current cannot be estimated")),
             (Some(speed), Ok(gps)) => refit_in_current(&gps.track(&inputs(speed), delay_s), &fit, &mut warnings),
@@ -226,13 +293,12 @@ pub fn swing_recording_with(rec: &Recording, doc: &CalDoc, delay: Delay, water_c
             Err(why) => warnings.push(format!("{why}: GPS course used as heading (in a current the crab angle goes into B and C)")),
         }
     }
-    let mut out = doc.clone();
-    out.swing = Some(fit.swing);
     if turning > 0 {
         warnings.push(format!("{turning} reference samples taken while turning faster than {MAX_SWING_TURN_RATE_DEG_S}°/s were used for the delay only"));
     }
     warnings.extend(fit_warnings(&fit));
-    out.quality.swing = Some(SwingQuality {
+    let held_out = if current_report.is_none() { held_out(t, &headings, fitted, delay_s, gap) } else { None };
+    let quality = SwingQuality {
         terms: fit.terms,
         samples: fit.samples,
         delay_s,
@@ -241,11 +307,40 @@ pub fn swing_recording_with(rec: &Recording, doc: &CalDoc, delay: Delay, water_c
         before_rms_deg: fit.before_rms_rad.to_degrees(),
         after_rms_deg: fit.residual_rms_rad.to_degrees(),
         current: current_report,
+        held_out,
         warnings,
-    });
-    Ok((out, fit, delay_s))
+    };
+    Ok((fit, quality, delay_s))
 }
 
+/// Fewest reference pairs in a half for the held-out check.
+const MIN_HELD_OUT_PAIRS: usize = 20;
+
+/// Each half of the reference (split at the median time of its finite
+/// samples) against the headings corrected by the swing fitted on the other
+/// half, at the same delay. `None` when a half has too few pairs or cannot
+/// be fitted.
+fn held_out(t: &[f64], headings: &[f64], reference: &[f64], delay_s: f64, gap: f64) -> Option<HeldOutSwing> {
+    let times: Vec<f64> = t.iter().zip(reference).filter(|(_, r)| r.is_finite()).map(|(t, _)| *t).collect();
+    let split_s = *times.get(times.len() / 2)?;
+    let half = |first: bool| -> Vec<f64> { t.iter().zip(reference).map(|(&t, &r)| if (t < split_s) == first { r } else { f64::NAN }).collect() };
+    let (mut n, mut before, mut after) = (0usize, 0.0, 0.0);
+    for first in [true, false] {
+        let (train, test) = (half(first), half(!first));
+        let pairs: Vec<(f64, f64)> = aligned_pairs(t, headings, t, &test, delay_s, gap).collect();
+        if pairs.len() < MIN_HELD_OUT_PAIRS {
+            return None;
+        }
+        let fit = fit_swing(aligned_pairs(t, headings, t, &train, delay_s, gap)).ok()?;
+        for (h, r) in pairs {
+            before += calib_core::heading::wrap_pi(r - h).powi(2);
+            after += calib_core::heading::wrap_pi(r - h - fit.swing.correction_rad(h)).powi(2);
+            n += 1;
+        }
+    }
+    let rms = |ss: f64| (ss / n as f64).sqrt().to_degrees();
+    Some(HeldOutSwing { pairs: n as u32, before_rms_deg: rms(before), after_rms_deg: rms(after) })
+}
 
 /// The swing fitted in the water current estimated from the surface track
 /// (course turned into heading), with the current's report; `Err` with why
@@ -420,7 +515,7 @@ mod tests {
         // a 0.27 m/s current.
         let rec = surface_recording_with(2.0, 20.0);
         let doc = CalDoc::new(ModelKind::Full, &FieldCal::identity(), 48_730.0, Default::default());
-        let (out, fit, delay_s) = swing_recording(&rec, &doc, Delay::Estimate { max_s: 5.0 }).unwrap();
+        let (out, fit, delay_s) = swing_recording(&rec, &doc, Delay::Estimate { min_s: 0.0, max_s: 5.0 }).unwrap();
         // Measured: 2.000 s. Against raw course also 2.001 s here: one
         // steady current and a slowly varying speed make the crab angle a
         // function of heading, which the Fourier terms absorb, so this test

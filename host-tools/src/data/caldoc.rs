@@ -38,6 +38,9 @@ pub enum CalDocError {
         #[source]
         source: serde_json::Error,
     },
+    /// A heading-only compass's document where a field calibration is needed.
+    #[error("{0}: a heading-only calibration (`\"form\": \"heading_only\"`: a compass's swing, no field calibration); this needs a magnetometer's field calibration")]
+    HeadingOnly(PathBuf),
     /// The coefficients are unusable.
     #[error("{path}: coefficients refused: {reason}")]
     Invalid {
@@ -241,9 +244,12 @@ impl CalDoc {
 
     /// Reads and validates a document.
     pub fn load(path: &Path) -> Result<Self, CalDocError> {
-        let text = std::fs::read_to_string(path).map_err(|source| CalDocError::Io { path: path.into(), source })?;
         // A UTF-8 byte-order mark (Windows editors) is not part of the JSON.
-        let doc: CalDoc = serde_json::from_str(text.strip_prefix('\u{feff}').unwrap_or(&text)).map_err(|source| CalDocError::Parse { path: path.into(), source })?;
+        let text = super::compass::read_doc_text(path)?;
+        if super::compass::is_compass_doc(&text) {
+            return Err(CalDocError::HeadingOnly(path.into()));
+        }
+        let doc: CalDoc = serde_json::from_str(&text).map_err(|source| CalDocError::Parse { path: path.into(), source })?;
         doc.validate(path)?;
         Ok(doc)
     }

@@ -5,6 +5,7 @@
 //! another clock.
 
 pub mod caldoc;
+pub mod compass;
 pub mod dataflash;
 pub mod board_log;
 pub mod merge;

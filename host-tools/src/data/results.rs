@@ -270,9 +270,27 @@ pub struct SwingQuality {
     /// when course was used as heading).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub current: Option<SwingCurrent>,
+    /// The fit judged on data it did not see: each half of the reference
+    /// (by time) corrected by the swing fitted on the other half (absent
+    /// when a half cannot be fitted, or the current was removed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub held_out: Option<HeldOutSwing>,
     /// What the operator should know.
     #[serde(default)]
     pub warnings: Vec<String>,
+}
+
+/// A swing judged on held-out data: each half of the reference pairs (split
+/// at the median time) against the heading corrected by the swing fitted
+/// on the other half.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct HeldOutSwing {
+    /// Pairs judged (both halves).
+    pub pairs: u32,
+    /// Reference − heading before any correction, ° RMS.
+    pub before_rms_deg: f64,
+    /// Reference − heading corrected by the other half's swing, ° RMS.
+    pub after_rms_deg: f64,
 }
 
 /// The water current the swing fit estimated from the surface GPS fixes and

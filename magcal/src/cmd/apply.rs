@@ -8,7 +8,8 @@ use std::path::PathBuf;
 use anyhow::{bail, Context, Result};
 use host_tools::compute::apply::{apply_recording, choose_inclination, summarize, write_applied, ApplyOptions, InclinationSource};
 use host_tools::compute::card::read_reference_column;
-use host_tools::data::CalDoc;
+use host_tools::compute::compass::{apply_compass, write_compass_applied};
+use host_tools::data::compass::{CompassDoc, Document};
 
 
 /// Arguments of `magcal apply`.
@@ -70,7 +71,10 @@ pub fn run(a: Args) -> Result<()> {
             bail!("--field-sigma-nt must be a positive number of nT, not {s}");
         }
     }
-    let doc = CalDoc::load(&a.cal)?;
+    let doc = match Document::load(&a.cal)? {
+        Document::Field(doc) => *doc,
+        Document::Compass(doc) => return run_compass(&a, &doc),
+    };
     let rec = a.columns.read(&a.input)?;
     let site_deg = match a.site.site()? {
         Some(s) => Some(s.field()?.inclination_deg()),
@@ -105,6 +109,27 @@ pub fn run(a: Args) -> Result<()> {
         println!("{} rows: {}", summary.rows, states.join(", "));
         if let (Some(name), Some(all), Some(ok)) = (&summary.heading_reference, summary.heading_rms_deg, summary.heading_rms_ok_deg) {
             println!("heading RMS against {name}: {all:.2}° all rows, {ok:.2}° on the ok rows");
+        }
+    }
+    Ok(())
+}
+
+/// A heading-only compass's document on its log: the corrected heading per
+/// row, and the error against `ref_heading_deg` before and after.
+fn run_compass(a: &Args, doc: &CompassDoc) -> Result<()> {
+    if a.field_nt.is_some() || a.inclination_deg.is_some() || a.field_sigma_nt.is_some() || a.site.any() {
+        bail!("{} is a heading-only compass's calibration: --field-nt, --inclination-deg, --field-sigma-nt and the site judge a magnetometer's field, which a compass log does not have", a.cal.display());
+    }
+    let log = a.columns.read_compass(&a.input).with_context(|| format!("{} is a heading-only compass's calibration, so the recording must be a compass log", a.cal.display()))?;
+    let (corrected, summary) = apply_compass(&log, doc).with_context(|| format!("{}", a.input.display()))?;
+    write_compass_applied(&a.out, &log, &corrected)?;
+    eprintln!("wrote {}", a.out.display());
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&summary)?);
+    } else {
+        println!("{} rows, {} with a compass heading corrected", summary.rows, summary.corrected_rows);
+        if let (Some(b), Some(c)) = (summary.before_rms_deg, summary.after_rms_deg) {
+            println!("against ref_heading_deg ({} samples, at the document's delay): {b:.2}° before, {c:.2}° after RMS", summary.reference_pairs);
         }
     }
     Ok(())

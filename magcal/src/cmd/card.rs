@@ -5,8 +5,8 @@
 use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
-use host_tools::compute::card::{deviation_card, read_reference_column, CardError};
-use host_tools::data::CalDoc;
+use host_tools::compute::card::{compass_card, deviation_card, read_reference_column, CardError, DeviationCard};
+use host_tools::data::compass::Document;
 
 use super::hinted;
 
@@ -45,7 +45,19 @@ pub fn run(a: Args) -> Result<()> {
     if let Some(csv) = &a.csv {
         super::check_out("--csv", csv, &[&a.input, &a.cal])?;
     }
-    let doc = CalDoc::load(&a.cal)?;
+    let doc = match Document::load(&a.cal)? {
+        Document::Field(doc) => *doc,
+        Document::Compass(doc) => {
+            if a.reference_column != "ref_heading_deg" {
+                bail!("a compass log's card is against its ref_heading_deg (--reference-column is for a magnetometer recording)");
+            }
+            let log = a.columns.read_compass(&a.input).with_context(|| format!("{} is a heading-only compass's calibration, so the recording must be a compass log", a.cal.display()))?;
+            let card = compass_card(&log, &doc, a.step_deg, a.points)
+                .map_err(|e| hinted(e, |e| matches!(e, CardError::BadStep(_)).then_some("give another --step-deg")))
+                .with_context(|| format!("{}: deviation card", a.input.display()))?;
+            return print_card(&a, &card);
+        }
+    };
     let mut rec = a.columns.read(&a.input)?;
     if a.reference_column != "ref_heading_deg" {
         let column = read_reference_column(&a.input, &a.reference_column)?.ok_or_else(|| CardError::NoReferenceColumn(a.reference_column.clone()))?;
@@ -56,6 +68,11 @@ pub fn run(a: Args) -> Result<()> {
     }
     let mut card = deviation_card(&rec, &doc, a.step_deg, a.points).map_err(|e| hinted(e, |e| matches!(e, CardError::BadStep(_)).then_some("give another --step-deg"))).with_context(|| format!("{}: deviation card", a.input.display()))?;
     card.reference.clone_from(&a.reference_column);
+    print_card(&a, &card)
+}
+
+/// Writes the card's CSV when asked, and prints it.
+fn print_card(a: &Args, card: &DeviationCard) -> Result<()> {
     if let Some(path) = &a.csv {
         card.write_csv(path)?;
         eprintln!("wrote {}", path.display());

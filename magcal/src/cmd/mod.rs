@@ -20,6 +20,7 @@ pub mod swing;
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
+use host_tools::data::compass::CompassLog;
 use host_tools::data::table::ColumnMap;
 use host_tools::data::{CalDoc, Recording, RecordingError};
 use host_tools::files::{self, Replaces};
@@ -51,6 +52,12 @@ impl InputColumns {
                 _ => None,
             })
         })
+    }
+
+    /// Reads a heading-only compass's log under the mapping.
+    pub fn read_compass(&self, path: &Path) -> Result<CompassLog> {
+        let map = self.columns.clone().unwrap_or_default();
+        Ok(CompassLog::read_mapped(path, &map)?)
     }
 }
 
