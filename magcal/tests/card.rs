@@ -40,6 +40,7 @@ struct Card {
     samples: usize,
     by_heading: Vec<Row>,
     by_point: Vec<Row>,
+    before: Cell,
     after: Cell,
 }
 
@@ -173,4 +174,62 @@ fn empty_cells_are_empty_and_bad_inputs_are_refused() {
     assert!(after.abs() < 1e-9, "current applied: after error {after}°");
     let before = v["before"]["mean_deg"].as_f64().unwrap();
     assert!((before - (2.0f64).atan2(20_001.0).to_degrees()).abs() < 1e-6, "before is the raw heading: {before}°");
+}
+
+/// Issue 29: a heading-only compass through the command line, on the real
+/// yacht's circles (`tests/data/cirrus-yacht/compass_log.csv`): `swing`
+/// without `--cal` writes the heading-only document, `card` and `apply`
+/// use it, and the commands that need a field calibration refuse it by name.
+#[test]
+fn a_heading_only_compass_is_swung_carded_and_applied() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data/cirrus-yacht/compass_log.csv");
+    let doc = dir.path().join("compass.json");
+    let out = magcal(&["swing", "--input", p(&log), "--estimate-delay", "--declination-deg", "3", "--out", p(&doc)]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("compass swing fit of") && text.contains("held out"), "{text}");
+    #[derive(serde::Deserialize)]
+    struct Form {
+        form: String,
+        declination_deg: f64,
+    }
+    let form: Form = serde_json::from_str(&std::fs::read_to_string(&doc).unwrap()).unwrap();
+    assert_eq!((form.form.as_str(), form.declination_deg), ("heading_only", 3.0));
+    // The card: before 14.2°, after 4.2° RMS over 263 course samples
+    // (measured; the in-sample residual of the swing fit).
+    let out = magcal(&["card", "--input", p(&log), "--cal", p(&doc), "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let card: Card = serde_json::from_slice(&out.stdout).unwrap();
+    let (before, after) = (card.before.rms_deg.unwrap(), card.after.rms_deg.unwrap());
+    assert!(card.samples > 250 && before > 12.0 && after < 4.5, "{} {before} {after}", card.samples);
+    // Apply: the corrected heading per row; its summary agrees with the card.
+    let applied = dir.path().join("applied.csv");
+    let out = magcal(&["apply", "--input", p(&log), "--cal", p(&doc), "--out", p(&applied), "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    #[derive(serde::Deserialize)]
+    struct Summary {
+        rows: usize,
+        corrected_rows: usize,
+        after_rms_deg: f64,
+    }
+    let s: Summary = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!((s.rows, s.corrected_rows), (1950, 1630));
+    assert!((s.after_rms_deg - after).abs() < 1e-9);
+    let written = std::fs::read_to_string(&applied).unwrap();
+    assert!(written.starts_with("t,compass_heading_deg,heading_deg\n"), "{}", &written[..60]);
+    // A field calibration's commands refuse the compass's document by name.
+    let rec = dir.path().join("rec.csv");
+    std::fs::write(&rec, "t,mx,my,mz\n0,1,2,3\n").unwrap();
+    let params = dir.path().join("px4.params");
+    let out = magcal(&["export", "--cal", p(&doc), "--format", "px4", "--out", p(&params)]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("heading-only"), "{err}");
+    // A swing without --cal on a magnetometer recording says what it needs.
+    let out = magcal(&["swing", "--input", p(&rec), "--delay-s", "0"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("compass_heading_deg") && err.contains("--cal"), "{err}");
+    // The field's options make no sense for a compass.
+    let out = magcal(&["apply", "--input", p(&log), "--cal", p(&doc), "--out", p(&applied), "--field-nt", "48000"]);
+    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("heading-only"));
 }
