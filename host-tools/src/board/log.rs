@@ -28,6 +28,7 @@ use serde::{Deserialize, Serialize};
 use super::client::{BoardClient, ClientError};
 use super::reconnect::{reconnect_at, Resume};
 use crate::data::board_log::{self, HEALTH_AFTER_GAP, HEALTH_SATURATED};
+use crate::data::table::{Cell, TableWriter};
 use crate::data::results::RecalibrateEvidence;
 use crate::integrity_evidence::{recalibrate_evidence, IntegrityCounts, IntegrityTally, RECALIBRATE_CAL_INVALID_FRACTION};
 
@@ -275,10 +276,6 @@ pub struct LogProgress {
     pub link_down: bool,
 }
 
-fn fmt_cell(v: Option<f64>) -> String {
-    crate::data::table::cell(v.unwrap_or(f64::NAN))
-}
-
 /// Logs the board's raw stream into `out` (a fresh file, see
 /// [`create_log_file`]; `out_path` names it in errors) until the duration
 /// passes, `stop` is set, or the board restarts. `connect` opens the link
@@ -383,7 +380,7 @@ fn reopen<P: Read + Write>(connect: &mut dyn FnMut() -> Result<BoardClient<P>, C
 /// The log being written: the file, the board's clock unwrapped, and the
 /// summary so far.
 struct Logger<W: Write> {
-    out: io::LineWriter<W>,
+    out: TableWriter<W>,
     out_path: PathBuf,
     clock: BoardClock,
     /// The output interval, ms.
@@ -421,8 +418,8 @@ impl<W: Write> Logger<W> {
             ended: LogEnd::Interrupted,
             wall_s: 0.0,
         };
-        let mut log = Self { out: io::LineWriter::new(out), out_path, clock: BoardClock::default(), interval_ms: 1000.0 / f64::from(rate_hz), last_ms: None, tally: IntegrityTally::default(), s };
-        writeln!(log.out, "{LOG_HEADER}").map_err(|e| log.io_err(e))?;
+        let table = TableWriter::new(out, &board_log::COLUMNS).map_err(|source| LogError::Io { path: out_path.clone(), source })?;
+        let mut log = Self { out: table, out_path, clock: BoardClock::default(), interval_ms: 1000.0 / f64::from(rate_hz), last_ms: None, tally: IntegrityTally::default(), s };
         log.out.flush().map_err(|e| log.io_err(e))?;
         Ok(log)
     }
@@ -468,18 +465,9 @@ impl<W: Write> Logger<W> {
         // The board's σ to 0.001° (the f32's digits beyond are noise) and
         // its integrity word.
         let sigma = sample.heading_sigma_deg.map(|d| (f64::from(d) * 1000.0).round() / 1000.0);
-        writeln!(
-            self.out,
-            "{:.3},{},{},{},{},{flags},{},{}",
-            t_s,
-            fmt_cell(raw.map(|r| r[0])),
-            fmt_cell(raw.map(|r| r[1])),
-            fmt_cell(raw.map(|r| r[2])),
-            fmt_cell(temp),
-            fmt_cell(sigma),
-            sample.integrity.name()
-        )
-        .map_err(|e| self.io_err(e))?;
+        let field = |k: usize| Cell::opt(raw.map(|r| r[k]));
+        let cells = [Cell::Fixed(t_s, 3), field(0), field(1), field(2), Cell::opt(temp), Cell::Count(u64::from(flags)), Cell::opt(sigma), Cell::Text(sample.integrity.name())];
+        self.out.row(&cells).map_err(|e| self.io_err(e))?;
         self.s.samples += 1;
         self.tally.push(sample.integrity.state(), t_s);
         self.s.saturated_samples += u64::from(sample.saturated);

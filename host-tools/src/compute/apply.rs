@@ -15,6 +15,7 @@ use calib_core::integrity::{IntegrityError, IntegrityState, Reference, Tuning};
 use calib_core::online::{Health, OnlineIntegrity};
 use serde::Serialize;
 
+use crate::data::table::{col, write_cells, Cell};
 use crate::data::{CalDoc, Recording};
 use crate::integrity_evidence::{IntegrityCounts, StateCounts};
 
@@ -449,12 +450,6 @@ pub fn summarize(applied: &Applied, reference: Option<(&str, &[f64])>) -> ApplyS
     s
 }
 
-fn cell(v: Option<f64>, prec: usize) -> String {
-    v.filter(|v| v.is_finite())
-        .map(|v| format!("{v:.prec$}"))
-        .unwrap_or_default()
-}
-
 /// Writes `OUT.csv`: the input's `t` (when it has one) and, per row, the
 /// calibrated field, heading, σ and integrity, through
 /// [`crate::files::write_atomic`], after [`crate::files::check_output`]:
@@ -466,30 +461,20 @@ pub fn write_applied(
     applied: &Applied,
 ) -> Result<(), ApplyError> {
     crate::files::check_output(path, &[input])?;
-    let mut text = String::with_capacity(applied.rows.len() * 64 + 100);
-    if t_s.is_some() {
-        text.push_str("t,");
-    }
-    text.push_str("field_x_nt,field_y_nt,field_z_nt,heading_deg,heading_sigma_deg,integrity\n");
-    for (i, r) in applied.rows.iter().enumerate() {
-        if let Some(t) = t_s {
-            if let Some(t) = t.get(i).filter(|t| t.is_finite()) {
-                text.push_str(&t.to_string());
+    let mut header = if t_s.is_some() { vec![col::T] } else { vec![] };
+    header.extend(["field_x_nt", "field_y_nt", "field_z_nt", col::HEADING_DEG, "heading_sigma_deg", "integrity"]);
+    write_cells(path, &header, |w| {
+        for (i, r) in applied.rows.iter().enumerate() {
+            let mut cells = Vec::with_capacity(7);
+            if let Some(t) = t_s {
+                cells.push(Cell::opt(t.get(i).copied()));
             }
-            text.push(',');
+            cells.extend(r.field_nt.map(|v| Cell::Fixed(v, 1)));
+            cells.extend([Cell::opt_fixed(r.heading_deg, 3), Cell::opt_fixed(r.heading_sigma_deg, 3), Cell::Text(r.integrity.name())]);
+            w.row(&cells)?;
         }
-        let f = r.field_nt.map(|v| cell(Some(v), 1));
-        text.push_str(&format!(
-            "{},{},{},{},{},{}\n",
-            f[0],
-            f[1],
-            f[2],
-            cell(r.heading_deg, 3),
-            cell(r.heading_sigma_deg, 3),
-            r.integrity.name()
-        ));
-    }
-    crate::files::write_text_atomic(path, &text)?;
+        Ok(())
+    })?;
     Ok(())
 }
 

@@ -22,7 +22,7 @@ use serde::{Deserialize, Serialize};
 use super::truth::true_headings_rad;
 use super::units::check_units;
 use super::error::ComputeError;
-use crate::data::table::{read_column, TableError};
+use crate::data::table::{read_column, write_cells, Cell as TableCell, TableError};
 use crate::data::compass::{CompassDoc, CompassLog};
 use crate::data::{CalDoc, Recording};
 use super::compass::compass_pairs;
@@ -292,24 +292,19 @@ impl DeviationCard {
     /// before_mean_deg,before_rms_deg,after_n,after_mean_deg,after_rms_deg`
     /// (`table` is `heading` or `point`; empty cells are empty strings).
     pub fn write_csv(&self, path: &Path) -> Result<(), CardError> {
-        let mut out = String::from("table,label,centre_deg,width_deg,before_n,before_mean_deg,before_rms_deg,after_n,after_mean_deg,after_rms_deg\n");
-        for (table, rows) in [("heading", &self.by_heading), ("point", &self.by_point)] {
-            for r in rows.iter() {
-                out.push_str(&format!(
-                    "{table},{},{},{},{},{},{},{},{},{}\n",
-                    r.label,
-                    r.centre_deg,
-                    r.width_deg,
-                    r.before.samples,
-                    opt(r.before.mean_deg, 4),
-                    opt(r.before.rms_deg, 4),
-                    r.after.samples,
-                    opt(r.after.mean_deg, 4),
-                    opt(r.after.rms_deg, 4)
-                ));
+        let header = ["table", "label", "centre_deg", "width_deg", "before_n", "before_mean_deg", "before_rms_deg", "after_n", "after_mean_deg", "after_rms_deg"];
+        write_cells(path, &header, |w| {
+            for (table, rows) in [("heading", &self.by_heading), ("point", &self.by_point)] {
+                for r in rows.iter() {
+                    let cell = |c: &Cell| [TableCell::Count(c.samples as u64), TableCell::opt_fixed(c.mean_deg, 4), TableCell::opt_fixed(c.rms_deg, 4)];
+                    let mut cells = vec![TableCell::Text(table), TableCell::Text(&r.label), TableCell::Number(r.centre_deg), TableCell::Number(r.width_deg)];
+                    cells.extend(cell(&r.before));
+                    cells.extend(cell(&r.after));
+                    w.row(&cells)?;
+                }
             }
-        }
-        crate::files::write_text_atomic(path, &out)?;
+            Ok(())
+        })?;
         Ok(())
     }
 }
