@@ -191,13 +191,7 @@ fn limited_tilt(root: &Path) -> (serde_json::Value, String) {
     let (Ok(calib), Ok(validate)) = (Recording::read(&dir.join("05_calib.csv")), Recording::read(&dir.join("05_validate.csv"))) else {
         return (json!({"simulated": sim_rows, "broad05": "tests/data/broad-05 missing"}), md);
     };
-    let optical: Vec<f64> = std::fs::read_to_string(dir.join("05_validate.csv"))
-        .map(|text| {
-            let mut lines = text.lines();
-            let col = lines.next().and_then(|h| h.split(',').position(|c| c == "truth_heading_deg")).unwrap_or(usize::MAX);
-            lines.map(|l| l.split(',').nth(col).and_then(|v| v.parse().ok()).unwrap_or(f64::NAN)).collect()
-        })
-        .unwrap_or_default();
+    let optical: Vec<f64> = host_tools::compute::card::read_reference_column(&dir.join("05_validate.csv"), "truth_heading_deg").ok().flatten().unwrap_or_default();
     let heading = |cal: &FieldCal<f64>| {
         let (Some(roll), Some(pitch)) = (validate.roll_deg.as_ref(), validate.pitch_deg.as_ref()) else { return f64::NAN };
         let h = (0..validate.len()).map(|i| magnetic_heading_rad(cal.apply(validate.mag[i]), roll[i].to_radians(), pitch[i].to_radians()));
@@ -412,22 +406,20 @@ fn host_throughput(root: &Path) -> serde_json::Value {
 /// the full-ellipsoid fit (the agreement with an independent Li & Griffiths
 /// fit is asserted by `cargo test -p host-tools --test real_data`).
 fn real_recordings(root: &Path) -> serde_json::Value {
+    // CSV through the product's reader under a column mapping; bazhin's
+    // file is bare `x y z` lines without a header (not a table).
     let load = |rel: &str, cols: [&str; 3]| -> Vec<[f64; 3]> {
-        let Ok(text) = std::fs::read_to_string(root.join("tests/data").join(rel)) else { return vec![] };
-        let mut lines = text.lines();
+        let path = root.join("tests/data").join(rel);
         if cols[0].is_empty() {
-            return lines.filter_map(|l| {
+            let Ok(text) = std::fs::read_to_string(&path) else { return vec![] };
+            return text.lines().filter_map(|l| {
                 let v: Vec<f64> = l.split_whitespace().filter_map(|x| x.parse().ok()).collect();
                 (v.len() == 3).then(|| [v[0], v[1], v[2]])
             }).collect();
         }
-        let header: Vec<&str> = lines.next().unwrap_or("").split(',').collect();
-        let Some(idx) = cols.iter().map(|c| header.iter().position(|h| h == c)).collect::<Option<Vec<usize>>>() else { return vec![] };
-        lines.filter_map(|l| {
-            let f: Vec<&str> = l.split(',').collect();
-            let v: Vec<f64> = idx.iter().filter_map(|&i| f.get(i).and_then(|x| x.parse().ok())).collect();
-            (v.len() == 3).then(|| [v[0], v[1], v[2]])
-        }).collect()
+        let map = format!("mx={},my={},mz={}", cols[0], cols[1], cols[2]);
+        let rec = map.parse().ok().and_then(|map| host_tools::data::Recording::read_mapped(&path, &map).ok());
+        rec.map(|r| r.complete_mag().1).unwrap_or_default()
     };
     let spread = |samples: &[[f64; 3]], cal: &calib_core::cal::FieldCal<f64>| {
         let m: Vec<f64> = samples.iter().map(|s| { let h = cal.apply(*s); (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt() }).collect();

@@ -24,28 +24,33 @@ const GLIDER_JUDGE_DEPTH_M: f64 = 3.0;
 /// Every `fit --model`.
 const MODELS: [ModelKind; 6] = [ModelKind::Sphere, ModelKind::Axis, ModelKind::Full, ModelKind::Triangular, ModelKind::Gyro, ModelKind::Attitude];
 
-/// A numeric column read apart (the recording reader ignores it).
+/// A numeric column read apart (the recording reader ignores it), by the
+/// product's one table reader.
 fn column(path: &Path, name: &str) -> Option<Vec<f64>> {
-    let text = std::fs::read_to_string(path).ok()?;
-    let mut lines = text.lines();
-    let c = lines.next()?.split(',').position(|h| h == name)?;
-    Some(lines.map(|l| l.split(',').nth(c).and_then(|v| v.parse().ok()).unwrap_or(f64::NAN)).collect())
+    host_tools::compute::card::read_reference_column(path, name).ok().flatten()
 }
 
-fn cal_of(v: &serde_json::Value) -> Option<FieldCal<f64>> {
-    let num = |x: &serde_json::Value| x.as_f64();
-    let bias = [num(&v["bias"][0])?, num(&v["bias"][1])?, num(&v["bias"][2])?];
-    let mut matrix = [[0.0; 3]; 3];
-    for (i, row) in matrix.iter_mut().enumerate() {
-        for (j, m) in row.iter_mut().enumerate() {
-            *m = num(&v["matrix"][i][j])?;
-        }
+/// What the bench reads of a trial's `*.truth.json` or a glider's stored
+/// calibration: the calibration, and the trial's intensity and the lab's
+/// inclination where they are given.
+#[derive(serde::Deserialize)]
+struct StoredCal {
+    bias: [f64; 3],
+    matrix: [[f64; 3]; 3],
+    #[serde(default)]
+    field_nt: Option<f64>,
+    #[serde(default)]
+    lab_inclination_deg: Option<f64>,
+}
+
+impl StoredCal {
+    fn read(path: &Path) -> Option<Self> {
+        serde_json::from_str(&std::fs::read_to_string(path).ok()?).ok()
     }
-    Some(FieldCal { bias, matrix })
-}
 
-fn read_json(path: &Path) -> Option<serde_json::Value> {
-    serde_json::from_str(&std::fs::read_to_string(path).ok()?).ok()
+    fn cal(&self) -> FieldCal<f64> {
+        FieldCal { bias: self.bias, matrix: self.matrix }
+    }
 }
 
 /// How a calibration is judged on a validation part: a score (lower is
@@ -76,7 +81,7 @@ fn glider(dir: &Path, name: &str, peer: &str, (lat, lon, date): (f64, f64, &str)
     let vpath = dir.join(format!("{name}_validate.csv"));
     let val = Recording::read(&vpath).ok()?;
     let depth = column(&vpath, "depth_m")?;
-    let floor = cal_of(&read_json(&dir.join(peer))?)?;
+    let floor = StoredCal::read(&dir.join(peer))?.cal();
     let site = Site::new(lat, lon, date).ok()?;
     let world = site.field().ok()?;
     let igrf_dip = world.inclination_deg();
@@ -100,7 +105,7 @@ fn glider(dir: &Path, name: &str, peer: &str, (lat, lon, date): (f64, f64, &str)
 
 /// A BROAD trial: heading RMS on the validation part after one offset.
 fn broad(dir: &Path, n: &str) -> Option<Dataset> {
-    let t = read_json(&dir.join(format!("{n}.truth.json")))?;
+    let t = StoredCal::read(&dir.join(format!("{n}.truth.json")))?;
     let calib = Recording::read(&dir.join(format!("{n}_calib.csv"))).ok()?;
     let vpath = dir.join(format!("{n}_validate.csv"));
     let val = Recording::read(&vpath).ok()?;
@@ -112,7 +117,7 @@ fn broad(dir: &Path, n: &str) -> Option<Dataset> {
         (rms, format!("heading {rms:.2}°"))
     };
     let name = dir.file_name().map_or(n.to_string(), |f| f.to_string_lossy().into_owned());
-    Some(Dataset { name, calib, field_nt: t["field_nt"].as_f64()?, reference: None, judge: Box::new(judge), floor: cal_of(&t)? })
+    Some(Dataset { name, calib, field_nt: t.field_nt?, reference: None, judge: Box::new(judge), floor: t.cal() })
 }
 
 /// The datasets present under `tests/data`.
@@ -173,8 +178,8 @@ fn wrong_calibrations(root: &Path, md: &mut String) -> serde_json::Value {
     let data = root.join("tests/data");
     for (d, n) in [("broad-02-limited", "02"), ("broad-03", "03"), ("broad-05", "05"), ("broad-06", "06"), ("broad-09", "09")] {
         let dir = data.join(d);
-        let (Some(truth), Ok(rec)) = (read_json(&dir.join(format!("{n}.truth.json"))), Recording::read(&dir.join(format!("{n}_validate.csv")))) else { continue };
-        let (Some(right), Some(optical), Some(f)) = (cal_of(&truth), column(&dir.join(format!("{n}_validate.csv")), "truth_heading_deg"), truth["field_nt"].as_f64()) else { continue };
+        let (Some(truth), Ok(rec)) = (StoredCal::read(&dir.join(format!("{n}.truth.json"))), Recording::read(&dir.join(format!("{n}_validate.csv")))) else { continue };
+        let (Some(right), Some(optical), Some(f)) = (Some(truth.cal()), column(&dir.join(format!("{n}_validate.csv")), "truth_heading_deg"), truth.field_nt) else { continue };
         let variants = [
             ("true", right),
             ("bias zeroed", FieldCal { bias: [0.0; 3], ..right }),
@@ -186,7 +191,7 @@ fn wrong_calibrations(root: &Path, md: &mut String) -> serde_json::Value {
         for (label, cal) in variants {
             let doc = CalDoc::new(ModelKind::Full, &cal, f, Quality::default());
             // Judged against the lab's inclination (the trial's README).
-            let opts = ApplyOptions { inclination_deg: truth["lab_inclination_deg"].as_f64(), ..ApplyOptions::default() };
+            let opts = ApplyOptions { inclination_deg: truth.lab_inclination_deg, ..ApplyOptions::default() };
             let Ok(applied) = apply_recording(&rec, &doc, &opts) else { continue };
             let after: Vec<bool> = applied.rows.iter().zip(&t).filter(|(_, &ti)| ti >= t0 + 10.0).map(|(r, _)| r.integrity != calib_core::integrity::IntegrityState::Ok).collect();
             let not_ok = after.iter().filter(|b| **b).count() as f64 / after.len().max(1) as f64;
