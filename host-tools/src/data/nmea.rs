@@ -51,9 +51,10 @@
 //! a note. The same for `HDT`.
 //!
 //! **Time** ([`TIME_RULE`]). `RMC` and `ZDA` give date and time; `GGA`,
-//! `GLL` (and a `ZDA` without a four-digit year) the time of day, dated by
-//! the latest dated sentence before (before the first one: by the first
-//! one), the day advancing when the time of day goes back by more than 12 h.
+//! `GLL` (and a `ZDA` without a four-digit year) the time of day, on the day
+//! that puts it nearest (within 12 h) the timed sentence before it (before
+//! the first dated sentence: nearest the first dated sentence) — so the day
+//! advances when the time of day goes back by more than 12 h (midnight).
 //! A timed sentence earlier than the one before it is counted
 //! (`time_backwards`) and not used. The sentences without a time (`HDG`,
 //! `HDM`, `HDT`, `VTG`) between two consecutive timed sentences at `T0` and
@@ -93,7 +94,7 @@ pub const MAX_SPREAD_GAP_S: f64 = 10.0;
 pub const KNOT_MPS: f64 = 1852.0 / 3600.0;
 
 /// The time rule, as the report states it.
-pub const TIME_RULE: &str = "RMC and ZDA give date and time; GGA, GLL (and a ZDA without a 4-digit year) the time of day, dated by the latest dated sentence (before the first: by the first), the day advancing when the time of day goes back by more than 12 h; a timed sentence earlier than the one before is not used. Sentences without time (HDG, HDM, HDT, VTG) between consecutive timed sentences at T0 and T1 get T0 when T1 = T0, else the k-th of n gets T0 + (T1 - T0)*k/(n+1) when T1 - T0 <= 10 s; over a longer gap, before the first or after the last timed sentence they are not used. t = seconds since the first timed sentence (UTC).";
+pub const TIME_RULE: &str = "RMC and ZDA give date and time; GGA, GLL (and a ZDA without a 4-digit year) the time of day, on the day that puts it nearest (within 12 h) the timed sentence before it (before the first dated sentence: nearest that one), so the day advances at midnight; a timed sentence earlier than the one before is not used. Sentences without time (HDG, HDM, HDT, VTG) between consecutive timed sentences at T0 and T1 get T0 when T1 = T0, else the k-th of n gets T0 + (T1 - T0)*k/(n+1) when T1 - T0 <= 10 s; over a longer gap, before the first or after the last timed sentence they are not used. t = seconds since the first timed sentence (UTC).";
 
 /// The most distinct names kept in the report's maps of unknown types and
 /// partial reasons (random input could make many); more go under `(other)`.
