@@ -55,7 +55,8 @@ enum Cmd {
     /// The compass deviation card: heading error by heading and compass
     /// point, before and after the calibration.
     Card(cmd::card::Args),
-    /// A recording from a vehicle's own log (ArduPilot/ArduSub DataFlash).
+    /// A recording from a vehicle's own log (ArduPilot/ArduSub DataFlash) or
+    /// an NMEA 0183 log (heading compass and GPS).
     Import(cmd::import::Args),
     /// One recording from the board's field log and the navigation log on
     /// another clock: the clock offset and drift estimated from the turns

@@ -287,3 +287,198 @@ fn non_dataflash_input_is_refused() {
     assert!(!out.status.success() && err.contains("not an ArduPilot DataFlash .bin log"), "{err}");
     assert!(!dir.path().join("x.csv").exists());
 }
+
+// ---- `magcal import --nmea` ----------------------------------------------
+
+fn nmea_data(name: &str) -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data/nmea").join(name)
+}
+
+/// A CSV's header and rows.
+type Csv = (Vec<String>, Vec<Vec<f64>>);
+
+/// Imports `log` into a temporary folder: (the command's output, the CSV
+/// when written, the folder).
+fn import_nmea(log: &Path, extra: &[&str]) -> (Output, Option<Csv>, tempfile::TempDir) {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec.csv");
+    let mut args = vec!["import", "--nmea", log.to_str().unwrap(), "--out", rec.to_str().unwrap()];
+    args.extend_from_slice(extra);
+    let out = magcal(&args);
+    let csv = rec.exists().then(|| read_csv(&rec));
+    (out, csv, dir)
+}
+
+fn column(csv: &Csv, name: &str) -> Vec<f64> {
+    let i = csv.0.iter().position(|h| h == name).unwrap_or_else(|| panic!("{name} in {:?}", csv.0));
+    csv.1.iter().map(|r| r[i]).collect()
+}
+
+/// A real log (tests/data/nmea/gofree-merrimac-head.nmea: a moored yacht's
+/// network, SignalK's sample, Apache-2.0): the counts measured on its 774
+/// lines, and its values as the sentences state them.
+#[test]
+fn nmea_import_of_a_real_log() {
+    let (out, csv, _dir) = import_nmea(&nmea_data("gofree-merrimac-head.nmea"), &["--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let r: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    // 18 epochs 19:57:19 … 19:57:36 of RMC, GGA, GLL, VTG, ZDA; 168 HDG, of
+    // which the 3 after the last timed sentence cannot be timed.
+    assert_eq!(r["used"], serde_json::json!({"GGA": 18, "GLL": 18, "HDG": 165, "RMC": 18, "VTG": 18, "ZDA": 18}));
+    assert_eq!((r["sentences"].as_u64(), r["unknown"].as_u64(), r["unknown_types"]["!AIVDM"].as_u64()), (Some(774), Some(516), Some(192)));
+    assert_eq!((r["bad_checksum"].as_u64(), r["partial"].as_u64(), r["untimed_after_last_time"].as_u64()), (Some(0), Some(0), Some(3)));
+    // 165 HDG + 18 × (RMC, GGA, GLL, VTG) rows; ZDA gives only times.
+    assert_eq!(r["rows"], 237);
+    assert_eq!((r["start_utc"].as_str(), r["duration_s"].as_f64()), (Some("2014-04-16T19:57:19Z"), Some(17.0)));
+    // Moored (0–0.1 kn): no course at 0.5 m/s, no HDT: no reference.
+    assert_eq!(r["reference"], "none");
+    assert_eq!(r["compass_source"], "SDHDG");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("warning: skipped 519 of 774 sentences: 516 of types not read (!AIVDM 192"), "{stderr}");
+    assert!(stderr.contains("18 ZDA sentences gave a two-digit year"), "{stderr}");
+    let csv = csv.unwrap();
+    assert_eq!(csv.0, ["t", "compass_heading_deg", "variation_deg", "course_deg", "gps_speed_mps", "lat_deg", "lon_deg"]);
+    let heading: Vec<f64> = column(&csv, "compass_heading_deg").into_iter().filter(|h| h.is_finite()).collect();
+    assert_eq!(heading.len(), 165);
+    assert!(heading.iter().all(|&h| h == 181.7 || h == 181.8), "{heading:?}");
+    // Variation: HDG's 0.6 E and RMC's 0.7 E, east positive.
+    let variation: Vec<f64> = column(&csv, "variation_deg").into_iter().filter(|v| v.is_finite()).collect();
+    assert_eq!((variation.iter().filter(|&&v| v == 0.6).count(), variation.iter().filter(|&&v| v == 0.7).count()), (165, 18));
+    // The first fix, 5310.8115 N 00525.7025 E: 53 + 10.8115/60, 5 + 25.7025/60.
+    let (lat, lon) = (column(&csv, "lat_deg"), column(&csv, "lon_deg"));
+    assert!((lat[0] - 53.180_191_666_666_67).abs() < 1e-12 && (lon[0] - 5.428_375).abs() < 1e-12);
+    let t = column(&csv, "t");
+    assert!(t.windows(2).all(|w| w[0] <= w[1]) && t[0] == 0.0 && *t.last().unwrap() == 17.0);
+}
+
+/// The real n2kd log has two compasses and no sentence with a time: refused,
+/// nothing written.
+#[test]
+fn nmea_real_log_without_time_is_refused() {
+    let (out, csv, _dir) = import_nmea(&nmea_data("n2kd-183-merrimac-head.nmea"), &[]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("no sentence gives a time"), "{err}");
+    assert!(csv.is_none());
+}
+
+fn cirrus_csv(name: &str) -> Vec<(f64, f64)> {
+    // 2021-08-25Thh:mm:ss → seconds of the day (the log stays within one day).
+    let text = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data/cirrus-yacht").join(name)).unwrap();
+    let mut rows: Vec<(f64, f64)> = text
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let (stamp, value) = l.split_once(',').unwrap();
+            let hms: Vec<f64> = stamp[11..].split(':').map(|x| x.parse().unwrap()).collect();
+            (hms[0] * 3600.0 + hms[1] * 60.0 + hms[2], value.parse().unwrap())
+        })
+        .collect();
+    // As cirrus_to_nmea.py wrote them: in time order, stable within a second.
+    rows.sort_by(|a, b| a.0.total_cmp(&b.0));
+    rows
+}
+
+/// The real Cirrus yacht readings (tests/data/cirrus-yacht, MIT) re-encoded
+/// as $HCHDM/$GPRMC (tests/data/nmea/cirrus_to_nmea.py; not a captured
+/// log): the import gives back every value and times within the readings'
+/// one-second stamps and the GPS interval.
+#[test]
+fn nmea_import_gives_back_the_cirrus_readings() {
+    let (out, csv, _dir) = import_nmea(&nmea_data("cirrus-hdm-rmc.nmea"), &["--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let r: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let (compass, cog) = (cirrus_csv("Calibration_Cirrus_v3_compass.csv"), cirrus_csv("Calibration_Cirrus_v3_cog.csv"));
+    let start = cog[0].0;
+    assert_eq!(r["start_utc"], "2021-08-25T16:47:01Z");
+    // 4 compass readings before the first course (16:47:00), 72 after the
+    // last course's second and 5 within it (written after its RMC): the
+    // course was stored only above 0.3 kn; no gap over 10 s.
+    let before = compass.iter().filter(|c| c.0 < start).count();
+    let after = compass.iter().filter(|c| c.0 >= cog.last().unwrap().0).count();
+    assert_eq!((before, after), (4, 72 + 5));
+    assert_eq!((r["untimed_before_first_time"].as_u64(), r["untimed_after_last_time"].as_u64(), r["untimed_in_gaps"].as_u64()), (Some(4), Some(77), Some(0)));
+    // No speed stored: the course cannot be the reference.
+    assert_eq!(r["reference"], "none");
+    assert!(String::from_utf8_lossy(&out.stderr).contains("HCHDM's magnetic heading, taken as the compass's own reading"));
+    let csv = csv.unwrap();
+    assert_eq!(csv.0, ["t", "compass_heading_deg", "course_deg"]);
+    let (t, heading, course) = (column(&csv, "t"), column(&csv, "compass_heading_deg"), column(&csv, "course_deg"));
+    // Every course back at its own second.
+    let courses: Vec<(f64, f64)> = t.iter().zip(&course).filter(|(_, c)| c.is_finite()).map(|(&t, &c)| (t + start, c)).collect();
+    assert_eq!(courses, cog);
+    // Every timed compass reading back, in order, at a time within its
+    // stamp's second widened by the GPS interval (courses are 0–4 s apart).
+    let headings: Vec<(f64, f64)> = t.iter().zip(&heading).filter(|(_, h)| h.is_finite()).map(|(&t, &h)| (t + start, h)).collect();
+    let timed = &compass[before..compass.len() - after];
+    assert_eq!(headings.len(), timed.len());
+    let mut worst: f64 = 0.0;
+    for ((t_import, h_import), (stamp, h)) in headings.iter().zip(timed) {
+        assert_eq!(h_import, h);
+        worst = worst.max((t_import - (stamp + 0.5)).abs());
+    }
+    // Measured: 1.33 s (a reading stamped S lies in [S, S + 1); the spread
+    // puts it between the courses around it).
+    eprintln!("Cirrus: worst |t − (stamp + 0.5 s)| = {worst:.3} s");
+    assert!(worst <= 1.5, "{worst}");
+}
+
+/// Hostile files: clear refusals (nothing written) or counts, never a panic.
+#[test]
+fn nmea_hostile_inputs() {
+    let dir = tempfile::tempdir().unwrap();
+    let refused = |name: &str, bytes: &[u8], says: &str| {
+        let log = dir.path().join(name);
+        std::fs::write(&log, bytes).unwrap();
+        let (out, csv, _d) = import_nmea(&log, &[]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && err.contains(says), "{name}: {err}");
+        assert!(csv.is_none(), "{name}: nothing written");
+        assert!(!err.contains("panicked"), "{name}: {err}");
+    };
+    refused("empty.nmea", b"", "the file is empty (0 bytes)");
+    let binary: Vec<u8> = (0..4096u32).map(|i| (i.wrapping_mul(2_654_435_761) >> 13) as u8).collect();
+    refused("binary.nmea", &binary, "a binary file, not an NMEA 0183 text log");
+    refused("ais.nmea", b"!AIVDM,1,1,,A,14eG;o@034o8sd<L9i:a;WF>062D,0*7D\r\n!AIVDM,1,1,,B,14eG;o@034o8sd<L9i:a;WF>062D,0*7E\r\n", "2 `!` sentences (AIS");
+    refused("nul.nmea", &[0u8; 5000], "a binary file");
+    // A 100 MB line without a newline after a real log: held to 1024 bytes,
+    // counted partial; the log before it imported.
+    let mut big = std::fs::read(nmea_data("gofree-merrimac-head.nmea")).unwrap();
+    big.extend(std::iter::repeat_n(b'A', 100 << 20));
+    let log = dir.path().join("big.nmea");
+    std::fs::write(&log, &big).unwrap();
+    drop(big);
+    let (out, _, _d) = import_nmea(&log, &["--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let r: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!((r["partial"].as_u64(), r["partial_reasons"]["too_long"].as_u64(), r["rows"].as_u64()), (Some(1), Some(1), Some(237)));
+    // The hand-made log: CRLF and LF, a NUL byte, a lower-case checksum, RMC
+    // with missing fields (make_mixed.py's lines 15 and 27).
+    let (out, csv, _d) = import_nmea(&nmea_data("mixed.nmea"), &["--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let r: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(r["partial_reasons"], serde_json::json!({"bad_checksum_field": 1, "bad_date": 1, "bad_number": 1, "not_ascii": 1, "out_of_range": 1, "too_few_fields": 2}));
+    assert_eq!(r["rows"], 16);
+    // Line 27's RMC without speed and course gives its position only.
+    let csv = csv.unwrap();
+    assert!(column(&csv, "lat_deg").iter().any(|&l| (l - (48.0 + 7.041 / 60.0)).abs() < 1e-12));
+}
+
+/// `--nmea` and `--dataflash`: one of them, not both; the output never an input.
+#[test]
+fn nmea_arguments() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = nmea_data("mixed.nmea");
+    let out_path = dir.path().join("x.csv");
+    let both = magcal(&["import", "--nmea", log.to_str().unwrap(), "--dataflash", log.to_str().unwrap(), "--out", out_path.to_str().unwrap()]);
+    assert!(!both.status.success() && String::from_utf8_lossy(&both.stderr).contains("cannot be used with"));
+    let none = magcal(&["import", "--out", out_path.to_str().unwrap()]);
+    assert!(!none.status.success() && String::from_utf8_lossy(&none.stderr).contains("--dataflash <DATAFLASH>|--nmea <NMEA>"));
+    let instance = magcal(&["import", "--nmea", log.to_str().unwrap(), "--mag-instance", "1", "--out", out_path.to_str().unwrap()]);
+    assert!(!instance.status.success());
+    assert!(!out_path.exists());
+    let copy = dir.path().join("log.nmea");
+    std::fs::copy(&log, &copy).unwrap();
+    let same = magcal(&["import", "--nmea", copy.to_str().unwrap(), "--out", copy.to_str().unwrap()]);
+    assert!(!same.status.success() && String::from_utf8_lossy(&same.stderr).contains("would be overwritten"));
+    assert_eq!(std::fs::read(&copy).unwrap(), std::fs::read(&log).unwrap());
+}

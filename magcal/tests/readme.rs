@@ -10,7 +10,8 @@
 //! * `merge`: its inputs are the board's and the navigation computer's logs
 //!   from `log` on a vehicle (`magcal/tests/merge.rs` covers it);
 //! * `import --dataflash LOG.bin`: a vehicle's own DataFlash log, which the
-//!   repository has none of (`magcal/tests/import.rs` writes one);
+//!   repository has none of (`magcal/tests/import.rs` writes one; `import
+//!   --nmea` runs, on the repository's real NMEA log);
 //! * `report --session session/`: the folder `session` writes.
 
 use std::path::Path;
@@ -40,7 +41,7 @@ fn skipped(words: &[&str]) -> Option<&'static str> {
         [first, ..] if *first != "magcal" => Some("not a magcal command (cargo: build, QEMU, probe)"),
         [_, "identify" | "session" | "log" | "stream", ..] => Some("talks to a board (serial port or QEMU)"),
         [_, "merge", ..] => Some("its inputs come from `log` on a vehicle"),
-        [_, "import", ..] => Some("needs a vehicle's DataFlash log"),
+        [_, "import", "--dataflash", ..] => Some("needs a vehicle's DataFlash log"),
         [_, "report", "--session", ..] => Some("needs the folder `session` writes"),
         _ => None,
     }

@@ -2,7 +2,8 @@
 //! recordings, the calibration document (JSON), the
 //! typed results inside documents and session summaries, and the merging of
 //! a board log ([`board_log`]) with a navigation log ([`nav_log`]) kept on
-//! another clock.
+//! another clock; vehicle logs imported as recordings ([`dataflash`],
+//! [`nmea`]).
 
 pub mod caldoc;
 pub mod compass;
@@ -10,6 +11,7 @@ pub mod dataflash;
 pub mod board_log;
 pub mod merge;
 pub mod nav_log;
+pub mod nmea;
 pub mod pairing;
 pub mod recording;
 pub mod results;

@@ -1,24 +1,33 @@
 //! `magcal import`: a recording from a vehicle's own log — ArduPilot /
-//! ArduSub DataFlash `.bin` (host-tools' [`host_tools::data::dataflash`]).
+//! ArduSub DataFlash `.bin` (host-tools' [`host_tools::data::dataflash`]) or
+//! an NMEA 0183 log of a heading compass and a GPS
+//! ([`host_tools::data::nmea`]).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
-use host_tools::data::dataflash::{import_file, ImportOptions};
+use host_tools::data::{dataflash, nmea};
 
 /// Arguments of `magcal import`.
 #[derive(clap::Args)]
+#[command(group(clap::ArgGroup::new("log").required(true).args(["dataflash", "nmea"])))]
 pub struct Args {
     /// ArduPilot/ArduSub DataFlash binary log.
     #[arg(long)]
-    dataflash: PathBuf,
-    /// The recording to write (CSV; raw field in mGauss).
+    dataflash: Option<PathBuf>,
+    /// NMEA 0183 log (text; HDG, HDM, HDT, RMC, VTG, GGA, GLL, ZDA of any
+    /// talker; other sentences counted and skipped).
+    #[arg(long)]
+    nmea: Option<PathBuf>,
+    /// The recording to write (CSV; DataFlash: raw field in mGauss; NMEA:
+    /// headings and GPS, no field).
     #[arg(long)]
     out: PathBuf,
-    /// Compass instance (0 = the first).
-    #[arg(long, default_value_t = 0)]
-    mag_instance: u8,
-    /// GPS course is the reference heading only at this ground speed or more, m/s.
+    /// Compass instance (0 = the first; DataFlash only).
+    #[arg(long, conflicts_with = "nmea")]
+    mag_instance: Option<u8>,
+    /// GPS course is the reference heading only at this ground speed or
+    /// more, m/s (NMEA: only where no HDT gives a true heading).
     #[arg(long, default_value_t = 0.5)]
     min_course_speed_mps: f64,
     /// Print the import report as JSON on stdout.
@@ -28,12 +37,25 @@ pub struct Args {
 
 /// Runs `magcal import`.
 pub fn run(a: Args) -> Result<()> {
-    super::check_out("--out", &a.out, &[&a.dataflash])?;
+    let log = a.dataflash.as_deref().or(a.nmea.as_deref()).context("give --dataflash LOG or --nmea LOG")?;
+    super::check_out("--out", &a.out, &[log])?;
     if !(a.min_course_speed_mps.is_finite() && a.min_course_speed_mps >= 0.0) {
         bail!("--min-course-speed-mps must be a non-negative number, not {}", a.min_course_speed_mps);
     }
-    let opts = ImportOptions { mag_instance: a.mag_instance, min_course_speed_mps: a.min_course_speed_mps, ..ImportOptions::default() };
-    let im = import_file(&a.dataflash, &opts).with_context(|| format!("{}: DataFlash import", a.dataflash.display()))?;
+    match (&a.dataflash, &a.nmea) {
+        (Some(log), _) => run_dataflash(&a, log),
+        (None, Some(log)) => run_nmea(&a, log),
+        (None, None) => bail!("give --dataflash LOG or --nmea LOG"),
+    }
+}
+
+fn run_dataflash(a: &Args, log: &Path) -> Result<()> {
+    let opts = dataflash::ImportOptions {
+        mag_instance: a.mag_instance.unwrap_or(0),
+        min_course_speed_mps: a.min_course_speed_mps,
+        ..dataflash::ImportOptions::default()
+    };
+    let im = dataflash::import_file(log, &opts).with_context(|| format!("{}: DataFlash import", log.display()))?;
     let r = &im.report;
     for n in &r.notes {
         eprintln!("note: {n}");
@@ -54,6 +76,69 @@ pub fn run(a: Args) -> Result<()> {
         println!(
             "{} MAG rows; {} with attitude, {} with a GPS course, {} with a current",
             r.rows, r.rows_with_attitude, r.rows_with_course, r.rows_with_current
+        );
+    }
+    Ok(())
+}
+
+/// `name n, name n` of a count map.
+fn counts(map: &std::collections::BTreeMap<String, usize>) -> String {
+    map.iter().map(|(k, n)| format!("{k} {n}")).collect::<Vec<_>>().join(", ")
+}
+
+fn run_nmea(a: &Args, log: &Path) -> Result<()> {
+    let opts = nmea::ImportOptions { min_course_speed_mps: a.min_course_speed_mps };
+    let im = nmea::import_file(log, &opts).with_context(|| format!("{}: NMEA 0183 import", log.display()))?;
+    let r = &im.report;
+    for n in &r.notes {
+        eprintln!("note: {n}");
+    }
+    if r.skipped() > 0 {
+        let untimed = r.untimed_before_first_time + r.untimed_after_last_time + r.untimed_in_gaps;
+        let parts: Vec<String> = [
+            (r.bad_checksum, "with a bad checksum".to_string()),
+            (r.partial, format!("partial ({})", counts(&r.partial_reasons))),
+            (r.unknown, format!("of types not read ({})", counts(&r.unknown_types))),
+            (r.void_fixes, "void fixes".to_string()),
+            (r.empty_values, "with an empty heading or VTG".to_string()),
+            (r.other_source, format!("headings of another compass than {}", r.compass_source.as_deref().unwrap_or("the one used"))),
+            (r.time_backwards, "with a time going back".to_string()),
+            (
+                untimed,
+                format!(
+                    "that cannot be timed ({} before the first time, {} after the last, {} in gaps over {} s)",
+                    r.untimed_before_first_time,
+                    r.untimed_after_last_time,
+                    r.untimed_in_gaps,
+                    nmea::MAX_SPREAD_GAP_S
+                ),
+            ),
+        ]
+        .into_iter()
+        .filter(|(n, _)| *n > 0)
+        .map(|(n, what)| format!("{n} {what}"))
+        .collect();
+        eprintln!("warning: skipped {} of {} sentences: {}", r.skipped(), r.sentences, parts.join("; "));
+    }
+    im.write(&a.out)?;
+    eprintln!("wrote {} ({} rows)", a.out.display(), r.rows);
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(r)?);
+    } else {
+        let start = r.start_utc.clone().unwrap_or_else(|| format!("{} UTC (no date in the log)", r.start_time_of_day_utc));
+        let reference = match r.reference {
+            nmea::Reference::Hdt => "HDT",
+            nmea::Reference::Course => "GPS course at speed",
+            nmea::Reference::None => "none",
+        };
+        println!(
+            "{} rows over {:.1} s from {start}, from {} of {} sentences ({}); columns {}; reference heading: {reference}",
+            r.rows,
+            r.duration_s,
+            r.used.values().sum::<usize>(),
+            r.sentences,
+            counts(&r.used),
+            r.columns.join(", ")
         );
     }
     Ok(())
