@@ -56,8 +56,18 @@ pub enum ClientError {
     #[error("board refused the request: {0}")]
     Remote(proto::DeviceError),
     /// The board answered with something that does not answer the request.
-    #[error("unexpected reply: {0}")]
-    Unexpected(String),
+    #[error("unexpected reply: {0:?}")]
+    Unexpected(Box<ResponseBody>),
+    /// The coefficients read back after a commit are not the ones committed.
+    #[error("read-back differs: the board holds record #{back_seq} (stored: {stored}), the commit made #{seq}, or other values")]
+    ReadBackDiffers {
+        /// The committed record's sequence number.
+        seq: u32,
+        /// The sequence number read back.
+        back_seq: u32,
+        /// Whether the coefficients read back are the stored set.
+        stored: bool,
+    },
 }
 
 /// How long a receiver may take nothing before a send gives up (beyond
@@ -266,14 +276,14 @@ impl<P: Read + Write> BoardClient<P> {
     pub fn identify(&mut self) -> Result<Identity, ClientError> {
         match self.request(RequestBody::Identify)? {
             ResponseBody::Identity(id) => Ok(id),
-            other => Err(ClientError::Unexpected(format!("{other:?}"))),
+            other => Err(ClientError::Unexpected(Box::new(other))),
         }
     }
 
     fn expect_ack(&mut self, body: RequestBody) -> Result<(), ClientError> {
         match self.request(body)? {
             ResponseBody::Ack => Ok(()),
-            other => Err(ClientError::Unexpected(format!("{other:?}"))),
+            other => Err(ClientError::Unexpected(Box::new(other))),
         }
     }
 
@@ -281,7 +291,7 @@ impl<P: Read + Write> BoardClient<P> {
     pub fn status(&mut self) -> Result<Health, ClientError> {
         match self.request(RequestBody::Status)? {
             ResponseBody::Status(h) => Ok(h),
-            other => Err(ClientError::Unexpected(format!("{other:?}"))),
+            other => Err(ClientError::Unexpected(Box::new(other))),
         }
     }
 
@@ -321,7 +331,7 @@ impl<P: Read + Write> BoardClient<P> {
     pub fn fit_start(&mut self, model: ModelKind, field_nt: f32) -> Result<FitReport, ClientError> {
         match self.request(RequestBody::FitStart { model, field_nt })? {
             ResponseBody::Fit(r) => Ok(r),
-            other => Err(ClientError::Unexpected(format!("{other:?}"))),
+            other => Err(ClientError::Unexpected(Box::new(other))),
         }
     }
 
@@ -329,7 +339,7 @@ impl<P: Read + Write> BoardClient<P> {
     pub fn fit_query(&mut self) -> Result<FitReport, ClientError> {
         match self.request(RequestBody::FitQuery)? {
             ResponseBody::Fit(r) => Ok(r),
-            other => Err(ClientError::Unexpected(format!("{other:?}"))),
+            other => Err(ClientError::Unexpected(Box::new(other))),
         }
     }
 
@@ -337,7 +347,7 @@ impl<P: Read + Write> BoardClient<P> {
     pub fn fit_stop(&mut self) -> Result<FitReport, ClientError> {
         match self.request(RequestBody::FitStop)? {
             ResponseBody::Fit(r) => Ok(r),
-            other => Err(ClientError::Unexpected(format!("{other:?}"))),
+            other => Err(ClientError::Unexpected(Box::new(other))),
         }
     }
 
@@ -345,7 +355,7 @@ impl<P: Read + Write> BoardClient<P> {
     pub fn read_coefficients(&mut self) -> Result<(Coefficients, CoefficientSource, u32), ClientError> {
         match self.request(RequestBody::ReadCoefficients)? {
             ResponseBody::Coefficients { coefficients, source, seq } => Ok((coefficients, source, seq)),
-            other => Err(ClientError::Unexpected(format!("{other:?}"))),
+            other => Err(ClientError::Unexpected(Box::new(other))),
         }
     }
 
@@ -357,11 +367,11 @@ impl<P: Read + Write> BoardClient<P> {
         self.expect_ack(RequestBody::WriteCoefficients(*c))?;
         let seq = match self.request(RequestBody::Commit { crc: c.crc() })? {
             ResponseBody::Committed { seq } => seq,
-            other => return Err(ClientError::Unexpected(format!("{other:?}"))),
+            other => return Err(ClientError::Unexpected(Box::new(other))),
         };
         let (back, source, back_seq) = self.read_coefficients()?;
         if back != *c || source != CoefficientSource::Stored || back_seq != seq {
-            return Err(ClientError::Unexpected(format!("read-back differs: {back:?} #{back_seq}")));
+            return Err(ClientError::ReadBackDiffers { seq, back_seq, stored: source == CoefficientSource::Stored });
         }
         Ok(seq)
     }
@@ -370,7 +380,7 @@ impl<P: Read + Write> BoardClient<P> {
     pub fn ping(&mut self, nonce: u32) -> Result<u32, ClientError> {
         match self.request(RequestBody::Ping { nonce })? {
             ResponseBody::Pong { nonce } => Ok(nonce),
-            other => Err(ClientError::Unexpected(format!("{other:?}"))),
+            other => Err(ClientError::Unexpected(Box::new(other))),
         }
     }
 }

@@ -22,7 +22,7 @@ pub fn attitude_samples(rec: &Recording) -> Result<Vec<AttitudeSample<f64>>, Com
     let roll = rec.roll_deg.as_ref().ok_or(ComputeError::NeedsColumn("roll_deg"))?;
     let pitch = rec.pitch_deg.as_ref().ok_or(ComputeError::NeedsColumn("pitch_deg"))?;
     if roll.iter().chain(pitch).filter(|v| v.is_finite()).any(|v| v.abs() > 180.0) {
-        return Err(ComputeError::Attitude("roll_deg or pitch_deg exceeds 180: the attitude columns must be in degrees".into()));
+        return Err(ComputeError::AttitudeNotDegrees);
     }
     Ok(levelled_samples(rec, roll, pitch, 1.0))
 }

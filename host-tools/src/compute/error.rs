@@ -84,9 +84,9 @@ pub enum ComputeError {
         /// Every candidate and why it was not kept.
         table: String,
     },
-    /// The attitude-aided fit cannot use the recording.
-    #[error("{0}")]
-    Attitude(String),
+    /// The attitude-aided fit's roll or pitch is beyond 180: not degrees.
+    #[error("roll_deg or pitch_deg exceeds 180: the attitude columns must be in degrees")]
+    AttitudeNotDegrees,
     /// The fitted coefficients are no sensor's (refused before any document).
     #[error("the fitted coefficients are unusable: {0}")]
     Unusable(&'static str),

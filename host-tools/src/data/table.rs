@@ -743,6 +743,23 @@ pub(crate) fn write_cells(
     })
 }
 
+/// A line stream's header lacks a column it needs.
+#[derive(Debug, thiserror::Error, PartialEq)]
+#[error("missing column `{column}` (the header has: {header})")]
+pub struct StreamHeaderError {
+    /// The column missing.
+    pub column: String,
+    /// The header as it came.
+    pub header: String,
+}
+
+/// The cells of one CSV line, by the csv crate's rules (quotes included);
+/// empty when the line is not one record.
+fn line_cells(line: &str) -> Vec<String> {
+    let mut reader = csv::ReaderBuilder::new().has_headers(false).flexible(true).from_reader(line.as_bytes());
+    reader.records().next().and_then(Result::ok).map(|r| r.iter().map(str::to_string).collect()).unwrap_or_default()
+}
+
 /// The columns of a line stream (a FIFO, stdin): the header line's
 /// positions of the wanted names, then each line's values.
 #[derive(Debug)]
@@ -752,11 +769,11 @@ pub(crate) struct StreamColumns {
 
 impl StreamColumns {
     /// From the header line; `Err` names the first of `required` missing.
-    pub(crate) fn new(header: &str, wanted: &[&str], required: usize) -> Result<Self, String> {
-        let names: Vec<&str> = header.split(',').collect();
-        let index: Vec<Option<usize>> = wanted.iter().map(|w| column_index(names.iter().copied(), w)).collect();
+    pub(crate) fn new(header: &str, wanted: &[&str], required: usize) -> Result<Self, StreamHeaderError> {
+        let names = line_cells(header);
+        let index: Vec<Option<usize>> = wanted.iter().map(|w| column_index(names.iter().map(String::as_str), w)).collect();
         match wanted.iter().zip(&index).take(required).find(|(_, i)| i.is_none()) {
-            Some((name, _)) => Err(format!("missing column `{name}` (the header has: {header})")),
+            Some((name, _)) => Err(StreamHeaderError { column: (*name).to_string(), header: header.to_string() }),
             None => Ok(Self { index }),
         }
     }
@@ -764,7 +781,7 @@ impl StreamColumns {
     /// The wanted columns' values on a line (NaN where absent); `None` when
     /// a cell is not a number.
     pub(crate) fn values(&self, line: &str) -> Option<Vec<f64>> {
-        let cells: Vec<&str> = line.split(',').collect();
+        let cells = line_cells(line);
         self.index.iter().map(|i| i.and_then(|i| cells.get(i)).map_or(Some(f64::NAN), |c| parse_cell(c))).collect()
     }
 }
@@ -809,7 +826,13 @@ mod tests {
         let s = StreamColumns::new("\u{feff}T , Roll_deg", &["t", "roll_deg", "gx"], 2).unwrap();
         let v = s.values("1.5,2").unwrap();
         assert!(v[0] == 1.5 && v[1] == 2.0 && v[2].is_nan());
-        assert!(StreamColumns::new("t,x", &["t", "roll_deg"], 2).unwrap_err().contains("roll_deg"));
+        let e = StreamColumns::new("t,x", &["t", "roll_deg"], 2).unwrap_err();
+        assert_eq!(e, StreamHeaderError { column: "roll_deg".into(), header: "t,x".into() });
+        assert_eq!(e.to_string(), "missing column `roll_deg` (the header has: t,x)");
+        // Quoted cells by the CSV rules: a comma inside quotes is one cell.
+        let s = StreamColumns::new("\"t\",note,roll_deg", &["t", "roll_deg"], 2).unwrap();
+        let v = s.values("2.5,\"a, b\",-3").unwrap();
+        assert!(v[0] == 2.5 && v[1] == -3.0, "{v:?}");
         assert_eq!((cell(f64::NAN), cell(1.25)), (String::new(), "1.25".to_string()));
     }
 

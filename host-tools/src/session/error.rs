@@ -59,11 +59,27 @@ pub enum SessionError {
     /// A step of the chain left no quality report (the step's name).
     #[error("the {0} left no report")]
     NoReport(&'static str),
-    /// A navigation stream is malformed or was already used (the message
-    /// says which).
-    #[error("{0}")]
-    Io(String),
+    /// A navigation stream is malformed or was already used.
+    #[error(transparent)]
+    NavStream(#[from] NavStreamError),
     /// The coefficients could not be verified on the board.
     #[error("coefficients not verified after {0} attempts")]
     NotVerified(u32),
+}
+
+/// Why a navigation stream cannot be read.
+#[derive(Debug, thiserror::Error)]
+pub enum NavStreamError {
+    /// The stream ended before its header.
+    #[error("navigation stream: empty (expected a header)")]
+    Empty,
+    /// Reading the header failed.
+    #[error("navigation stream: {0}")]
+    Read(#[source] std::io::Error),
+    /// The header lacks a required column.
+    #[error("navigation stream: {0}")]
+    Header(#[from] crate::data::table::StreamHeaderError),
+    /// The phase's stream was used by an earlier phase.
+    #[error("the {0} navigation stream was already used")]
+    AlreadyUsed(&'static str),
 }

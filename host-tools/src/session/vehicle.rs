@@ -6,7 +6,7 @@
 
 use std::io::BufRead;
 
-use super::error::SessionError;
+use super::error::{NavStreamError, SessionError};
 use crate::board::ClientError;
 use crate::data::table::{col, StreamColumns};
 
@@ -125,9 +125,9 @@ impl<R: BufRead> NavStream<R> {
         let mut lines = reader.lines();
         let header = lines
             .next()
-            .ok_or_else(|| SessionError::Io("navigation stream: empty (expected a header)".into()))?
-            .map_err(|e| SessionError::Io(format!("navigation stream: {e}")))?;
-        let columns = StreamColumns::new(&header, &NAV_COLUMNS, 3).map_err(|e| SessionError::Io(format!("navigation stream: {e}")))?;
+            .ok_or(NavStreamError::Empty)?
+            .map_err(NavStreamError::Read)?;
+        let columns = StreamColumns::new(&header, &NAV_COLUMNS, 3).map_err(NavStreamError::Header)?;
         Ok(Self { lines, columns, line_no: 1 })
     }
 
@@ -193,7 +193,7 @@ impl<R: BufRead> Vehicle for NavVehicle<R> {
                 Ok(true)
             }
             None if phase == Phase::Validation => Ok(false),
-            None => Err(SessionError::Io(format!("the {} navigation stream was already used", phase.label()))),
+            None => Err(NavStreamError::AlreadyUsed(phase.label()).into()),
         }
     }
     fn next_step(&mut self) -> Result<Option<Step>, ClientError> {
