@@ -91,8 +91,10 @@ pub fn run(a: Args) -> Result<()> {
         eprintln!("note: --lat/--lon/--date not used: the inclination is the {}", if source == InclinationSource::User { "one given" } else { "document's" });
     }
     let opts = ApplyOptions { field_nt: a.field_nt, inclination_deg, field_sigma_nt: a.field_sigma_nt, tuning: None };
+    let working = super::working(&format!("applying the calibration to {} rows", rec.len()), a.json);
     let applied = apply_recording(&rec, &doc, &opts).with_context(|| format!("{}", a.input.display()))?;
     write_applied(&a.out, &a.input, rec.t_s.as_deref(), &applied)?;
+    working.done();
     eprintln!("wrote {}", a.out.display());
     let truth = read_reference_column(&a.input, "truth_heading_deg")?;
     let reference = match (&truth, &rec.ref_heading_deg) {

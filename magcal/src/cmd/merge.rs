@@ -60,7 +60,9 @@ pub fn run(a: Args) -> Result<()> {
         None => Clock::Estimate { center_s: a.approx_offset_s, max_offset_s: a.max_offset_s },
     };
     let mapped = a.nav_columns.is_some();
+    let working = super::working("merging the logs", a.json);
     let merged = merge_files_mapped(&a.board, &a.nav, &a.nav_columns.unwrap_or_default(), clock).map_err(|e| hint_nav_columns(e, &a.nav, mapped))?;
+    working.done();
     merged.write(&a.out).with_context(|| format!("writing {}", a.out.display()))?;
     let r = &merged.report;
     eprintln!(
