@@ -34,6 +34,14 @@ pub enum ModelKind {
 }
 
 impl ModelKind {
+    /// Every model, in the order the tools list them.
+    pub const ALL: [ModelKind; 6] = [ModelKind::Sphere, ModelKind::Axis, ModelKind::Full, ModelKind::Triangular, ModelKind::Gyro, ModelKind::Attitude];
+
+    /// The model of a document name (`None` when no model has it).
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|m| m.name() == name)
+    }
+
     /// The name used in the calibration document (`docs/INTERFACES.md`).
     pub fn name(self) -> &'static str {
         match self {

@@ -56,7 +56,7 @@ pub enum RequestBody {
     /// Start the on-board recursive fit (restarts one in progress).
     FitStart {
         /// Which model.
-        model: ModelKind,
+        model: OnboardModel,
         /// Reference field intensity, nT.
         field_nt: f32,
     },
@@ -88,7 +88,7 @@ pub enum RequestBody {
     },
     /// Attitude and body rotation rates from the vehicle's AHRS: the
     /// [`RequestBody::Attitude`] for the heading plus what the on-board
-    /// gyro-aided fit ([`ModelKind::Gyro`]) needs. Stale after
+    /// gyro-aided fit ([`OnboardModel::Gyro`]) needs. Stale after
     /// [`ATTITUDE_TIMEOUT_MS`]. (Last in the enum: earlier variants keep
     /// their wire tags.)
     Motion {
@@ -197,10 +197,66 @@ impl Integrity {
     }
 }
 
-/// On-board fit models: calib-core's [`ModelKind`] (the board fits sphere,
-/// axis and full; it refuses the triangular form, which is the full
-/// ellipsoid factored differently — fit `full` and factor on the host).
 pub use calib_core::cal::ModelKind;
+
+/// The models the board fits on its own, as the wire carries them: its own
+/// type, so a model added on the host (triangular, attitude, …) never
+/// changes the encoding. The discriminant is the byte on the wire — the
+/// position each had in calib-core's [`ModelKind`], which the wire carried
+/// before, so the bytes did not change (a gap at 3, once `triangular`,
+/// which the board never fitted: fit `full` and factor it on the host).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[repr(u8)]
+pub enum OnboardModel {
+    /// Bias and one scale.
+    Sphere = 0,
+    /// Bias and three axis scales.
+    Axis = 1,
+    /// Bias and a symmetric matrix.
+    Full = 2,
+    /// The gyro-aided fit (needs [`RequestBody::Motion`]).
+    Gyro = 4,
+}
+
+impl OnboardModel {
+    /// Every on-board model.
+    pub const ALL: [OnboardModel; 4] = [OnboardModel::Sphere, OnboardModel::Axis, OnboardModel::Full, OnboardModel::Gyro];
+
+    /// From its wire byte (`None`: no model the board fits).
+    pub fn from_wire(byte: u8) -> Option<Self> {
+        Self::ALL.into_iter().find(|m| *m as u8 == byte)
+    }
+
+    /// The fit model it is.
+    pub fn kind(self) -> ModelKind {
+        match self {
+            OnboardModel::Sphere => ModelKind::Sphere,
+            OnboardModel::Axis => ModelKind::Axis,
+            OnboardModel::Full => ModelKind::Full,
+            OnboardModel::Gyro => ModelKind::Gyro,
+        }
+    }
+
+    /// The on-board model of a fit model (`None`: the board does not fit it).
+    pub fn of_kind(kind: ModelKind) -> Option<Self> {
+        Self::ALL.into_iter().find(|m| m.kind() == kind)
+    }
+}
+
+impl Serialize for OnboardModel {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        // One byte, as postcard wrote the variant index (a varint, one byte below 128).
+        s.serialize_u8(*self as u8)
+    }
+}
+
+impl<'de> Deserialize<'de> for OnboardModel {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let byte = u8::deserialize(d)?;
+        Self::from_wire(byte).ok_or_else(|| <D::Error as serde::de::Error>::custom("not a model the board fits"))
+    }
+}
 
 /// The coefficients the board applies: `h = matrix·(raw ⊘ (1 + gain_per_c ⊙
 /// (temp_c − ref_c)) − bias − bias_per_a · motor_current_a)` (the
@@ -395,7 +451,7 @@ pub struct FitReport {
     /// Absorbing samples now.
     pub running: bool,
     /// Model (None before the first start).
-    pub model: Option<ModelKind>,
+    pub model: Option<OnboardModel>,
     /// Samples absorbed.
     pub samples: u32,
     /// Percent of field-direction bins visited.

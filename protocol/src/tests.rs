@@ -193,7 +193,7 @@ fn the_largest_messages_fit_in_a_frame() {
         Response { seq: Some(u16::MAX), body: ResponseBody::Coefficients { coefficients: c, source: CoefficientSource::Stored, seq: u32::MAX } },
         Response {
             seq: Some(u16::MAX),
-            body: ResponseBody::Fit(FitReport { running: true, model: Some(ModelKind::Full), samples: u32::MAX, coverage_pct: 100, residual_rms_nt: 1.0, estimate: Some(c) }),
+            body: ResponseBody::Fit(FitReport { running: true, model: Some(OnboardModel::Full), samples: u32::MAX, coverage_pct: 100, residual_rms_nt: 1.0, estimate: Some(c) }),
         },
         Response {
             seq: Some(u16::MAX),
@@ -257,7 +257,7 @@ fn version_3_appends_to_the_version_2_layout() {
             216, 72, 0,
         ],
     ];
-    let bodies = [RequestBody::FitStart { model: ModelKind::Full, field_nt: 48730.0 }, RequestBody::WriteCoefficients(c)];
+    let bodies = [RequestBody::FitStart { model: OnboardModel::Full, field_nt: 48730.0 }, RequestBody::WriteCoefficients(c)];
     for (body, old) in bodies.into_iter().zip(golden_v2) {
         let mut old_decoded = [0u8; MAX_FRAME_LEN];
         let m = cobs::decode(&old[..old.len() - 1], &mut old_decoded).unwrap().frame_size();
@@ -342,4 +342,23 @@ fn integrity_tags_are_calib_cores_and_nmea_is_appended() {
     let mut buf = [0u8; 4];
     assert_eq!(postcard::to_slice(&StreamMode::Both, &mut buf).unwrap(), &[3]);
     assert_eq!(postcard::to_slice(&StreamMode::Nmea, &mut buf).unwrap(), &[4]);
+}
+
+/// The on-board models' wire bytes are the variant indices calib-core's
+/// `ModelKind` had on the wire before (Sphere 0, Axis 1, Full 2, Gyro 4:
+/// postcard wrote an enum's index as a varint, one byte below 128), so the
+/// encoding did not change; the bytes of models the board does not fit
+/// (3, once triangular; 5, attitude) no longer decode at all.
+#[test]
+fn on_board_models_keep_their_wire_bytes() {
+    let mut buf = [0u8; 4];
+    for (m, byte) in [(OnboardModel::Sphere, 0u8), (OnboardModel::Axis, 1), (OnboardModel::Full, 2), (OnboardModel::Gyro, 4)] {
+        assert_eq!(postcard::to_slice(&m, &mut buf).unwrap(), &[byte]);
+        assert_eq!(postcard::from_bytes::<OnboardModel>(&[byte]).unwrap(), m);
+        assert_eq!(OnboardModel::of_kind(m.kind()), Some(m));
+    }
+    for byte in [3u8, 5, 127, 200] {
+        assert!(postcard::from_bytes::<OnboardModel>(&[byte]).is_err(), "{byte}");
+    }
+    assert_eq!(OnboardModel::of_kind(ModelKind::Triangular), None);
 }

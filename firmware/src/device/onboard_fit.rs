@@ -11,7 +11,7 @@ use calib_core::cal::FieldCal;
 use calib_core::fit::{AxisRls, FitError, FullRls, Model, Normalization, RecursiveFit, SphereRls};
 use calib_core::gyro::{GyroConfig, GyroFit, GyroSample, MAX_WINDOW_STEPS};
 use calib_core::quality::CoverageMask;
-use magcal_protocol::{Coefficients, DeviceError, FitReport, ModelKind, RequestBody, ResponseBody};
+use magcal_protocol::{Coefficients, DeviceError, FitReport, OnboardModel, RequestBody, ResponseBody};
 
 use super::coefficients::{validate, FIELD_RANGE_NT};
 use super::inputs::{fresh, Motion};
@@ -104,7 +104,7 @@ impl Rls {
 
 /// A fit in progress (or stopped, its last state readable).
 pub(super) struct OnboardFit {
-    model: ModelKind,
+    model: OnboardModel,
     field_nt: f32,
     /// The normalisation's centre, raw counts (the bias in use at the start).
     centre: [f32; 3],
@@ -118,25 +118,23 @@ pub(super) struct OnboardFit {
 }
 
 impl OnboardFit {
-    /// `None` for a model the board does not fit (triangular: fit `full`,
-    /// the same calibration, and factor it on the host). The gyro-aided fit
-    /// integrates the rates of [`RequestBody::Motion`] between output
-    /// samples (`output_rate_hz`).
-    fn new(model: ModelKind, field_nt: f32, centre: [f32; 3], output_rate_hz: u8, now_ms: u32) -> Option<Self> {
+    /// A fit of an on-board model (the wire type holds no other). The
+    /// gyro-aided fit integrates the rates of [`RequestBody::Motion`]
+    /// between output samples (`output_rate_hz`).
+    fn new(model: OnboardModel, field_nt: f32, centre: [f32; 3], output_rate_hz: u8, now_ms: u32) -> Self {
         let norm = Normalization { centre, scale: field_nt * COUNTS_PER_NT };
         let rls = match model {
-            ModelKind::Sphere => Rls::Sphere(SphereRls::new(norm)),
-            ModelKind::Axis => Rls::Axis(AxisRls::new(norm)),
-            ModelKind::Full => Rls::Full(FullRls::new(norm)),
-            ModelKind::Gyro => {
+            OnboardModel::Sphere => Rls::Sphere(SphereRls::new(norm)),
+            OnboardModel::Axis => Rls::Axis(AxisRls::new(norm)),
+            OnboardModel::Full => Rls::Full(FullRls::new(norm)),
+            OnboardModel::Gyro => {
                 let period_s = 1.0 / f32::from(output_rate_hz.max(1));
                 let mut cfg = GyroConfig::new(3.0 * period_s);
                 cfg.window_steps = ((GYRO_WINDOW_S / period_s + 0.5) as usize).clamp(1, MAX_WINDOW_STEPS);
                 Rls::Gyro(GyroRun { fit: GyroFit::new(norm, cfg), start_ms: now_ms })
             }
-            ModelKind::Triangular | ModelKind::Attitude => return None,
         };
-        Some(Self { model, field_nt, centre, rls, coverage: CoverageMask::new(), running: true, recent: heapless::Deque::new(), rejected: 0 })
+        Self { model, field_nt, centre, rls, coverage: CoverageMask::new(), running: true, recent: heapless::Deque::new(), rejected: 0 }
     }
 
     /// Absorbs a sample if running; refuses (`false`) one whose distance
@@ -211,10 +209,7 @@ impl Device {
                 if !(field_nt >= FIELD_RANGE_NT.0 && field_nt <= FIELD_RANGE_NT.1) {
                     return self.refuse(DeviceError::BadArgument);
                 }
-                let Some(fit) = OnboardFit::new(model, field_nt, self.calibration.field.bias, self.output_rate_hz(), now_ms) else {
-                    return self.refuse(DeviceError::Unsupported);
-                };
-                self.fit = Some(fit);
+                self.fit = Some(OnboardFit::new(model, field_nt, self.calibration.field.bias, self.output_rate_hz(), now_ms));
                 ResponseBody::Fit(self.fit_report())
             }
             RequestBody::FitStop => {

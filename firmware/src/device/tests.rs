@@ -1,7 +1,7 @@
 use super::*;
 use crate::acquisition::{RawSample, COUNTS_PER_NT};
 use calib_core::cal::EnvTerms;
-use magcal_protocol::{FitReport, ModelKind, StreamMode, ATTITUDE_TIMEOUT_MS, MAX_MOTOR_CURRENT_A, UNLOCK_TIMEOUT_MS, UNLOCK_XOR};
+use magcal_protocol::{FitReport, OnboardModel, StreamMode, ATTITUDE_TIMEOUT_MS, MAX_MOTOR_CURRENT_A, UNLOCK_TIMEOUT_MS, UNLOCK_XOR};
 use calib_core::conformance::SplitMix64;
 use calib_core::heading::{magnetic_heading_rad, ned_field, ned_to_body, wrap_pi};
 
@@ -155,8 +155,8 @@ fn the_onboard_fit_converges_to_the_truth() {
     let d_mat = [[1.03, 0.01, 0.0], [0.01, 0.97, 0.02], [0.0, 0.02, 1.01]];
     let mut dev = device();
     let mut s = store();
-    assert!(matches!(req(&mut dev, RequestBody::FitStart { model: ModelKind::Full, field_nt: 5.0 }, 0, &mut s), ResponseBody::Error(DeviceError::BadArgument)));
-    assert!(matches!(req(&mut dev, RequestBody::FitStart { model: ModelKind::Full, field_nt: f as f32 }, 0, &mut s), ResponseBody::Fit(_)));
+    assert!(matches!(req(&mut dev, RequestBody::FitStart { model: OnboardModel::Full, field_nt: 5.0 }, 0, &mut s), ResponseBody::Error(DeviceError::BadArgument)));
+    assert!(matches!(req(&mut dev, RequestBody::FitStart { model: OnboardModel::Full, field_nt: f as f32 }, 0, &mut s), ResponseBody::Fit(_)));
     let mut rng = SplitMix64::new(3);
     let mut truth_cal = None;
     for _ in 0..3000 {
@@ -200,7 +200,7 @@ fn the_onboard_gyro_fit_calibrates_a_vehicle_that_cannot_tumble() {
     let d_mat = [[1.03, 0.02, 0.0], [-0.01, 0.97, 0.02], [0.01, 0.0, 1.01]];
     let mut dev = device();
     let mut s = store();
-    let r = req(&mut dev, RequestBody::FitStart { model: ModelKind::Gyro, field_nt: f as f32 }, 0, &mut s);
+    let r = req(&mut dev, RequestBody::FitStart { model: OnboardModel::Gyro, field_nt: f as f32 }, 0, &mut s);
     assert!(matches!(r, ResponseBody::Fit(_)), "{r:?}");
     let mut rng = SplitMix64::new(8);
     let ned = ned_field(f, 1.0, 0.0);
@@ -242,7 +242,7 @@ fn the_onboard_gyro_fit_calibrates_a_vehicle_that_cannot_tumble() {
         assert!((f64::from(est.bias[k]) - b[k]).abs() < 3_000.0, "{:?}", est.bias);
     }
     // Without Motion messages the fit gets no windows, and says so.
-    let r = req(&mut dev, RequestBody::FitStart { model: ModelKind::Gyro, field_nt: f as f32 }, 400_000, &mut s);
+    let r = req(&mut dev, RequestBody::FitStart { model: OnboardModel::Gyro, field_nt: f as f32 }, 400_000, &mut s);
     assert!(matches!(r, ResponseBody::Fit(_)));
     for step in 0..100u32 {
         dev.on_raw_sample(&RawSample { field_counts: [40_000.0 + step as f32, -15_000.0, 1_800_000.0], saturated: false, tag: None, temp_c: Some(20.0) }, 400_000 + 500 + step * 100);
@@ -253,14 +253,6 @@ fn the_onboard_gyro_fit_calibrates_a_vehicle_that_cannot_tumble() {
     // A rate beyond any gyro's range is refused.
     let bad = RequestBody::Motion { roll_rad: 0.0, pitch_rad: 0.0, rate_rad_s: [0.0, 40.0, 0.0] };
     assert_eq!(req(&mut dev, bad, 0, &mut s), ResponseBody::Error(DeviceError::BadArgument));
-}
-
-#[test]
-fn the_triangular_model_is_not_fitted_on_board() {
-    let mut dev = Device::new(Boot { stored: None, challenge: 1 });
-    let mut s = store();
-    let r = req(&mut dev, RequestBody::FitStart { model: ModelKind::Triangular, field_nt: 48_730.0 }, 0, &mut s);
-    assert_eq!(r, ResponseBody::Error(DeviceError::Unsupported));
 }
 
 /// The fuzz target's seeds: valid unlock / write / commit sequences (and a
@@ -291,7 +283,7 @@ fn fuzz_seed_corpus_is_current() {
             frame(7, RequestBody::ReadCoefficients),
         ],
         vec![frame(1, RequestBody::SetMissionMode { enabled: true }), frame(2, RequestBody::Unlock { key }), frame(3, RequestBody::SetMissionMode { enabled: false }), frame(4, RequestBody::Unlock { key })],
-        vec![frame(1, RequestBody::FitStart { model: ModelKind::Full, field_nt: 48_730.0 }), frame(2, RequestBody::FitQuery), frame(3, RequestBody::SetStream(StreamMode::Both)), frame(4, RequestBody::Attitude { roll_rad: 0.1, pitch_rad: -0.05 }), frame(5, RequestBody::AttitudeEnv { roll_rad: 0.1, pitch_rad: -0.05, motor_current_a: 12.5 })],
+        vec![frame(1, RequestBody::FitStart { model: OnboardModel::Full, field_nt: 48_730.0 }), frame(2, RequestBody::FitQuery), frame(3, RequestBody::SetStream(StreamMode::Both)), frame(4, RequestBody::Attitude { roll_rad: 0.1, pitch_rad: -0.05 }), frame(5, RequestBody::AttitudeEnv { roll_rad: 0.1, pitch_rad: -0.05, motor_current_a: 12.5 })],
     ];
     // The first seed does commit on a device with the fuzz target's challenge.
     let mut dev = Device::new(Boot { stored: None, challenge: FUZZ_CHALLENGE });

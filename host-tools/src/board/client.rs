@@ -6,7 +6,7 @@ use std::io::{self, Read, Write};
 use std::time::{Duration, Instant};
 
 use magcal_protocol::{
-    self as proto, Coefficients, CoefficientSource, ModelKind, FitReport, FrameDecoder, FrameError, Health, Identity, Request,
+    self as proto, Coefficients, CoefficientSource, OnboardModel, FitReport, FrameDecoder, FrameError, Health, Identity, Request,
     RequestBody, Response, ResponseBody, Sample, StreamMode, MAX_FRAME_LEN, UNLOCK_XOR,
 };
 
@@ -328,7 +328,7 @@ impl<P: Read + Write> BoardClient<P> {
     }
 
     /// Starts the on-board fit.
-    pub fn fit_start(&mut self, model: ModelKind, field_nt: f32) -> Result<FitReport, ClientError> {
+    pub fn fit_start(&mut self, model: OnboardModel, field_nt: f32) -> Result<FitReport, ClientError> {
         match self.request(RequestBody::FitStart { model, field_nt })? {
             ResponseBody::Fit(r) => Ok(r),
             other => Err(ClientError::Unexpected(Box::new(other))),

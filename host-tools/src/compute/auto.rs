@@ -40,9 +40,12 @@ pub const FOLDS: usize = 5;
 /// No candidate with a held-out error above this is kept, degrees.
 pub const MAX_HELD_OUT_DEG: f64 = 5.0;
 
-/// The models `auto` tries, in the order of the table (the triangular form
-/// is the full model re-expressed, so it is not tried apart).
-pub const CANDIDATES: [ModelKind; 5] = [ModelKind::Attitude, ModelKind::Gyro, ModelKind::Full, ModelKind::Axis, ModelKind::Sphere];
+/// The models `auto` tries, in the order of its table: the registry's
+/// candidates, richest first (the triangular form is the full model
+/// re-expressed, so it is not tried apart).
+pub fn candidates() -> impl Iterator<Item = ModelKind> {
+    super::models::MODELS.iter().rev().filter(|e| e.auto_candidate).map(|e| e.kind)
+}
 
 /// One candidate's row of the table.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -99,10 +102,11 @@ fn basis_of(rec: &Recording) -> HeldOutBasis {
 
 /// Whether the recording's columns allow a model at all.
 fn allowed(model: ModelKind, rec: &Recording) -> Result<(), String> {
-    match model {
-        ModelKind::Attitude if rec.roll_deg.is_none() || rec.pitch_deg.is_none() => Err("needs roll_deg, pitch_deg".into()),
-        ModelKind::Gyro if rec.t_s.is_none() || rec.gyro_rad_s().is_none() => Err("needs t, gx, gy, gz".into()),
-        _ => Ok(()),
+    let missing = super::models::missing_columns(model, rec);
+    if missing.is_empty() {
+        Ok(())
+    } else {
+        Err(format!("needs {}", super::models::entry(model).needs.join(", ")))
     }
 }
 
@@ -196,9 +200,9 @@ pub fn fit_auto(rec: &Recording, opts: &FitOptions) -> Result<(CalDoc, AutoChoic
     let units = super::attitude::check_attitude_units(rec, opts.field_nt).map_err(|e| e.to_string());
     let mut rows = Vec::new();
     let mut best: Option<(f64, CalDoc)> = None;
-    for model in CANDIDATES {
+    for model in candidates() {
         let mut row = CandidateRow { model: model.name().to_string(), held_out_deg: None, predicted_deg: None, refused: None, note: None };
-        let levelling = matches!(model, ModelKind::Gyro | ModelKind::Attitude);
+        let levelling = super::models::entry(model).levelled;
         if let Err(why) = allowed(model, rec).and(if levelling { units.clone() } else { Ok(()) }) {
             row.refused = Some(why);
             rows.push(row);
@@ -244,7 +248,7 @@ pub fn fit_auto(rec: &Recording, opts: &FitOptions) -> Result<(CalDoc, AutoChoic
 /// disagreement, unusable coefficients); the attitude columns' units were
 /// checked once for all ([`fit_auto`]).
 fn fit_candidate(rec: &Recording, model: ModelKind, opts: &FitOptions) -> Result<(CalDoc, Option<String>), ComputeError> {
-    let magnitude_gate = !matches!(model, ModelKind::Gyro | ModelKind::Attitude);
+    let magnitude_gate = !super::models::entry(model).levelled;
     let doc = fit_with(rec, &FitOptions { model, ..opts.clone() }, Checks { attitude_units: false, magnitude_gate })?;
     let note = doc.quality.fit.as_ref().and_then(|f| f.warnings.iter().find(|w| w.contains("judged on held-out data instead")).cloned());
     Ok((doc, note))

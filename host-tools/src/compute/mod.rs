@@ -4,6 +4,7 @@
 //! session, the simulator's scenario harness, the bench and the CLI all call.
 //!
 //! * [`auto`]: `fit --model auto`, every allowed model judged on held-out blocks;
+//! * [`models`]: the registry of field models (help, needed columns, how `auto` treats each);
 //! * [`fit`]: field (ellipsoid) fits; [`attitude`]: the attitude-aided fit (no gyro, no tumble); [`units`]: the recording's units;
 //! * [`backstep`]: the out-and-back refinement (the paper's and ours);
 //! * [`swing`]: the Fourier heading fit against a reference heading; [`compass`]: the same for a heading-only compass;
@@ -24,6 +25,7 @@ pub mod compass;
 pub mod error;
 pub mod fit;
 pub mod gyro;
+pub mod models;
 pub mod ortho;
 pub mod reference;
 pub mod swing;

@@ -124,21 +124,16 @@ mod model_name {
     }
     pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<ModelKind, D::Error> {
         let name = String::deserialize(d)?;
-        super::model_kind(&name).ok_or_else(|| D::Error::custom(format!("unknown model `{name}` (expected sphere, axis, full, triangular, gyro or attitude)")))
+        ModelKind::from_name(&name).ok_or_else(|| {
+            let names: Vec<&str> = ModelKind::ALL.iter().map(|m| m.name()).collect();
+            D::Error::custom(format!("unknown model `{name}` (expected one of {})", names.join(", ")))
+        })
     }
 }
 
-/// The document name of a model.
+/// The document name of a model ([`ModelKind::from_name`]).
 pub fn model_kind(name: &str) -> Option<ModelKind> {
-    match name {
-        "sphere" => Some(ModelKind::Sphere),
-        "axis" => Some(ModelKind::Axis),
-        "full" => Some(ModelKind::Full),
-        "triangular" => Some(ModelKind::Triangular),
-        "gyro" => Some(ModelKind::Gyro),
-        "attitude" => Some(ModelKind::Attitude),
-        _ => None,
-    }
+    ModelKind::from_name(name)
 }
 
 /// Why a calibration's coefficients are unusable, in words.

@@ -292,7 +292,7 @@ pub fn prepare_board<P: Read + Write>(link: &mut BoardClient<P>, stream: StreamM
     link.set_output_rate(100)?;
     link.set_stream(stream)?;
     if let Some(f) = fit {
-        link.fit_start(magcal_protocol::ModelKind::Axis, f)?;
+        link.fit_start(magcal_protocol::OnboardModel::Axis, f)?;
     }
     link.clear_samples();
     Ok(())

@@ -4,6 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use calib_core::cal::ModelKind;
+use host_tools::compute::models::MODELS;
 use host_tools::compute::{self, FitOptions, GyroLag};
 use host_tools::data::caldoc::model_kind;
 use host_tools::data::Recording;
@@ -24,15 +25,8 @@ enum ModelArg {
 /// `--model`: `auto` or calib-core's `ModelKind` by its document name.
 fn model_parser() -> impl clap::builder::TypedValueParser<Value = ModelArg> {
     use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
-    PossibleValuesParser::new([
-        PossibleValue::new("auto").help("Every model the recording's columns allow, each judged on held-out time blocks of the recording; the best kept (the default)"),
-        PossibleValue::new("sphere").help("Bias and one scale"),
-        PossibleValue::new("axis").help("Bias and three axis scales (paper 000, eqs 12–17)"),
-        PossibleValue::new("full").help("Bias and a symmetric soft-iron matrix"),
-        PossibleValue::new("triangular").help("Bias and paper 001's upper-triangular non-orthogonality and gains"),
-        PossibleValue::new("attitude").help("Attitude-aided: bias and soft-iron matrix from the levelled field's constant vertical and horizontal parts (needs roll_deg, pitch_deg; no gyro) — for gliders, AUVs and boats that cannot tumble"),
-        PossibleValue::new("gyro").help("Gyro-aided: bias and symmetric soft iron from how the readings rotate (needs t, gx, gy, gz; roll_deg, pitch_deg help) — for vehicles that cannot tumble"),
-    ])
+    let auto = PossibleValue::new("auto").help("Every model the recording's columns allow, each judged on held-out time blocks of the recording; the best kept (the default)");
+    PossibleValuesParser::new(std::iter::once(auto).chain(MODELS.iter().map(|e| PossibleValue::new(e.kind.name()).help(e.help))))
     .try_map(|name| if name == "auto" { Ok(ModelArg::Auto) } else { model_kind(&name).map(ModelArg::Kind).ok_or_else(|| format!("unknown model `{name}`")) })
 }
 

@@ -205,7 +205,7 @@ fn the_onboard_fit_runs_on_the_mcu_and_reports_convergence() {
     let mut feed = FeedWriter::open(board.sensor_port().expect("feed pty")).expect("open feed");
     link.identify().expect("identify");
     link.set_output_rate(100).unwrap();
-    link.fit_start(magcal_protocol::ModelKind::Full, 48_730.0).unwrap();
+    link.fit_start(magcal_protocol::OnboardModel::Full, 48_730.0).unwrap();
     // Until the first feed frame arrives the bridges read zero: the board's
     // plausibility gate keeps those samples out of the fit.
     // Tumble the simulated sensor smoothly (a spiral over the sphere, 1.5° a

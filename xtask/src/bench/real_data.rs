@@ -22,7 +22,7 @@ use serde_json::json;
 const GLIDER_JUDGE_DEPTH_M: f64 = 3.0;
 
 /// Every `fit --model`.
-const MODELS: [ModelKind; 6] = [ModelKind::Sphere, ModelKind::Axis, ModelKind::Full, ModelKind::Triangular, ModelKind::Gyro, ModelKind::Attitude];
+const MODELS: [ModelKind; 6] = ModelKind::ALL;
 
 /// A numeric column read apart (the recording reader ignores it), by the
 /// product's one table reader.

@@ -1,0 +1,95 @@
+//! The host's model registry: every field-calibration model with its help,
+//! the recording columns it needs beyond `mx, my, mz`, whether `fit --model
+//! auto` tries it and how it is judged. The command line, `fit --model
+//! auto`, the document reader (through [`ModelKind::from_name`]) and the
+//! bench iterate this list; a new model is one entry here plus its fit.
+//! (The board's own models are the wire's `OnboardModel`, apart.)
+
+use calib_core::cal::ModelKind;
+
+use crate::data::table::col;
+use crate::data::Recording;
+
+/// One model as the tools know it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ModelEntry {
+    /// The model.
+    pub kind: ModelKind,
+    /// One line for `--help`.
+    pub help: &'static str,
+    /// Columns it needs beyond `mx, my, mz`.
+    pub needs: &'static [&'static str],
+    /// Tried by `fit --model auto`.
+    pub auto_candidate: bool,
+    /// Fitted from the levelled field (roll and pitch or the gyro), so its
+    /// in-sample magnitudes are not its judge and its attitude columns must
+    /// be degrees.
+    pub levelled: bool,
+}
+
+/// Every model, in the order the tools list them ([`ModelKind::ALL`]).
+pub const MODELS: [ModelEntry; 6] = [
+    ModelEntry { kind: ModelKind::Sphere, help: "Bias and one scale", needs: &[], auto_candidate: true, levelled: false },
+    ModelEntry { kind: ModelKind::Axis, help: "Bias and three axis scales (paper 000, eqs 12–17)", needs: &[], auto_candidate: true, levelled: false },
+    ModelEntry { kind: ModelKind::Full, help: "Bias and a symmetric soft-iron matrix", needs: &[], auto_candidate: true, levelled: false },
+    ModelEntry { kind: ModelKind::Triangular, help: "Bias and paper 001's upper-triangular non-orthogonality and gains", needs: &[], auto_candidate: false, levelled: false },
+    ModelEntry {
+        kind: ModelKind::Gyro,
+        help: "Gyro-aided: bias and symmetric soft iron from how the readings rotate (needs t, gx, gy, gz; roll_deg, pitch_deg help) — for vehicles that cannot tumble",
+        needs: &[col::T, col::GYRO[0], col::GYRO[1], col::GYRO[2]],
+        auto_candidate: true,
+        levelled: true,
+    },
+    ModelEntry {
+        kind: ModelKind::Attitude,
+        help: "Attitude-aided: bias and soft-iron matrix from the levelled field's constant vertical and horizontal parts (needs roll_deg, pitch_deg; no gyro) — for gliders, AUVs and boats that cannot tumble",
+        needs: &[col::ROLL_DEG, col::PITCH_DEG],
+        auto_candidate: true,
+        levelled: true,
+    },
+];
+
+/// The entry of a model.
+pub fn entry(kind: ModelKind) -> &'static ModelEntry {
+    // Every kind has an entry (the test below); the first is a safe fallback.
+    MODELS.iter().find(|e| e.kind == kind).unwrap_or(&MODELS[0])
+}
+
+/// The columns of `entry.needs` the recording lacks.
+pub fn missing_columns(kind: ModelKind, rec: &Recording) -> Vec<&'static str> {
+    entry(kind)
+        .needs
+        .iter()
+        .copied()
+        .filter(|c| match *c {
+            col::T => rec.t_s.is_none(),
+            col::ROLL_DEG => rec.roll_deg.is_none(),
+            col::PITCH_DEG => rec.pitch_deg.is_none(),
+            _ => rec.gyro_rad_s().is_none(),
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_model_has_one_entry_in_calib_cores_order() {
+        let kinds: Vec<ModelKind> = MODELS.iter().map(|e| e.kind).collect();
+        assert_eq!(kinds, ModelKind::ALL.to_vec());
+        for k in ModelKind::ALL {
+            assert_eq!(ModelKind::from_name(k.name()), Some(k));
+            assert_eq!(entry(k).kind, k);
+        }
+        assert_eq!(ModelKind::from_name("ellipsoid"), None);
+    }
+
+    #[test]
+    fn a_recording_without_the_gyro_lacks_what_the_gyro_model_needs() {
+        let rec = Recording { mag: vec![[1.0, 2.0, 3.0]], roll_deg: Some(vec![0.0]), pitch_deg: Some(vec![0.0]), ..Recording::default() };
+        assert_eq!(missing_columns(ModelKind::Gyro, &rec), vec!["t", "gx", "gy", "gz"]);
+        assert!(missing_columns(ModelKind::Attitude, &rec).is_empty());
+        assert!(missing_columns(ModelKind::Full, &Recording::default()).is_empty());
+    }
+}
