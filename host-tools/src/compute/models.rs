@@ -93,3 +93,16 @@ mod tests {
         assert!(missing_columns(ModelKind::Full, &Recording::default()).is_empty());
     }
 }
+
+#[cfg(test)]
+mod auto_order {
+    use calib_core::cal::ModelKind;
+
+    /// `fit --model auto`'s table lists the richest models first, and not
+    /// the triangular form (the full model re-expressed).
+    #[test]
+    fn auto_tries_the_richest_models_first() {
+        let order: Vec<ModelKind> = crate::compute::auto::candidates().collect();
+        assert_eq!(order, [ModelKind::Attitude, ModelKind::Gyro, ModelKind::Full, ModelKind::Axis, ModelKind::Sphere]);
+    }
+}
