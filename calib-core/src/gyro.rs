@@ -611,7 +611,7 @@ impl<T: Real> LmProblem<T, TIMING> for GyroTimingProblem<'_, T> {
             let h = mul_mat_vec(&n.a, r);
             [h[0] - n.c[0], h[1] - n.c[1], h[2] - n.c[2]]
         };
-        let mut lin = Linearisation { jtj: [[T::ZERO; TIMING]; TIMING], jtr: [T::ZERO; TIMING], cost: T::ZERO };
+        let mut lin = Linearisation::zero();
         let mut windows = 0u32;
         for s in self.samples {
             if !(s.t_s.is_finite() && s.raw.iter().chain(s.rate_rad_s.iter()).all(|v| v.is_finite())) {
@@ -631,14 +631,8 @@ impl<T: Real> LmProblem<T, TIMING> for GyroTimingProblem<'_, T> {
                 let p = mul_mat_vec(&rot, hi);
                 *col = [-(p[0] - p0[0]) / eps, -(p[1] - p0[1]) / eps, -(p[2] - p0[2]) / eps];
             }
-            for m in 0..3 {
-                lin.cost += e[m] * e[m];
-                for a in 0..TIMING {
-                    lin.jtr[a] += cols[a][m] * e[m];
-                    for b in 0..TIMING {
-                        lin.jtj[a][b] += cols[a][m] * cols[b][m];
-                    }
-                }
+            for (m, &em) in e.iter().enumerate() {
+                lin.add_row(&core::array::from_fn(|a| cols[a][m]), em);
             }
             windows += 1;
         }

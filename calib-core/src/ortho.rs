@@ -472,16 +472,10 @@ impl<T: Real> MlProblem<'_, T> {
 impl<T: Real> LmProblem<T, 6> for MlProblem<'_, T> {
     fn linearise(&mut self, p: &[T; 6]) -> Option<Linearisation<T, 6>> {
         let tri = Triangular { q: [p[0], p[1], p[2], p[3], p[4]] };
-        let mut lin = Linearisation { jtj: [[T::ZERO; 6]; 6], jtr: [T::ZERO; 6], cost: T::ZERO };
+        let mut lin = Linearisation::zero();
         for b in self.normalised() {
             let (e, d) = ml_residual(&tri, p[5], b)?;
-            lin.cost += e * e;
-            for i in 0..6 {
-                lin.jtr[i] += d[i] * e;
-                for j in 0..6 {
-                    lin.jtj[i][j] += d[i] * d[j];
-                }
-            }
+            lin.add_row(&d, e);
         }
         Some(lin)
     }

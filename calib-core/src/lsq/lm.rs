@@ -27,6 +27,32 @@ pub struct Linearisation<T, const N: usize> {
     pub cost: T,
 }
 
+impl<T: Real, const N: usize> Linearisation<T, N> {
+    /// Normal equations of no residual: every problem starts from these
+    /// and adds its residuals row by row ([`Linearisation::add_row`]).
+    pub fn zero() -> Self {
+        Self { jtj: [[T::ZERO; N]; N], jtr: [T::ZERO; N], cost: T::ZERO }
+    }
+
+    /// Adds one residual `r` with its Jacobian row `j` (`∂r/∂p`).
+    pub fn add_row(&mut self, j: &[T; N], r: T) {
+        self.add_weighted_row(j, r, T::ONE);
+    }
+
+    /// Adds one residual with weight `w` (its information): `JᵀWJ`, `JᵀWr`,
+    /// `w·r²`.
+    pub fn add_weighted_row(&mut self, j: &[T; N], r: T, w: T) {
+        self.cost += w * r * r;
+        for (a, row) in self.jtj.iter_mut().enumerate() {
+            let wa = w * j[a];
+            self.jtr[a] += wa * r;
+            for (b, m) in row.iter_mut().enumerate() {
+                *m += wa * j[b];
+            }
+        }
+    }
+}
+
 /// A non-linear least-squares problem for [`solve`].
 pub trait LmProblem<T, const N: usize> {
     /// The normal equations at `p`; `None` where the model cannot be
@@ -289,6 +315,20 @@ fn try_steps<T: Real, const N: usize>(
 
 #[cfg(test)]
 mod tests {
+    /// The builder's normal equations against the same sums written out
+    /// (a 3-residual, 2-parameter problem computed by hand).
+    #[test]
+    fn the_builder_adds_rows_as_the_normal_equations_say() {
+        let mut lin = Linearisation::<f64, 2>::zero();
+        lin.add_row(&[1.0, 2.0], 0.5);
+        lin.add_row(&[-1.0, 0.0], 2.0);
+        lin.add_weighted_row(&[0.0, 3.0], -1.0, 4.0);
+        // JᵀWJ = [[1+1, 2], [2, 4+36]], JᵀWr = [0.5−2, 1−12], Σwr² = 0.25+4+4.
+        assert_eq!(lin.jtj, [[2.0, 2.0], [2.0, 40.0]]);
+        assert_eq!(lin.jtr, [-1.5, -11.0]);
+        assert_eq!(lin.cost, 8.25);
+    }
+
     use super::*;
 
     /// Rosenbrock's function as least squares: r = (10(y − x²), 1 − x),
