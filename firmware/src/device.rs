@@ -171,24 +171,22 @@ impl Device {
     /// outside any lock (an erase stalls the CPU for up to 800 ms) and hand
     /// back to [`Device::finish_commit`].
     pub fn handle_request(&mut self, req: &RequestBody, now_ms: u32, board: &BoardCounters) -> Handled {
-        Handled::Reply(match *req {
+        Handled::Reply(match Routed::of(req) {
             // Answered by the link layer; here for completeness.
-            RequestBody::Ping { nonce } => ResponseBody::Pong { nonce },
-            RequestBody::Identify => ResponseBody::Error(DeviceError::Unsupported),
-            RequestBody::Status => ResponseBody::Status(self.health(now_ms, board)),
-            RequestBody::SetStream(_) | RequestBody::SetOutputRate { .. } => match self.pipeline.set_output(req) {
+            Routed::Ping { nonce } => ResponseBody::Pong { nonce },
+            Routed::Identify => ResponseBody::Error(DeviceError::Unsupported),
+            Routed::Status => ResponseBody::Status(self.health(now_ms, board)),
+            Routed::Output(r) => match self.pipeline.set_output(r) {
                 Ok(()) => ResponseBody::Ack,
                 Err(e) => self.refuse(e),
             },
-            RequestBody::Attitude { .. } | RequestBody::Motion { .. } | RequestBody::AttitudeEnv { .. } => match self.inputs.accept(req, now_ms) {
+            Routed::Input(r) => match self.inputs.accept(r, now_ms) {
                 Ok(()) => ResponseBody::Ack,
                 Err(e) => self.refuse(e),
             },
-            RequestBody::FitStart { .. } | RequestBody::FitStop | RequestBody::FitQuery => self.handle_fit(req, now_ms),
-            RequestBody::ReadCoefficients | RequestBody::Unlock { .. } | RequestBody::WriteCoefficients(_) | RequestBody::Commit { .. } => {
-                return self.handle_coefficients(req, now_ms);
-            }
-            RequestBody::SetMissionMode { enabled } => {
+            Routed::Fit(r) => self.handle_fit(r, now_ms),
+            Routed::Coefficients(r) => return self.handle_coefficients(r, now_ms),
+            Routed::Mission { enabled } => {
                 self.lock.set_mission(enabled);
                 if enabled {
                     self.staged = None;
@@ -196,6 +194,133 @@ impl Device {
                 ResponseBody::Ack
             }
         })
+    }
+}
+
+/// A request split, once, into the room that handles it with the payload
+/// that room takes: each room matches only its own requests, with no arm
+/// for another room's.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Routed {
+    /// `Ping`.
+    Ping {
+        /// Echoed.
+        nonce: u32,
+    },
+    /// `Identify` (the link layer answers it).
+    Identify,
+    /// `Status`.
+    Status,
+    /// The output pipeline's settings.
+    Output(OutputRequest),
+    /// The vehicle's attitude, rates and current.
+    Input(InputRequest),
+    /// The on-board fit.
+    Fit(FitRequest),
+    /// The coefficient bank.
+    Coefficients(CoefficientRequest),
+    /// Mission mode on or off.
+    Mission {
+        /// On.
+        enabled: bool,
+    },
+}
+
+/// What the output pipeline takes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum OutputRequest {
+    /// What is streamed.
+    Stream(magcal_protocol::StreamMode),
+    /// The output rate, Hz.
+    Rate(u8),
+}
+
+/// What the vehicle sends.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum InputRequest {
+    /// Roll and pitch, rad.
+    Attitude {
+        /// Roll, rad.
+        roll_rad: f32,
+        /// Pitch, rad.
+        pitch_rad: f32,
+    },
+    /// Roll, pitch and body rates.
+    Motion {
+        /// Roll, rad.
+        roll_rad: f32,
+        /// Pitch, rad.
+        pitch_rad: f32,
+        /// Body rates, rad/s.
+        rate_rad_s: [f32; 3],
+    },
+    /// Roll, pitch and the thrusters' current.
+    AttitudeEnv {
+        /// Roll, rad.
+        roll_rad: f32,
+        /// Pitch, rad.
+        pitch_rad: f32,
+        /// Motor current, A.
+        motor_current_a: f32,
+    },
+}
+
+/// What the on-board fit takes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum FitRequest {
+    /// Start (or restart) a fit.
+    Start {
+        /// The model.
+        model: magcal_protocol::OnboardModel,
+        /// Reference intensity, nT.
+        field_nt: f32,
+    },
+    /// Stop the fit.
+    Stop,
+    /// Report the fit.
+    Query,
+}
+
+/// What the coefficient bank takes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum CoefficientRequest {
+    /// Read the set in use.
+    Read,
+    /// Unlock writes with the challenge's answer.
+    Unlock {
+        /// The key.
+        key: u32,
+    },
+    /// Stage a set.
+    Write(magcal_protocol::Coefficients),
+    /// Store and use the staged set.
+    Commit {
+        /// The staged set's CRC.
+        crc: u32,
+    },
+}
+
+impl Routed {
+    /// The room and payload of a request (every request has one).
+    pub fn of(req: &RequestBody) -> Self {
+        match *req {
+            RequestBody::Ping { nonce } => Routed::Ping { nonce },
+            RequestBody::Identify => Routed::Identify,
+            RequestBody::Status => Routed::Status,
+            RequestBody::SetStream(mode) => Routed::Output(OutputRequest::Stream(mode)),
+            RequestBody::SetOutputRate { hz } => Routed::Output(OutputRequest::Rate(hz)),
+            RequestBody::Attitude { roll_rad, pitch_rad } => Routed::Input(InputRequest::Attitude { roll_rad, pitch_rad }),
+            RequestBody::Motion { roll_rad, pitch_rad, rate_rad_s } => Routed::Input(InputRequest::Motion { roll_rad, pitch_rad, rate_rad_s }),
+            RequestBody::AttitudeEnv { roll_rad, pitch_rad, motor_current_a } => Routed::Input(InputRequest::AttitudeEnv { roll_rad, pitch_rad, motor_current_a }),
+            RequestBody::FitStart { model, field_nt } => Routed::Fit(FitRequest::Start { model, field_nt }),
+            RequestBody::FitStop => Routed::Fit(FitRequest::Stop),
+            RequestBody::FitQuery => Routed::Fit(FitRequest::Query),
+            RequestBody::ReadCoefficients => Routed::Coefficients(CoefficientRequest::Read),
+            RequestBody::Unlock { key } => Routed::Coefficients(CoefficientRequest::Unlock { key }),
+            RequestBody::WriteCoefficients(c) => Routed::Coefficients(CoefficientRequest::Write(c)),
+            RequestBody::Commit { crc } => Routed::Coefficients(CoefficientRequest::Commit { crc }),
+            RequestBody::SetMissionMode { enabled } => Routed::Mission { enabled },
+        }
     }
 }
 

@@ -3,9 +3,9 @@
 //! requests (the unlock they need is [`super::unlock`]'s).
 
 use calib_core::cal::{Calibration, EnvTerms, FieldCal, Swing};
-use magcal_protocol::{CoefficientSource, Coefficients, DeviceError, RequestBody, ResponseBody};
+use magcal_protocol::{CoefficientSource, Coefficients, DeviceError, ResponseBody};
 
-use super::{Device, Handled};
+use super::{CoefficientRequest, Device, Handled};
 use crate::acquisition::COUNTS_PER_NT;
 use crate::adc::FULL_SCALE_COUNTS;
 
@@ -118,16 +118,15 @@ pub fn decode_coefficients(bytes: &[u8], version: u16) -> Option<(Coefficients, 
 impl Device {
     /// The coefficients: read, unlock, stage, commit (validated, stored,
     /// then used).
-    pub(super) fn handle_coefficients(&mut self, req: &RequestBody, now_ms: u32) -> Handled {
-        let reply = match *req {
-            RequestBody::ReadCoefficients => Ok(ResponseBody::Coefficients { coefficients: self.coefficients, source: self.source, seq: self.seq }),
-            RequestBody::Unlock { key } => self.lock.unlock(key, now_ms).map(|()| ResponseBody::Ack),
-            RequestBody::WriteCoefficients(c) => self.stage(c, now_ms).map(|()| ResponseBody::Ack),
-            RequestBody::Commit { crc } => match self.prepare_commit(crc, now_ms) {
+    pub(super) fn handle_coefficients(&mut self, req: CoefficientRequest, now_ms: u32) -> Handled {
+        let reply = match req {
+            CoefficientRequest::Read => Ok(ResponseBody::Coefficients { coefficients: self.coefficients, source: self.source, seq: self.seq }),
+            CoefficientRequest::Unlock { key } => self.lock.unlock(key, now_ms).map(|()| ResponseBody::Ack),
+            CoefficientRequest::Write(c) => self.stage(c, now_ms).map(|()| ResponseBody::Ack),
+            CoefficientRequest::Commit { crc } => match self.prepare_commit(crc, now_ms) {
                 Ok(pending) => return Handled::Save(pending),
                 Err(e) => Err(e),
             },
-            _ => return Handled::Reply(ResponseBody::Error(DeviceError::Unsupported)),
         };
         Handled::Reply(reply.unwrap_or_else(|e| self.refuse(e)))
     }

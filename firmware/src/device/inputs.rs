@@ -1,17 +1,19 @@
 //! What the vehicle sends the board: the attitude for the heading
-//! ([`RequestBody::Attitude`]), plus the body rates for the gyro-aided fit
-//! ([`RequestBody::Motion`]) or the thrusters' current for the current term
-//! ([`RequestBody::AttitudeEnv`]). Each is checked here once and is stale
+//! ([`RequestBody::Attitude`](magcal_protocol::RequestBody::Attitude)), plus the body rates for the gyro-aided fit
+//! ([`RequestBody::Motion`](magcal_protocol::RequestBody::Motion)) or the thrusters' current for the current term
+//! ([`RequestBody::AttitudeEnv`](magcal_protocol::RequestBody::AttitudeEnv)). Each is checked here once and is stale
 //! after [`ATTITUDE_TIMEOUT_MS`].
 
 use calib_core::heading::Tilt;
-use magcal_protocol::{DeviceError, RequestBody, ATTITUDE_TIMEOUT_MS, MAX_MOTOR_CURRENT_A};
+use magcal_protocol::{DeviceError, ATTITUDE_TIMEOUT_MS, MAX_MOTOR_CURRENT_A};
 
-/// The largest body rate a [`RequestBody::Motion`] may carry, rad/s
+use super::InputRequest;
+
+/// The largest body rate a [`RequestBody::Motion`](magcal_protocol::RequestBody::Motion) may carry, rad/s
 /// (2 000°/s, a MEMS gyro's widest range).
 const MAX_RATE_RAD_S: f32 = 35.0;
 
-/// Body rates and attitude from the AHRS ([`RequestBody::Motion`]), with the
+/// Body rates and attitude from the AHRS ([`RequestBody::Motion`](magcal_protocol::RequestBody::Motion)), with the
 /// board time they arrived.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) struct Motion {
@@ -27,7 +29,7 @@ pub(super) struct Inputs {
     /// The tilt (its trigonometry once per attitude, not once per sample).
     attitude: Option<(Tilt<f32>, u32)>,
     motion: Option<Motion>,
-    /// The motor current from [`RequestBody::AttitudeEnv`], A.
+    /// The motor current from [`RequestBody::AttitudeEnv`](magcal_protocol::RequestBody::AttitudeEnv), A.
     current: Option<(f32, u32)>,
 }
 
@@ -43,23 +45,21 @@ fn attitude_ok(roll_rad: f32, pitch_rad: f32) -> bool {
 
 impl Inputs {
     /// Takes an `Attitude`, `Motion` or `AttitudeEnv` request; refuses one
-    /// out of range ([`DeviceError::BadArgument`]) or of another kind
-    /// ([`DeviceError::Unsupported`]).
-    pub(super) fn accept(&mut self, req: &RequestBody, now_ms: u32) -> Result<(), DeviceError> {
-        let (roll_rad, pitch_rad, extra_ok) = match *req {
-            RequestBody::Attitude { roll_rad, pitch_rad } => (roll_rad, pitch_rad, true),
-            RequestBody::Motion { roll_rad, pitch_rad, rate_rad_s } => (roll_rad, pitch_rad, rate_rad_s.iter().all(|w| w.is_finite() && w.abs() <= MAX_RATE_RAD_S)),
-            RequestBody::AttitudeEnv { roll_rad, pitch_rad, motor_current_a } => (roll_rad, pitch_rad, motor_current_a.is_finite() && motor_current_a.abs() <= MAX_MOTOR_CURRENT_A),
-            _ => return Err(DeviceError::Unsupported),
+    /// out of range ([`DeviceError::BadArgument`]).
+    pub(super) fn accept(&mut self, req: InputRequest, now_ms: u32) -> Result<(), DeviceError> {
+        let (roll_rad, pitch_rad, extra_ok) = match req {
+            InputRequest::Attitude { roll_rad, pitch_rad } => (roll_rad, pitch_rad, true),
+            InputRequest::Motion { roll_rad, pitch_rad, rate_rad_s } => (roll_rad, pitch_rad, rate_rad_s.iter().all(|w| w.is_finite() && w.abs() <= MAX_RATE_RAD_S)),
+            InputRequest::AttitudeEnv { roll_rad, pitch_rad, motor_current_a } => (roll_rad, pitch_rad, motor_current_a.is_finite() && motor_current_a.abs() <= MAX_MOTOR_CURRENT_A),
         };
         if !(attitude_ok(roll_rad, pitch_rad) && extra_ok) {
             return Err(DeviceError::BadArgument);
         }
         self.attitude = Some((Tilt::new(roll_rad, pitch_rad), now_ms));
-        match *req {
-            RequestBody::Motion { rate_rad_s, .. } => self.motion = Some(Motion { roll_rad, pitch_rad, rate_rad_s, at_ms: now_ms }),
-            RequestBody::AttitudeEnv { motor_current_a, .. } => self.current = Some((motor_current_a, now_ms)),
-            _ => {}
+        match req {
+            InputRequest::Motion { rate_rad_s, .. } => self.motion = Some(Motion { roll_rad, pitch_rad, rate_rad_s, at_ms: now_ms }),
+            InputRequest::AttitudeEnv { motor_current_a, .. } => self.current = Some((motor_current_a, now_ms)),
+            InputRequest::Attitude { .. } => {}
         }
         Ok(())
     }

@@ -11,7 +11,9 @@ use calib_core::cal::FieldCal;
 use calib_core::fit::{AxisRls, FitError, FullRls, Model, Normalization, RecursiveFit, SphereRls};
 use calib_core::gyro::{GyroConfig, GyroFit, GyroSample, MAX_WINDOW_STEPS};
 use calib_core::quality::CoverageMask;
-use magcal_protocol::{Coefficients, DeviceError, FitReport, OnboardModel, RequestBody, ResponseBody};
+use magcal_protocol::{Coefficients, DeviceError, FitReport, OnboardModel, ResponseBody};
+
+use super::FitRequest;
 
 use super::coefficients::{validate, FIELD_RANGE_NT};
 use super::inputs::{fresh, Motion};
@@ -119,7 +121,7 @@ pub(super) struct OnboardFit {
 
 impl OnboardFit {
     /// A fit of an on-board model (the wire type holds no other). The
-    /// gyro-aided fit integrates the rates of [`RequestBody::Motion`]
+    /// gyro-aided fit integrates the rates of [`RequestBody::Motion`](magcal_protocol::RequestBody::Motion)
     /// between output samples (`output_rate_hz`).
     fn new(model: OnboardModel, field_nt: f32, centre: [f32; 3], output_rate_hz: u8, now_ms: u32) -> Self {
         let norm = Normalization { centre, scale: field_nt * COUNTS_PER_NT };
@@ -203,23 +205,22 @@ impl Device {
     }
 
     /// The on-board fit: start, stop, query.
-    pub(super) fn handle_fit(&mut self, req: &RequestBody, now_ms: u32) -> ResponseBody {
-        match *req {
-            RequestBody::FitStart { model, field_nt } => {
+    pub(super) fn handle_fit(&mut self, req: FitRequest, now_ms: u32) -> ResponseBody {
+        match req {
+            FitRequest::Start { model, field_nt } => {
                 if !(field_nt >= FIELD_RANGE_NT.0 && field_nt <= FIELD_RANGE_NT.1) {
                     return self.refuse(DeviceError::BadArgument);
                 }
                 self.fit = Some(OnboardFit::new(model, field_nt, self.calibration.field.bias, self.output_rate_hz(), now_ms));
                 ResponseBody::Fit(self.fit_report())
             }
-            RequestBody::FitStop => {
+            FitRequest::Stop => {
                 if let Some(f) = &mut self.fit {
                     f.running = false;
                 }
                 ResponseBody::Fit(self.fit_report())
             }
-            RequestBody::FitQuery => ResponseBody::Fit(self.fit_report()),
-            _ => ResponseBody::Error(DeviceError::Unsupported),
+            FitRequest::Query => ResponseBody::Fit(self.fit_report()),
         }
     }
 }

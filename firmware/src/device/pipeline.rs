@@ -18,7 +18,9 @@
 
 use calib_core::cal::{Calibration, Environment};
 use calib_core::online::OnlineIntegrity;
-use magcal_protocol::{DeviceError, Integrity, RequestBody, Sample, StreamMode};
+use magcal_protocol::{DeviceError, Integrity, Sample, StreamMode};
+
+use super::OutputRequest;
 
 use super::health::DeviceCounters;
 use super::inputs::{fresh, Inputs};
@@ -83,12 +85,11 @@ struct SampleEnv {
 impl Pipeline {
     /// Takes a `SetStream` or `SetOutputRate` request (rate 1–100 Hz, else
     /// [`DeviceError::BadArgument`]).
-    pub(super) fn set_output(&mut self, req: &RequestBody) -> Result<(), DeviceError> {
-        match *req {
-            RequestBody::SetStream(mode) => self.stream = mode,
-            RequestBody::SetOutputRate { hz } if (1..=100).contains(&hz) => self.output_rate_hz = hz,
-            RequestBody::SetOutputRate { .. } => return Err(DeviceError::BadArgument),
-            _ => return Err(DeviceError::Unsupported),
+    pub(super) fn set_output(&mut self, req: OutputRequest) -> Result<(), DeviceError> {
+        match req {
+            OutputRequest::Stream(mode) => self.stream = mode,
+            OutputRequest::Rate(hz) if (1..=100).contains(&hz) => self.output_rate_hz = hz,
+            OutputRequest::Rate(_) => return Err(DeviceError::BadArgument),
         }
         Ok(())
     }
