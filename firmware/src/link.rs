@@ -113,6 +113,83 @@ pub fn nmea_safe(frame: &ReplyFrame) -> NmeaSafeFrame {
 /// A reply frame with its NMEA-mode margins ([`nmea_safe`]).
 pub type NmeaSafeFrame = heapless::Vec<u8, { MAX_FRAME_LEN + 3 }>;
 
+/// The link's output policy for replies: in NMEA mode a framed reply goes
+/// between sentences with its margins ([`nmea_safe`]), and the mode
+/// *before* a request counts too — the reply to the request that leaves
+/// NMEA mode follows sentence bytes (`docs/INTERFACES.md`).
+#[derive(Debug, Default, Clone, Copy, PartialEq, Eq)]
+pub struct ReplyPolicy {
+    nmea_before: bool,
+}
+
+/// The bytes of one outgoing reply.
+#[derive(Debug, Clone, PartialEq)]
+pub enum OutgoingReply {
+    /// The frame as it is (framed streaming).
+    Framed(ReplyFrame),
+    /// With the NMEA-mode margins.
+    NmeaSafe(NmeaSafeFrame),
+}
+
+impl OutgoingReply {
+    /// The bytes to enqueue.
+    pub fn bytes(&self) -> &[u8] {
+        match self {
+            OutgoingReply::Framed(f) => f,
+            OutgoingReply::NmeaSafe(f) => f,
+        }
+    }
+}
+
+impl ReplyPolicy {
+    /// A link that has not streamed NMEA yet.
+    pub const fn new() -> Self {
+        Self { nmea_before: false }
+    }
+
+    /// The reply as sent, given whether the stream is NMEA now (after the
+    /// request was handled).
+    pub fn outgoing(&mut self, frame: ReplyFrame, nmea_now: bool) -> OutgoingReply {
+        let nmea = core::mem::replace(&mut self.nmea_before, nmea_now) || nmea_now;
+        if nmea {
+            OutgoingReply::NmeaSafe(nmea_safe(&frame))
+        } else {
+            OutgoingReply::Framed(frame)
+        }
+    }
+}
+
+/// The bytes of one streamed sample: the NMEA sentences in NMEA mode, else
+/// its frame (`Response { seq: None, Sample }`); `None` when it cannot be
+/// encoded (never for a valid sample: counted by the caller as dropped).
+pub fn sample_bytes(sample: &proto::Sample, stream: proto::StreamMode, declination_rad: f32) -> Option<SampleBytes> {
+    if stream == proto::StreamMode::Nmea {
+        return Some(SampleBytes::Nmea(crate::nmea::sentences(sample, declination_rad)));
+    }
+    let mut buf = [0u8; MAX_FRAME_LEN];
+    let n = proto::encode(&Response { seq: None, body: ResponseBody::Sample(*sample) }, &mut buf).ok()?;
+    ReplyFrame::from_slice(buf.get(..n)?).ok().map(SampleBytes::Framed)
+}
+
+/// A streamed sample's bytes ([`sample_bytes`]).
+#[derive(Debug, Clone, PartialEq)]
+pub enum SampleBytes {
+    /// The sample's frame.
+    Framed(ReplyFrame),
+    /// Its NMEA sentences.
+    Nmea(crate::nmea::Burst),
+}
+
+impl SampleBytes {
+    /// The bytes to enqueue.
+    pub fn bytes(&self) -> &[u8] {
+        match self {
+            SampleBytes::Framed(f) => f,
+            SampleBytes::Nmea(b) => b,
+        }
+    }
+}
+
 /// The requests the link layer answers itself; `None` for the device's.
 fn serve(body: &RequestBody, device: &DeviceInfo) -> Option<ResponseBody> {
     match body {
@@ -144,6 +221,43 @@ mod tests {
     #![allow(clippy::unwrap_used, clippy::indexing_slicing)]
     use super::*;
     use magcal_protocol::FrameError;
+
+    /// The reply policy: framed while streaming frames, with the NMEA
+    /// margins in NMEA mode, and for the one reply after NMEA mode ends.
+    #[test]
+    fn replies_get_nmea_margins_in_nmea_mode_and_just_after_it() {
+        let frame = ReplyFrame::from_slice(&[7, 1, 2, 0]).unwrap();
+        let mut p = ReplyPolicy::new();
+        assert_eq!(p.outgoing(frame.clone(), false).bytes(), &[7, 1, 2, 0]);
+        // The request that enters NMEA mode: its reply follows no sentence
+        // yet, but the stream is NMEA now.
+        assert_eq!(p.outgoing(frame.clone(), true).bytes(), &[0, 7, 1, 2, 0, b'\r', b'\n']);
+        // The request that leaves it: its reply follows sentence bytes.
+        assert!(matches!(p.outgoing(frame.clone(), false), OutgoingReply::NmeaSafe(_)));
+        assert!(matches!(p.outgoing(frame, false), OutgoingReply::Framed(_)));
+    }
+
+    /// A streamed sample: its frame decodes back to it; in NMEA mode the
+    /// sentences, no frame.
+    #[test]
+    fn samples_are_frames_or_sentences_by_the_stream_mode() {
+        let sample = proto::Sample {
+            t_ms: 1234,
+            raw: Some([100.0, -200.0, 300.0]),
+            field_nt: Some([20_000.0, 0.0, 40_000.0]),
+            heading_rad: Some(0.5),
+            saturated: false,
+            feed_seq: None,
+            temp_c: Some(21.5),
+            heading_sigma_deg: Some(0.4),
+            integrity: proto::Integrity::Ok,
+        };
+        let framed = sample_bytes(&sample, proto::StreamMode::Both, 0.0).unwrap();
+        let back: Response = proto::decode(framed.bytes()).unwrap();
+        assert_eq!(back, Response { seq: None, body: ResponseBody::Sample(sample) });
+        let nmea = sample_bytes(&sample, proto::StreamMode::Nmea, 0.0).unwrap();
+        assert!(matches!(nmea, SampleBytes::Nmea(_)) && nmea.bytes().starts_with(b"$"), "{:?}", core::str::from_utf8(nmea.bytes()));
+    }
 
     const DEV: DeviceInfo = DeviceInfo { platform: Platform::Qemu, uptime_ms: 42 };
 

@@ -68,7 +68,7 @@ mod app {
     use firmware::ads131m04_model::{Ads131m04Model, BridgeModel, DrdyPinModel, FeedReceiver, StrapPinModel};
     use firmware::store::Store;
     use firmware::uart::TxQueue;
-    use magcal_protocol::{self as proto, Platform, Response, ResponseBody, MAX_FRAME_LEN};
+    use magcal_protocol::{self as proto, Platform};
     use rtic_monotonics::systick::prelude::*;
     use rtic_sync::channel::{Receiver, Sender};
     use rtic_sync::make_channel;
@@ -387,7 +387,7 @@ mod app {
     /// Frames → requests → one reply each.
     #[task(priority = 1, local = [link, store], shared = [tx, device, acq, watchdog])]
     async fn link(mut cx: link::Context, mut bytes: Receiver<'static, u8, RX_QUEUE>) {
-        let mut nmea_before = false;
+        let mut policy = firmware::link::ReplyPolicy::new();
         while let Ok(byte) = bytes.recv().await {
             let info = DeviceInfo { platform: platform::detect_cached(), uptime_ms: now_ms() };
             let reply = match cx.local.link.on_byte(byte, &info) {
@@ -437,16 +437,10 @@ mod app {
                 }
             };
             if let Some(frame) = reply {
-                // In NMEA mode a framed reply goes between sentences: a zero
-                // before it ends the sentences' bytes for a framed reader
-                // (an empty frame is ignored), and `\r\n` after it ends the
-                // line for an NMEA reader (`docs/INTERFACES.md`).
-                // The mode before this request counts too: the reply to the
-                // request that leaves NMEA mode follows sentence bytes.
+                // The link's output policy (`firmware::link::ReplyPolicy`, host-tested).
                 let nmea_now = cx.shared.device.lock(|d| d.stream() == proto::StreamMode::Nmea);
-                let nmea = core::mem::replace(&mut nmea_before, nmea_now) || nmea_now;
-                let sent = if nmea { cx.shared.tx.lock(|tx| tx.enqueue(&firmware::link::nmea_safe(&frame))) } else { cx.shared.tx.lock(|tx| tx.enqueue(&frame)) };
-                if !sent {
+                let out = policy.outgoing(frame, nmea_now);
+                if !cx.shared.tx.lock(|tx| tx.enqueue(out.bytes())) {
                     defmt::warn!("tx queue full: reply dropped");
                 }
             }
@@ -496,16 +490,9 @@ mod app {
             if let Some(raw) = decimator.push_tagged(&pair, tag) {
                 let t = now_ms();
                 let out = cx.shared.device.lock(|d| d.on_raw_sample(&raw, t).map(|s| (s, d.stream(), d.calibration().declination_rad)));
-                if let Some((sample, stream, declination_rad)) = out {
-                    if stream == proto::StreamMode::Nmea {
-                        let burst = firmware::nmea::sentences(&sample, declination_rad);
-                        let _ = cx.shared.tx.lock(|tx| tx.enqueue(&burst));
-                    } else {
-                        let mut buf = [0u8; MAX_FRAME_LEN];
-                        if let Ok(n) = proto::encode(&Response { seq: None, body: ResponseBody::Sample(sample) }, &mut buf) {
-                            let _ = cx.shared.tx.lock(|tx| tx.enqueue(buf.get(..n).unwrap_or(&[])));
-                        }
-                    }
+                // What a sample is on the wire (`firmware::link::sample_bytes`, host-tested).
+                if let Some(bytes) = out.and_then(|(sample, stream, declination_rad)| firmware::link::sample_bytes(&sample, stream, declination_rad)) {
+                    let _ = cx.shared.tx.lock(|tx| tx.enqueue(bytes.bytes()));
                 }
             }
             // Missed deadlines: count them and resynchronise.
