@@ -404,7 +404,7 @@ fn host_throughput(root: &Path) -> serde_json::Value {
 
 /// The real recordings in `tests/data`: magnitude spread before and after
 /// the full-ellipsoid fit (the agreement with an independent Li & Griffiths
-/// fit is asserted by `cargo test -p host-tools --test real_data`).
+/// fit is asserted by `cargo test -p host-tools --test real real_data`).
 fn real_recordings(root: &Path) -> serde_json::Value {
     // CSV through the product's reader under a column mapping; bazhin's
     // file is bare `x y z` lines without a header (not a table).

@@ -5,7 +5,7 @@
 //! The expected values are the data's own: the truth JSON and the optical
 //! heading; the floor (2.22° with the true calibration) is the README's.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use calib_core::cal::{FieldCal, ModelKind};
 use calib_core::heading::magnetic_heading_rad;
@@ -16,7 +16,7 @@ use host_tools::data::recording::Recording;
 const LAB_FIELD_NT: f64 = 44_204.0;
 
 fn data(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data/broad-05").join(rel)
+    super::data("broad-05").join(rel)
 }
 
 #[derive(serde::Deserialize)]

@@ -10,7 +10,7 @@ use host_tools::compute::{fit_recording, FitOptions};
 use host_tools::data::Recording;
 
 fn data(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data/seaglider-sg236").join(name)
+    super::data("seaglider-sg236").join(name)
 }
 
 /// IGRF-14 at the site (README): 52 203 nT.

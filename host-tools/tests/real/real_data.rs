@@ -4,7 +4,6 @@
 //! and a different algorithm (generalised eigenproblem) from calib-core's
 //! trace-constrained linear fit.
 
-use std::path::{Path, PathBuf};
 
 use calib_core::cal::{FieldCal, ModelKind};
 use calib_core::fit::{fit_batch, Full};
@@ -13,9 +12,7 @@ use host_tools::compute::{fit_recording, FitOptions, ComputeError};
 use host_tools::data::recording::Recording;
 use nalgebra::{DMatrix, Matrix3, SMatrix, SymmetricEigen, Vector3};
 
-fn data(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data").join(rel)
-}
+use super::data;
 
 /// Reads three named columns of a CSV (or whitespace-separated text without
 /// header when `cols` is empty).

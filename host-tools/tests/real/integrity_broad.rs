@@ -13,7 +13,6 @@
 //! `truth_heading_deg` with one constant offset removed (robustly:
 //! `robust_offset_deg`), rows off by more than 5° "bad", within 2° "good".
 
-use std::path::{Path, PathBuf};
 
 use calib_core::cal::{FieldCal, ModelKind};
 use host_tools::compute::apply::{apply_recording, score, ApplyOptions, IntegrityScore};
@@ -22,11 +21,7 @@ use host_tools::compute::reference::Reference;
 use host_tools::data::results::Quality;
 use host_tools::data::{CalDoc, Recording};
 
-fn data(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../tests/data")
-        .join(rel)
-}
+use super::data;
 
 #[derive(serde::Deserialize)]
 struct Truth {
