@@ -322,22 +322,26 @@ fn nmea_import_of_a_real_log() {
     let (out, csv, _dir) = import_nmea(&nmea_data("gofree-merrimac-head.nmea"), &["--json"]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let r: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    // 18 epochs 19:57:19 … 19:57:36 of RMC, GGA, GLL, VTG, ZDA; 168 HDG, of
-    // which the 3 after the last timed sentence cannot be timed.
-    assert_eq!(r["used"], serde_json::json!({"GGA": 18, "GLL": 18, "HDG": 165, "RMC": 18, "VTG": 18, "ZDA": 18}));
-    assert_eq!((r["sentences"].as_u64(), r["unknown"].as_u64(), r["unknown_types"]["!AIVDM"].as_u64()), (Some(774), Some(516), Some(192)));
-    assert_eq!((r["bad_checksum"].as_u64(), r["partial"].as_u64(), r["untimed_after_last_time"].as_u64()), (Some(0), Some(0), Some(3)));
-    // 165 HDG + 18 × (RMC, GGA, GLL, VTG) rows; ZDA gives only times.
-    assert_eq!(r["rows"], 237);
+    // 18 epochs 19:57:19 … 19:57:36 of RMC, GGA, GLL, VTG, ZDA; 168 HDG and
+    // 18 VHW, of which the 3 and the 1 after the last timed sentence cannot
+    // be timed.
+    assert_eq!(r["used"], serde_json::json!({"GGA": 18, "GLL": 18, "HDG": 165, "RMC": 18, "VHW": 17, "VTG": 18, "ZDA": 18}));
+    assert_eq!((r["sentences"].as_u64(), r["unknown"].as_u64(), r["unknown_types"]["!AIVDM"].as_u64()), (Some(774), Some(498), Some(192)));
+    assert_eq!((r["bad_checksum"].as_u64(), r["partial"].as_u64(), r["untimed_after_last_time"].as_u64()), (Some(0), Some(0), Some(4)));
+    // 165 HDG + 17 VHW + 18 × (RMC, GGA, GLL, VTG) rows; ZDA gives only times.
+    assert_eq!(r["rows"], 254);
     assert_eq!((r["start_utc"].as_str(), r["duration_s"].as_f64()), (Some("2014-04-16T19:57:19Z"), Some(17.0)));
     // Moored (0–0.1 kn): no course at 0.5 m/s, no HDT: no reference.
     assert_eq!(r["reference"], "none");
     assert_eq!(r["compass_source"], "SDHDG");
     let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(stderr.contains("warning: skipped 519 of 774 sentences: 516 of types not read (!AIVDM 192"), "{stderr}");
+    assert!(stderr.contains("warning: skipped 502 of 774 sentences: 498 of types not read (!AIVDM 192"), "{stderr}");
     assert!(stderr.contains("18 ZDA sentences gave a two-digit year"), "{stderr}");
     let csv = csv.unwrap();
-    assert_eq!(csv.0, ["t", "compass_heading_deg", "variation_deg", "course_deg", "gps_speed_mps", "lat_deg", "lon_deg"]);
+    assert_eq!(csv.0, ["t", "compass_heading_deg", "variation_deg", "course_deg", "gps_speed_mps", "lat_deg", "lon_deg", "speed_mps"]);
+    // VHW: moored, 0.0 kn through the water.
+    let water: Vec<f64> = column(&csv, "speed_mps").into_iter().filter(|v| v.is_finite()).collect();
+    assert!(water.len() == 17 && water.iter().all(|&v| v == 0.0), "{water:?}");
     let heading: Vec<f64> = column(&csv, "compass_heading_deg").into_iter().filter(|h| h.is_finite()).collect();
     assert_eq!(heading.len(), 165);
     assert!(heading.iter().all(|&h| h == 181.7 || h == 181.8), "{heading:?}");
@@ -450,7 +454,7 @@ fn nmea_hostile_inputs() {
     let (out, _, _d) = import_nmea(&log, &["--json"]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let r: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    assert_eq!((r["partial"].as_u64(), r["partial_reasons"]["too_long"].as_u64(), r["rows"].as_u64()), (Some(1), Some(1), Some(237)));
+    assert_eq!((r["partial"].as_u64(), r["partial_reasons"]["too_long"].as_u64(), r["rows"].as_u64()), (Some(1), Some(1), Some(254)));
     // The hand-made log: CRLF and LF, a NUL byte, a lower-case checksum, RMC
     // with missing fields (make_mixed.py's lines 15 and 27).
     let (out, csv, _d) = import_nmea(&nmea_data("mixed.nmea"), &["--json"]);

@@ -1,6 +1,7 @@
 //! NMEA 0183 logs to a recording (`magcal import --nmea`): a heading-only
-//! compass (`HDG`, `HDM`), a true heading (`HDT`) and the GPS (`RMC`, `VTG`,
-//! `GGA`, `GLL`, `ZDA`) as one CSV of `docs/INTERFACES.md`.
+//! compass (`HDG`, `HDM`), a true heading (`HDT`), the GPS (`RMC`, `VTG`,
+//! `GGA`, `GLL`, `ZDA`) and the log's speed through water (`VHW`) as one
+//! CSV of `docs/INTERFACES.md`.
 //!
 //! **Hand-written.** The `nmea` crate (0.8) was checked: it has no `HDG` or
 //! `HDM` parser (only their names), refuses a sentence without a checksum
@@ -36,7 +37,8 @@
 //! positive). `HDM`: the magnetic heading, taken as the compass's own reading.
 //! `HDT`: the true heading (`ref_heading_deg`). `RMC`: time, date, status,
 //! position, speed over ground (knots), course over ground (true), variation.
-//! `VTG`: course (true), speed (knots, else km/h). `GGA`: time of day,
+//! `VTG`: course (true), speed (knots, else km/h). `VHW`: speed through
+//! water (knots, else km/h; `speed_mps`). `GGA`: time of day,
 //! position, fix quality. `GLL`: position, time of day, status. `ZDA`: time,
 //! day, month, four-digit year (a two-digit year is not used as a date). A
 //! void fix — `RMC`/`GLL` status `V`, a mode indicator `N`, `E`, `M` or `S`,
@@ -93,8 +95,11 @@ pub const MAX_SPREAD_GAP_S: f64 = 10.0;
 /// One knot in m/s (1852 m per hour).
 pub const KNOT_MPS: f64 = 1852.0 / 3600.0;
 
+/// The sentence types read (every other is counted as unknown).
+pub const KNOWN: [&str; 9] = ["HDG", "HDM", "HDT", "RMC", "VTG", "VHW", "GGA", "GLL", "ZDA"];
+
 /// The time rule, as the report states it.
-pub const TIME_RULE: &str = "RMC and ZDA give date and time; GGA, GLL (and a ZDA without a 4-digit year) the time of day, on the day that puts it nearest (within 12 h) the timed sentence before it (before the first dated sentence: nearest that one), so the day advances at midnight; a timed sentence earlier than the one before is not used. Sentences without time (HDG, HDM, HDT, VTG) between consecutive timed sentences at T0 and T1 get T0 when T1 = T0, else the k-th of n gets T0 + (T1 - T0)*k/(n+1) when T1 - T0 <= 10 s; over a longer gap, before the first or after the last timed sentence they are not used. t = seconds since the first timed sentence (UTC).";
+pub const TIME_RULE: &str = "RMC and ZDA give date and time; GGA, GLL (and a ZDA without a 4-digit year) the time of day, on the day that puts it nearest (within 12 h) the timed sentence before it (before the first dated sentence: nearest that one), so the day advances at midnight; a timed sentence earlier than the one before is not used. Sentences without time (HDG, HDM, HDT, VTG, VHW) between consecutive timed sentences at T0 and T1 get T0 when T1 = T0, else the k-th of n gets T0 + (T1 - T0)*k/(n+1) when T1 - T0 <= 10 s; over a longer gap, before the first or after the last timed sentence they are not used. t = seconds since the first timed sentence (UTC).";
 
 /// The most distinct names kept in the report's maps of unknown types and
 /// partial reasons (random input could make many); more go under `(other)`.
@@ -206,6 +211,12 @@ pub enum Sentence {
         /// The mode indicator (if any) is not void.
         valid: bool,
     },
+    /// `VHW`: speed through water (its headings are not read: the compass
+    /// gives its own sentence).
+    Vhw {
+        /// Speed through water, m/s (from knots, else km/h).
+        speed_mps: Option<f64>,
+    },
     /// `GGA`: fix data.
     Gga {
         /// UTC time of day, s.
@@ -248,6 +259,7 @@ impl Sentence {
             Self::Hdt { .. } => "HDT",
             Self::Rmc { .. } => "RMC",
             Self::Vtg { .. } => "VTG",
+            Self::Vhw { .. } => "VHW",
             Self::Gga { .. } => "GGA",
             Self::Gll { .. } => "GLL",
             Self::Zda { .. } => "ZDA",
@@ -277,6 +289,7 @@ impl Sentence {
         match self {
             Self::Hdg { .. } | Self::Hdm { .. } | Self::Hdt { .. } => self.heading_deg().is_none(),
             Self::Vtg { course_deg, speed_mps, .. } => course_deg.is_none() && speed_mps.is_none(),
+            Self::Vhw { speed_mps } => speed_mps.is_none(),
             _ => false,
         }
     }
@@ -438,7 +451,7 @@ fn read_sentence(text: &[u8]) -> (bool, Outcome) {
         return (no_checksum, Outcome::Partial(Partial::BadAddress));
     }
     let (talker, kind) = address.split_at(2);
-    let known = ["HDG", "HDM", "HDT", "RMC", "VTG", "GGA", "GLL", "ZDA"];
+    let known = KNOWN;
     if !known.contains(&kind) {
         return (no_checksum, Outcome::Unknown(kind.to_string()));
     }
@@ -498,6 +511,14 @@ fn fields_of(kind: &str, f: &[&str]) -> Result<Sentence, Partial> {
             letter_if(kmh, f[7], "K")?;
             let speed_mps = knots.map(|kn| kn * KNOT_MPS).or(kmh.map(|k| k / 3.6));
             Sentence::Vtg { course_deg, speed_mps, valid: f.get(8).map_or(Ok(true), |m| mode(m))? }
+        }
+        "VHW" => {
+            need(8)?;
+            let knots = non_negative(f[4])?;
+            letter_if(knots, f[5], "N")?;
+            let kmh = non_negative(f[6])?;
+            letter_if(kmh, f[7], "K")?;
+            Sentence::Vhw { speed_mps: knots.map(|kn| kn * KNOT_MPS).or(kmh.map(|k| k / 3.6)) }
         }
         "GGA" => {
             need(6)?;
@@ -1153,13 +1174,13 @@ pub fn import_reader<R: Read>(reader: R, path: &Path, opts: &ImportOptions) -> R
     let has_hdt = g.kept.iter().zip(&t).any(|(k, t)| t.is_some() && matches!(k.sentence, Sentence::Hdt { .. }));
     report.reference = if has_hdt { Reference::Hdt } else { Reference::None };
     // The rows.
-    const NAMES: [&str; 8] =
-        [col::T, col::COMPASS_HEADING_DEG, col::VARIATION_DEG, col::REF_HEADING_DEG, col::COURSE_DEG, col::GPS_SPEED_MPS, col::LAT_DEG, col::LON_DEG];
+    const NAMES: [&str; 9] =
+        [col::T, col::COMPASS_HEADING_DEG, col::VARIATION_DEG, col::REF_HEADING_DEG, col::COURSE_DEG, col::GPS_SPEED_MPS, col::LAT_DEG, col::LON_DEG, col::SPEED_MPS];
     let mut columns: Vec<Vec<f64>> = vec![Vec::new(); NAMES.len()];
     let mut gps_talkers: Vec<&str> = Vec::new();
     for (k, t) in g.kept.iter().zip(&t) {
         let Some(t) = *t else { continue };
-        let mut row = [f64::NAN; 8];
+        let mut row = [f64::NAN; 9];
         let at_speed = |speed: Option<f64>| speed.is_some_and(|s| s >= opts.min_course_speed_mps);
         match k.sentence {
             Sentence::Hdg { heading_deg, variation_deg, .. } => {
@@ -1189,6 +1210,7 @@ pub fn import_reader<R: Read>(reader: R, path: &Path, opts: &ImportOptions) -> R
                 row[6] = lat_deg.unwrap_or(f64::NAN);
                 row[7] = lon_deg.unwrap_or(f64::NAN);
             }
+            Sentence::Vhw { speed_mps } => row[8] = speed_mps.unwrap_or(f64::NAN),
             Sentence::Zda { .. } => {}
         }
         let gives_row = row[1..].iter().any(|v| v.is_finite());
@@ -1367,7 +1389,7 @@ mod tests {
                     // pynmea2 reads no `!` sentence; junk after `*hh`.
                     ("parse_error", Outcome::Unknown(u)) if u == "!AIVDM" => {}
                     ("parse_error", Outcome::Partial(Partial::BadChecksumField)) if (name, n) == ("mixed.nmea", 33) => {}
-                    ("ok", Outcome::Unknown(u)) if u.starts_with(kind) && !["HDG", "HDM", "HDT", "RMC", "VTG", "GGA", "GLL", "ZDA"].contains(&kind) => {}
+                    ("ok", Outcome::Unknown(u)) if u.starts_with(kind) && !KNOWN.contains(&kind) => {}
                     ("ok" | "ok_no_checksum", Outcome::Partial(p)) => {
                         assert!(DISAGREE.contains(&(name, n, *p)), "{at}: pynmea2 reads it, this reader says {p:?}");
                     }
@@ -1383,8 +1405,8 @@ mod tests {
         }
         // mixed: 38 lines − 1 without a sentence − 1 bad checksum − 4 that
         // pynmea2 cannot read or of other types − 6 refused here (DISAGREE);
-        // gofree: 168 HDG + 18 × (RMC, VTG, GGA, GLL, ZDA); n2kd: 7 HDG + 13 HDM.
-        assert_eq!(compared, 26 + 258 + 20);
+        // gofree: 168 HDG + 18 × (RMC, VTG, VHW, GGA, GLL, ZDA); n2kd: 7 HDG + 13 HDM.
+        assert_eq!(compared, 26 + 276 + 20);
     }
 
     fn check_values(s: &Sentence, e: &Value, at: &str) {
@@ -1416,6 +1438,13 @@ mod tests {
                     None => e["speed_kmh"].as_f64().map(|k| k / 3.6),
                 };
                 same(*course_deg, &e["course"], DEG) && *speed_mps == speed && *valid == (e["mode"] != "N")
+            }
+            Sentence::Vhw { speed_mps } => {
+                let speed = match e["speed_kn"].as_f64() {
+                    Some(kn) => Some(kn * KNOT_MPS),
+                    None => e["speed_kmh"].as_f64().map(|k| k / 3.6),
+                };
+                *speed_mps == speed
             }
             Sentence::Gga { time_s, lat_deg, lon_deg, quality } => {
                 time_ok(*time_s) && same(*lat_deg, &e["lat"], DEG) && same(*lon_deg, &e["lon"], DEG) && quality.map(u64::from) == e["quality"].as_u64()
@@ -1452,6 +1481,9 @@ mod tests {
         assert!(matches!(read("$GNRMC,000000,A,0000.000,S,00000.000,E,0,0,010100,,*1F"), Outcome::BadChecksum { given: 0x1F, computed: 0x1E }));
         // VTG: km/h only: 36 km/h = 10 m/s.
         assert_eq!(sentence("$GPVTG,,T,,M,,N,036.0,K"), Sentence::Vtg { course_deg: None, speed_mps: Some(10.0), valid: true });
+        // VHW: speed through water, knots first (its headings not read).
+        assert_eq!(sentence("$IIVHW,,T,,M,5.0,N,9.26,K"), Sentence::Vhw { speed_mps: Some(5.0 * 1852.0 / 3600.0) });
+        assert_eq!(sentence("$IIVHW,,T,,M,,N,36.0,K"), Sentence::Vhw { speed_mps: Some(10.0) });
         // A prefix before the $ is skipped; NUL bytes before it too.
         assert!(matches!(parse_line(b"\0\0[12:00:01] $HCHDM,010.0,M"), Line::Sentence { prefixed: true, no_checksum: true, outcome: Outcome::Read { .. }, .. }));
         // Void and invalid letters.
@@ -1495,6 +1527,7 @@ mod tests {
                     Sentence::Hdm { heading_deg } | Sentence::Hdt { heading_deg } => vec![*heading_deg],
                     Sentence::Rmc { time_s, lat_deg, lon_deg, speed_mps, course_deg, variation_deg, .. } => vec![*time_s, *lat_deg, *lon_deg, *speed_mps, *course_deg, *variation_deg],
                     Sentence::Vtg { course_deg, speed_mps, .. } => vec![*course_deg, *speed_mps],
+                    Sentence::Vhw { speed_mps } => vec![*speed_mps],
                     Sentence::Gga { time_s, lat_deg, lon_deg, .. } => vec![*time_s, *lat_deg, *lon_deg],
                     Sentence::Gll { time_s, lat_deg, lon_deg, .. } => vec![*time_s, *lat_deg, *lon_deg],
                     Sentence::Zda { time_s, .. } => vec![*time_s],
@@ -1516,7 +1549,7 @@ mod tests {
         // Cut just before `*`, or after a complete last field: measured.
         // Measured: the cuts that leave every field the type needs (e.g.
         // just before `*hh`, or inside GGA's unused altitude).
-        assert_eq!(read_prefixes, 1019);
+        assert_eq!(read_prefixes, 1037);
     }
 
     proptest::proptest! {

@@ -39,7 +39,7 @@ import pynmea2
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 LOGS = ["mixed.nmea", "gofree-merrimac-head.nmea", "n2kd-183-merrimac-head.nmea"]
-READ = {"HDG", "HDM", "HDT", "RMC", "VTG", "GGA", "GLL", "ZDA"}
+READ = {"HDG", "HDM", "HDT", "RMC", "VTG", "VHW", "GGA", "GLL", "ZDA"}
 
 
 def num(msg, name, unparsable):
@@ -120,6 +120,11 @@ def values(msg, kind):
             "speed_kn": num(msg, "spd_over_grnd_kts", u),
             "speed_kmh": num(msg, "spd_over_grnd_kmph", u),
             "mode": msg.faa_mode,
+        }
+    elif kind == "VHW":
+        v = {
+            "speed_kn": num(msg, "water_speed_knots", u),
+            "speed_kmh": num(msg, "water_speed_km", u),
         }
     elif kind == "GGA":
         lat, lon = position(msg, u)
