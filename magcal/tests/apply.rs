@@ -184,3 +184,27 @@ fn apply_takes_the_intensity_a_foreign_calibration_reproduces() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && err.contains("--field-nt 48.5 nT") && err.contains("µT"), "{err}");
 }
+
+/// One name for the true heading: the simulator writes `true_heading_deg`,
+/// and apply scores against it (it read only `truth_heading_deg`, the BROAD
+/// files' name, and so scored a simulated run against its GPS course). The
+/// same trial under either name gives the same numbers.
+#[test]
+fn apply_scores_against_the_true_heading_by_its_one_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let (cal, _) = write_doc(dir.path());
+    let text = std::fs::read_to_string(data("broad-30/broad_30.csv")).unwrap();
+    let (header, body) = text.split_once('\n').unwrap();
+    assert!(header.contains("truth_heading_deg"));
+    let renamed = dir.path().join("renamed.csv");
+    std::fs::write(&renamed, format!("{}\n{body}", header.replace("truth_heading_deg", "true_heading_deg"))).unwrap();
+    let summary = |input: &Path| -> Summary {
+        let o = magcal(&["apply", "--input", p(input), "--cal", p(&cal), "--out", p(&dir.path().join("o.csv")), "--json"]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        serde_json::from_slice(&o.stdout).unwrap()
+    };
+    let (new, old) = (summary(&renamed), summary(&data("broad-30/broad_30.csv")));
+    assert_eq!(new.heading_reference.as_deref(), Some("true_heading_deg"));
+    assert_eq!(old.heading_reference.as_deref(), Some("truth_heading_deg"));
+    assert_eq!(new.heading_rms_deg, old.heading_rms_deg);
+}

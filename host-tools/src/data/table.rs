@@ -53,6 +53,81 @@ pub mod col {
     pub const GPS_SPEED_MPS: &str = "gps_speed_mps";
 }
 
+/// What a column measures: the unit a mapping may give it, and how it is
+/// interpolated between two rows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Quantity {
+    /// The magnetic field (nT, µT, gauss, mG, counts).
+    Field,
+    /// An attitude, heading, course or position angle (deg, rad).
+    Angle,
+    /// A heading or course: an angle interpolated the short way round 360°.
+    Heading,
+    /// A body rate (rad/s, deg/s).
+    Rate,
+    /// A time (s, ms, µs).
+    Time,
+    /// Anything else, in its one unit (m/s, A, °C, nT of a truth column, a
+    /// health word): no unit may be given.
+    Other,
+}
+
+/// One column of the project: its name, what it measures, the largest
+/// magnitude it may hold (angles, degrees).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Column {
+    /// The name in the header.
+    pub name: &'static str,
+    /// What it measures.
+    pub quantity: Quantity,
+    /// Values beyond ± this are refused by row (angles), degrees.
+    pub limit_deg: Option<f64>,
+}
+
+const fn column(name: &'static str, quantity: Quantity, limit_deg: Option<f64>) -> Column {
+    Column { name, quantity, limit_deg }
+}
+
+/// Every column a recording, a navigation log or a board log may hold: the
+/// one list that the column mapping (`--columns`), the unit conversions and
+/// the range checks read. A new column is one line here (and its field in
+/// the type that holds it).
+pub const COLUMNS: [Column; 24] = {
+    use col::*;
+    use Quantity::*;
+    [
+        column(T, Time, None),
+        column(MAG[0], Field, None),
+        column(MAG[1], Field, None),
+        column(MAG[2], Field, None),
+        column(ROLL_DEG, Angle, Some(180.0)),
+        column(PITCH_DEG, Angle, Some(90.0)),
+        column(HEADING_DEG, Heading, None),
+        column(REF_HEADING_DEG, Heading, Some(360.0)),
+        column(LAT_DEG, Angle, None),
+        column(LON_DEG, Angle, None),
+        column(GYRO[0], Rate, None),
+        column(GYRO[1], Rate, None),
+        column(GYRO[2], Rate, None),
+        column(SPEED_MPS, Other, None),
+        column(MOTOR_CURRENT_A, Other, None),
+        column(TEMP_C, Other, None),
+        column(HEALTH, Other, None),
+        column(T_BOARD, Time, None),
+        column(TRUE_HEADING_DEG, Heading, None),
+        column(TRUE_FIELD_NT, Other, None),
+        column(COMPASS_HEADING_DEG, Heading, Some(360.0)),
+        column(VARIATION_DEG, Angle, Some(180.0)),
+        column(COURSE_DEG, Heading, Some(360.0)),
+        column(GPS_SPEED_MPS, Other, None),
+    ]
+};
+
+/// A project column by name.
+pub fn column_spec(name: &str) -> Option<&'static Column> {
+    COLUMNS.iter().find(|c| c.name == name)
+}
+
 /// Why a table (a recording, a log) could not be read or written.
 #[derive(Debug, thiserror::Error)]
 pub enum TableError {
@@ -207,13 +282,7 @@ pub(crate) fn check_outliers(mag: &[[f64; 3]], path: &Path) -> Result<(), TableE
 
 /// The largest magnitude, degrees, of an attitude or heading column.
 fn angle_limit_deg(column: &str) -> Option<f64> {
-    match column {
-        col::ROLL_DEG => Some(180.0),
-        col::PITCH_DEG => Some(90.0),
-        col::REF_HEADING_DEG | col::COMPASS_HEADING_DEG | col::COURSE_DEG => Some(360.0),
-        col::VARIATION_DEG => Some(180.0),
-        _ => None,
-    }
+    column_spec(column).and_then(|c| c.limit_deg)
 }
 
 /// A cell: a number, or empty/`nan` for "not available". `None` if neither.
@@ -331,47 +400,10 @@ impl ColumnUnit {
     }
 }
 
-/// The project's columns a mapping may name.
+/// The project's columns a mapping may name: every one.
 fn mappable_columns() -> Vec<&'static str> {
-    use col::*;
-    let mut all = vec![
-        T,
-        ROLL_DEG,
-        PITCH_DEG,
-        HEADING_DEG,
-        REF_HEADING_DEG,
-        LAT_DEG,
-        LON_DEG,
-        SPEED_MPS,
-        MOTOR_CURRENT_A,
-        TEMP_C,
-        HEALTH,
-        T_BOARD,
-        TRUE_HEADING_DEG,
-        TRUE_FIELD_NT,
-        COMPASS_HEADING_DEG,
-        VARIATION_DEG,
-        COURSE_DEG,
-        GPS_SPEED_MPS,
-    ];
-    all.extend(MAG);
-    all.extend(GYRO);
-    all
+    COLUMNS.iter().map(|c| c.name).collect()
 }
-
-/// The project's columns whose unit may be given as an angle's.
-const ANGLE_COLUMNS: [&str; 10] = [
-    col::ROLL_DEG,
-    col::PITCH_DEG,
-    col::HEADING_DEG,
-    col::REF_HEADING_DEG,
-    col::LAT_DEG,
-    col::LON_DEG,
-    col::TRUE_HEADING_DEG,
-    col::COMPASS_HEADING_DEG,
-    col::VARIATION_DEG,
-    col::COURSE_DEG,
-];
 
 /// Why a column mapping could not be understood.
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -422,17 +454,13 @@ impl std::str::FromStr for ColumnMap {
                 return Err(ColumnMapError::Syntax(entry.into()));
             }
             if let Some(u) = unit {
-                let kind = if col::MAG.contains(&column) {
-                    Some(UnitKind::Field)
-                } else if ANGLE_COLUMNS.contains(&column) {
-                    Some(UnitKind::Angle)
-                } else if col::GYRO.contains(&column) {
-                    Some(UnitKind::Rate)
-                } else if column == col::T || column == col::T_BOARD {
-                    Some(UnitKind::Time)
-                } else {
-                    None
-                };
+                let kind = column_spec(column).and_then(|c| match c.quantity {
+                    Quantity::Field => Some(UnitKind::Field),
+                    Quantity::Angle | Quantity::Heading => Some(UnitKind::Angle),
+                    Quantity::Rate => Some(UnitKind::Rate),
+                    Quantity::Time => Some(UnitKind::Time),
+                    Quantity::Other => None,
+                });
                 let fits = kind == Some(u.kind());
                 if !fits {
                     return Err(ColumnMapError::WrongUnit(entry.into()));
@@ -792,6 +820,28 @@ mod tests {
 
     fn read(text: &[u8], required: &[&'static str], optional: &[&str]) -> Result<Table, TableError> {
         read_table_from(text, Path::new("x.csv"), required, optional)
+    }
+
+    /// The registry holds each name once, and every name of `col` (what
+    /// the readers and writers use) is in it.
+    #[test]
+    fn the_column_registry_holds_every_column_once() {
+        let mut names: Vec<&str> = COLUMNS.iter().map(|c| c.name).collect();
+        names.sort_unstable();
+        let n = names.len();
+        names.dedup();
+        assert_eq!(names.len(), n, "a name twice");
+        use col::*;
+        let mut all = vec![T, ROLL_DEG, PITCH_DEG, HEADING_DEG, REF_HEADING_DEG, LAT_DEG, LON_DEG, SPEED_MPS, MOTOR_CURRENT_A, TEMP_C, HEALTH, T_BOARD, TRUE_HEADING_DEG, TRUE_FIELD_NT, COMPASS_HEADING_DEG, VARIATION_DEG, COURSE_DEG, GPS_SPEED_MPS];
+        all.extend(MAG);
+        all.extend(GYRO);
+        for c in all {
+            assert!(column_spec(c).is_some(), "{c} is not in the registry");
+        }
+        // What the registry says drives the mapping: an angle's unit on a
+        // heading column, none on a speed.
+        assert!("compass_heading_deg=HDG:rad".parse::<ColumnMap>().is_ok());
+        assert!(matches!("speed_mps=STW:deg".parse::<ColumnMap>(), Err(ColumnMapError::WrongUnit(_))));
     }
 
     /// The one writer: typed cells, text quoted by the CSV rules (a label

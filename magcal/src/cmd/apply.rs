@@ -49,10 +49,16 @@ pub struct Args {
     #[arg(long)]
     field_sigma_nt: Option<f64>,
     /// Print a JSON summary on stdout: rows, rows per state, heading RMS
-    /// against truth_heading_deg or ref_heading_deg when present.
+    /// against the true heading (true_heading_deg; truth_heading_deg, the
+    /// name of the BROAD files' optical heading, too) or ref_heading_deg.
     #[arg(long)]
     json: bool,
 }
+
+/// The true heading's name in files prepared before it had one name
+/// (`tests/data/broad-*`: the optical heading), read when there is no
+/// `true_heading_deg`.
+const TRUTH_HEADING_ALIAS: &str = "truth_heading_deg";
 
 /// Runs `magcal apply`.
 pub fn run(a: Args) -> Result<()> {
@@ -96,9 +102,16 @@ pub fn run(a: Args) -> Result<()> {
     write_applied(&a.out, &a.input, rec.t_s.as_deref(), &applied)?;
     working.done();
     eprintln!("wrote {}", a.out.display());
-    let truth = read_reference_column(&a.input, "truth_heading_deg")?;
+    // The true heading by its one name, or the BROAD files' older one.
+    let mut truth = None;
+    for name in [host_tools::data::table::col::TRUE_HEADING_DEG, TRUTH_HEADING_ALIAS] {
+        if let Some(column) = read_reference_column(&a.input, name)? {
+            truth = Some((name, column));
+            break;
+        }
+    }
     let reference = match (&truth, &rec.ref_heading_deg) {
-        (Some(t), _) => Some(("truth_heading_deg", t.as_slice())),
+        (Some((name, t)), _) => Some((*name, t.as_slice())),
         (None, Some(r)) => Some(("ref_heading_deg", r.as_slice())),
         _ => None,
     };
