@@ -32,7 +32,7 @@
 use calib_core::linalg::{mul_mat, Mat3};
 use serde::{Deserialize, Serialize};
 
-use crate::field_test::FieldTest;
+use crate::field_test_kind::FieldTest;
 
 /// μ0/4π, T·m/A.
 pub const MU0_OVER_4PI: f64 = 1e-7;

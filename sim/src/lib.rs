@@ -7,7 +7,9 @@
 //!   current), each switchable, and two disturbances for integrity checks
 //!   (a steel pier passed at a few metres, a payload switched on mid-run);
 //! * [`field_test`]: paper 000's swing test and out-and-back runs
-//!   (`magcal simulate`);
+//!   (`magcal simulate`); [`field_test_kind`]: which of them a recording is
+//!   (named by both, so `effects` and `field_test` do not import each other
+//!   for it: the dependency runs one way, `field_test` → `effects`);
 //! * [`logs`]: a field test as a board log and a navigation log on two
 //!   clocks (`magcal merge`'s inputs, its tests and benchmark);
 //! * [`scenario`]: the whole chain on simulated field tests against the
@@ -21,6 +23,7 @@
 
 pub mod effects;
 pub mod field_test;
+pub mod field_test_kind;
 pub mod logs;
 pub mod scenario;
 pub mod vehicle;

@@ -9,17 +9,7 @@ use host_tools::geomag::{self, Site};
 use super::{RunParams, SensorModel, SimError, Simulation};
 use crate::effects::{Effect, Effects, Thruster};
 
-/// Which field test a recording is.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum FieldTest {
-    /// The swing test.
-    Swing,
-    /// The out-and-back calibration run.
-    Run,
-    /// The out-and-back validation run.
-    Validation,
-}
+pub use crate::field_test_kind::FieldTest;
 
 /// What the simulator knows and the recording does not.
 #[derive(Debug, Clone, Serialize, Deserialize)]
