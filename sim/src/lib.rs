@@ -10,6 +10,8 @@
 //!   (`magcal simulate`);
 //! * [`logs`]: a field test as a board log and a navigation log on two
 //!   clocks (`magcal merge`'s inputs, its tests and benchmark);
+//! * [`varied`]: the five effects at other sites and with magnitudes drawn
+//!   by seed from stated ranges;
 //! * [`scenario`]: the whole chain on simulated field tests against the
 //!   truth (acceptance tests, `cargo xtask bench`);
 //! * [`vehicle`]: the simulated vehicle that plays the field tests into the
@@ -23,6 +25,7 @@ pub mod effects;
 pub mod field_test;
 pub mod logs;
 pub mod scenario;
+pub mod varied;
 pub mod vehicle;
 
 pub use effects::{Effect, Effects};
