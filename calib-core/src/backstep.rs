@@ -59,6 +59,10 @@ pub struct RunSample<T> {
     pub current_a: T,
     /// Temperature at the magnetometer, °C (NaN: not recorded).
     pub temp_c: T,
+    /// Where the sample was taken: north and east of the reference site
+    /// (the swing test's place), m, from GPS fixes or dead reckoning (NaN:
+    /// unknown). Only the joint refinement's field gradient uses it.
+    pub position_m: [T; 2],
 }
 
 /// The paper's axis coefficients: `H_i = (Ĥ_i − b_i)/s_i` (eq 18).

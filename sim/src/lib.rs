@@ -12,6 +12,8 @@
 //!   for it: the dependency runs one way, `field_test` → `effects`);
 //! * [`logs`]: a field test as a board log and a navigation log on two
 //!   clocks (`magcal merge`'s inputs, its tests and benchmark);
+//! * [`varied`]: the five effects at other sites and with magnitudes drawn
+//!   by seed from stated ranges;
 //! * [`scenario`]: the whole chain on simulated field tests against the
 //!   truth (acceptance tests, `cargo xtask bench`);
 //! * [`vehicle`]: the simulated vehicle that plays the field tests into the
@@ -26,6 +28,7 @@ pub mod field_test;
 pub mod field_test_kind;
 pub mod logs;
 pub mod scenario;
+pub mod varied;
 pub mod vehicle;
 
 pub use effects::{Effect, Effects};

@@ -8,6 +8,7 @@
 
 use host_tools::compute::{self, truth, BackstepMethod, ChainOptions, ComputeError, WaterCurrentMode, Delay, FirstStep};
 use host_tools::data::CalDoc;
+use host_tools::geomag::Site;
 
 use crate::effects::{Effect, Effects};
 use crate::field_test::{self, paper_site, GyroModel, RunKind, RunParams, SensorModel, SimError, Simulation};
@@ -233,6 +234,9 @@ pub enum Variant {
     NoMisalignment,
     /// GPS course used as heading (the water current not removed).
     NoWaterCurrent,
+    /// The local field's gradient along the track held at zero (the chain
+    /// before issue 29's gradient term).
+    NoFieldGradient,
     /// The paper's back-stepping (and the swing fit against raw course, as
     /// the paper does).
     Paper,
@@ -240,8 +244,16 @@ pub enum Variant {
 
 impl Variant {
     /// Every variant, the full chain first.
-    pub const ALL: [Variant; 7] =
-        [Variant::Full, Variant::NoCurrentTerm, Variant::NoTemperatureTerm, Variant::NoLocalField, Variant::NoMisalignment, Variant::NoWaterCurrent, Variant::Paper];
+    pub const ALL: [Variant; 8] = [
+        Variant::Full,
+        Variant::NoCurrentTerm,
+        Variant::NoTemperatureTerm,
+        Variant::NoLocalField,
+        Variant::NoMisalignment,
+        Variant::NoWaterCurrent,
+        Variant::NoFieldGradient,
+        Variant::Paper,
+    ];
 
     /// A short label for tables.
     pub fn label(self) -> &'static str {
@@ -252,6 +264,7 @@ impl Variant {
             Variant::NoLocalField => "ours, local field off",
             Variant::NoMisalignment => "ours, misalignment off",
             Variant::NoWaterCurrent => "ours, water current off",
+            Variant::NoFieldGradient => "ours, field gradient off",
             Variant::Paper => "paper's method",
         }
     }
@@ -266,6 +279,7 @@ impl Variant {
             Variant::NoLocalField => o.joint.terms.local_field = false,
             Variant::NoMisalignment => o.joint.terms.misalignment = false,
             Variant::NoWaterCurrent => o.water_current = WaterCurrentMode::Off,
+            Variant::NoFieldGradient => o.joint.terms.field_gradient = false,
             Variant::Paper => {
                 o.method = BackstepMethod::Paper;
                 o.water_current = WaterCurrentMode::Off;
@@ -326,7 +340,13 @@ pub struct EffectsData {
 
 /// Simulates one effects scenario (the seeds as [`evaluate_effects`] uses them).
 pub fn effects_data(sensor: &SensorModel, seed: u64, effects: &Effects) -> Result<EffectsData, ScenarioError> {
-    let site = paper_site();
+    effects_data_at(sensor, &paper_site(), seed, effects)
+}
+
+/// Simulates one effects scenario at a site of one's own (the runs of
+/// [`effects_runs`] start there; the seeds as [`effects_data`]).
+pub fn effects_data_at(sensor: &SensorModel, site: &Site, seed: u64, effects: &Effects) -> Result<EffectsData, ScenarioError> {
+    let site = *site;
     let (run, validation) = effects_runs();
     Ok(EffectsData {
         swing: field_test::swing_with(sensor, &site, seed, 5.0, 55.0, 10.0, effects)?,
@@ -338,8 +358,22 @@ pub fn effects_data(sensor: &SensorModel, seed: u64, effects: &Effects) -> Resul
 /// Runs one chain variant on simulated effects data and scores it against
 /// the truth.
 pub fn evaluate_variant(data: &EffectsData, variant: Variant) -> Result<EffectsOutcome, ComputeError> {
-    let site = paper_site();
-    let chain = compute::calibrate(&data.swing.recording, &data.run.recording, &site, &variant.options())?;
+    evaluate_options(data, &variant.options())
+}
+
+/// The five effects at one of [`crate::varied::varied_sites`] with
+/// magnitudes drawn by `seed` ([`crate::varied::varied_effects`]),
+/// simulated with the seeds of [`effects_data`].
+pub fn varied_effects_data(sensor: &SensorModel, site: &Site, seed: u64) -> Result<EffectsData, ScenarioError> {
+    let effects = crate::varied::varied_effects(site, seed)?;
+    effects_data_at(sensor, site, seed, &effects)
+}
+
+/// The chain with options of one's own on simulated effects data (at the
+/// data's own site), scored against the truth.
+pub fn evaluate_options(data: &EffectsData, options: &ChainOptions) -> Result<EffectsOutcome, ComputeError> {
+    let site = data.swing.truth.site;
+    let chain = compute::calibrate(&data.swing.recording, &data.run.recording, &site, options)?;
     let heading_rms_deg = heading_rms_deg(&chain.final_doc, &data.validation);
     let heading_noise_deg = heading_noise_deg(&chain.final_doc, &data.validation);
     let truth = data.run.truth.effects.as_ref();

@@ -13,6 +13,7 @@ use serde_json::json;
 mod compass;
 mod integrity;
 mod real_data;
+mod varied;
 
 const PAIRS: [usize; 7] = [30, 60, 120, 240, 480, 720, 1440];
 const SIGMAS: [f64; 5] = [0.0, 1e-4, 1e-3, 1e-2, 3e-2];
@@ -746,6 +747,10 @@ pub fn run(out_dir: &Path) -> Result<()> {
     let (compass_numbers, compass_md) = compass::section(&root);
     eprintln!("{compass_md}");
     results["compass_swing"] = compass_numbers;
+    eprintln!("== the five effects on varied sites with drawn magnitudes (issue 29, item 4), {} seeds", varied::VARIED_SEEDS.len());
+    let (varied_numbers, varied_md) = varied::varied_sites_section();
+    eprintln!("{varied_md}");
+    results["effects_varied_sites"] = varied_numbers;
     if let Some(obj) = mcu.as_object() {
         for (k, v) in obj {
             results[k] = v.clone();
@@ -757,6 +762,7 @@ pub fn run(out_dir: &Path) -> Result<()> {
         serde_json::to_string_pretty(&mcu)?,
         serde_json::to_string_pretty(&results["host_throughput"])?
     );
+    let md = md + &format!("\n## The five effects on varied sites (issue 29, item 4)\n\nThe five effects at three sites unlike paper 000's — high latitude (Trondheimsfjord, inclination 75°), low latitude (off Goa, 19.5°), southern (off Fiji, −40°, declination 13°) — with every effect's magnitudes drawn by seed from the ranges of `magcal_sim::varied::MagnitudeRanges` (thruster places and moments, thermocline, sensor lag and gains, the crustal bodies' strength, depth and place, magnetised by the site's field, the AHRS misalignment, the current's speed and direction). Our chain with the local field's gradient along the track in the joint back-stepping, and without it (the chain before). `cargo test --release -p xtask bench::tests::varied_sites_section -- --ignored --nocapture`.\n\n{varied_md}");
     let md = md + &format!("\n## A heading-only compass's swing (issue 29)\n\nThe yacht Cirrus's real calibration circles: compass − GNSS course before and after the swing, in-sample and on held-out halves (each half corrected by the swing fitted on the other), against numpy's plain least squares.\n{compass_md}");
     std::fs::write(out_dir.join("results.md"), md)?;
     eprintln!("wrote {}", out_dir.join("results.json").display());
@@ -788,6 +794,19 @@ mod tests {
         let budget = super::cpu_budget(&mcu);
         eprintln!("{}\n{}", serde_json::to_string_pretty(&mcu).unwrap_or_default(), serde_json::to_string_pretty(&budget).unwrap_or_default());
         assert!(budget["cpu_busy_pct_at_pair_rate"].as_f64().is_some_and(|p| p > 0.0 && p < 100.0), "{budget}");
+    }
+
+    /// Only the varied-sites section (issue 29, item 4):
+    /// `cargo test --release -p xtask bench::tests::varied_sites_section -- --ignored --nocapture`.
+    /// Prints the tables; asserts only that every site and seed ran.
+    #[test]
+    #[ignore = "a benchmark: prints its numbers"]
+    fn varied_sites_section() {
+        let (v, md) = super::varied::varied_sites_section();
+        eprintln!("{md}");
+        for s in v["summary"].as_array().into_iter().flatten() {
+            assert_eq!(s["seeds"].as_u64(), Some(super::varied::VARIED_SEEDS.len() as u64), "{s}");
+        }
     }
 
     /// Only the effects section (issue 12): `cargo test -p xtask bench::tests::effects_section -- --ignored --nocapture`.

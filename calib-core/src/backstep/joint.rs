@@ -32,6 +32,22 @@
 //! constant NED offset thus shows as a changed inclination only. Headings
 //! never depend on the intensity.
 //!
+//! **The field's gradient along the track.** A crustal anomaly makes the
+//! local field change along the run by tens to hundreds of nT per km; against
+//! a reference that does not, the trend goes into whatever correlates with
+//! position (the temperature gains through the sensor's lag, the per-ampere
+//! vector through the legs' speeds). The local `H` and `Z` therefore carry a
+//! linear gradient in the distance `s` from the site along the track
+//! (`∂H/∂s`, `∂Z/∂s`; `s` from each sample's logged position projected on the
+//! principal axis of the run's positions), with a loose prior
+//! ([`GRADIENT_PRIOR_NT_PER_M`]). Across the track it is left out: there the
+//! positions are dead reckoning's drift between GPS fixes, a sawtooth with the
+//! dives, and a gradient across it would fit what the dives do, not the field.
+//! The swing test is at the site (`s = 0`). A note says when positions are
+//! missing or the run stays near the site ([`JointConfig::min_gradient_span_m`]).
+//! What is not linear in the anomaly stays in the residuals (their correlation
+//! inflates the covariance).
+//!
 //! **Current and temperature** are estimated from the run itself where they
 //! vary; [`JointConfig::min_current_spread_a`] and
 //! [`JointConfig::min_temp_spread_c`] decide, and a [`JointNote`] says why a
@@ -63,7 +79,7 @@ use crate::lsq::lm::{self, Damping, LmOptions, LmProblem, LmStop, Linearisation,
 use crate::Real;
 
 /// Number of parameters of the joint problem.
-pub const NP: usize = 24;
+pub const NP: usize = 26;
 const M0: usize = 0;
 const B0: usize = 9;
 const BR0: usize = 12;
@@ -72,6 +88,15 @@ const K0: usize = 18;
 const DI: usize = 21;
 const MR: usize = 22;
 const MP: usize = 23;
+/// The local field's gradient along the track: `∂H/∂s`, `∂Z/∂s`, nT/m.
+const GH: usize = 24;
+const GZ: usize = 25;
+
+/// Default prior 1σ of the local field's gradient along the track, nT/m
+/// (0.5 nT/m = 500 nT/km: loose against crustal anomalies' tens to
+/// hundreds of nT/km; chosen leave-one-out on the varied sites, see the
+/// bench's "five effects on varied sites").
+pub const GRADIENT_PRIOR_NT_PER_M: f64 = 0.5;
 
 /// Largest variance inflation for correlated residuals.
 const MAX_INFLATION: f64 = 1000.0;
@@ -150,6 +175,12 @@ pub struct JointConfig<T> {
     pub field_prior_h_nt: T,
     /// Prior 1σ of each misalignment angle, rad.
     pub misalignment_prior_rad: T,
+    /// Prior 1σ of the local field's gradient along the track (H and Z
+    /// each), nT/m.
+    pub gradient_prior_nt_per_m: T,
+    /// The gradient is estimated only when the run's positions span this
+    /// far from the site, m.
+    pub min_gradient_span_m: T,
     /// Which environment terms may be estimated at all (all by default):
     /// switching one off holds it at its neutral value, for comparisons.
     pub terms: JointTerms,
@@ -172,12 +203,15 @@ pub struct JointTerms {
     pub local_field: bool,
     /// The AHRS roll/pitch misalignment.
     pub misalignment: bool,
+    /// The local field's linear gradient along the track (the crustal
+    /// anomaly seen as a gradient).
+    pub field_gradient: bool,
 }
 
 impl Default for JointTerms {
     /// Every term switched on.
     fn default() -> Self {
-        Self { motor_current: true, temperature: true, local_field: true, misalignment: true }
+        Self { motor_current: true, temperature: true, local_field: true, misalignment: true, field_gradient: true }
     }
 }
 
@@ -195,6 +229,8 @@ impl<T: Real> Default for JointConfig<T> {
             field_prior_z_nt: T::from_f64(IGRF_SIGMA_NED_NT[2]),
             field_prior_h_nt: T::from_f64(IGRF_SIGMA_NED_NT[0]),
             misalignment_prior_rad: T::from_f64(2.0f64.to_radians()),
+            gradient_prior_nt_per_m: T::from_f64(GRADIENT_PRIOR_NT_PER_M),
+            min_gradient_span_m: T::from_f64(1000.0),
             terms: JointTerms::default(),
         }
     }
@@ -227,6 +263,14 @@ pub enum JointNote<T> {
         /// Its σ after the data relative to the prior's.
         sigma_ratio: T,
     },
+    /// The run's positions are missing or do not go far enough from the
+    /// site for the field's gradient.
+    TrackTooShort {
+        /// Farthest position from the site, m (0: no positions).
+        span_m: T,
+        /// The threshold, m.
+        min_m: T,
+    },
 }
 
 impl<T: Real> core::fmt::Display for JointNote<T> {
@@ -253,6 +297,12 @@ impl<T: Real> core::fmt::Display for JointNote<T> {
                 "the AHRS roll/pitch misalignment is not separable from the matrix's rotation on these data (its σ only fell to {:.0} % of the prior's): held at 0, the matrix absorbs it",
                 100.0 * sigma_ratio.to_f64()
             ),
+            JointNote::TrackTooShort { span_m, min_m } => write!(
+                f,
+                "the run's positions reach only {:.0} m from the site (< {:.0} m, or no lat/lon): the local field's gradient along the track is not estimated",
+                span_m.to_f64(),
+                min_m.to_f64()
+            ),
         }
     }
 }
@@ -275,6 +325,8 @@ pub struct JointSigmas<T> {
     pub local_inclination_rad: T,
     /// Misalignment roll and pitch, rad.
     pub misalignment_rad: [T; 2],
+    /// The field's gradient along the track (`∂H/∂s, ∂Z/∂s`), nT/m.
+    pub gradient_nt_per_m: [T; 2],
 }
 
 /// What the joint refinement found.
@@ -295,6 +347,16 @@ pub struct JointSolution<T> {
     pub temperature_estimated: bool,
     /// Whether the misalignment was estimated (observable).
     pub misalignment_estimated: bool,
+    /// Whether the local field's gradient was estimated.
+    pub gradient_estimated: bool,
+    /// The local field's linear gradient along the track, `∂H/∂s, ∂Z/∂s`
+    /// (H the horizontal intensity, Z down, `s` the distance from the site
+    /// along [`Self::track_direction`]), nT/m, on top of the reference's own
+    /// (zero where not estimated).
+    pub field_gradient_nt_per_m: [T; 2],
+    /// The track's direction (north, east; unit): the principal axis of the
+    /// run's positions about the site.
+    pub track_direction: [T; 2],
     /// AHRS misalignment added to roll and pitch, rad.
     pub misalignment_rad: [T; 2],
     /// Mean reference (IGRF) horizontal and down components over the run, nT.
@@ -318,7 +380,7 @@ pub struct JointSolution<T> {
     /// Iterations used.
     pub iterations: u8,
     /// Why terms were not estimated.
-    pub notes: [Option<JointNote<T>>; 3],
+    pub notes: [Option<JointNote<T>>; 4],
     /// The factor the data's information was divided by for the
     /// correlation of neighbouring residuals, `(1 + ρ)/(1 − ρ)` (≥ 1).
     pub correlation_inflation: T,
@@ -339,6 +401,8 @@ struct Model<T> {
     w_run: T,
     w_swing: T,
     swing_field_nt: T,
+    /// The track's direction (north, east; unit).
+    track: [T; 2],
 }
 
 /// What a residual looks at, and its context.
@@ -401,6 +465,17 @@ impl<T: Real> Model<T> {
         Row { raw: s.raw, current_a, dt_c, running: false }
     }
 
+    /// A sample's distance from the site along the track, m (0 where its
+    /// position is unknown: the site).
+    fn along_track_m(&self, s: &RunSample<T>) -> T {
+        let [n, e] = s.position_m;
+        if n.is_finite() && e.is_finite() {
+            n * self.track[0] + e * self.track[1]
+        } else {
+            T::ZERO
+        }
+    }
+
     /// Calls `out(residual, weight, jacobian)` for each residual of a run sample.
     fn run_residuals(&self, p: &[T; NP], s: &RunSample<T>, out: &mut impl FnMut(T, T, &[T; NP])) {
         if self.active[C0] && !s.current_a.is_finite() {
@@ -422,12 +497,17 @@ impl<T: Real> Model<T> {
         // of the magnetic meridian, its intensity kept.
         let (si, ci) = (p[DI].sin(), p[DI].cos());
         let (h_loc, z_loc) = (s.h_ref_nt * ci - s.z_ref_nt * si, s.z_ref_nt * ci + s.h_ref_nt * si);
+        // Plus the linear gradient from the site to where the sample was,
+        // along the track.
+        let along_m = if self.active[GH] { self.along_track_m(s) } else { T::ZERO };
+        let (h_grad, z_grad) = (p[GH] * along_m, p[GZ] * along_m);
         // Vertical: l_z − Z_local.
         let mut j = self.jacobian(p, &row, d, g, lm[2]);
         j[DI] = -h_loc;
         j[MR] = dot(&dl_dr[2], &h);
         j[MP] = dot(&dl_dp[2], &h);
-        out(l[2] - z_loc, self.w_run, &j);
+        j[GZ] = -along_m;
+        out(l[2] - z_loc - z_grad, self.w_run, &j);
         // Horizontal intensity: |(l_x, l_y)| − H_local.
         let hh = (l[0] * l[0] + l[1] * l[1]).sqrt();
         if hh > T::ZERO {
@@ -437,7 +517,8 @@ impl<T: Real> Model<T> {
             j[DI] = z_loc;
             j[MR] = ux * dot(&dl_dr[0], &h) + uy * dot(&dl_dr[1], &h);
             j[MP] = ux * dot(&dl_dp[0], &h) + uy * dot(&dl_dp[1], &h);
-            out(hh - h_loc, self.w_run, &j);
+            j[GH] = -along_m;
+            out(hh - h_loc - h_grad, self.w_run, &j);
         }
     }
 
@@ -543,22 +624,26 @@ pub const NOTE_CURRENT: usize = 0;
 pub const NOTE_TEMPERATURE: usize = 1;
 /// The misalignment note's place in [`JointSolution::notes`].
 pub const NOTE_MISALIGNMENT: usize = 2;
+/// The gradient note's place in [`JointSolution::notes`].
+pub const NOTE_GRADIENT: usize = 3;
 
 /// Which environment terms the data allow, and the run's typical values.
 struct TermChoice<T> {
     use_current: bool,
     use_temp: bool,
+    use_gradient: bool,
+    track: [T; 2],
     current_mean: T,
     temp_mean: T,
     temp_n: u32,
     ref_c: T,
-    notes: [Option<JointNote<T>>; 3],
+    notes: [Option<JointNote<T>>; 4],
 }
 
 /// Decides the current and temperature terms from their spread over the
 /// run and the swing test (a note says why a term is not estimated).
 fn choose_terms<T: Real>(run: &[RunSample<T>], swing: &[SwingSample<T>], cfg: &JointConfig<T>) -> TermChoice<T> {
-    let mut notes = [None; 3];
+    let mut notes = [None; 4];
     // Current: observable when it varies.
     let (current_mean, current_sd, _, _, current_n) = spread(run.iter().map(|s| s.current_a).chain(swing.iter().map(|s| s.current_a)));
     let use_current = if !cfg.terms.motor_current {
@@ -589,7 +674,44 @@ fn choose_terms<T: Real>(run: &[RunSample<T>], swing: &[SwingSample<T>], cfg: &J
         _ if temp_n > 0 => (t_lo + t_hi) / T::from_f64(2.0),
         _ => EnvTerms::<T>::none().ref_c,
     };
-    TermChoice { use_current, use_temp, current_mean, temp_mean, temp_n, ref_c, notes }
+    // The gradient: where the run goes far enough from the site, along
+    // the principal axis of its positions. (Across the track the positions
+    // are dead reckoning's drift between fixes, a sawtooth with the dives:
+    // a gradient across it would fit what the dives do, not the field.)
+    let (track, span_m) = track_axis(run);
+    let use_gradient = if !cfg.terms.field_gradient {
+        false
+    } else if !(span_m >= cfg.min_gradient_span_m) {
+        notes[NOTE_GRADIENT] = Some(JointNote::TrackTooShort { span_m, min_m: cfg.min_gradient_span_m });
+        false
+    } else {
+        true
+    };
+    TermChoice { use_current, use_temp, use_gradient, track, current_mean, temp_mean, temp_n, ref_c, notes }
+}
+
+/// The principal axis (north, east; unit) of the run's positions about the
+/// site (second moments), and the farthest distance from the site along
+/// it, m (0 without positions).
+fn track_axis<T: Real>(run: &[RunSample<T>]) -> ([T; 2], T) {
+    let (mut snn, mut see, mut sne) = (T::ZERO, T::ZERO, T::ZERO);
+    for s in run {
+        let [n, e] = s.position_m;
+        if n.is_finite() && e.is_finite() {
+            snn += n * n;
+            see += e * e;
+            sne += n * e;
+        }
+    }
+    // The larger eigenvector of [[snn, sne], [sne, see]]: angle ½·atan2(2 sne, snn − see).
+    let angle = (T::from_f64(2.0) * sne).atan2(snn - see) / T::from_f64(2.0);
+    let axis = [angle.cos(), angle.sin()];
+    let span = run
+        .iter()
+        .map(|s| s.position_m)
+        .filter(|p| p[0].is_finite() && p[1].is_finite())
+        .fold(T::ZERO, |a, p| a.max((p[0] * axis[0] + p[1] * axis[1]).abs()));
+    (axis, span)
 }
 
 /// The run's mean reference field and IGRF's σ along and across it.
@@ -625,12 +747,15 @@ fn initial_model<T: Real>(terms: &TermChoice<T>, swing_field_nt: T, cfg: &JointC
     active[DI] = cfg.terms.local_field;
     active[MR] = cfg.terms.misalignment;
     active[MP] = cfg.terms.misalignment;
+    active[GH] = terms.use_gradient;
+    active[GZ] = terms.use_gradient;
     Model {
         active,
         ref_c: terms.ref_c,
         w_run: T::ONE / cfg.weights.run_sigma_nt,
         w_swing: T::ONE / cfg.weights.swing_sigma_nt,
         swing_field_nt,
+        track: terms.track,
     }
 }
 
@@ -654,7 +779,8 @@ fn priors<T: Real>(start: &FieldCal<T>, gain: T, field: &ReferenceField<T>, cfg:
             _ if a < K0 => gain / cfg.current_prior_nt_per_a,
             _ if a < DI => T::ONE / cfg.gain_prior_per_c,
             DI => field.f_nt / field.sigma_across_nt,
-            _ => T::ONE / cfg.misalignment_prior_rad,
+            MR | MP => T::ONE / cfg.misalignment_prior_rad,
+            _ => T::ONE / cfg.gradient_prior_nt_per_m,
         };
     }
     (prior, prior_w)
@@ -760,6 +886,7 @@ fn sigmas_of<T: Real>(cov: &[[T; NP]; NP]) -> JointSigmas<T> {
         gain_per_c: core::array::from_fn(|k| sd(K0 + k)),
         local_inclination_rad: sd(DI),
         misalignment_rad: [sd(MR), sd(MP)],
+        gradient_nt_per_m: [sd(GH), sd(GZ)],
     }
 }
 
@@ -804,6 +931,9 @@ pub fn joint_refine_env<T: Real>(
         current_estimated: terms.use_current,
         temperature_estimated: terms.use_temp,
         misalignment_estimated,
+        gradient_estimated: terms.use_gradient,
+        field_gradient_nt_per_m: [p[GH], p[GZ]],
+        track_direction: model.track,
         misalignment_rad: [p[MR], p[MP]],
         reference_hz_nt: [h_mean, z_mean],
         local_inclination_offset_rad: p[DI],
@@ -941,6 +1071,7 @@ impl<T: Real> JointSolution<T> {
             leg: super::Leg::Other,
             current_a: self.typical_current_a,
             temp_c: self.typical_temp_c,
+            position_m: [T::ZERO; 2],
         };
         let row = self.model.run_row(&s);
         let (d, _) = self.model.corrected(p, &row);
@@ -993,6 +1124,7 @@ impl<T: Real> JointSolution<T> {
                 leg: super::Leg::Other,
                 current_a: self.typical_current_a,
                 temp_c: self.typical_temp_c,
+                position_m: [T::ZERO; 2],
             })
         })
     }

@@ -54,7 +54,7 @@ fn synthetic_run(d: &Mat3<f64>, b: [f64; 3], b_run: [f64; 3]) -> Vec<RunSample<f
         let r = crate::linalg::mul_mat_vec(d, h);
         let raw = [0, 1, 2].map(|i| r[i] + b[i] + b_run[i] + 0.5 * rng.gauss());
         let leg = if (1500..2000).contains(&k) { Leg::Out } else if (2000..2500).contains(&k) { Leg::Back } else { Leg::Other };
-        out.push(RunSample { raw, roll_rad: roll, pitch_rad: pitch, h_ref_nt: hh, z_ref_nt: hz, leg, current_a: f64::NAN, temp_c: f64::NAN });
+        out.push(RunSample { raw, roll_rad: roll, pitch_rad: pitch, h_ref_nt: hh, z_ref_nt: hz, leg, current_a: f64::NAN, temp_c: f64::NAN, position_m: [f64::NAN; 2] });
     }
     out
 }

@@ -262,6 +262,12 @@ fn run_samples(rec: &Recording, reference: &RunReference, legs: Option<(f64, f64
     let roll = rec.roll_deg.as_ref().ok_or(ComputeError::NeedsColumn("roll_deg"))?;
     let pitch = rec.pitch_deg.as_ref().ok_or(ComputeError::NeedsColumn("pitch_deg"))?;
     let t = rec.t_s.as_ref();
+    // Positions are measured from the site (IGRF's reference) or else from
+    // the recording's first fix.
+    let origin = match reference {
+        RunReference::Igrf(site) => Some((site.lat_deg, site.lon_deg)),
+        RunReference::Given { .. } => first_fix(rec),
+    };
     let mut samples = Vec::with_capacity(rec.len());
     for i in 0..rec.len() {
         let raw = rec.mag[i];
@@ -300,9 +306,27 @@ fn run_samples(rec: &Recording, reference: &RunReference, legs: Option<(f64, f64
             leg,
             current_a: col(&rec.motor_current_a),
             temp_c: col(&rec.temp_c),
+            position_m: position_m(rec, i, origin),
         });
     }
     Ok(samples)
+}
+
+/// The first row with a finite `lat_deg` and `lon_deg`.
+fn first_fix(rec: &Recording) -> Option<(f64, f64)> {
+    let (lat, lon) = (rec.lat_deg.as_ref()?, rec.lon_deg.as_ref()?);
+    lat.iter().zip(lon).find(|(a, b)| a.is_finite() && b.is_finite()).map(|(a, b)| (*a, *b))
+}
+
+/// Row `i`'s logged position north and east of `origin` (lat, lon), m;
+/// NaN without a position.
+fn position_m(rec: &Recording, i: usize, origin: Option<(f64, f64)>) -> [f64; 2] {
+    let at = |c: &Option<Vec<f64>>| c.as_ref().and_then(|v| v.get(i).copied()).unwrap_or(f64::NAN);
+    let (lat, lon) = (at(&rec.lat_deg), at(&rec.lon_deg));
+    match origin {
+        Some((lat0, lon0)) if lat.is_finite() && lon.is_finite() => calib_core::water_current::local_north_east_m(lat, lon, lat0, lon0),
+        _ => [f64::NAN; 2],
+    }
 }
 
 /// The run samples with the solution's current and temperature terms

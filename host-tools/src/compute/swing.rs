@@ -147,13 +147,16 @@ const DELAY_SETTLED_S: f64 = 0.02;
 
 /// The GPS delay re-estimated against course turned into heading with the
 /// current, alternating with the current (starting from `delay_s`, the
-/// estimate against raw course); `delay_s` unchanged when the current
-/// cannot be estimated.
-fn delay_in_current(i: &TrackInputs<'_>, gps: &GpsColumns, reference: &[f64], range_s: (f64, f64), mut delay_s: f64) -> f64 {
+/// estimate against raw course, or a provisional one); `delay_s` unchanged
+/// when the current or the delay against the converted course cannot be
+/// estimated. Returns the delay and whether it was estimated against the
+/// converted course at least once.
+fn delay_in_current(i: &TrackInputs<'_>, gps: &GpsColumns, reference: &[f64], range_s: (f64, f64), mut delay_s: f64) -> (f64, bool) {
     let TrackInputs { t, headings, speed, decl, gap, .. } = *i;
+    let mut estimated = false;
     for _ in 0..MAX_DELAY_ROUNDS {
         let track = gps.track(i, delay_s);
-        let Ok(fit) = fit_swing_in_current(&track) else { return delay_s };
+        let Ok(fit) = fit_swing_in_current(&track) else { return (delay_s, estimated) };
         let c = fit.current.current_ne_mps;
         // Every reference sample (turns too: the delay shows there) turned
         // into magnetic heading; the speed of the same row (it changes
@@ -163,14 +166,15 @@ fn delay_in_current(i: &TrackInputs<'_>, gps: &GpsColumns, reference: &[f64], ra
             .zip(speed)
             .map(|(&r, &s)| heading_from_course(r + decl, s, c).map_or(f64::NAN, |h| h - decl))
             .collect();
-        let Ok(next) = estimate_delay(t, headings, t, &converted, range_s, 0.1, gap) else { return delay_s };
+        let Ok(next) = estimate_delay(t, headings, t, &converted, range_s, 0.1, gap) else { return (delay_s, estimated) };
+        estimated = true;
         let moved = (next.delay_s - delay_s).abs();
         delay_s = next.delay_s;
         if moved < DELAY_SETTLED_S {
             break;
         }
     }
-    delay_s
+    (delay_s, estimated)
 }
 
 /// Fits the swing correction and returns the document with it, removing
@@ -236,10 +240,22 @@ pub(crate) fn fit_swing_inputs(i: &SwingInputs<'_>, delay: Delay, water_current:
     // The delay shows only while turning, so it is estimated on everything;
     // the Fourier terms are fitted on steady headings only — in a turn the
     // course over ground lags and slips against the heading.
-    let mut delay_s = match delay {
-        Delay::Given(s) => s,
-        Delay::Estimate { min_s, max_s } => estimate_delay(t, &headings, t, &reference, (min_s, max_s), 0.1, gap)?.delay_s,
+    // Against raw course; in a strong cross-current the crab's changes
+    // through the turn can hide the lag there (the residual's curve flat):
+    // then, where the current can be estimated, the search starts from the
+    // middle of the range and must succeed against course turned into
+    // heading, or the error stands.
+    let first = match delay {
+        Delay::Given(s) => Ok(s),
+        Delay::Estimate { min_s, max_s } => estimate_delay(t, &headings, t, &reference, (min_s, max_s), 0.1, gap).map(|d| d.delay_s),
     };
+    let can_convert = water_current == WaterCurrentMode::Auto && i.speed_mps.is_some();
+    let mut delay_s = match (first, delay) {
+        (Ok(s), _) => s,
+        (Err(calib_core::swing::SwingError::DelayUnobservable), Delay::Estimate { min_s, max_s }) if can_convert => 0.5 * (min_s + max_s),
+        (Err(e), _) => return Err(e.into()),
+    };
+    let raw_unobservable = first.is_err();
     let steady: Vec<f64> = reference
         .iter()
         .enumerate()
@@ -254,7 +270,13 @@ pub(crate) fn fit_swing_inputs(i: &SwingInputs<'_>, delay: Delay, water_current:
     let course_true: Vec<f64> = steady.iter().map(|r| r + decl).collect();
     let inputs = |speed| TrackInputs { t, headings: &headings, speed, course_true: &course_true, decl, gap };
     if let (Delay::Estimate { min_s, max_s }, WaterCurrentMode::Auto, Some(speed), Ok(gps)) = (delay, water_current, i.speed_mps, &gps) {
-        delay_s = delay_in_current(&inputs(speed), gps, &reference, (min_s, max_s), delay_s);
+        let (d, estimated) = delay_in_current(&inputs(speed), gps, &reference, (min_s, max_s), delay_s);
+        if raw_unobservable && !estimated {
+            return Err(calib_core::swing::SwingError::DelayUnobservable.into());
+        }
+        delay_s = d;
+    } else if raw_unobservable {
+        return Err(calib_core::swing::SwingError::DelayUnobservable.into());
     }
     let turning = reference.iter().zip(&steady).filter(|(r, s)| r.is_finite() && !s.is_finite()).count();
     let mut warnings: Vec<String> = Vec::new();

@@ -79,6 +79,7 @@ fn run(t: &Truth, cond: &Conditions, seed: u64) -> Vec<RunSample<f64>> {
                 leg,
                 current_a: i_a,
                 temp_c: t_c,
+                position_m: [f64::NAN; 2],
             }
         })
         .collect()
