@@ -61,6 +61,7 @@ pub fn swing_compass(log: &CompassLog, declination_deg: Option<f64>, delay: Dela
         speed_mps: log.speed_mps.as_deref(),
         lat_deg: log.lat_deg.as_deref(),
         lon_deg: log.lon_deg.as_deref(),
+        turns_when_steady_is_short: true,
     };
     let (fit, mut quality, delay_s) = fit_swing_inputs(&inputs, delay, water_current)?;
     match source {
