@@ -197,7 +197,7 @@ fn the_report_shows_the_integrity_along_a_validation_run_past_the_pier() {
     // measured 4 of 3 180 (at 254, 261, 1 171 and 1 402 s) since a back-stepped document's gates
     // use its own run residual ⊕ its intensity's 1σ (139 nT on the README's
     // chain) instead of the first step's 378 nT, which let a bias 300
-    // counts off pass as ok at 1.93° (magcal/tests/reference.rs); none
+    // counts off pass as ok at 1.93° (magcal/tests/commands/reference.rs); none
     // with the stale scatter.
     let away: Vec<f64> = flagged.iter().copied().filter(|tf| !near_pier.iter().any(|tp| (tp - tf).abs() <= 5.0)).collect();
     assert!(away.len() as f64 <= 3e-3 * total, "rows not ok away from the pier at {away:?} s ({:?} s)", (near_pier.first(), near_pier.last()));

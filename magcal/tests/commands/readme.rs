@@ -10,7 +10,7 @@
 //! * `merge`: its inputs are the board's and the navigation computer's logs
 //!   from `log` on a vehicle (`magcal/tests/merge.rs` covers it);
 //! * `import --dataflash LOG.bin`: a vehicle's own DataFlash log, which the
-//!   repository has none of (`magcal/tests/import.rs` writes one; `import
+//!   repository has none of (`magcal/tests/commands/import.rs` writes one; `import
 //!   --nmea` runs, on the repository's real NMEA log);
 //! * `report --session session/`: the folder `session` writes.
 
