@@ -3,7 +3,7 @@
 //! against the simulator's true heading, its prediction stays honest, and
 //! the joint back-stepping's field gradient along the track is the one the
 //! simulator's true field has. Fixed seeds; about 20 s in release
-//! (`cargo test --release -p magcal-sim --test varied`).
+//! (`cargo test --release -p magcal-sim --test physics varied::`).
 
 use host_tools::compute::{self, Chain};
 use host_tools::geomag;
