@@ -10,14 +10,14 @@ use host_tools::compute::{self, ChainOptions};
 use host_tools::data::merge::{merge, BoardLog, Clock, MergeReport, NavLog};
 use host_tools::data::Recording;
 use magcal_sim::field_test::{self, paper_site, RunKind, RunParams, SensorModel, Simulation};
-use magcal_sim::logs::{self, LogSplit, NAV_T0_S};
+use magcal_sim::logs::{self, LogSplit, NavHeading, NAV_T0_S};
 use magcal_sim::scenario::heading_rms_deg;
 
 /// Splits a simulation into a board log and a navigation log
 /// ([`magcal_sim::logs::split`]: board times in whole milliseconds, the
 /// AHRS heading with 0.15° of noise, the GPS as simulated).
 fn split(sim: &Simulation, offset_s: f64, drift_ppm: f64, nav_every: usize, trim_s: (f64, f64), seed: u64) -> (BoardLog, NavLog) {
-    logs::split(sim, &LogSplit { offset_s, drift_ppm, nav_every, trim_s, seed })
+    logs::split(sim, &LogSplit { offset_s, drift_ppm, nav_every, trim_s, seed, nav_heading: NavHeading::Ahrs })
 }
 
 fn estimate() -> Clock {
@@ -161,10 +161,15 @@ fn the_merge_command_prints_its_report_and_refuses_in_one_line() {
 /// makes, both logs at the simulation's rate; returns the offset errors
 /// and their stated σ, s.
 fn errors_and_sigmas(cases: &[(u64, f64, f64)], sim: impl Fn(u64) -> Simulation, trim_s: (f64, f64)) -> Vec<(f64, f64)> {
+    errors_and_sigmas_with(cases, sim, trim_s, NavHeading::Ahrs)
+}
+
+/// [`errors_and_sigmas`] with the navigation log carrying `nav_heading`.
+fn errors_and_sigmas_with(cases: &[(u64, f64, f64)], sim: impl Fn(u64) -> Simulation, trim_s: (f64, f64), nav_heading: NavHeading) -> Vec<(f64, f64)> {
     cases
         .iter()
         .map(|&(seed, offset_s, drift_ppm)| {
-            let (board, nav) = split(&sim(seed), offset_s, drift_ppm, 1, trim_s, seed);
+            let (board, nav) = logs::split(&sim(seed), &LogSplit { offset_s, drift_ppm, nav_every: 1, trim_s, seed, nav_heading });
             let r = merge(&board, &nav, estimate()).unwrap_or_else(|e| panic!("seed {seed}, {offset_s} s, {drift_ppm} ppm: {e}")).report;
             let e = r.offset_s - offset_s;
             eprintln!(
@@ -259,3 +264,4 @@ fn a_navigation_log_under_its_own_names_and_units_merges_with_nav_columns() {
     assert!(!out.status.success() && err.contains("--nav-columns") && err.contains("missing column"), "{err}");
     assert!(!dir.path().join("rec2.csv").exists());
 }
+

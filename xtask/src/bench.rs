@@ -458,7 +458,7 @@ fn real_recordings(root: &Path) -> serde_json::Value {
 /// RMS error over the RMS σ (1 when the σ tells the truth).
 fn merge_rate(label: &str, target_ms: f64, sim: &dyn Fn(u64) -> Option<magcal_sim::field_test::Simulation>, nav_every: usize, md: &mut String) -> serde_json::Value {
     use host_tools::data::merge::{merge, Clock};
-    use magcal_sim::logs::{split, LogSplit};
+    use magcal_sim::logs::{split, LogSplit, NavHeading};
     let estimate = Clock::Estimate { center_s: 0.0, max_offset_s: 120.0 };
     let (mut rows, mut errors) = (Vec::new(), Vec::new());
     for seed in MERGE_SEEDS {
@@ -466,7 +466,7 @@ fn merge_rate(label: &str, target_ms: f64, sim: &dyn Fn(u64) -> Option<magcal_si
         for (offset_s, drift_ppm) in [(60.0f64, 100.0f64), (60.0, -100.0), (-60.0, 100.0), (-60.0, -100.0)] {
             // A little off the round numbers, so no grid lines up by chance.
             let offset_s = offset_s - 0.0137 * offset_s.signum() * seed as f64;
-            let (board, nav) = split(&sim, &LogSplit { offset_s, drift_ppm, nav_every, trim_s: (20.0, 15.0), seed });
+            let (board, nav) = split(&sim, &LogSplit { offset_s, drift_ppm, nav_every, trim_s: (20.0, 15.0), seed, nav_heading: NavHeading::Ahrs });
             match merge(&board, &nav, estimate) {
                 Ok(m) => {
                     let r = &m.report;
@@ -502,7 +502,7 @@ fn merge_clocks() -> (serde_json::Value, String) {
     use host_tools::compute::{self, ChainOptions};
     use host_tools::data::merge::{merge, Clock};
     use magcal_sim::field_test::{self, paper_site, RunKind, RunParams, SensorModel};
-    use magcal_sim::logs::{split, LogSplit};
+    use magcal_sim::logs::{split, LogSplit, NavHeading};
     use magcal_sim::scenario::heading_rms_deg;
     let estimate = Clock::Estimate { center_s: 0.0, max_offset_s: 120.0 };
     let (sensor, site) = (SensorModel::paper_like(), paper_site());
@@ -531,8 +531,8 @@ fn merge_clocks() -> (serde_json::Value, String) {
             field_test::run(&sensor, &site, &RunParams::validation(), seed + 300, 2.0, RunKind::Validation),
         );
         let (Ok(swing), Ok(run), Ok(validation)) = sims else { continue };
-        let (sb, sn) = split(&swing, &LogSplit { offset_s: 41.3, drift_ppm: 80.0, nav_every: 5, trim_s: (10.0, 10.0), seed });
-        let (rb, rn) = split(&run, &LogSplit { offset_s: -23.9, drift_ppm: -60.0, nav_every: 5, trim_s: (10.0, 10.0), seed });
+        let (sb, sn) = split(&swing, &LogSplit { offset_s: 41.3, drift_ppm: 80.0, nav_every: 5, trim_s: (10.0, 10.0), seed, nav_heading: NavHeading::Ahrs });
+        let (rb, rn) = split(&run, &LogSplit { offset_s: -23.9, drift_ppm: -60.0, nav_every: 5, trim_s: (10.0, 10.0), seed, nav_heading: NavHeading::Ahrs });
         let result = (|| -> Result<(f64, f64), String> {
             let single = compute::calibrate(&swing.recording, &run.recording, &site, &opts).map_err(|e| e.to_string())?;
             let ms = merge(&sb, &sn, estimate).map_err(|e| e.to_string())?;
