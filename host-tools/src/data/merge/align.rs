@@ -203,8 +203,11 @@ const MIN_COURSE_ROWS: usize = 3 * FEATURES * 10;
 /// `k` (the fine model's own peak near the combined one), refined by a
 /// parabola, as a lag.
 fn own_peak(curve: &[f64], lags: &[f64], k: usize, radius: usize) -> Option<f64> {
+    if curve.len() != lags.len() || lags.is_empty() {
+        return None;
+    }
     let lo = k.saturating_sub(radius);
-    let hi = (k + radius).min(curve.len().saturating_sub(1));
+    let hi = (k + radius).min(curve.len() - 1);
     let (j, &top) = (lo..=hi).map(|j| (j, &curve[j])).filter(|(_, v)| v.is_finite()).max_by(|a, b| a.1.total_cmp(b.1))?;
     let vertex = match (j.checked_sub(1).and_then(|i| curve.get(i)), curve.get(j + 1)) {
         (Some(a), Some(c)) if a.is_finite() && c.is_finite() => parabolic_vertex(*a, top, *c),
