@@ -445,22 +445,33 @@ fn real_recordings(root: &Path) -> serde_json::Value {
     json!(out)
 }
 
-/// One rate of the merge section: simulated logs cut into a board log and
-/// a navigation log whose clocks differ by ±60 s and ±100 ppm, merged with
-/// the offset searched within ±120 s; the offset and drift errors and
+/// One log shape of the merge section: simulated logs cut into a board log
+/// and a navigation log (every `nav_every`-th row, with the heading
+/// `nav_heading` says) whose clocks differ by ±60 s and ±100 ppm, merged
+/// with the offset searched within ±120 s; the offset and drift errors and
 /// their stated σ per case, then over the cases the worst error and the
 /// RMS error over the RMS σ (1 when the σ tells the truth).
-fn merge_rate(label: &str, target_ms: f64, sim: &dyn Fn(u64) -> Option<magcal_sim::field_test::Simulation>, nav_every: usize, md: &mut String) -> serde_json::Value {
+fn merge_rate(
+    label: &str,
+    target_ms: f64,
+    sim: &dyn Fn(u64) -> Option<magcal_sim::field_test::Simulation>,
+    nav_every: usize,
+    nav_heading: magcal_sim::logs::NavHeading,
+    md: &mut String,
+) -> serde_json::Value {
     use host_tools::data::merge::{merge, Clock};
     use magcal_sim::logs::{split, LogSplit};
     let estimate = Clock::Estimate { center_s: 0.0, max_offset_s: 120.0 };
     let (mut rows, mut errors) = (Vec::new(), Vec::new());
-    for seed in MERGE_SEEDS {
-        let Some(sim) = sim(seed) else { continue };
-        for (offset_s, drift_ppm) in [(60.0f64, 100.0f64), (60.0, -100.0), (-60.0, 100.0), (-60.0, -100.0)] {
+    for base in MERGE_SHAPE_SEEDS {
+        for (k, (offset_s, drift_ppm)) in [(60.0f64, 100.0f64), (60.0, -100.0), (-60.0, 100.0), (-60.0, -100.0)].into_iter().enumerate() {
+            // Each case its own noise (its own simulation), so the RMS
+            // error over the RMS σ is measured on as many realisations.
+            let seed = 4 * base + k as u64;
+            let Some(sim) = sim(seed) else { continue };
             // A little off the round numbers, so no grid lines up by chance.
-            let offset_s = offset_s - 0.0137 * offset_s.signum() * seed as f64;
-            let (board, nav) = split(&sim, &LogSplit { offset_s, drift_ppm, nav_every, trim_s: (20.0, 15.0), seed });
+            let offset_s = offset_s - 0.0137 * offset_s.signum() * base as f64;
+            let (board, nav) = split(&sim, &LogSplit { offset_s, drift_ppm, nav_every, trim_s: (20.0, 15.0), seed, nav_heading });
             match merge(&board, &nav, estimate) {
                 Ok(m) => {
                     let r = &m.report;
@@ -483,28 +494,40 @@ fn merge_rate(label: &str, target_ms: f64, sim: &dyn Fn(u64) -> Option<magcal_si
     json!({"rate": label, "cases": rows, "merged": errors.len(), "refused": rows.len() - errors.len(), "target_ms": target_ms, "worst_offset_error_ms": worst_ms, "rms_offset_error_ms": rms_error_ms, "rms_offset_sigma_ms": rms_sigma_ms, "error_over_sigma": rms_error_ms / rms_sigma_ms})
 }
 
-/// Seeds of the merge section.
+/// Seeds of the merge section's chain on merged logs.
 const MERGE_SEEDS: [u64; 3] = [11, 12, 13];
 
-/// Issue 14's and issue 22's `merge` numbers ([`merge_rate`]): swing tests
-/// with a 50 Hz board and a 10 Hz navigation log (with the AHRS heading),
-/// swing tests with both logs at 5 Hz, and out-and-back runs with both
-/// logs at 1 Hz; then, per seed, the validation heading RMS of the chain
-/// (axis fit → back-stepping → swing fit) on merged 50 Hz logs against the
-/// single-clock recordings they were cut from.
-fn merge_clocks() -> (serde_json::Value, String) {
-    use host_tools::compute::{self, ChainOptions};
-    use host_tools::data::merge::{merge, Clock};
+/// Seeds of the merge section's clock tables: each with four clocks, each
+/// clock its own simulation (seed 4·s + k), so that the RMS error over the
+/// RMS stated σ is measured on 24 noise realisations per log shape.
+const MERGE_SHAPE_SEEDS: [u64; 6] = [11, 12, 13, 14, 15, 16];
+
+/// The clock tables of the merge section ([`merge_rate`], one per log
+/// shape): swing tests with a 50 Hz board and a 10 Hz navigation log (with
+/// the AHRS heading); swing tests with both logs at 5 Hz, with the AHRS
+/// heading and without a heading column (roll, pitch, position only);
+/// out-and-back runs with both logs at 1 Hz; and runs of 400 s of circles
+/// at the surface then the legs with their dives, both logs at 1 Hz, whose
+/// only heading is the GPS course at the surface (issue 29's two shapes).
+fn merge_shapes() -> (Vec<serde_json::Value>, String) {
     use magcal_sim::field_test::{self, paper_site, RunKind, RunParams, SensorModel};
-    use magcal_sim::logs::{split, LogSplit};
-    use magcal_sim::scenario::heading_rms_deg;
-    let estimate = Clock::Estimate { center_s: 0.0, max_offset_s: 120.0 };
+    use magcal_sim::logs::NavHeading;
     let (sensor, site) = (SensorModel::paper_like(), paper_site());
     let mut md = String::from("| logs | seed | offset put in (s) | drift put in (ppm) | offset error (ms) | offset σ (ms) | error / σ | drift error (ppm) | drift σ (ppm) |\n|---|---|---|---|---|---|---|---|---|\n");
-    let rates = [
-        merge_rate("swing, board 50 Hz, navigation 10 Hz", 20.0, &|seed| field_test::swing(&sensor, &site, seed, 50.0).ok(), 5, &mut md),
-        merge_rate("swing, both 5 Hz", 20.0, &|seed| field_test::swing(&sensor, &site, seed, 5.0).ok(), 1, &mut md),
-        merge_rate("run, both 1 Hz", 50.0, &|seed| field_test::run(&sensor, &site, &RunParams::paper_like(), seed + 50, 1.0, RunKind::Run).ok(), 1, &mut md),
+    let swing = |rate_hz: f64| move |seed: u64| field_test::swing(&sensor, &site, seed, rate_hz).ok();
+    let rates = vec![
+        merge_rate("swing, board 50 Hz, navigation 10 Hz", 20.0, &swing(50.0), 5, NavHeading::Ahrs, &mut md),
+        merge_rate("swing, both 5 Hz", 20.0, &swing(5.0), 1, NavHeading::Ahrs, &mut md),
+        merge_rate("swing, both 5 Hz, no heading column", 20.0, &swing(5.0), 1, NavHeading::None, &mut md),
+        merge_rate("run, both 1 Hz", 50.0, &|seed| field_test::run(&sensor, &site, &RunParams::paper_like(), seed + 50, 1.0, RunKind::Run).ok(), 1, NavHeading::Ahrs, &mut md),
+        merge_rate(
+            "circles then legs, both 1 Hz, GPS course at the surface only",
+            50.0,
+            &|seed| field_test::run(&sensor, &site, &RunParams::circles_then_legs(400.0), seed + 60, 1.0, RunKind::Run).ok(),
+            1,
+            NavHeading::CourseOnly,
+            &mut md,
+        ),
     ];
     md.push_str("\n| logs | merged | refused | worst offset error (ms) | target (ms) | RMS error (ms) | RMS stated σ (ms) | RMS error / RMS σ (0.5–2 asked) |\n|---|---|---|---|---|---|---|---|\n");
     for r in &rates {
@@ -512,6 +535,22 @@ fn merge_clocks() -> (serde_json::Value, String) {
         let _ = writeln!(md, "| {} | {} | {} | {:.2} | {} | {:.2} | {:.2} | {:.2} |", r["rate"].as_str().unwrap_or(""), r["merged"], r["refused"], f("worst_offset_error_ms"), f("target_ms"), f("rms_offset_error_ms"), f("rms_offset_sigma_ms"), f("error_over_sigma"));
     }
     md.push('\n');
+    (rates, md)
+}
+
+/// Issue 14's, 22's and 29's `merge` numbers: the clock tables
+/// ([`merge_shapes`]); then, per seed, the validation heading RMS of the
+/// chain (axis fit → back-stepping → swing fit) on merged 50 Hz logs
+/// against the single-clock recordings they were cut from.
+fn merge_clocks() -> (serde_json::Value, String) {
+    use host_tools::compute::{self, ChainOptions};
+    use host_tools::data::merge::{merge, Clock};
+    use magcal_sim::field_test::{self, paper_site, RunKind, RunParams, SensorModel};
+    use magcal_sim::logs::{split, LogSplit, NavHeading};
+    use magcal_sim::scenario::heading_rms_deg;
+    let estimate = Clock::Estimate { center_s: 0.0, max_offset_s: 120.0 };
+    let (sensor, site) = (SensorModel::paper_like(), paper_site());
+    let (rates, mut md) = merge_shapes();
     // The clocks' tables now: the chain below takes minutes.
     eprintln!("{md}");
 
@@ -525,8 +564,8 @@ fn merge_clocks() -> (serde_json::Value, String) {
             field_test::run(&sensor, &site, &RunParams::validation(), seed + 300, 2.0, RunKind::Validation),
         );
         let (Ok(swing), Ok(run), Ok(validation)) = sims else { continue };
-        let (sb, sn) = split(&swing, &LogSplit { offset_s: 41.3, drift_ppm: 80.0, nav_every: 5, trim_s: (10.0, 10.0), seed });
-        let (rb, rn) = split(&run, &LogSplit { offset_s: -23.9, drift_ppm: -60.0, nav_every: 5, trim_s: (10.0, 10.0), seed });
+        let (sb, sn) = split(&swing, &LogSplit { offset_s: 41.3, drift_ppm: 80.0, nav_every: 5, trim_s: (10.0, 10.0), seed, nav_heading: NavHeading::Ahrs });
+        let (rb, rn) = split(&run, &LogSplit { offset_s: -23.9, drift_ppm: -60.0, nav_every: 5, trim_s: (10.0, 10.0), seed, nav_heading: NavHeading::Ahrs });
         let result = (|| -> Result<(f64, f64), String> {
             let single = compute::calibrate(&swing.recording, &run.recording, &site, &opts).map_err(|e| e.to_string())?;
             let ms = merge(&sb, &sn, estimate).map_err(|e| e.to_string())?;
@@ -722,7 +761,7 @@ pub fn run(out_dir: &Path) -> Result<()> {
     };
     let (real_data, real_data_md) = real_data::real_data(&root);
     eprintln!("== real recordings, every model (issue 22){real_data_md}");
-    eprintln!("== merge: clocks ±60 s and ±100 ppm apart at 50, 5 and 1 Hz, {} seeds", MERGE_SEEDS.len());
+    eprintln!("== merge: clocks ±60 s and ±100 ppm apart at 50, 5 and 1 Hz, with and without a heading, {} seeds", MERGE_SHAPE_SEEDS.len());
     let (merge_numbers, merge_md) = merge_clocks();
     eprintln!("{merge_md}");
     eprintln!("== effects (issue 12): five real-vehicle effects, {} seeds", EFFECTS_SEEDS.len());
@@ -758,7 +797,7 @@ pub fn run(out_dir: &Path) -> Result<()> {
     }
     std::fs::write(out_dir.join("results.json"), serde_json::to_string_pretty(&results)?)?;
     let md = format!(
-        "# Benchmarks (`cargo xtask bench`)\n\n## MCU cost (Cortex-M4F instructions, QEMU -icount; load at 168 MHz assuming 1 instruction per cycle)\n\n```\n{}\n```\n\n## Paper 000: simulated field tests\n\nTurnaround step on the calibration run; true-heading RMS and |F| − IGRF RMS on a separate validation run (other courses, other current), each chain finished by a swing fit against the delayed GPS course.\n\n{p0_md}\n## Paper 001: J (eq 16) vs N pairs and noise σ\n\nMean over {SEEDS} seeds; field norm 2; σ per axis.\n\n{p1_md}\n![J, paper's solver](fig_paper001_j_pairwise.svg)\n![J, linear solver](fig_paper001_j_linear.svg)\n\n## A vehicle that cannot tumble (issue 15)\n\n{limited_md}\n## Logs on two clocks: `magcal merge` (issue 14)\n\nSwing tests at 50 Hz (board) and 10 Hz (navigation), swing tests with both logs at 5 Hz and out-and-back runs with both at 1 Hz, cut into two logs whose clocks differ by ±60 s and ±100 ppm; the offset searched within ±120 s; the stated σ against the error over the cases. Then the chain on merged logs vs on the single-clock recordings, heading RMS on a separate validation run.\n\n{merge_md}\n## Real-vehicle effects (issue 12)\n\nThe simulator with thruster interference, temperature drift, a crustal anomaly, an AHRS misalignment and a water current (`magcal_sim::effects`); a survey AUV at 0.9–1.3 m/s. With all five on: our chain with every model, the same chain with each effect's model switched off in turn, and the paper's method (its back-stepping, the swing fit against raw GPS course); then each effect alone with the full chain. True-heading RMS and \\|F\\| errors on a separate validation run; the per-ampere vector and the temperature gains against the simulator's truth; the predicted heading RMS is the joint back-stepping's covariance and the calibration run's white heading noise (second differences) in quadrature; the white-noise column is the validation error's own (from truth), for scale (GPS delay truth: 2 s).\n\n{effects_md}\n## f32 recursive full fit vs f64 batch\n\n`{f32_check}`\n\n## Host throughput\n\n```\n{}\n```\n",
+        "# Benchmarks (`cargo xtask bench`)\n\n## MCU cost (Cortex-M4F instructions, QEMU -icount; load at 168 MHz assuming 1 instruction per cycle)\n\n```\n{}\n```\n\n## Paper 000: simulated field tests\n\nTurnaround step on the calibration run; true-heading RMS and |F| − IGRF RMS on a separate validation run (other courses, other current), each chain finished by a swing fit against the delayed GPS course.\n\n{p0_md}\n## Paper 001: J (eq 16) vs N pairs and noise σ\n\nMean over {SEEDS} seeds; field norm 2; σ per axis.\n\n{p1_md}\n![J, paper's solver](fig_paper001_j_pairwise.svg)\n![J, linear solver](fig_paper001_j_linear.svg)\n\n## A vehicle that cannot tumble (issue 15)\n\n{limited_md}\n## Logs on two clocks: `magcal merge` (issue 14)\n\nSwing tests at 50 Hz (board) and 10 Hz (navigation), swing tests with both logs at 5 Hz (with the AHRS heading, and without a heading column), out-and-back runs with both at 1 Hz, and runs of surface circles then legs with dives at 1 Hz whose only heading is the GPS course at the surface, cut into two logs whose clocks differ by ±60 s and ±100 ppm; the offset searched within ±120 s; the stated σ against the error over the cases. Then the chain on merged logs vs on the single-clock recordings, heading RMS on a separate validation run.\n\n{merge_md}\n## Real-vehicle effects (issue 12)\n\nThe simulator with thruster interference, temperature drift, a crustal anomaly, an AHRS misalignment and a water current (`magcal_sim::effects`); a survey AUV at 0.9–1.3 m/s. With all five on: our chain with every model, the same chain with each effect's model switched off in turn, and the paper's method (its back-stepping, the swing fit against raw GPS course); then each effect alone with the full chain. True-heading RMS and \\|F\\| errors on a separate validation run; the per-ampere vector and the temperature gains against the simulator's truth; the predicted heading RMS is the joint back-stepping's covariance and the calibration run's white heading noise (second differences) in quadrature; the white-noise column is the validation error's own (from truth), for scale (GPS delay truth: 2 s).\n\n{effects_md}\n## f32 recursive full fit vs f64 batch\n\n`{f32_check}`\n\n## Host throughput\n\n```\n{}\n```\n",
         serde_json::to_string_pretty(&mcu)?,
         serde_json::to_string_pretty(&results["host_throughput"])?
     );
@@ -771,13 +810,29 @@ pub fn run(out_dir: &Path) -> Result<()> {
 
 #[cfg(test)]
 mod tests {
-    /// Only the merge section: `cargo test -p xtask bench::tests::merge_section -- --ignored --nocapture`.
+    /// Only the merge section (the clock tables, then the chain on merged
+    /// logs): `cargo test --release -p xtask bench::tests::merge_section -- --ignored --nocapture`.
     #[test]
     #[ignore = "a benchmark: prints its numbers"]
     fn merge_section() {
         let (v, md) = super::merge_clocks();
         eprintln!("{md}");
         for r in v["rates"].as_array().into_iter().flatten() {
+            assert_eq!(r["refused"].as_u64(), Some(0), "{r}");
+            assert!(r["worst_offset_error_ms"].as_f64().is_some_and(|w| w < r["target_ms"].as_f64().unwrap_or(0.0)), "{r}");
+            assert!(r["error_over_sigma"].as_f64().is_some_and(|q| (0.5..=2.0).contains(&q)), "{r}");
+        }
+    }
+
+    /// Only the merge section's clock tables, one row per log shape (a
+    /// couple of minutes): `cargo test --release -p xtask
+    /// bench::tests::merge_shapes -- --ignored --nocapture`.
+    #[test]
+    #[ignore = "a benchmark: prints its numbers"]
+    fn merge_shapes() {
+        let (rates, md) = super::merge_shapes();
+        eprintln!("{md}");
+        for r in &rates {
             assert_eq!(r["refused"].as_u64(), Some(0), "{r}");
             assert!(r["worst_offset_error_ms"].as_f64().is_some_and(|w| w < r["target_ms"].as_f64().unwrap_or(0.0)), "{r}");
             assert!(r["error_over_sigma"].as_f64().is_some_and(|q| (0.5..=2.0).contains(&q)), "{r}");

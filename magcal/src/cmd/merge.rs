@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
-use host_tools::data::merge::{merge_files_mapped, Clock, MergeError};
+use host_tools::data::merge::{merge_files_mapped, Clock, MergeError, SharedSignal};
 use host_tools::data::RecordingError;
 use host_tools::data::table::ColumnMap;
 
@@ -76,8 +76,13 @@ pub fn run(a: Args) -> Result<()> {
     if a.json {
         println!("{}", serde_json::to_string_pretty(r)?);
     } else if r.estimated {
+        let timed_by = r.timed_by.map_or_else(String::new, |s| format!(" timed by the {}", signal_name(s)));
+        let unique = match (r.margin_sigma, r.runner_up_offset_s) {
+            (Some(m), Some(o)) => format!("; {m:.1} σ clearer than the next best offset, {o:.2} s"),
+            _ => "; no other offset comes close".to_string(),
+        };
         println!(
-            "clock offset (navigation − board) {:.4} ± {:.4} s at board t = {:.3} s, drift {:.1} ± {:.1} ppm{} ({} windows, correlation {:.2})",
+            "clock offset (navigation − board) {:.4} ± {:.4} s at board t = {:.3} s, drift {:.1} ± {:.1} ppm{} ({} windows{timed_by}, agreement {:.2}{unique})",
             r.offset_s,
             r.offset_sigma_s,
             r.board_ref_s,
@@ -91,4 +96,14 @@ pub fn run(a: Args) -> Result<()> {
         println!("clock offset (navigation − board) {:.4} s at board t = {:.3} s, drift {:.1} ppm (given)", r.offset_s, r.board_ref_s, r.drift_ppm);
     }
     Ok(())
+}
+
+/// A shared signal in words.
+fn signal_name(s: SharedSignal) -> &'static str {
+    match s {
+        SharedSignal::Attitude => "attitude",
+        SharedSignal::Course => "GPS course",
+        SharedSignal::Tilt => "tilt (roll and pitch)",
+        SharedSignal::Rates => "rates of turn",
+    }
 }

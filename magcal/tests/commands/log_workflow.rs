@@ -14,7 +14,7 @@ use std::process::{Command, Output};
 use host_tools::data::merge::MergeReport;
 use host_tools::data::CalDoc;
 use magcal_sim::field_test::{self, paper_site, RunKind, RunParams, SensorModel};
-use magcal_sim::logs::{split, LogSplit};
+use magcal_sim::logs::{split, LogSplit, NavHeading};
 use magcal_sim::scenario::heading_rms_deg;
 
 fn magcal(args: &[&str]) -> Output {
@@ -45,7 +45,7 @@ fn log_merge_fit_backstep_swing_card_export() {
     let p = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
     let cuts = [("swing", &swing_sim, 52.5, 90.0, 5), ("run", &run_sim, -17.25, -70.0, 5)];
     for (name, sim, offset_s, drift_ppm, nav_every) in cuts {
-        let (board, nav) = split(sim, &LogSplit { offset_s, drift_ppm, nav_every, trim_s: (10.0, 10.0), seed: 7 });
+        let (board, nav) = split(sim, &LogSplit { offset_s, drift_ppm, nav_every, trim_s: (10.0, 10.0), seed: 7, nav_heading: NavHeading::Ahrs });
         write_board_log(Path::new(&p(&format!("{name}_board.csv"))), &board.t_s, &board.mag);
         nav.write(Path::new(&p(&format!("{name}_nav.csv")))).unwrap();
     }

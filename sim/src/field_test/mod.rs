@@ -9,7 +9,9 @@
 //!   surface), a surface turn at the far end, GPS course over ground only at
 //!   the surface and delayed, a current (the autopilot crabs into it, so
 //!   course over ground is not heading); thrusters and electronics on,
-//!   adding a running-only bias.
+//!   adding a running-only bias. Optionally ([`RunParams::circles_s`],
+//!   [`RunParams::circles_then_legs`]) circles at the surface first, every
+//!   heading with the GPS course, before the legs and their dives.
 //!
 //! The sensor ([`SensorModel`]): `raw = D·h + b (+ b_run while running) +
 //! noise`, quantised to whole counts. `D` carries scale, the steel hull's
@@ -50,7 +52,7 @@ use host_tools::data::recording::RecordingError;
 use host_tools::geomag::{GeomagError, Site};
 
 pub use gyro::GyroModel;
-pub use run::{run, run_with, RunKind, RunParams, MAX_LEG_M, MAX_SPEED_MPS};
+pub use run::{run, run_with, RunKind, RunParams, CIRCLE_PERIOD_S, MAX_LEG_M, MAX_SPEED_MPS};
 pub use sensor::SensorModel;
 pub use simulation::{truth_path, Simulation};
 pub use swing::{swing, swing_limited, swing_with, SWING_SEGMENTS_S, THRUST_TEST_STEP_S};

@@ -46,7 +46,48 @@ pub struct RunParams {
     /// cruise speed differs between legs when the autopilot's setpoint does).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub speed_back_mps: Option<f64>,
+    /// Time spent circling at the surface before the outbound leg, s (0:
+    /// none). The vehicle turns to starboard one full circle every
+    /// [`CIRCLE_PERIOD_S`] at `speed_mps`, ending on the outbound course,
+    /// with the GPS course over ground all along; then the legs with their
+    /// dives, as without.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub circles_s: f64,
+    /// How fast the vehicle can change its pitch and roll, degrees per
+    /// second (`None`: at once — the original profile, whose dives start
+    /// with a step of pitch within one sample). A real vehicle pitches into
+    /// a dive over seconds; the steps give a clock search features no
+    /// vehicle shows.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_attitude_rate_deg_s: Option<f64>,
+    /// The waves' roll at the surface, degrees (amplitude, 6 s period; the
+    /// pitch half of it at 7 s): 4° in paper 000's run, 1° in a calm sea.
+    #[serde(default = "default_wave_roll_deg", skip_serializing_if = "is_default_wave_roll")]
+    pub wave_roll_deg: f64,
 }
+
+/// Paper 000's waves, degrees of roll at the surface.
+const PAPER_WAVE_ROLL_DEG: f64 = 4.0;
+
+fn default_wave_roll_deg() -> f64 {
+    PAPER_WAVE_ROLL_DEG
+}
+
+fn is_default_wave_roll(v: &f64) -> bool {
+    *v == PAPER_WAVE_ROLL_DEG
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
+}
+
+/// One circle at the surface before the legs ([`RunParams::circles_s`])
+/// takes this long, s: a turning circle of about 29 m (three vehicle
+/// lengths, a small AUV's) at 2 m/s, 8°/s of yaw.
+pub const CIRCLE_PERIOD_S: f64 = 45.0;
+
+/// Standard gravity, m/s² (the bank of a coordinated turn).
+const G_MPS2: f64 = 9.806_65;
 
 impl RunParams {
     /// Paper 000's run: 62° / −117°, 7 km legs, dolphin 1000 s / 50 s, GPS 2 s late.
@@ -63,7 +104,20 @@ impl RunParams {
             submerged_s: 1000.0,
             surface_s: 50.0,
             speed_back_mps: None,
+            circles_s: 0.0,
+            max_attitude_rate_deg_s: None,
+            wave_roll_deg: PAPER_WAVE_ROLL_DEG,
         }
+    }
+
+    /// Paper 000's run in a calm sea (1° of roll at the surface) after
+    /// `circles_s` of circles at the surface ([`Self::circles_s`]), pitch
+    /// and roll changing at most 2°/s (a dive is entered over 6 s): the
+    /// shape of a run whose navigation log has no heading but the GPS
+    /// course. The surface circles turn through every heading while roll
+    /// and pitch hardly move; the legs hold two headings and dive.
+    pub fn circles_then_legs(circles_s: f64) -> Self {
+        Self { circles_s, max_attitude_rate_deg_s: Some(2.0), wave_roll_deg: 1.0, ..Self::paper_like() }
     }
 
     /// A second run for validation: other courses, so headings not used in
@@ -114,6 +168,15 @@ impl<'a> Profile<'a> {
         if !(params.leg_m > 0.0 && params.speed_mps > 0.0 && speed_back_mps > 0.0 && params.submerged_s > 0.0 && params.surface_s > 0.0) {
             return Err(SimError::Parameter("leg length, speeds and dolphin times must be positive".into()));
         }
+        if !(0.0..=45.0).contains(&params.wave_roll_deg) {
+            return Err(SimError::Parameter(format!("the waves' roll {}° must be within 0…45°", params.wave_roll_deg)));
+        }
+        if !(params.circles_s >= 0.0 && params.circles_s <= 100.0 * CIRCLE_PERIOD_S) {
+            return Err(SimError::Parameter(format!("circles for {} s: must be within 0…{} s", params.circles_s, 100.0 * CIRCLE_PERIOD_S)));
+        }
+        if params.max_attitude_rate_deg_s.is_some_and(|r| !(r > 0.0 && r.is_finite())) {
+            return Err(SimError::Parameter(format!("the attitude rate limit {:?} °/s must be positive", params.max_attitude_rate_deg_s)));
+        }
         if params.leg_m > MAX_LEG_M {
             return Err(SimError::Parameter(format!("a leg of {} m is longer than the simulator's limit of {MAX_LEG_M} m", params.leg_m)));
         }
@@ -132,7 +195,7 @@ impl<'a> Profile<'a> {
         }
         let leg_s = params.leg_m / params.speed_mps;
         let leg_back_s = params.leg_m / speed_back_mps;
-        let total_s = if params.speed_back_mps.is_none() { 2.0 * leg_s + Self::TURN_S } else { leg_s + Self::TURN_S + leg_back_s };
+        let total_s = params.circles_s + if params.speed_back_mps.is_none() { 2.0 * leg_s + Self::TURN_S } else { leg_s + Self::TURN_S + leg_back_s };
         let sweep_deg = calib_core::heading::wrap_pi((params.course_back_deg - params.course_out_deg).to_radians()).to_degrees();
         Ok(Self { params, speed_back_mps, leg_s, total_s, cycle_s: params.submerged_s + params.surface_s, sweep_deg, current })
     }
@@ -143,6 +206,11 @@ impl<'a> Profile<'a> {
     /// `asin(c⊥/V)`, which changes sign on the reciprocal leg); and the roll
     /// (degrees).
     fn at(&self, t: f64) -> (Motion, f64) {
+        if t < self.params.circles_s {
+            return self.circling(t);
+        }
+        // The legs' clock starts after the circles (the run without circles unchanged).
+        let t = t - self.params.circles_s;
         let (p, leg_s, turn_s, cycle) = (self.params, self.leg_s, Self::TURN_S, self.cycle_s);
         let (course, surfaced, turning) = if t < leg_s {
             (p.course_out_deg, (t % cycle) < p.surface_s, false)
@@ -155,7 +223,7 @@ impl<'a> Profile<'a> {
         let speed = if t < leg_s + turn_s / 2.0 { p.speed_mps } else { self.speed_back_mps };
         let phase = if t < leg_s { t % cycle } else if turning { 0.0 } else { (t - leg_s - turn_s) % cycle };
         let pitch = if surfaced {
-            2.0 * (TAU * t / 7.0).sin()
+            0.5 * p.wave_roll_deg * (TAU * t / 7.0).sin()
         } else if phase < p.surface_s + 40.0 {
             -12.0
         } else if phase > cycle - 40.0 {
@@ -163,12 +231,33 @@ impl<'a> Profile<'a> {
         } else {
             0.5 * (TAU * t / 60.0).sin()
         };
-        let roll = if surfaced { 4.0 * (TAU * t / 6.0).sin() } else { 1.0 * (TAU * t / 45.0).sin() };
+        let roll = if surfaced { p.wave_roll_deg * (TAU * t / 6.0).sin() } else { 1.0 * (TAU * t / 45.0).sin() };
         let (current_mps, current_to_deg) = self.current;
         let cross = current_mps * (current_to_deg - course).to_radians().sin();
         let crab = (cross / speed).clamp(-0.5, 0.5).asin().to_degrees();
         let heading = course - crab + if turning { 0.0 } else { 1.5 * (TAU * t / 90.0).sin() };
         (Motion { surfaced, speed_mps: speed, pitch_deg: pitch, heading_deg: heading, crab_deg: crab }, roll)
+    }
+}
+
+impl Profile<'_> {
+    /// The motion while circling at the surface (`t` before
+    /// [`RunParams::circles_s`]): the course over ground turning to starboard
+    /// at 360° per [`CIRCLE_PERIOD_S`], reaching the outbound course as the
+    /// circles end; the heading crabbed into the current as on the legs;
+    /// the roll the bank of a coordinated turn, `atan(v·ω/g)`, plus the
+    /// waves' rolling, the pitch the waves' (as at a surfacing).
+    fn circling(&self, t: f64) -> (Motion, f64) {
+        let p = self.params;
+        let rate_rad_s = TAU / CIRCLE_PERIOD_S;
+        let course = p.course_out_deg + (t - p.circles_s) * rate_rad_s.to_degrees();
+        let (current_mps, current_to_deg) = self.current;
+        let cross = current_mps * (current_to_deg - course).to_radians().sin();
+        let crab = (cross / p.speed_mps).clamp(-0.5, 0.5).asin().to_degrees();
+        let bank_deg = (p.speed_mps * rate_rad_s / G_MPS2).atan().to_degrees();
+        let roll = bank_deg + p.wave_roll_deg * (TAU * t / 6.0).sin();
+        let pitch = 0.5 * p.wave_roll_deg * (TAU * t / 7.0).sin();
+        (Motion { surfaced: true, speed_mps: p.speed_mps, pitch_deg: pitch, heading_deg: course - crab, crab_deg: crab }, roll)
     }
 }
 
@@ -199,9 +288,17 @@ pub fn run_with(sensor: &SensorModel, site: &Site, params: &RunParams, seed: u64
     }
     let mut depth_m: f64 = 0.0;
     let mut last_heading: Option<f64> = None;
+    let mut last_tilt: Option<(f64, f64)> = None;
     for k in 0..n {
         let t = k as f64 * dt;
-        let (motion, roll) = profile.at(t);
+        let (mut motion, mut roll) = profile.at(t);
+        // The vehicle follows the autopilot's pitch and roll no faster than it can.
+        if let (Some(rate), Some((r0, p0))) = (params.max_attitude_rate_deg_s, last_tilt) {
+            let step = rate * dt;
+            roll = r0 + (roll - r0).clamp(-step, step);
+            motion.pitch_deg = p0 + (motion.pitch_deg - p0).clamp(-step, step);
+        }
+        last_tilt = Some((roll, motion.pitch_deg));
         let heading = motion.heading_deg;
         let yaw_rate_deg_s = last_heading.map_or(0.0, |h: f64| calib_core::heading::wrap_pi((heading - h).to_radians()).to_degrees() / dt);
         last_heading = Some(heading);
@@ -219,6 +316,6 @@ pub fn run_with(sensor: &SensorModel, site: &Site, params: &RunParams, seed: u64
         track.advance(&motion, &observed, dt);
         depth_m = if motion.surfaced { 0.0 } else { (depth_m - motion.speed_mps * motion.pitch_deg.to_radians().sin() * dt).max(0.0) };
     }
-    b.truth_mut().turnaround_s = Some(profile.leg_s + Profile::TURN_S / 2.0);
+    b.truth_mut().turnaround_s = Some(params.circles_s + profile.leg_s + Profile::TURN_S / 2.0);
     Ok(b.finish())
 }

@@ -1,8 +1,21 @@
-//! The two least-squares problems of the clock search: the raw field as a
-//! linear function of the attitude ([`FieldFit`]), and a straight line
-//! through the windows' lags ([`line_fit`]).
+//! The least-squares problems of the clock search: the raw field as a
+//! linear function of the attitude ([`FieldFit`]), the field's tilt against
+//! the navigation's ([`TiltFit`]), and a straight line through the windows'
+//! lags ([`line_fit`]).
 
-use super::signals::FEATURES;
+use super::signals::{FEATURES, TILT_FEATURES};
+
+/// The normal equations of `y = C·x` over rows, `P` regressors and `K`
+/// outputs, with a little ridge.
+#[derive(Clone)]
+pub(super) struct LinFit<const P: usize, const K: usize> {
+    xtx: [[f64; P]; P],
+    xty: [[f64; P]; K],
+    sy: [f64; K],
+    yy: f64,
+    /// Rows added.
+    pub(super) n: usize,
+}
 
 /// The normal equations of `raw = C·x + b` over rows (`x` the attitude's
 /// rotation entries and a 1, [`super::signals::attitude_features`]). Any
@@ -10,23 +23,25 @@ use super::signals::FEATURES;
 /// is linear in the entries of R), so no calibration, inclination or
 /// declination need be known; it fits exactly only when the clocks are
 /// aligned.
-#[derive(Clone)]
-pub(super) struct FieldFit {
-    xtx: [[f64; FEATURES]; FEATURES],
-    xty: [[f64; FEATURES]; 3],
-    sy: [f64; 3],
-    yy: f64,
-    /// Rows added.
-    pub(super) n: usize,
-}
+pub(super) type FieldFit = LinFit<FEATURES, 3>;
 
-impl FieldFit {
+/// The normal equations of `1 = β·z` over rows, `z` the products of the
+/// navigation's down direction in the body `g` with the (normalised) raw
+/// field `y`, and `g` itself ([`super::signals::tilt_features`]). The field
+/// `h = M·y + c` of any linear sensor has a constant component along the
+/// down direction (the field's vertical, `g·h = f_D`), and
+/// `g·(M·y + c) = Σ M_ij g_i y_j + Σ c_i g_i` is linear in `z`: the heading
+/// need not be known, nor the calibration; it fits exactly only when the
+/// clocks are aligned and the vehicle tilts (`f_D` scaled to 1).
+pub(super) type TiltFit = LinFit<TILT_FEATURES, 1>;
+
+impl<const P: usize, const K: usize> LinFit<P, K> {
     pub(super) fn new() -> Self {
-        Self { xtx: [[0.0; FEATURES]; FEATURES], xty: [[0.0; FEATURES]; 3], sy: [0.0; 3], yy: 0.0, n: 0 }
+        Self { xtx: [[0.0; P]; P], xty: [[0.0; P]; K], sy: [0.0; K], yy: 0.0, n: 0 }
     }
 
-    /// Adds a row: the attitude's regressors `x` and the raw field `y`.
-    pub(super) fn add(&mut self, x: &[f64; FEATURES], y: [f64; 3]) {
+    /// Adds a row: the regressors `x` and the outputs `y`.
+    pub(super) fn add(&mut self, x: &[f64; P], y: [f64; K]) {
         for (a, row) in self.xtx.iter_mut().enumerate() {
             for (c, v) in row.iter_mut().enumerate().skip(a) {
                 *v += x[a] * x[c];
@@ -38,27 +53,27 @@ impl FieldFit {
             }
             *s += yk;
         }
-        self.yy += y[0] * y[0] + y[1] * y[1] + y[2] * y[2];
+        self.yy += y.iter().map(|v| v * v).sum::<f64>();
         self.n += 1;
     }
 
-    fn matrix(&self) -> [[f64; FEATURES]; FEATURES] {
+    fn matrix(&self) -> [[f64; P]; P] {
         // The upper triangle, mirrored.
-        let mut m: [[f64; FEATURES]; FEATURES] = std::array::from_fn(|a| std::array::from_fn(|c| self.xtx[a.min(c)][a.max(c)]));
+        let mut m: [[f64; P]; P] = std::array::from_fn(|a| std::array::from_fn(|c| self.xtx[a.min(c)][a.max(c)]));
         // A little ridge: vec(R) has only three degrees of freedom.
-        let trace: f64 = (0..FEATURES).map(|a| m[a][a]).sum();
+        let trace: f64 = (0..P).map(|a| m[a][a]).sum();
         for (a, row) in m.iter_mut().enumerate() {
             row[a] += 1e-9 * trace;
         }
         m
     }
 
-    /// The coefficients `C` (rows: field axes) and the residual sum of
+    /// The coefficients `C` (rows: outputs) and the residual sum of
     /// squares; `None` when the normal equations cannot be solved.
-    pub(super) fn solve(&self) -> Option<([[f64; FEATURES]; 3], f64)> {
+    pub(super) fn solve(&self) -> Option<([[f64; P]; K], f64)> {
         let m = self.matrix();
         let mut ssr = self.yy;
-        let mut coef = [[0.0; FEATURES]; 3];
+        let mut coef = [[0.0; P]; K];
         for (k, rhs) in self.xty.iter().enumerate() {
             let beta = calib_core::linalg::cholesky_solve(&m, rhs).ok()?;
             ssr -= beta.iter().zip(rhs).map(|(b, r)| b * r).sum::<f64>();
@@ -67,17 +82,78 @@ impl FieldFit {
         Some((coef, ssr.max(0.0)))
     }
 
-    /// The part of the field's spread the attitude leaves unexplained,
-    /// `(SSR / (n − p)) / (SST / (n − 1))` (0 perfect, about 1 when the
-    /// attitude explains nothing); `None` with too few rows.
+    /// The residuals' mean square per output and degree of freedom,
+    /// `SSR / (K·(n − P))`; `None` with too few rows (fewer than 3·P).
+    pub(super) fn mean_square_residual(&self) -> Option<f64> {
+        if self.n < 3 * P {
+            return None;
+        }
+        let (_, ssr) = self.solve()?;
+        Some(ssr / (K * (self.n - P)) as f64)
+    }
+
+    /// The part of the outputs' spread the regressors leave unexplained,
+    /// `(SSR / (n − p)) / (SST / (n − 1))` (0 perfect, about 1 when they
+    /// explain nothing); `None` with too few rows or outputs that do not
+    /// vary.
     pub(super) fn unexplained(&self) -> Option<f64> {
-        if self.n < 3 * FEATURES {
+        if self.n < 3 * P {
             return None;
         }
         let n = self.n as f64;
         let sst = self.yy - self.sy.iter().map(|s| s * s).sum::<f64>() / n;
         let (_, ssr) = self.solve()?;
-        (sst > 0.0).then(|| (ssr / (n - FEATURES as f64)) / (sst / (n - 1.0)))
+        (sst > 0.0).then(|| (ssr / (n - P as f64)) / (sst / (n - 1.0)))
+    }
+}
+
+/// The instrumental-variables equations of `1 = β·z` over rows:
+/// `Σ w·zᵀ β = Σ w`, the instruments `w` correlated with the regressors'
+/// signal but not with their noise. Least squares on noisy regressors
+/// shrinks the coefficients the noise multiplies (errors in variables):
+/// the tilt model's regressors carry the AHRS's roll and pitch noise, of
+/// the size of a calm vehicle's tilt changes, and least squares then
+/// mistakes how the field answers a tilt — by several times in the
+/// directions a calm run barely tilts, enough to shift the windows' lags
+/// by tens of ms, more on one leg than on the other. With the tilt of the
+/// neighbouring navigation rows as instruments (white noise: independent
+/// of this row's), the equations are unbiased.
+pub(super) struct InstrumentFit<const P: usize> {
+    wtz: [[f64; P]; P],
+    wt1: [f64; P],
+    /// Rows added.
+    pub(super) n: usize,
+}
+
+impl<const P: usize> InstrumentFit<P> {
+    pub(super) fn new() -> Self {
+        Self { wtz: [[0.0; P]; P], wt1: [0.0; P], n: 0 }
+    }
+
+    /// Adds a row: the instruments `w` and the regressors `z` (target 1).
+    pub(super) fn add(&mut self, w: &[f64; P], z: &[f64; P]) {
+        for (row, wa) in self.wtz.iter_mut().zip(w) {
+            for (v, zc) in row.iter_mut().zip(z) {
+                *v += wa * zc;
+            }
+        }
+        for (r, wa) in self.wt1.iter_mut().zip(w) {
+            *r += wa;
+        }
+        self.n += 1;
+    }
+
+    /// The coefficients; `None` with fewer than 3·P rows or equations
+    /// that cannot be solved.
+    pub(super) fn solve(&self) -> Option<[f64; P]> {
+        if self.n < 3 * P {
+            return None;
+        }
+        let a = nalgebra::DMatrix::from_fn(P, P, |r, c| self.wtz[r][c]);
+        let b = nalgebra::DVector::from_column_slice(&self.wt1);
+        let x = a.lu().solve(&b)?;
+        let beta: [f64; P] = std::array::from_fn(|k| x[k]);
+        beta.iter().all(|v| v.is_finite()).then_some(beta)
     }
 }
 

@@ -1,8 +1,12 @@
 //! What both logs see of the vehicle's motion, as signals the clock search
 //! compares: the navigation's attitude as the entries of the rotation body
 //! → NED ([`AttitudeSeries`], interpolated between rows by a cubic, so the
-//! lag can be any fraction of a row), and — when the navigation log has no
-//! heading — the rates of turn the two logs see ([`RateViews`]).
+//! lag can be any fraction of a row) — with a heading (the AHRS's, or the
+//! GPS course where there is one), or without: the third row of the
+//! rotation, the down direction in the body, is the tilt alone
+//! ([`tilt_features`]); and the rates of turn the two logs see
+//! ([`RateViews`]), across the field and, without the heading's rate,
+//! across the vertical too.
 
 use calib_core::heading::Tilt;
 
@@ -12,6 +16,30 @@ use super::super::pairing::{bracket, wrap180};
 
 /// The model's regressors: the nine entries of the rotation body → NED and a 1.
 pub(super) const FEATURES: usize = 10;
+
+/// The tilt model's regressors: the products `g_i·y_j` of the down
+/// direction in the body and the raw field, and `g_i`.
+pub(super) const TILT_FEATURES: usize = 12;
+
+/// The down direction in the body, `Rᵀ·e_D`, from the attitude's
+/// regressors (the rotation's third row: entries 2, 5 and 8, whatever the
+/// heading).
+pub(super) fn down(x: &[f64; FEATURES]) -> [f64; 3] {
+    [x[2], x[5], x[8]]
+}
+
+/// The tilt model's regressors of the down direction `g` (or its rate: the
+/// regressors are linear in `g`) and the raw field `y`.
+pub(super) fn tilt_features(g: [f64; 3], y: &[f64; 3]) -> [f64; TILT_FEATURES] {
+    let mut z = [0.0; TILT_FEATURES];
+    for i in 0..3 {
+        for j in 0..3 {
+            z[3 * i + j] = g[i] * y[j];
+        }
+        z[9 + i] = g[i];
+    }
+    z
+}
 
 /// The regressors of one attitude: the rotation body → NED of roll, pitch,
 /// heading in degrees (Z-Y-X), its columns `R·e_k = R_z(ψ)·level(e_k)`
@@ -91,9 +119,17 @@ impl<const N: usize> Cubic<N> {
 /// rows, read between them by a cubic.
 pub(super) type AttitudeSeries = Cubic<FEATURES>;
 
-/// The attitude series of a navigation log with `heading_deg`.
+/// The attitude series of a navigation log with `heading_deg` (a row
+/// with no heading is missing).
 pub(super) fn attitude_series(nav: &NavLog, heading_deg: &[f64], max_gap_s: f64) -> AttitudeSeries {
-    let x = (0..nav.t_s.len()).map(|i| attitude_features(nav.roll_deg[i], nav.pitch_deg[i], heading_deg[i])).collect();
+    let x = (0..nav.t_s.len()).map(|i| attitude_features(nav.roll_deg[i], nav.pitch_deg[i], heading_deg.get(i).copied().unwrap_or(f64::NAN))).collect();
+    Cubic::new(nav.t_s.clone(), x, max_gap_s)
+}
+
+/// The attitude series of a navigation log with the heading taken as 0:
+/// its down direction ([`down`]) is the tilt, whatever the heading.
+pub(super) fn tilt_series(nav: &NavLog, max_gap_s: f64) -> AttitudeSeries {
+    let x = (0..nav.t_s.len()).map(|i| attitude_features(nav.roll_deg[i], nav.pitch_deg[i], 0.0)).collect();
     Cubic::new(nav.t_s.clone(), x, max_gap_s)
 }
 
@@ -130,6 +166,11 @@ impl Signal {
         let i0 = ((from - self.t0_s) / self.dt_s).ceil().max(0.0) as usize;
         let i1 = (((to - self.t0_s) / self.dt_s).floor() + 1.0).max(0.0) as usize;
         i0.min(self.v.len())..i1.min(self.v.len())
+    }
+
+    /// Grid points over `[from, to]`.
+    pub(super) fn points(&self, from: f64, to: f64) -> usize {
+        self.index_range(from, to).len()
     }
 
     /// RMS of the vectors' length over `[from, to]`.
@@ -175,7 +216,7 @@ const RATE_HALF_BASE_S: f64 = 0.25;
 /// field's direction turns nearly as the body does. An axis whose range is
 /// under a third of the widest one (too few attitudes to tell its bias) is
 /// left as it is, scaled like the widest.
-fn rough_normalisation(mag: &[[f64; 3]]) -> [(f64, f64); 3] {
+pub(super) fn rough_normalisation(mag: &[[f64; 3]]) -> [(f64, f64); 3] {
     let ranges = [0, 1, 2].map(|k| {
         let mut v: Vec<f64> = mag.iter().map(|m| m[k]).filter(|x| x.is_finite()).collect();
         if v.is_empty() {
@@ -248,8 +289,8 @@ fn gyro_rate(log: &NavLog, g: &[Vec<f64>; 3], dt: f64, max_gap_s: f64) -> Vec<[f
 }
 
 /// The body rate from the rates of roll, pitch and (when logged) heading
-/// (Z-Y-X kinematics) on a grid of `dt`.
-fn euler_rate(log: &NavLog, dt: f64, max_gap_s: f64) -> Vec<[f64; 3]> {
+/// (Z-Y-X kinematics) on a grid of `dt`, and the down direction in the body.
+fn euler_rate(log: &NavLog, dt: f64, max_gap_s: f64) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
     let (t0, n) = (log.t_s[0], grid_len(&log.t_s, dt));
     let k = ((RATE_HALF_BASE_S / dt).round() as usize).max(1);
     let at = |i: usize| bracket(&log.t_s, t0 + i as f64 * dt, max_gap_s);
@@ -271,7 +312,7 @@ fn euler_rate(log: &NavLog, dt: f64, max_gap_s: f64) -> Vec<[f64; 3]> {
     let roll = series(&log.roll_deg, true);
     let pitch = series(&log.pitch_deg, false);
     let heading = log.heading_deg.as_deref().map(|h| series(h, true));
-    (0..n)
+    let rates = (0..n)
         .map(|i| {
             if i < k || i + k >= n {
                 return [f64::NAN; 3];
@@ -283,18 +324,30 @@ fn euler_rate(log: &NavLog, dt: f64, max_gap_s: f64) -> Vec<[f64; 3]> {
             let (r, p) = (roll[i].to_radians(), pitch[i].to_radians());
             [rd - yd * p.sin(), pd * r.cos() + yd * r.sin() * p.cos(), -pd * r.sin() + yd * r.cos() * p.cos()]
         })
-        .collect()
+        .collect();
+    let down = (0..n)
+        .map(|i| {
+            let (r, p) = (roll[i].to_radians(), pitch[i].to_radians());
+            [-p.sin(), r.sin() * p.cos(), r.cos() * p.cos()]
+        })
+        .collect();
+    (rates, down)
 }
 
 /// The body rate, rad/s, on a grid of `dt`: from the gyro when logged,
-/// otherwise from the rates of roll, pitch and heading.
-fn nav_signal(log: &NavLog, dt: f64, max_gap_s: f64) -> Signal {
+/// otherwise from the rates of roll, pitch and heading; and, when that
+/// rate lacks the heading's (no gyro, no heading), the down direction in
+/// the body: the heading's rate is a rate about it.
+fn nav_signal(log: &NavLog, dt: f64, max_gap_s: f64) -> (Signal, Option<Signal>) {
     let gyro_usable = log.gyro_rad_s.as_ref().is_some_and(|g| g[0].iter().filter(|v| v.is_finite()).count() * 2 > g[0].len());
-    let v = match (&log.gyro_rad_s, gyro_usable) {
-        (Some(g), true) => gyro_rate(log, g, dt, max_gap_s),
-        _ => euler_rate(log, dt, max_gap_s),
-    };
-    Signal { t0_s: log.t_s[0], dt_s: dt, v }
+    let grid = |v| Signal { t0_s: log.t_s[0], dt_s: dt, v };
+    match (&log.gyro_rad_s, gyro_usable) {
+        (Some(g), true) => (grid(gyro_rate(log, g, dt, max_gap_s)), None),
+        _ => {
+            let (rates, down) = euler_rate(log, dt, max_gap_s);
+            (grid(rates), log.heading_deg.is_none().then(|| grid(down)))
+        }
+    }
 }
 
 /// The board's and the navigation's views of the turns, on one grid.
@@ -304,32 +357,57 @@ pub(super) struct RateViews {
     pub(super) board: Signal,
     /// The navigation's body rate.
     pub(super) nav: Signal,
+    /// The navigation's down direction in the body, when its rate lacks
+    /// the heading's.
+    nav_down: Option<Signal>,
 }
 
 impl RateViews {
     /// Both views on a grid of `dt`.
     pub(super) fn new(board: &BoardLog, nav: &NavLog, dt: f64, board_gap_s: f64, nav_gap_s: f64) -> Self {
         let (dirs, b) = board_signals(board, dt, board_gap_s);
-        Self { dirs, board: b, nav: nav_signal(nav, dt, nav_gap_s) }
+        let (nav, nav_down) = nav_signal(nav, dt, nav_gap_s);
+        Self { dirs, board: b, nav, nav_down }
     }
 
     /// How well the board's rate across the field over `[from, to]` (board
     /// clock) matches the navigation's body rate across the same field,
     /// `lag` later (`t_nav = t_board + lag`): Σ a·b / √(Σ|a|² Σ|b|²), 1 when
-    /// identical; and the number of pairs.
+    /// identical; and the number of pairs. When the navigation's rate lacks
+    /// the heading's (`ω = ω_rp + ψ̇·g`, `g` the down direction), only the
+    /// part across both the field and the vertical is compared, along
+    /// `n = u × g`: there `ω·n = ω_rp·n` whatever the heading does.
     pub(super) fn correlation(&self, lag: f64, from: f64, to: f64) -> (f64, usize) {
+        self.correlation_thinned(lag, from, to, 1)
+    }
+
+    /// [`Self::correlation`] over every `stride`-th grid point.
+    pub(super) fn correlation_thinned(&self, lag: f64, from: f64, to: f64, stride: usize) -> (f64, usize) {
         let (mut n, mut sab, mut saa, mut sbb) = (0usize, 0.0, 0.0, 0.0);
-        for i in self.board.index_range(from, to) {
+        for i in self.board.index_range(from, to).step_by(stride.max(1)) {
             let (a, u) = (self.board.v[i], self.dirs.v[i]);
             if !a[0].is_finite() {
                 continue;
             }
-            let w = self.nav.value_at(self.board.t0_s + i as f64 * self.board.dt_s + lag);
+            let tn = self.board.t0_s + i as f64 * self.board.dt_s + lag;
+            let w = self.nav.value_at(tn);
             if !w[0].is_finite() {
                 continue;
             }
-            let along = dot(w, u);
-            let b = [0, 1, 2].map(|k| w[k] - along * u[k]);
+            let (a, b) = match &self.nav_down {
+                Some(down) => {
+                    let across = unit(cross(u, down.value_at(tn)));
+                    if !across[0].is_finite() {
+                        continue;
+                    }
+                    let (an, bn) = (dot(a, across), dot(w, across));
+                    (across.map(|x| x * an), across.map(|x| x * bn))
+                }
+                None => {
+                    let along = dot(w, u);
+                    (a, [0, 1, 2].map(|k| w[k] - along * u[k]))
+                }
+            };
             n += 1;
             sab += dot(a, b);
             saa += dot(a, a);
