@@ -57,7 +57,7 @@ fn log_merge_fit_backstep_swing_card_export() {
         let r: MergeReport = serde_json::from_slice(&out.stdout).unwrap();
         eprintln!("{name}: offset {:.4} s (put in {offset_s}), drift {:.1} ppm", r.offset_s, r.drift_ppm);
         // Issue 14 asks for 20 ms; the run (few turns, 5 Hz navigation)
-        // is the harder one (magcal/tests/merge.rs measured 64 ms there).
+        // is the harder one (magcal/tests/commands/merge.rs measured 64 ms there).
         assert!((r.offset_s - offset_s).abs() < if name == "swing" { 0.02 } else { 0.2 }, "{name}: {r:?}");
     }
     // magcal fit --input swing.csv --model axis --lat 36.9 --lon 50.6 --date 2021.0 --out cal_step1.json

@@ -1,7 +1,7 @@
 //! `magcal` from the command line, one test binary (one link instead of
-//! twelve; `cargo test -p magcal --test commands <filter>` runs a part):
+//! thirteen; `cargo test -p magcal --test commands <filter>` runs a part):
 //! each module drives the built `magcal` as a user would, on simulated and
-//! real recordings. (`merge`'s tests are their own binary.)
+//! real recordings.
 
 mod apply;
 mod card;
@@ -12,6 +12,7 @@ mod import;
 mod input_checks;
 mod log;
 mod log_workflow;
+mod merge;
 mod readme;
 mod reference;
 mod simulate;

@@ -8,7 +8,7 @@
 //! * `identify`, `session`, `log`, `stream`: they talk to a board (a serial port, or
 //!   the firmware in QEMU: `cargo xtask demo` and tests/e2e run those);
 //! * `merge`: its inputs are the board's and the navigation computer's logs
-//!   from `log` on a vehicle (`magcal/tests/merge.rs` covers it);
+//!   from `log` on a vehicle (`magcal/tests/commands/merge.rs` covers it);
 //! * `import --dataflash LOG.bin`: a vehicle's own DataFlash log, which the
 //!   repository has none of (`magcal/tests/commands/import.rs` writes one; `import
 //!   --nmea` runs, on the repository's real NMEA log);
