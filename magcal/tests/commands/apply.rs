@@ -5,19 +5,7 @@
 //! recording's own optical heading, and the refusals.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn magcal(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_magcal")).args(args).output().expect("run magcal")
-}
-
-fn data(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data").join(rel)
-}
-
-fn p(path: &Path) -> &str {
-    path.to_str().unwrap()
-}
+use super::{magcal, p, data};
 
 #[derive(serde::Deserialize)]
 struct Truth {

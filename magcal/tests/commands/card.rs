@@ -8,17 +8,9 @@
 //! "before" error (reference − heading) is `ψm` minus that.
 
 use std::path::Path;
-use std::process::{Command, Output};
 
 use magcal_sim::field_test::{paper_site, swing_limited, SensorModel};
-
-fn magcal(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_magcal")).args(args).output().expect("run magcal")
-}
-
-fn p(path: &Path) -> &str {
-    path.to_str().unwrap()
-}
+use super::{magcal, p};
 
 #[derive(serde::Deserialize)]
 struct Cell {

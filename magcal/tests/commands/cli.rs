@@ -2,7 +2,7 @@
 //! recordings made here with known truth.
 
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
 use calib_core::cal::{FieldCal, ModelKind, Swing};
 use calib_core::conformance::SplitMix64;
@@ -10,10 +10,7 @@ use calib_core::heading::{ned_field, ned_to_body, wrap_two_pi};
 use calib_core::ortho::{gamma, OrthoAngles};
 use host_tools::data::caldoc::CalDoc;
 use host_tools::data::recording::Recording;
-
-fn magcal(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_magcal")).args(args).output().expect("run magcal")
-}
+use super::{magcal};
 
 fn ok_json(out: &Output) -> serde_json::Value {
     assert!(out.status.success(), "magcal failed: {}", String::from_utf8_lossy(&out.stderr));

@@ -3,15 +3,7 @@
 //! `--columns`, fit as the project's own CSV does.
 
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn magcal(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_magcal")).args(args).output().expect("run magcal")
-}
-
-fn p(path: &Path) -> &str {
-    path.to_str().unwrap()
-}
+use super::{magcal, p};
 
 fn fit_json(input: &Path, extra: &[&str]) -> serde_json::Value {
     let site = ["--lat", "36.9", "--lon", "50.6", "--date", "2021-01-01"];

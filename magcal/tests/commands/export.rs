@@ -17,16 +17,7 @@
 //! (docs/INTERFACES.md): `h_nT = matrix · (raw − bias − bias_per_a · I)`.
 
 use std::collections::HashMap;
-use std::path::Path;
-use std::process::{Command, Output};
-
-fn magcal(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_magcal")).args(args).output().expect("run magcal")
-}
-
-fn p(path: &Path) -> &str {
-    path.to_str().unwrap()
-}
+use super::{magcal, p};
 
 /// A document in milligauss raw units (matrix ≈ 100 nT per unit).
 fn document(matrix: [[f64; 3]; 3], extra: &str) -> String {

@@ -12,10 +12,7 @@
 
 use std::path::Path;
 use std::process::{Command, Output};
-
-fn magcal(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_magcal")).args(args).output().expect("run magcal")
-}
+use super::{magcal};
 
 fn size(c: char) -> usize {
     match c {

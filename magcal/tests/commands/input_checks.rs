@@ -2,22 +2,14 @@
 //! enters, with the input named; an input is never overwritten; what a
 //! result is measured against is said.
 
-use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
 use calib_core::cal::{FieldCal, ModelKind};
 use calib_core::conformance::SplitMix64;
 use calib_core::heading::{ned_field, ned_to_body};
 use host_tools::data::caldoc::CalDoc;
 use host_tools::data::recording::Recording;
-
-fn magcal(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_magcal")).args(args).output().expect("run magcal")
-}
-
-fn p(path: &Path) -> &str {
-    path.to_str().unwrap()
-}
+use super::{magcal, p};
 
 fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).to_string()

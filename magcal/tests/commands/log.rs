@@ -3,11 +3,8 @@
 //! Logging itself is tested against the in-memory board
 //! (host-tools `session::tests::log`) and the QEMU board (tests/e2e).
 
-use std::process::{Command, Output};
-
-fn magcal(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_magcal")).args(args).output().expect("run magcal")
-}
+use std::process::Output;
+use super::{magcal};
 
 fn one_line_failure(out: &Output) -> String {
     let err = String::from_utf8_lossy(&out.stderr).to_string();

@@ -3,6 +3,24 @@
 //! each module drives the built `magcal` as a user would, on simulated and
 //! real recordings.
 
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// Runs the built `magcal` with `args`.
+pub fn magcal(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_magcal")).args(args).output().expect("run magcal")
+}
+
+/// A path as the `&str` an argument list takes.
+pub fn p(path: &Path) -> &str {
+    path.to_str().unwrap()
+}
+
+/// A file of the repository's `tests/data`.
+pub fn data(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data").join(rel)
+}
+
 mod apply;
 mod card;
 mod cli;

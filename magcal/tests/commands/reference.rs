@@ -6,20 +6,9 @@
 //! (IGRF-14 at the site, the peer calibrations' scatter, the true
 //! calibration's heading RMS), not from the code under test.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn magcal(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_magcal")).args(args).output().expect("run magcal")
-}
-
-fn data(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data").join(rel)
-}
-
-fn p(path: &Path) -> &str {
-    path.to_str().unwrap()
-}
+use std::path::Path;
+use std::process::Output;
+use super::{magcal, p, data};
 
 fn ok(o: &Output) {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));

@@ -2,20 +2,11 @@
 //! (the README's five-effects numbers come from commands a reader can run),
 //! and no size flag makes it allocate or write without bound.
 
-use std::path::Path;
-use std::process::{Command, Output};
 
 use magcal_sim::effects::Effects;
 use magcal_sim::scenario::effects_data;
 use magcal_sim::SensorModel;
-
-fn magcal(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_magcal")).args(args).output().expect("run magcal")
-}
-
-fn p(path: &Path) -> &str {
-    path.to_str().unwrap()
-}
+use super::{magcal, p};
 
 /// `simulate swing|run|validation --runs effects --effects all` with the
 /// bench's seeds (s, s + 100, s + 200) and rates (5, 2, 2 Hz) writes the
