@@ -47,7 +47,10 @@ pub enum GeomagError {
     BadDate(String),
     /// The WMM crate refused the query.
     #[error("WMM2025: {0}")]
-    Wmm(String),
+    Wmm(#[source] world_magnetic_model::Error),
+    /// The decimal year is no calendar date.
+    #[error("WMM2025: year {0} is no calendar date: {1}")]
+    WmmDate(f64, #[source] world_magnetic_model::time::error::ComponentRange),
 }
 
 /// The geomagnetic field at a point, geodetic north/east/down.
@@ -303,7 +306,7 @@ pub fn wmm2025(lat_deg: f64, lon_deg: f64, height_m: f64, year: f64) -> Result<F
     let leap = (y % 4 == 0 && y % 100 != 0) || y % 400 == 0;
     let days = if leap { 366.0 } else { 365.0 };
     let ordinal = (((year - f64::from(y)) * days).floor() as u16 + 1).min(days as u16);
-    let date = Date::from_ordinal_date(y, ordinal).or_else(|_| Date::from_calendar_date(y, Month::January, 1)).map_err(|e| GeomagError::Wmm(e.to_string()))?;
+    let date = Date::from_ordinal_date(y, ordinal).or_else(|_| Date::from_calendar_date(y, Month::January, 1)).map_err(|e| GeomagError::WmmDate(year, e))?;
     if !(lat_deg.abs() <= 90.0 && lon_deg.abs() <= 360.0) {
         return Err(GeomagError::BadPosition { lat_deg, lon_deg });
     }
@@ -315,7 +318,7 @@ pub fn wmm2025(lat_deg: f64, lon_deg: f64, height_m: f64, year: f64) -> Result<F
         Angle::new::<degree>(lon as f32),
         date,
     )
-    .map_err(|e| GeomagError::Wmm(e.to_string()))?;
+    .map_err(GeomagError::Wmm)?;
     Ok(Field {
         north_nt: f64::from(f.x().get::<nanotesla>()),
         east_nt: f64::from(f.y().get::<nanotesla>()),

@@ -32,7 +32,7 @@ use super::fine::{self, robust_line, AtNavRows, OnGrid};
 use super::fit::LineFit;
 use super::judge::{self, Peak, MIN_HEIGHT_SIGMA, MIN_MARGIN_SIGMA};
 use super::signals::{attitude_series, field_series, rough_normalisation, tilt_series, Cubic, RateViews, FEATURES};
-use super::{median_interval, no_overlap, MergeError, SharedSignal};
+use super::{median_interval, no_overlap, MergeError, NoRotation, SharedSignal};
 
 /// The logs must overlap by [`MIN_OVERLAP_S`] and at least this share of
 /// the shorter log.
@@ -78,13 +78,10 @@ impl Alignment {
 /// shorter log (a short overlap is explained by any attitude).
 fn search_range(board: &BoardLog, nav: &NavLog, center_s: f64, max_offset_s: f64) -> Result<(f64, f64), MergeError> {
     if !(max_offset_s.is_finite() && max_offset_s >= 0.0 && center_s.is_finite()) {
-        return Err(MergeError::Option(format!("the offset search {center_s} ± {max_offset_s} s is not a range")));
+        return Err(MergeError::BadSearchWindow { center_s, max_offset_s });
     }
     if max_offset_s < 2.0 * COARSE_STEP_S {
-        return Err(MergeError::Option(format!(
-            "the offset search {center_s} ± {max_offset_s} s is narrower than ± {} s: too narrow to tell where the logs agree best (give the offset itself to use it as given)",
-            2.0 * COARSE_STEP_S
-        )));
+        return Err(MergeError::SearchWindowTooNarrow { center_s, max_offset_s, min_s: 2.0 * COARSE_STEP_S });
     }
     let (b0, b1) = (board.t_s[0], *board.t_s.last().unwrap_or(&board.t_s[0]));
     let (n0, n1) = (nav.t_s[0], *nav.t_s.last().unwrap_or(&nav.t_s[0]));
@@ -189,7 +186,7 @@ fn fine_by_rates(board: &BoardLog, nav: &NavLog, lag0: f64) -> Result<Alignment,
         })
         .collect();
     if points.is_empty() {
-        return Err(MergeError::NoRotation("no window of the overlap has rotation that both logs see alike".into()));
+        return Err(MergeError::NoRotation(NoRotation::NoSharedWindow));
     }
     let (line, used) = robust_line(&points, b0);
     Ok(Alignment::from_line(&line, ClockMap { offset_s: line.offset_s, drift_ppm: line.slope * 1e6, board_ref_s: b0 }, used, best_r))
@@ -258,18 +255,17 @@ pub(super) fn estimate_clock(board: &BoardLog, nav: &NavLog, center_s: f64, max_
     curves.extend(rates);
     let standardised: Vec<(SharedSignal, Vec<f64>)> = curves.iter().filter_map(|c| judge::standardise(&c.score).map(|z| (c.signal, z))).collect();
     if standardised.is_empty() {
-        return Err(MergeError::NoRotation(format!(
-            "the navigation's attitude changes by {:.2}° RMS ({:.1}° needed) and its tilt by {:.2}° ({:.1}° needed){}",
-            ahrs_spread.to_degrees(),
-            MIN_ATTITUDE_SPREAD.to_degrees(),
-            tilt_spread.to_degrees(),
-            MIN_TILT_SPREAD.to_degrees(),
-            if have_rates { ", and the rates of turn agree equally at every offset" } else { ", and the rates of turn are below 0.3°/s RMS in a log" }
-        )));
+        return Err(MergeError::NoRotation(NoRotation::TooSteady {
+            attitude_spread_deg: ahrs_spread.to_degrees(),
+            attitude_needed_deg: MIN_ATTITUDE_SPREAD.to_degrees(),
+            tilt_spread_deg: tilt_spread.to_degrees(),
+            tilt_needed_deg: MIN_TILT_SPREAD.to_degrees(),
+            rates_flat: have_rates,
+        }));
     }
     let z = judge::combine(&standardised.iter().map(|(_, z)| z.clone()).collect::<Vec<_>>());
     let window = (center_s, max_offset_s);
-    let peak = judge::find_peak(&z).ok_or_else(|| MergeError::NoRotation("the logs agree equally at every offset searched".into()))?;
+    let peak = judge::find_peak(&z).ok_or(MergeError::NoRotation(NoRotation::FlatAgreement))?;
     judge_peak(&peak, &lags, window)?;
 
     // The fine stage, with the model whose lag is exact.

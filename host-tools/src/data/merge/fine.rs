@@ -27,7 +27,7 @@ use super::super::pairing::ClockMap;
 use super::coarse::{Fitted, Model};
 use super::fit::{line_fit, InstrumentFit, LineFit};
 use super::signals::{down, tilt_features, AttitudeSeries, Cubic, FEATURES, TILT_FEATURES};
-use super::MergeError;
+use super::{MergeError, NoRotation};
 
 /// A window of the fine stage is about this long, s …
 const WINDOW_S: f64 = 60.0;
@@ -343,17 +343,10 @@ pub(super) fn fine(timed: &mut dyn Timed, lag0: f64, b0: f64) -> Result<Fine, Me
     };
     let mut last = None;
     for iteration in 0..5 {
-        let misfit = timed.refit(&map).ok_or_else(|| {
-            MergeError::NoRotation(
-                "the attitude does not vary enough to fit the field to it".into(),
-            )
-        })?;
+        let misfit = timed.refit(&map).ok_or(MergeError::NoRotation(NoRotation::AttitudeTooSmallToFit))?;
         let points = window_lags(timed, &map, iteration == 0);
         if points.len() < 2 {
-            return Err(MergeError::NoRotation(format!(
-                "only {} window(s) of the overlap have motion that both logs see",
-                points.len()
-            )));
+            return Err(MergeError::NoRotation(NoRotation::TooFewWindows(points.len())));
         }
         let (line, used) = robust_line(&points, b0);
         map.offset_s += line.offset_s;
@@ -368,5 +361,5 @@ pub(super) fn fine(timed: &mut dyn Timed, lag0: f64, b0: f64) -> Result<Fine, Me
             break;
         }
     }
-    last.ok_or_else(|| MergeError::NoRotation("no window converged".into()))
+    last.ok_or(MergeError::NoRotation(NoRotation::NoWindowConverged))
 }

@@ -74,7 +74,7 @@ pub enum MergeError {
     },
     /// Nothing turned, or the two logs do not see the same turns.
     #[error("no rotation to align the clocks on: {0} (turn the vehicle while both log, or give --offset-s)")]
-    NoRotation(String),
+    NoRotation(NoRotation),
     /// The logs agree best at an end of the searched offsets: the true
     /// offset may lie beyond.
     #[error("the logs agree best at a clock offset of {best_s:.2} s, the end of the search window {center_s} ± {max_offset_s} s: the true offset may lie outside it (centre the window with --approx-offset-s or widen it with --max-offset-s)")]
@@ -130,9 +130,76 @@ pub enum MergeError {
         /// The most accepted, ppm.
         max_drift_ppm: f64,
     },
-    /// An option is out of range.
-    #[error("{0}")]
-    Option(String),
+    /// The offset search is not a range.
+    #[error("the offset search {center_s} ± {max_offset_s} s is not a range")]
+    BadSearchWindow {
+        /// Its centre, s.
+        center_s: f64,
+        /// Its half-width, s.
+        max_offset_s: f64,
+    },
+    /// The offset search is too narrow to tell where the logs agree best.
+    #[error("the offset search {center_s} ± {max_offset_s} s is narrower than ± {min_s} s: too narrow to tell where the logs agree best (give the offset itself to use it as given)")]
+    SearchWindowTooNarrow {
+        /// Its centre, s.
+        center_s: f64,
+        /// Its half-width, s.
+        max_offset_s: f64,
+        /// The narrowest half-width searched, s.
+        min_s: f64,
+    },
+    /// A log has no rows.
+    #[error("a log has no rows (board {board_rows}, navigation {nav_rows})")]
+    EmptyLog {
+        /// The board log's rows.
+        board_rows: usize,
+        /// The navigation log's rows.
+        nav_rows: usize,
+    },
+    /// A given clock is not usable numbers.
+    #[error("offset {offset_s} s / drift {drift_ppm} ppm: not usable numbers")]
+    BadGivenClock {
+        /// The offset given, s.
+        offset_s: f64,
+        /// The drift given, ppm.
+        drift_ppm: f64,
+    },
+}
+
+/// Why the logs show no rotation to align on.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum NoRotation {
+    /// No window of the overlap has rotation both logs see alike.
+    #[error("no window of the overlap has rotation that both logs see alike")]
+    NoSharedWindow,
+    /// The navigation's attitude and tilt hardly change, and the rates of
+    /// turn do not help.
+    #[error("the navigation's attitude changes by {attitude_spread_deg:.2}° RMS ({attitude_needed_deg:.1}° needed) and its tilt by {tilt_spread_deg:.2}° ({tilt_needed_deg:.1}° needed), and {}", if *.rates_flat { "the rates of turn agree equally at every offset" } else { "the rates of turn are below 0.3°/s RMS in a log" })]
+    TooSteady {
+        /// The attitude's RMS change, degrees.
+        attitude_spread_deg: f64,
+        /// What it needs, degrees.
+        attitude_needed_deg: f64,
+        /// The tilt's RMS change, degrees.
+        tilt_spread_deg: f64,
+        /// What it needs, degrees.
+        tilt_needed_deg: f64,
+        /// The rates of turn were there but agree equally everywhere (else
+        /// they were too small).
+        rates_flat: bool,
+    },
+    /// The combined agreement is the same at every offset.
+    #[error("the logs agree equally at every offset searched")]
+    FlatAgreement,
+    /// The attitude does not vary enough to fit the field to it.
+    #[error("the attitude does not vary enough to fit the field to it")]
+    AttitudeTooSmallToFit,
+    /// Too few windows with shared motion.
+    #[error("only {0} window(s) of the overlap have motion that both logs see")]
+    TooFewWindows(usize),
+    /// The fine alignment never settled.
+    #[error("no window converged")]
+    NoWindowConverged,
 }
 
 /// How the clocks are found.
@@ -241,13 +308,13 @@ fn no_overlap(board: &BoardLog, nav: &NavLog, detail: String) -> MergeError {
 /// users): `t_board`, `heading_deg` — see [`Merged::extra_columns`].
 pub fn merge(board: &BoardLog, nav: &NavLog, clock: Clock) -> Result<Merged, MergeError> {
     if board.t_s.is_empty() || nav.t_s.is_empty() {
-        return Err(MergeError::Option(format!("a log has no rows (board {}, navigation {})", board.t_s.len(), nav.t_s.len())));
+        return Err(MergeError::EmptyLog { board_rows: board.t_s.len(), nav_rows: nav.t_s.len() });
     }
     let alignment = match clock {
         Clock::Estimate { center_s, max_offset_s } => align::estimate_clock(board, nav, center_s, max_offset_s)?,
         Clock::Given { offset_s, drift_ppm } => {
             if !(offset_s.is_finite() && drift_ppm.is_finite() && drift_ppm.abs() < 1e5) {
-                return Err(MergeError::Option(format!("offset {offset_s} s / drift {drift_ppm} ppm: not usable numbers")));
+                return Err(MergeError::BadGivenClock { offset_s, drift_ppm });
             }
             let clock = ClockMap { offset_s, drift_ppm, board_ref_s: board.t_s[0] };
             align::Alignment { clock, offset_sigma_s: 0.0, drift_sigma_ppm: 0.0, drift_fitted: false, windows: 0, agreement: f64::NAN, search: None }
@@ -440,7 +507,7 @@ mod tests {
     fn a_search_window_too_narrow_is_refused() {
         let (board, nav) = logs(37.25, 0.0, 200.0, true);
         let e = merge(&board, &nav, Clock::Estimate { center_s: 0.0, max_offset_s: 0.0 }).unwrap_err();
-        assert!(matches!(e, MergeError::Option(_)) && e.to_string().contains("too narrow"), "{e}");
+        assert!(matches!(e, MergeError::SearchWindowTooNarrow { .. }) && e.to_string().contains("too narrow"), "{e}");
     }
 
     /// Issue 24: `--max-offset-s 1e300` panicked (capacity overflow) and
