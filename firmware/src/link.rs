@@ -167,15 +167,20 @@ pub fn sample_bytes(sample: &proto::Sample, stream: proto::StreamMode, declinati
         return Some(SampleBytes::Nmea(crate::nmea::sentences(sample, declination_rad)));
     }
     let mut buf = [0u8; MAX_FRAME_LEN];
-    let n = proto::encode(&Response { seq: None, body: ResponseBody::Sample(*sample) }, &mut buf).ok()?;
-    ReplyFrame::from_slice(buf.get(..n)?).ok().map(SampleBytes::Framed)
+    let len = proto::encode(&Response { seq: None, body: ResponseBody::Sample(*sample) }, &mut buf).ok()?;
+    Some(SampleBytes::Framed { buf, len })
 }
 
 /// A streamed sample's bytes ([`sample_bytes`]).
 #[derive(Debug, Clone, PartialEq)]
 pub enum SampleBytes {
-    /// The sample's frame.
-    Framed(ReplyFrame),
+    /// The sample's frame: the first `len` bytes of `buf`, encoded in place.
+    Framed {
+        /// The encoding buffer.
+        buf: [u8; MAX_FRAME_LEN],
+        /// The frame's length.
+        len: usize,
+    },
     /// Its NMEA sentences.
     Nmea(crate::nmea::Burst),
 }
@@ -184,7 +189,7 @@ impl SampleBytes {
     /// The bytes to enqueue.
     pub fn bytes(&self) -> &[u8] {
         match self {
-            SampleBytes::Framed(f) => f,
+            SampleBytes::Framed { buf, len } => buf.get(..*len).unwrap_or(&[]),
             SampleBytes::Nmea(b) => b,
         }
     }

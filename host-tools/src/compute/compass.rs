@@ -12,7 +12,7 @@
 
 use calib_core::heading::wrap_pi;
 use calib_core::series::interp_angle;
-use calib_core::swing::{aligned_pairs, SwingFit};
+use calib_core::swing::{heading_at, SwingFit};
 use serde::{Deserialize, Serialize};
 
 use super::error::ComputeError;
@@ -110,8 +110,7 @@ pub fn compass_pairs(log: &CompassLog, doc: &CompassDoc) -> Result<(Vec<CompassP
             continue;
         }
         let Some(&t) = log.t_s.get(row) else { continue };
-        let one = [t];
-        let Some((h, _)) = aligned_pairs(&log.t_s, &headings, &one, &[r], delay, gap).next() else {
+        let Some(h) = heading_at(&log.t_s, &headings, t - delay, gap) else {
             missing += 1;
             continue;
         };

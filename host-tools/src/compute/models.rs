@@ -92,11 +92,6 @@ mod tests {
         assert!(missing_columns(ModelKind::Attitude, &rec).is_empty());
         assert!(missing_columns(ModelKind::Full, &Recording::default()).is_empty());
     }
-}
-
-#[cfg(test)]
-mod auto_order {
-    use calib_core::cal::ModelKind;
 
     /// `fit --model auto`'s table lists the richest models first, and not
     /// the triangular form (the full model re-expressed).

@@ -289,9 +289,9 @@ pub(crate) fn fit_swing_inputs(i: &SwingInputs<'_>, delay: Delay, water_current:
     // inputs allow it, every pair is fitted, turns included, and said so.
     // A vehicle's swing keeps to steady headings (fitting its turns made
     // the simulated AUV's validation heading 0.63° instead of 0.25°).
-    let all = if i.turns_when_steady_is_short { fit_swing(aligned_pairs(t, &headings, t, &reference, delay_s, gap)) } else { Err(calib_core::swing::SwingError::IllConditioned) };
+    let all = i.turns_when_steady_is_short.then(|| fit_swing(aligned_pairs(t, &headings, t, &reference, delay_s, gap)).ok()).flatten();
     let (mut fit, steady_only) = match (fit_swing(aligned_pairs(t, &headings, t, &steady, delay_s, gap)), all) {
-        (Ok(f), Ok(a)) if a.terms.count() > f.terms.count() => {
+        (Ok(f), Some(a)) if a.terms.count() > f.terms.count() => {
             warnings.push(format!(
                 "the steady headings (turning below {MAX_SWING_TURN_RATE_DEG_S}°/s) determine only {} of the terms, all {} pairs determine {}: fitted on every pair, turns included (in a turn a GPS course also holds the slip, which the fit then absorbs)",
                 f.terms.count(),
@@ -301,11 +301,11 @@ pub(crate) fn fit_swing_inputs(i: &SwingInputs<'_>, delay: Delay, water_current:
             (a, None)
         }
         (Ok(f), _) => (f, Some(turning)),
-        (Err(_), Ok(a)) => {
+        (Err(_), Some(a)) => {
             warnings.push(format!("no steady heading (turning below {MAX_SWING_TURN_RATE_DEG_S}°/s): fitted on all {} pairs, turns included", a.samples));
             (a, None)
         }
-        (Err(e), Err(_)) => return Err(e.into()),
+        (Err(e), None) => return Err(e.into()),
     };
     let fitted = if steady_only.is_some() { &steady } else { &reference };
     let turning = steady_only.unwrap_or(0);
