@@ -636,6 +636,7 @@ impl<T: Real> LmProblem<T, TIMING> for GyroTimingProblem<'_, T> {
             }
             windows += 1;
         }
+        lin.symmetrise();
         (windows >= 4).then_some(lin)
     }
 

@@ -477,6 +477,7 @@ impl<T: Real> LmProblem<T, 6> for MlProblem<'_, T> {
             let (e, d) = ml_residual(&tri, p[5], b)?;
             lin.add_row(&d, e);
         }
+        lin.symmetrise();
         Some(lin)
     }
 

@@ -536,13 +536,13 @@ impl<T: Real> Model<T> {
     }
 }
 
-/// Normal equations of the data (without priors) and their cost, and the
-/// number of residuals.
+/// The normal equations (the crate's one builder, [`Linearisation`], with
+/// the priors added), the priors' part of the cost, and the residuals'
+/// unweighted sums of squares.
 #[derive(Clone)]
 struct Normal<T> {
-    jtj: [[T; NP]; NP],
-    jtr: [T; NP],
-    data_cost: T,
+    /// `JᵀWJ`, `JᵀWr` and the data's cost `Σ w r²`.
+    lin: Linearisation<T, NP>,
     prior_cost: T,
     /// Σ unweighted r² and count of the run's residuals, and of the swing's.
     run_ss: (T, u32),
@@ -551,23 +551,21 @@ struct Normal<T> {
 
 impl<T: Real> Normal<T> {
     fn new(jtj: [[T; NP]; NP]) -> Self {
-        Self { jtj, jtr: [T::ZERO; NP], data_cost: T::ZERO, prior_cost: T::ZERO, run_ss: (T::ZERO, 0), swing_ss: (T::ZERO, 0) }
+        let mut lin = Linearisation::zero();
+        lin.jtj = jtj;
+        Self { lin, prior_cost: T::ZERO, run_ss: (T::ZERO, 0), swing_ss: (T::ZERO, 0) }
     }
-}
 
-fn add_row<T: Real>(n: &mut Normal<T>, active: &[bool; NP], r: T, w: T, j: &[T; NP]) {
-    let (r, w2) = (r * w, w * w);
-    n.data_cost += r * r;
-    for a in 0..NP {
-        if j[a] == T::ZERO || !active[a] {
-            continue;
-        }
-        n.jtr[a] += j[a] * w * r;
-        for b in 0..NP {
-            if active[b] {
-                n.jtj[a][b] += j[a] * j[b] * w2;
-            }
-        }
+    /// Adds a residual `r` with its square-root weight `w` (`w·r` is
+    /// unit-variance); the held terms' columns are left out.
+    fn add(&mut self, active: &[bool; NP], r: T, w: T, j: &[T; NP]) {
+        let j = core::array::from_fn(|a| if active[a] { j[a] } else { T::ZERO });
+        self.lin.add_weighted_row(&j, r, w * w);
+    }
+
+    /// The whole cost: the data's and the priors'.
+    fn cost(&self) -> T {
+        self.lin.cost + self.prior_cost
     }
 }
 
@@ -577,24 +575,25 @@ fn normal_equations<T: Real>(model: &Model<T>, p: &[T; NP], prior: &[T; NP], pri
     for s in run {
         model.run_residuals(p, s, &mut |r, w, j| {
             n.run_ss = (n.run_ss.0 + r * r, n.run_ss.1 + 1);
-            add_row(&mut n, &active, r, w, j)
+            n.add(&active, r, w, j)
         });
     }
     for s in swing {
         model.swing_residual(p, s, &mut |r, w, j| {
             n.swing_ss = (n.swing_ss.0 + r * r, n.swing_ss.1 + 1);
-            add_row(&mut n, &active, r, w, j)
+            n.add(&active, r, w, j)
         });
     }
+    n.lin.symmetrise();
     for a in 0..NP {
         if active[a] {
             let r = (p[a] - prior[a]) * prior_w[a];
             n.prior_cost += r * r;
-            n.jtr[a] += prior_w[a] * r;
-            n.jtj[a][a] += prior_w[a] * prior_w[a];
+            n.lin.jtr[a] += prior_w[a] * r;
+            n.lin.jtj[a][a] += prior_w[a] * prior_w[a];
         } else {
             // Held: an identity row keeps the system regular, the step zero.
-            n.jtj[a][a] = T::ONE;
+            n.lin.jtj[a][a] = T::ONE;
         }
     }
     n
@@ -868,7 +867,7 @@ fn inflate_for_correlation<T: Real>(n: &mut Normal<T>, model: &Model<T>, p: &[T;
         for b in 0..NP {
             if model.active[b] {
                 let prior_part = if a == b { pa } else { T::ZERO };
-                n.jtj[a][b] = (n.jtj[a][b] - prior_part) / inflation + prior_part;
+                n.lin.jtj[a][b] = (n.lin.jtj[a][b] - prior_part) / inflation + prior_part;
             }
         }
     }
@@ -952,7 +951,7 @@ pub fn joint_refine_env<T: Real>(
         typical_temp_c: if terms.temp_n > 0 { terms.temp_mean } else { terms.ref_c },
         params: p,
         model,
-        information: n.jtj,
+        information: n.lin.jtj,
         correlation_inflation: inflation,
     };
     let (per, rms) = sol.heading_sigmas(&cov);
@@ -965,7 +964,7 @@ pub fn joint_refine_env<T: Real>(
 /// zeroed) and its scale factor (1: the residual weights were set from the
 /// residuals' scatter before).
 fn spd_cov<T: Real>(n: &Normal<T>, model: &Model<T>) -> Result<[[T; NP]; NP], BackstepError> {
-    let mut cov = crate::uncertainty::spd_inverse(&n.jtj).ok_or(BackstepError::Singular)?;
+    let mut cov = crate::uncertainty::spd_inverse(&n.lin.jtj).ok_or(BackstepError::Singular)?;
     for a in 0..NP {
         if !model.active[a] {
             for b in 0..NP {
@@ -1006,12 +1005,13 @@ impl<T: Real> JointProblem<'_, T> {
 impl<T: Real> LmProblem<T, NP> for JointProblem<'_, T> {
     fn linearise(&mut self, p: &[T; NP]) -> Option<Linearisation<T, NP>> {
         let n = self.normal(p);
-        Some(Linearisation { jtj: n.jtj, jtr: n.jtr, cost: n.data_cost + n.prior_cost })
+        let cost = n.cost();
+        Some(Linearisation { cost, ..n.lin })
     }
 
     fn cost(&mut self, p: &[T; NP]) -> Option<T> {
         let n = self.normal(p);
-        Some(n.data_cost + n.prior_cost)
+        Some(n.cost())
     }
 }
 
@@ -1101,8 +1101,9 @@ impl<T: Real> JointSolution<T> {
         let active = self.model.active;
         for s in extra {
             let k = self.correlation_inflation.sqrt();
-            self.model.run_residuals(&self.params, &s, &mut |r, w, j| add_row(&mut n, &active, r, w / k, j));
+            self.model.run_residuals(&self.params, &s, &mut |r, w, j| n.add(&active, r, w / k, j));
         }
+        n.lin.symmetrise();
         let cov = spd_cov(&n, &self.model).ok()?;
         Some(self.heading_sigmas(&cov))
     }
