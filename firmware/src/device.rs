@@ -3,8 +3,9 @@
 //! one [`Device`] and calls it from its tasks.
 //!
 //! One job per room:
-//! * [`coefficients`](self::coefficients): the sets — validation, the
-//!   store's encoding (record versions 1 and 2), read / write / commit;
+//! * [`coefficients`](self::coefficients): the coefficient bank (in use,
+//!   staged, sequence, write lock) — validation, the store's encoding
+//!   (record versions 1, 2 and 3), read / write / commit;
 //! * [`unlock`](self::unlock): the write lock — challenge, expiry, mission
 //!   mode;
 //! * [`inputs`](self::inputs): what the vehicle sends — attitude, body
@@ -34,13 +35,13 @@
 //! * the temperature `T` measured on the board (the thermistor on ADC
 //!   channel 3, [`crate::thermistor`]); when it is missing (open or shorted
 //!   thermistor) the sample is corrected at the reference `T₀` (no gain
-//!   correction), `Sample::temp_c` is `None`, `Health::temp_missing` counts
+//!   correction), `Sample::temp_c` is `None`, `DeviceCounters::temp_missing` counts
 //!   it and `Health::env_degraded` is set;
 //! * the motor current `I` from [`RequestBody::AttitudeEnv`], stale after
 //!   [`ATTITUDE_TIMEOUT_MS`] like the attitude. A stale or never-sent
 //!   current counts as 0 A for the field; if the stored current term is
 //!   non-zero the sample's heading is withheld (`None`, as for a stale
-//!   attitude), `Health::current_stale` counts it and `env_degraded` is
+//!   attitude), `DeviceCounters::current_stale` counts it and `env_degraded` is
 //!   set. With a zero current term the current is not needed.
 
 mod coefficients;
@@ -51,7 +52,7 @@ mod pipeline;
 mod unlock;
 
 use calib_core::cal::Calibration;
-use magcal_protocol::{CoefficientSource, Coefficients, DeviceError, RequestBody, ResponseBody, Sample, StreamMode};
+use magcal_protocol::{Coefficients, DeviceError, RequestBody, ResponseBody, Sample, StreamMode};
 
 use crate::acquisition::RawSample;
 #[cfg(doc)]
@@ -60,13 +61,13 @@ use magcal_protocol::{ATTITUDE_TIMEOUT_MS, UNLOCK_XOR};
 pub use coefficients::{
     decode_coefficients, default_coefficients, encode_coefficients, validate, CoefficientStore, PendingCommit, SaveFailed, FIELD_RANGE_NT, MAX_CURRENT_BIAS_PER_A,
 };
-pub use health::{BoardCounters, DeviceCounters};
+pub use magcal_protocol::{BoardCounters, DeviceCounters};
 pub use unlock::FUZZ_CHALLENGE;
 
 use inputs::Inputs;
 use onboard_fit::OnboardFit;
 use pipeline::Pipeline;
-use unlock::WriteLock;
+use coefficients::Bank;
 
 /// What a request needs next.
 #[derive(Debug, Clone)]
@@ -87,12 +88,7 @@ pub struct Boot {
 
 /// The board's state.
 pub struct Device {
-    coefficients: Coefficients,
-    calibration: Calibration<f32>,
-    source: CoefficientSource,
-    seq: u32,
-    staged: Option<Coefficients>,
-    lock: WriteLock,
+    bank: Bank,
     inputs: Inputs,
     pipeline: Pipeline,
     fit: Option<OnboardFit>,
@@ -103,31 +99,14 @@ impl Device {
     /// The device after boot: the stored set if valid, else the defaults
     /// (and `last_error` says so).
     pub fn new(boot: Boot) -> Self {
-        let (coefficients, source, seq, calibration, last_error) = match boot.stored.and_then(|(c, s)| validate(&c).ok().map(|cal| (c, s, cal))) {
-            Some((c, s, cal)) => (c, CoefficientSource::Stored, s, cal, None),
-            None => {
-                let c = default_coefficients();
-                let cal = validate(&c).unwrap_or_else(|_| Calibration::identity());
-                (c, CoefficientSource::Default, 0, cal, Some(DeviceError::Storage))
-            }
-        };
-        Self {
-            coefficients,
-            calibration,
-            source,
-            seq,
-            staged: None,
-            lock: WriteLock::new(boot.challenge),
-            inputs: Inputs::default(),
-            pipeline: Pipeline::new(coefficients.field_nt, coefficients.inclination()),
-            fit: None,
-            last_error,
-        }
+        let (bank, last_error) = Bank::boot(boot.stored, boot.challenge);
+        let c = *bank.coefficients();
+        Self { bank, inputs: Inputs::default(), pipeline: Pipeline::new(c.field_nt, c.inclination()), fit: None, last_error }
     }
 
     /// The calibration in use.
     pub fn calibration(&self) -> &Calibration<f32> {
-        &self.calibration
+        self.bank.calibration()
     }
 
     /// The output rate asked for, Hz.
@@ -146,7 +125,7 @@ impl Device {
     /// (with a fresh attitude, and a fresh current when the current term
     /// needs one); returns the sample to stream, if streaming.
     pub fn on_raw_sample(&mut self, raw: &RawSample, now_ms: u32) -> Option<Sample> {
-        self.pipeline.process(raw, now_ms, &self.calibration, &self.inputs, self.fit.as_mut())
+        self.pipeline.process(raw, now_ms, self.bank.calibration(), &self.inputs, self.fit.as_mut())
     }
 
     fn refuse(&mut self, e: DeviceError) -> ResponseBody {
@@ -187,10 +166,7 @@ impl Device {
             Routed::Fit(r) => self.handle_fit(r, now_ms),
             Routed::Coefficients(r) => return self.handle_coefficients(r, now_ms),
             Routed::Mission { enabled } => {
-                self.lock.set_mission(enabled);
-                if enabled {
-                    self.staged = None;
-                }
+                self.bank.set_mission(enabled);
                 ResponseBody::Ack
             }
         })

@@ -29,6 +29,7 @@ pub mod nmea;
 pub mod platform;
 pub mod ads131m04_model;
 pub mod store;
+pub mod tallies;
 pub mod thermistor;
 pub mod uart;
 

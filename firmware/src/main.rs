@@ -55,13 +55,13 @@ unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
 #[rtic::app(device = stm32f4xx_hal::pac, dispatchers = [EXTI0, EXTI1, EXTI2])]
 mod app {
     use super::Mono;
-    use core::sync::atomic::{AtomicU32, Ordering};
     use embedded_hal_bus::spi::{ExclusiveDevice, NoDelay};
     use firmware::acquisition::{AcqCounters, Acquisition, Decimator, SetResetStrap, PAIR_RATE_HZ};
     use firmware::clocks::{self, ADC_CLKIN_HZ, SPI_SCLK_HZ};
     use firmware::board::{BoardDrdy, BoardPin, BoardSpi, BoardStore, QemuFlash};
     use firmware::board_hw::{boot_challenge, BoardFlash, CycleDelay, ExtiDrdy, Stopwatch};
-    use firmware::device::{BoardCounters, Boot, CoefficientStore, Device, Handled};
+    use firmware::device::{Boot, Device, Handled};
+    use firmware::tallies::Tallies;
     use firmware::layout;
     use firmware::link::{DeviceInfo, LinkEvent, LinkServer};
     use firmware::platform;
@@ -100,15 +100,8 @@ mod app {
 
     /// The bridges of the QEMU board.
     static BRIDGES: BridgeModel = BridgeModel::new();
-    /// Bytes lost on the UARTs (queue full or line errors).
-    static RX_DROPPED: AtomicU32 = AtomicU32::new(0);
-    /// Acquisition deadlines missed.
-    static OVERRUNS: AtomicU32 = AtomicU32::new(0);
-    /// Longest gap between two acquired pairs, ms.
-    static MAX_ACQ_GAP_MS: AtomicU32 = AtomicU32::new(0);
-    /// Coefficient saves, and the longest, ms.
-    static STORE_SAVES: AtomicU32 = AtomicU32::new(0);
-    static MAX_STORE_MS: AtomicU32 = AtomicU32::new(0);
+    /// The board's own counters (`firmware::tallies`, host-tested).
+    static TALLIES: Tallies = Tallies::new();
 
     #[shared]
     struct Shared {
@@ -347,13 +340,13 @@ mod app {
             match cx.local.rx.read() {
                 Ok(byte) => {
                     if cx.local.rx_sender.try_send(byte).is_err() {
-                        RX_DROPPED.fetch_add(1, Ordering::Relaxed);
+                        TALLIES.rx_dropped();
                     }
                 }
                 // Overrun/noise/framing: the byte is lost; the frame's CRC or
                 // COBS check refuses what it belonged to.
                 Err(_) => {
-                    RX_DROPPED.fetch_add(1, Ordering::Relaxed);
+                    TALLIES.rx_dropped();
                 }
             }
         }
@@ -375,7 +368,7 @@ mod app {
         if cx.local.rx2.is_rx_not_empty() {
             let ok = cx.local.rx2.read().ok().map(|b| cx.local.feed_sender.try_send(b).is_ok());
             if ok != Some(true) {
-                RX_DROPPED.fetch_add(1, Ordering::Relaxed);
+                TALLIES.rx_dropped();
             }
         }
     }
@@ -395,41 +388,29 @@ mod app {
                 Some(LinkEvent::Reply(frame)) => Some(frame),
                 Some(LinkEvent::Request(req)) => {
                     let store = &mut *cx.local.store;
-                    let link_counters = cx.local.link.counters();
                     let acq = cx.shared.acq.lock(|a| *a);
                     let tx_dropped = cx.shared.tx.lock(|t| t.dropped_frames());
-                    let board = BoardCounters {
-                        pairs: acq.pairs,
-                        saturated: acq.saturated,
-                        acq_errors: acq.errors,
-                        overruns: OVERRUNS.load(Ordering::Relaxed),
-                        rx_dropped: RX_DROPPED.load(Ordering::Relaxed),
-                        tx_dropped,
-                        bad_frames: link_counters.bad_frames,
-                        requests: link_counters.requests,
-                        feed_updates: BRIDGES.updates(),
-                        max_acq_gap_ms: MAX_ACQ_GAP_MS.load(Ordering::Relaxed),
-                        store_saves: STORE_SAVES.load(Ordering::Relaxed),
-                        max_store_ms: MAX_STORE_MS.load(Ordering::Relaxed),
-                    };
+                    let board = TALLIES.snapshot(&acq, &cx.local.link.counters(), tx_dropped, BRIDGES.updates());
                     let handled = cx.shared.device.lock(|d| d.handle_request(&req.body, now_ms(), &board));
                     let body = match handled {
                         Handled::Reply(body) => body,
-                        // The erase stalls the CPU (one flash bank): done
-                        // outside every lock, right after a watchdog feed,
-                        // on a sector small enough to finish well inside
-                        // the watchdog's timeout (see `layout`).
+                        // The erase stalls the CPU (one flash bank): stored
+                        // outside every lock, right after a watchdog feed
+                        // (`Tallies::store_commit`, host-tested).
                         Handled::Save(pending) => {
-                            cx.shared.watchdog.lock(|w| {
-                                if let Some(w) = w.as_mut() {
-                                    w.feed();
-                                }
-                            });
-                            let t0 = Stopwatch::now(now_ms());
-                            let saved = store.save(pending.bytes());
-                            let ms = t0.elapsed_ms(now_ms());
-                            STORE_SAVES.fetch_add(1, Ordering::Relaxed);
-                            MAX_STORE_MS.fetch_max(ms, Ordering::Relaxed);
+                            let feed = || {
+                                cx.shared.watchdog.lock(|w| {
+                                    if let Some(w) = w.as_mut() {
+                                        w.feed();
+                                    }
+                                })
+                            };
+                            let timed = |save: &mut dyn FnMut()| {
+                                let t0 = Stopwatch::now(now_ms());
+                                save();
+                                t0.elapsed_ms(now_ms())
+                            };
+                            let saved = TALLIES.store_commit(&pending, store, feed, timed);
                             cx.shared.device.lock(|d| d.finish_commit(pending, saved))
                         }
                     };
@@ -474,7 +455,7 @@ mod app {
             });
             let now_pair = Stopwatch::now(now_ms());
             if let Some(last) = last_pair.replace(now_pair) {
-                MAX_ACQ_GAP_MS.fetch_max(last.elapsed_ms_to(&now_pair), Ordering::Relaxed);
+                TALLIES.acq_gap(last.elapsed_ms_to(&now_pair));
             }
             let Some(front) = cx.local.front.as_mut() else { continue };
             let tag = (platform::detect_cached() == Platform::Qemu).then(|| BRIDGES.seq());
@@ -498,7 +479,7 @@ mod app {
             // Missed deadlines: count them and resynchronise.
             let now = Mono::now();
             if now > next + period {
-                OVERRUNS.fetch_add(1, Ordering::Relaxed);
+                TALLIES.overrun();
                 next = now;
             }
         }

@@ -15,8 +15,10 @@ use crate::error::FrameError;
 /// would misread these). Version 4 appended the heading's σ and integrity
 /// to `Sample`, the integrity counters and the on-line hard iron to
 /// `Health`, and the `Nmea` stream mode. Version 5 appended the reference
-/// inclination to `Coefficients`.
-pub const PROTOCOL_VERSION: u8 = 5;
+/// inclination to `Coefficients`. Version 6 gathered `Health`'s counters
+/// into [`crate::BoardCounters`] and [`crate::DeviceCounters`] (declared once,
+/// counted into by the firmware), which reorders `Health`'s fields.
+pub const PROTOCOL_VERSION: u8 = 6;
 
 /// Longest decoded frame (version byte, postcard payload and CRC).
 pub const MAX_DECODED_LEN: usize = 250;

@@ -103,7 +103,7 @@ pub enum RequestBody {
     /// the current term of the [`Coefficients`]. The current is stale after
     /// [`ATTITUDE_TIMEOUT_MS`], like the attitude; while it is stale and the
     /// stored current term is non-zero the board withholds the heading
-    /// ([`Health::current_stale`] counts those samples). (After
+    /// ([`DeviceCounters::current_stale`] counts those samples). (After
     /// [`RequestBody::Motion`]: earlier variants keep their wire tags.)
     AttitudeEnv {
         /// Roll, radians.
@@ -367,30 +367,65 @@ pub struct Sample {
     pub integrity: Integrity,
 }
 
+/// The counters the board's tasks keep (acquisition, link, UARTs, sensor
+/// feed, coefficient store), declared once: the firmware counts into this
+/// very type and [`Health`] carries it. All counts are since boot.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct BoardCounters {
+    /// Set/reset pairs acquired.
+    pub pairs: u32,
+    /// Pairs with a saturated channel.
+    pub saturated: u32,
+    /// Failed acquisitions (ADC errors).
+    pub acq_errors: u32,
+    /// Acquisition deadlines missed.
+    pub overruns: u32,
+    /// Received bytes dropped (queue full or UART error).
+    pub rx_dropped: u32,
+    /// Outgoing reply or sample frames dropped (transmit queue full).
+    pub tx_dropped: u32,
+    /// Damaged frames received.
+    pub bad_frames: u32,
+    /// Requests served.
+    pub requests: u32,
+    /// Sensor-feed updates received (QEMU board).
+    pub feed_updates: u32,
+    /// Longest gap between two acquired pairs since boot, ms (a flash erase
+    /// stalls the CPU and shows here).
+    pub max_acq_gap_ms: u32,
+    /// Coefficient saves done.
+    pub store_saves: u32,
+    /// The longest save (its CPU stall), ms.
+    pub max_store_ms: u32,
+}
+
+/// The counters the correction pipeline keeps, declared once: the firmware's
+/// device counts into this type and [`Health`] carries it.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct DeviceCounters {
+    /// Output samples produced.
+    pub samples: u32,
+    /// Samples whose heading was withheld because the motor current was
+    /// stale or never sent (older than [`ATTITUDE_TIMEOUT_MS`]) while the
+    /// stored current term is non-zero.
+    pub current_stale: u32,
+    /// Samples with no valid temperature (thermistor open or shorted):
+    /// corrected at the reference temperature.
+    pub temp_missing: u32,
+}
+
 /// Counters and state.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Health {
     /// Milliseconds since boot.
     pub uptime_ms: u32,
-    /// Set/reset pairs acquired.
-    pub pairs: u32,
-    /// Output samples produced.
-    pub samples: u32,
-    /// Pairs with a saturated channel.
-    pub saturated: u32,
-    /// Failed acquisitions.
-    pub acq_errors: u32,
-    /// Acquisition deadlines missed.
-    pub overruns: u32,
-    /// Received bytes dropped (queue full or UART error).
-    pub rx_dropped: u32,
-    /// Outgoing frames dropped (queue full).
-    pub tx_dropped: u32,
-    /// Damaged frames received.
-    pub bad_frames: u32,
-    /// Requests served.
-    pub requests: u32,
+    /// The board's tasks' counters.
+    pub board: BoardCounters,
+    /// The correction pipeline's counters.
+    pub device: DeviceCounters,
     /// Mission mode on.
     pub mission_mode: bool,
     /// Coefficient writes unlocked.
@@ -407,22 +442,6 @@ pub struct Health {
     pub output_rate_hz: u8,
     /// What is streamed.
     pub stream: StreamMode,
-    /// Sensor-feed updates received (QEMU board).
-    pub feed_updates: u32,
-    /// Longest gap between two acquired pairs since boot, ms (a flash erase
-    /// stalls the CPU and shows here).
-    pub max_acq_gap_ms: u32,
-    /// Coefficient saves and the longest of them (its CPU stall), ms.
-    pub store_saves: u32,
-    /// See [`Health::store_saves`].
-    pub max_store_ms: u32,
-    /// Samples whose heading was withheld because the motor current was
-    /// stale or never sent (older than [`ATTITUDE_TIMEOUT_MS`]) while the
-    /// stored current term is non-zero.
-    pub current_stale: u32,
-    /// Samples with no valid temperature (thermistor open or shorted):
-    /// corrected at the reference temperature.
-    pub temp_missing: u32,
     /// The last valid temperature measured, °C.
     pub temp_c: Option<f32>,
     /// The last sample was corrected with a stale/missing current or a

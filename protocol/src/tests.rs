@@ -198,11 +198,16 @@ fn the_largest_messages_fit_in_a_frame() {
         Response {
             seq: Some(u16::MAX),
             body: ResponseBody::Status(Health {
-                uptime_ms: u32::MAX, pairs: u32::MAX, samples: u32::MAX, saturated: u32::MAX, acq_errors: u32::MAX, overruns: u32::MAX,
-                rx_dropped: u32::MAX, tx_dropped: u32::MAX, bad_frames: u32::MAX, requests: u32::MAX, mission_mode: true, unlocked: true,
+                uptime_ms: u32::MAX,
+                board: BoardCounters {
+                    pairs: u32::MAX, saturated: u32::MAX, acq_errors: u32::MAX, overruns: u32::MAX, rx_dropped: u32::MAX, tx_dropped: u32::MAX, bad_frames: u32::MAX,
+                    requests: u32::MAX, feed_updates: u32::MAX, max_acq_gap_ms: u32::MAX, store_saves: u32::MAX, max_store_ms: u32::MAX,
+                },
+                device: DeviceCounters { samples: u32::MAX, current_stale: u32::MAX, temp_missing: u32::MAX },
+                mission_mode: true, unlocked: true,
                 unlock_challenge: u32::MAX, coefficient_source: CoefficientSource::Default, coefficient_seq: u32::MAX,
-                last_error: Some(DeviceError::Frame(FrameError::UnsupportedVersion { got: 255 })), output_rate_hz: 100, stream: StreamMode::Both, feed_updates: u32::MAX, max_acq_gap_ms: u32::MAX, store_saves: u32::MAX, max_store_ms: u32::MAX,
-                current_stale: u32::MAX, temp_missing: u32::MAX, temp_c: Some(f32::MIN), env_degraded: true,
+                last_error: Some(DeviceError::Frame(FrameError::UnsupportedVersion { got: 255 })), output_rate_hz: 100, stream: StreamMode::Both,
+                temp_c: Some(f32::MIN), env_degraded: true,
                 integrity_samples: [u32::MAX; 5], longest_disturbance_ms: u32::MAX, hard_iron_nt: Some([f32::MIN; 3]), hard_iron_applied: true, hard_iron_applications: u32::MAX,
             }),
         },

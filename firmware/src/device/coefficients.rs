@@ -1,10 +1,12 @@
 //! The coefficient sets: the physical checks, the nominal set, the store's
 //! encoding (record versions 1, 2 and 3), and the read / write / commit
-//! requests (the unlock they need is [`super::unlock`]'s).
+//! requests, held by the coefficient bank ([`Bank`]: in use, staged,
+//! sequence and the write lock of [`super::unlock`]).
 
 use calib_core::cal::{Calibration, EnvTerms, FieldCal, Swing};
 use magcal_protocol::{CoefficientSource, Coefficients, DeviceError, ResponseBody};
 
+use super::unlock::WriteLock;
 use super::{CoefficientRequest, Device, Handled};
 use crate::acquisition::COUNTS_PER_NT;
 use crate::adc::FULL_SCALE_COUNTS;
@@ -115,20 +117,85 @@ pub fn decode_coefficients(bytes: &[u8], version: u16) -> Option<(Coefficients, 
     Some((c, cal))
 }
 
-impl Device {
-    /// The coefficients: read, unlock, stage, commit (validated, stored,
-    /// then used).
-    pub(super) fn handle_coefficients(&mut self, req: CoefficientRequest, now_ms: u32) -> Handled {
-        let reply = match req {
-            CoefficientRequest::Read => Ok(ResponseBody::Coefficients { coefficients: self.coefficients, source: self.source, seq: self.seq }),
-            CoefficientRequest::Unlock { key } => self.lock.unlock(key, now_ms).map(|()| ResponseBody::Ack),
-            CoefficientRequest::Write(c) => self.stage(c, now_ms).map(|()| ResponseBody::Ack),
-            CoefficientRequest::Commit { crc } => match self.prepare_commit(crc, now_ms) {
-                Ok(pending) => return Handled::Save(pending),
-                Err(e) => Err(e),
-            },
+/// What a coefficient request needs next.
+pub(super) enum BankReply {
+    /// The reply, ready.
+    Reply(ResponseBody),
+    /// A checked, encoded set to store, then [`Bank::finish_commit`].
+    Save(PendingCommit),
+}
+
+/// The coefficient bank: the set in use (with its calibration, where it
+/// came from and its store sequence number), the staged set, and the write
+/// lock. It alone changes them: a set is staged only unlocked and valid,
+/// and used only once stored.
+#[derive(Debug, Clone)]
+pub(super) struct Bank {
+    in_use: Coefficients,
+    calibration: Calibration<f32>,
+    source: CoefficientSource,
+    seq: u32,
+    staged: Option<Coefficients>,
+    lock: WriteLock,
+}
+
+impl Bank {
+    /// The bank after boot: the stored set if valid, else the defaults and
+    /// the error that says so.
+    pub(super) fn boot(stored: Option<(Coefficients, u32)>, challenge: u32) -> (Self, Option<DeviceError>) {
+        let (in_use, source, seq, calibration, error) = match stored.and_then(|(c, s)| validate(&c).ok().map(|cal| (c, s, cal))) {
+            Some((c, s, cal)) => (c, CoefficientSource::Stored, s, cal, None),
+            None => {
+                let c = default_coefficients();
+                let cal = validate(&c).unwrap_or_else(|_| Calibration::identity());
+                (c, CoefficientSource::Default, 0, cal, Some(DeviceError::Storage))
+            }
         };
-        Handled::Reply(reply.unwrap_or_else(|e| self.refuse(e)))
+        (Self { in_use, calibration, source, seq, staged: None, lock: WriteLock::new(challenge) }, error)
+    }
+
+    /// The set in use.
+    pub(super) fn coefficients(&self) -> &Coefficients {
+        &self.in_use
+    }
+
+    /// The set in use, converted.
+    pub(super) fn calibration(&self) -> &Calibration<f32> {
+        &self.calibration
+    }
+
+    /// Where the set in use came from.
+    pub(super) fn source(&self) -> CoefficientSource {
+        self.source
+    }
+
+    /// The store's sequence number of the set in use (0 for the defaults).
+    pub(super) fn seq(&self) -> u32 {
+        self.seq
+    }
+
+    /// The write lock (its state, for a status report).
+    pub(super) fn lock(&self) -> &WriteLock {
+        &self.lock
+    }
+
+    /// Mission mode on or off; turning it on drops a staged set.
+    pub(super) fn set_mission(&mut self, enabled: bool) {
+        self.lock.set_mission(enabled);
+        if enabled {
+            self.staged = None;
+        }
+    }
+
+    /// Read, unlock, stage, commit (validated and encoded here, stored by
+    /// the caller).
+    pub(super) fn handle(&mut self, req: CoefficientRequest, now_ms: u32) -> Result<BankReply, DeviceError> {
+        match req {
+            CoefficientRequest::Read => Ok(BankReply::Reply(ResponseBody::Coefficients { coefficients: self.in_use, source: self.source, seq: self.seq })),
+            CoefficientRequest::Unlock { key } => self.lock.unlock(key, now_ms).map(|()| BankReply::Reply(ResponseBody::Ack)),
+            CoefficientRequest::Write(c) => self.stage(c, now_ms).map(|()| BankReply::Reply(ResponseBody::Ack)),
+            CoefficientRequest::Commit { crc } => self.prepare_commit(crc, now_ms).map(BankReply::Save),
+        }
     }
 
     /// Stages a set: unlocked, outside mission mode, valid.
@@ -152,22 +219,41 @@ impl Device {
         Ok(PendingCommit { staged, calibration, bytes, len })
     }
 
-    /// Ends a commit after the store: the set is used only once stored; a
-    /// failed save keeps the old set in use and says so.
+    /// Ends a commit after the store: the set is used only once stored (and
+    /// the lock is spent); a failed save keeps the old set in use. Returns
+    /// the new set's sequence number.
+    pub(super) fn finish_commit(&mut self, pending: &PendingCommit, saved: Result<u32, SaveFailed>) -> Result<u32, DeviceError> {
+        let seq = saved.map_err(|SaveFailed| DeviceError::Storage)?;
+        self.in_use = pending.staged;
+        self.calibration = pending.calibration;
+        self.source = CoefficientSource::Stored;
+        self.seq = seq;
+        self.staged = None;
+        self.lock.relock();
+        Ok(seq)
+    }
+}
+
+impl Device {
+    /// The coefficient bank's requests.
+    pub(super) fn handle_coefficients(&mut self, req: CoefficientRequest, now_ms: u32) -> Handled {
+        match self.bank.handle(req, now_ms) {
+            Ok(BankReply::Reply(body)) => Handled::Reply(body),
+            Ok(BankReply::Save(pending)) => Handled::Save(pending),
+            Err(e) => Handled::Reply(self.refuse(e)),
+        }
+    }
+
+    /// Ends a commit after the store ([`Bank::finish_commit`]); a new set
+    /// in use restarts the integrity monitor on its field.
     pub fn finish_commit(&mut self, pending: PendingCommit, saved: Result<u32, SaveFailed>) -> ResponseBody {
-        match saved {
+        match self.bank.finish_commit(&pending, saved) {
             Ok(seq) => {
-                self.coefficients = pending.staged;
-                self.calibration = pending.calibration;
                 self.pipeline.restart_integrity(pending.staged.field_nt, pending.staged.inclination());
-                self.source = CoefficientSource::Stored;
-                self.seq = seq;
-                self.staged = None;
-                self.lock.relock();
                 self.last_error = None;
                 ResponseBody::Committed { seq }
             }
-            Err(SaveFailed) => self.refuse(DeviceError::Storage),
+            Err(e) => self.refuse(e),
         }
     }
 }

@@ -200,7 +200,7 @@ impl Device {
     fn fit_report(&self) -> FitReport {
         match &self.fit {
             None => FitReport { running: false, model: None, samples: 0, coverage_pct: 0, residual_rms_nt: 0.0, estimate: None },
-            Some(f) => f.report(&self.coefficients),
+            Some(f) => f.report(self.bank.coefficients()),
         }
     }
 
@@ -211,7 +211,7 @@ impl Device {
                 if !(field_nt >= FIELD_RANGE_NT.0 && field_nt <= FIELD_RANGE_NT.1) {
                     return self.refuse(DeviceError::BadArgument);
                 }
-                self.fit = Some(OnboardFit::new(model, field_nt, self.calibration.field.bias, self.output_rate_hz(), now_ms));
+                self.fit = Some(OnboardFit::new(model, field_nt, self.bank.calibration().field.bias, self.output_rate_hz(), now_ms));
                 ResponseBody::Fit(self.fit_report())
             }
             FitRequest::Stop => {

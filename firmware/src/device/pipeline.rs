@@ -22,7 +22,7 @@ use magcal_protocol::{DeviceError, Integrity, Sample, StreamMode};
 
 use super::OutputRequest;
 
-use super::health::DeviceCounters;
+use magcal_protocol::DeviceCounters;
 use super::inputs::{fresh, Inputs};
 use super::onboard_fit::OnboardFit;
 use crate::acquisition::RawSample;

@@ -1,7 +1,7 @@
 use super::*;
 use crate::acquisition::{RawSample, COUNTS_PER_NT};
 use calib_core::cal::EnvTerms;
-use magcal_protocol::{FitReport, OnboardModel, StreamMode, ATTITUDE_TIMEOUT_MS, MAX_MOTOR_CURRENT_A, UNLOCK_TIMEOUT_MS, UNLOCK_XOR};
+use magcal_protocol::{CoefficientSource, FitReport, OnboardModel, StreamMode, ATTITUDE_TIMEOUT_MS, MAX_MOTOR_CURRENT_A, UNLOCK_TIMEOUT_MS, UNLOCK_XOR};
 use calib_core::conformance::SplitMix64;
 use calib_core::heading::{magnetic_heading_rad, ned_field, ned_to_body, wrap_pi};
 
@@ -65,9 +65,9 @@ fn boot_without_a_stored_set_uses_defaults_and_says_so() {
     let mut bad = good();
     bad.matrix[2][2] = -bad.matrix[2][2];
     let d = Device::new(Boot { stored: Some((bad, 7)), challenge: 1 });
-    assert_eq!(d.source, CoefficientSource::Default);
+    assert_eq!(d.bank.source(), CoefficientSource::Default);
     let d = Device::new(Boot { stored: Some((good(), 7)), challenge: 1 });
-    assert_eq!((d.source, d.seq), (CoefficientSource::Stored, 7));
+    assert_eq!((d.bank.source(), d.bank.seq()), (CoefficientSource::Stored, 7));
 }
 
 #[test]
@@ -407,7 +407,7 @@ fn a_stale_current_withholds_the_heading_and_a_missing_temperature_falls_back_to
     assert_eq!(out.heading_rad, None);
     assert!(out.field_nt.is_some());
     let hl = health(&mut d, &mut s, 10);
-    assert_eq!((hl.current_stale, hl.temp_missing, hl.temp_c, hl.env_degraded), (1, 0, Some(20.0), true));
+    assert_eq!((hl.device.current_stale, hl.device.temp_missing, hl.temp_c, hl.env_degraded), (1, 0, Some(20.0), true));
     // Fresh current: heading back.
     req(&mut d, RequestBody::AttitudeEnv { roll_rad: 0.0, pitch_rad: 0.0, motor_current_a: 10.0 }, 1000, &mut s);
     let out = d.on_raw_sample(&sample(Some(20.0), 10.0), 1000 + ATTITUDE_TIMEOUT_MS).unwrap();
@@ -418,7 +418,7 @@ fn a_stale_current_withholds_the_heading_and_a_missing_temperature_falls_back_to
     req(&mut d, RequestBody::Attitude { roll_rad: 0.0, pitch_rad: 0.0 }, 1400, &mut s);
     let out = d.on_raw_sample(&sample(Some(20.0), 10.0), 1000 + ATTITUDE_TIMEOUT_MS + 1).unwrap();
     assert_eq!(out.heading_rad, None);
-    assert_eq!(health(&mut d, &mut s, 1600).current_stale, 2);
+    assert_eq!(health(&mut d, &mut s, 1600).device.current_stale, 2);
     // Temperature missing (open thermistor): corrected at the reference
     // temperature — exactly M·(raw − b − c·I), computed here — flagged,
     // the last valid temperature kept.
@@ -433,12 +433,12 @@ fn a_stale_current_withholds_the_heading_and_a_missing_temperature_falls_back_to
         assert!((f64::from(out.field_nt.unwrap()[i]) - want).abs() < 0.05, "axis {i}");
     }
     let hl = health(&mut d, &mut s, 2010);
-    assert_eq!((hl.current_stale, hl.temp_missing, hl.temp_c, hl.env_degraded), (2, 1, Some(20.0), true));
+    assert_eq!((hl.device.current_stale, hl.device.temp_missing, hl.temp_c, hl.env_degraded), (2, 1, Some(20.0), true));
     // Without a current term no current is needed.
     let (mut d, mut s) = env_device(EnvSensor { c: [0.0; 3], ..EnvSensor::new() }.coefficients(true));
     req(&mut d, RequestBody::Attitude { roll_rad: 0.0, pitch_rad: 0.0 }, 0, &mut s);
     assert!(d.on_raw_sample(&sample(Some(20.0), 0.0), 10).unwrap().heading_rad.is_some());
-    assert_eq!(health(&mut d, &mut s, 10).current_stale, 0);
+    assert_eq!(health(&mut d, &mut s, 10).device.current_stale, 0);
 }
 
 #[test]

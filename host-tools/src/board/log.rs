@@ -528,7 +528,7 @@ fn health_deltas(a: &Health, b: &Health) -> (Option<u32>, Option<u32>, Option<u3
     if b.uptime_ms < a.uptime_ms {
         return (None, None, None);
     }
-    (Some(b.samples.wrapping_sub(a.samples)), Some(b.tx_dropped.wrapping_sub(a.tx_dropped)), Some(b.saturated.wrapping_sub(a.saturated)))
+    (Some(b.device.samples.wrapping_sub(a.device.samples)), Some(b.board.tx_dropped.wrapping_sub(a.board.tx_dropped)), Some(b.board.saturated.wrapping_sub(a.board.saturated)))
 }
 
 /// The board's on-line hard iron over a log, from its `Health` at the
@@ -537,7 +537,7 @@ fn health_deltas(a: &Health, b: &Health) -> (Option<u32>, Option<u32>, Option<u3
 /// (any application since a restart between the two: the uptime or the
 /// sample counter went back), and the estimate at the end, nT.
 pub fn hard_iron_over_log(start: Option<&Health>, end: &Health) -> (Option<bool>, Option<[f64; 3]>) {
-    let before = start.filter(|a| a.uptime_ms <= end.uptime_ms && a.samples <= end.samples).map_or(0, |a| a.hard_iron_applications);
+    let before = start.filter(|a| a.uptime_ms <= end.uptime_ms && a.device.samples <= end.device.samples).map_or(0, |a| a.hard_iron_applications);
     let applied = end.hard_iron_applied || end.hard_iron_applications > before;
     (Some(applied), end.hard_iron_nt.map(|h| h.map(f64::from)))
 }

@@ -89,9 +89,9 @@ fn fed_field_comes_back_calibrated_with_the_heading() {
     assert_eq!(checked, 5, "no matching samples within the deadline");
 
     let health = link.status().unwrap();
-    assert!(health.pairs > 100 && health.feed_updates > 0, "{health:?}");
+    assert!(health.board.pairs > 100 && health.board.feed_updates > 0, "{health:?}");
     assert_eq!(health.coefficient_source, CoefficientSource::Stored);
-    assert_eq!(health.acq_errors, 0);
+    assert_eq!(health.board.acq_errors, 0);
 
     // Mission mode locks the coefficients.
     link.set_mission_mode(true).unwrap();
@@ -182,7 +182,7 @@ fn current_and_temperature_terms_are_applied_on_the_board() {
                     continue; // a sample from before the current went stale
                 }
                 let health = link.status().unwrap();
-                assert!(health.current_stale > 0 && health.env_degraded, "{health:?}");
+                assert!(health.device.current_stale > 0 && health.env_degraded, "{health:?}");
                 phase = 3;
             }
             _ => {
@@ -190,7 +190,7 @@ fn current_and_temperature_terms_are_applied_on_the_board() {
                     continue;
                 }
                 let health = link.status().unwrap();
-                assert!(health.temp_missing > 0 && health.env_degraded, "{health:?}");
+                assert!(health.device.temp_missing > 0 && health.env_degraded, "{health:?}");
                 phase = 4;
             }
         }

@@ -217,6 +217,6 @@ fn the_hard_iron_over_a_log_is_read_from_the_boards_health() {
     assert_eq!(hard_iron_over_log(Some(&magcal_protocol::Health { uptime_ms: 20_000, ..start }), &end).0, Some(true));
     // A restart the uptime hides (the end's uptime past the start's): its
     // sample counter went back, and the applications since count too.
-    let long_run = magcal_protocol::Health { samples: 5_000, ..start };
-    assert_eq!(hard_iron_over_log(Some(&long_run), &magcal_protocol::Health { samples: 40, ..end }).0, Some(true));
+    let long_run = magcal_protocol::Health { device: magcal_protocol::DeviceCounters { samples: 5_000, ..start.device }, ..start };
+    assert_eq!(hard_iron_over_log(Some(&long_run), &magcal_protocol::Health { device: magcal_protocol::DeviceCounters { samples: 40, ..end.device }, ..end }).0, Some(true));
 }
