@@ -96,9 +96,7 @@ pub fn split(sim: &Simulation, s: &LogSplit) -> (BoardLog, NavLog) {
         ref_heading_deg,
         lat_deg: pick(&rec.lat_deg),
         lon_deg: pick(&rec.lon_deg),
-        gyro_rad_s: None,
-        speed_mps: None,
-        motor_current_a: None,
+        ..NavLog::default()
     };
     (board, nav)
 }

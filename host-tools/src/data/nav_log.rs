@@ -5,7 +5,7 @@
 use std::path::Path;
 
 use super::recording::RecordingError;
-use super::table::{col, read_table_mapped, write_table, ColumnMap, TableError};
+use super::table::{col, column_set, read_table_mapped, write_table, ColumnMap, ColumnSet, TableError};
 
 /// `t`: seconds on the navigation clock.
 pub const T: &str = col::T;
@@ -45,13 +45,33 @@ pub struct NavLog {
     pub lat_deg: Option<Vec<f64>>,
     /// `lon_deg`.
     pub lon_deg: Option<Vec<f64>>,
-    /// `gx, gy, gz`, rad/s.
-    pub gyro_rad_s: Option<[Vec<f64>; 3]>,
+    /// `gx`: the body x rate, rad/s.
+    pub gx_rad_s: Option<Vec<f64>>,
+    /// `gy`, rad/s.
+    pub gy_rad_s: Option<Vec<f64>>,
+    /// `gz`, rad/s.
+    pub gz_rad_s: Option<Vec<f64>>,
     /// `speed_mps`.
     pub speed_mps: Option<Vec<f64>>,
     /// `motor_current_a`.
     pub motor_current_a: Option<Vec<f64>>,
 }
+
+// The navigation log's columns by their registry names.
+column_set!(NavLog {
+    required: [T => t_s, ROLL_DEG => roll_deg, PITCH_DEG => pitch_deg],
+    optional: [
+        HEADING_DEG => heading_deg,
+        REF_HEADING_DEG => ref_heading_deg,
+        LAT_DEG => lat_deg,
+        LON_DEG => lon_deg,
+        GYRO[0] => gx_rad_s,
+        GYRO[1] => gy_rad_s,
+        GYRO[2] => gz_rad_s,
+        SPEED_MPS => speed_mps,
+        MOTOR_CURRENT_A => motor_current_a,
+    ]
+});
 
 impl NavLog {
     /// Reads a navigation log: `t, roll_deg, pitch_deg` required; the rest
@@ -64,45 +84,30 @@ impl NavLog {
     /// (`--nav-columns`: a navigation computer's or another tool's export),
     /// cells separated by comma, semicolon, tab or spaces.
     pub fn read_mapped(path: &Path, map: &ColumnMap) -> Result<Self, RecordingError> {
-        let optional = [HEADING_DEG, REF_HEADING_DEG, LAT_DEG, LON_DEG, GYRO[0], GYRO[1], GYRO[2], SPEED_MPS, MOTOR_CURRENT_A];
+        const REQUIRED: [&str; 3] = [T, ROLL_DEG, PITCH_DEG];
         let file = std::fs::File::open(path).map_err(|source| TableError::Io { path: path.into(), source })?;
-        let mut t = read_table_mapped(file, path, &[T, ROLL_DEG, PITCH_DEG], &optional, map)?;
-        let gyro = match GYRO.map(|c| t.take(c)) {
-            [Some(x), Some(y), Some(z)] => Some([x, y, z]),
-            _ => None,
-        };
-        Ok(Self {
-            t_s: t.take(T).unwrap_or_default(),
-            roll_deg: t.take(ROLL_DEG).unwrap_or_default(),
-            pitch_deg: t.take(PITCH_DEG).unwrap_or_default(),
-            heading_deg: t.take(HEADING_DEG),
-            ref_heading_deg: t.take(REF_HEADING_DEG),
-            lat_deg: t.take(LAT_DEG),
-            lon_deg: t.take(LON_DEG),
-            gyro_rad_s: gyro,
-            speed_mps: t.take(SPEED_MPS),
-            motor_current_a: t.take(MOTOR_CURRENT_A),
-        })
+        let mut t = read_table_mapped(file, path, &REQUIRED, Self::NAMES.get(REQUIRED.len()..).unwrap_or_default(), map)?;
+        let mut log = Self { t_s: t.take(T).unwrap_or_default(), roll_deg: t.take(ROLL_DEG).unwrap_or_default(), pitch_deg: t.take(PITCH_DEG).unwrap_or_default(), ..Self::default() };
+        for name in Self::NAMES {
+            if let Some(slot) = log.column_slot(name) {
+                *slot = t.take(name);
+            }
+        }
+        // The body rate is used only whole.
+        if log.gx_rad_s.is_none() || log.gy_rad_s.is_none() || log.gz_rad_s.is_none() {
+            (log.gx_rad_s, log.gy_rad_s, log.gz_rad_s) = (None, None, None);
+        }
+        Ok(log)
+    }
+
+    /// The body rate's three columns, when the log has them.
+    pub fn gyro_rad_s(&self) -> Option<[&[f64]; 3]> {
+        Some([self.gx_rad_s.as_deref()?, self.gy_rad_s.as_deref()?, self.gz_rad_s.as_deref()?])
     }
 
     /// Writes the log in the columns [`NavLog::read`] reads.
     pub fn write(&self, path: &Path) -> Result<(), RecordingError> {
-        let mut cols: Vec<(&str, &Vec<f64>)> = vec![(T, &self.t_s), (ROLL_DEG, &self.roll_deg), (PITCH_DEG, &self.pitch_deg)];
-        for (name, c) in [
-            (HEADING_DEG, &self.heading_deg),
-            (REF_HEADING_DEG, &self.ref_heading_deg),
-            (LAT_DEG, &self.lat_deg),
-            (LON_DEG, &self.lon_deg),
-            (SPEED_MPS, &self.speed_mps),
-            (MOTOR_CURRENT_A, &self.motor_current_a),
-        ] {
-            if let Some(c) = c {
-                cols.push((name, c));
-            }
-        }
-        if let Some([x, y, z]) = &self.gyro_rad_s {
-            cols.extend([(GYRO[0], x), (GYRO[1], y), (GYRO[2], z)]);
-        }
+        let cols: Vec<(&str, &[f64])> = Self::NAMES.iter().filter_map(|&n| self.column(n).map(|c| (n, c))).collect();
         let header: Vec<&str> = cols.iter().map(|(n, _)| *n).collect();
         let rows = (0..self.t_s.len()).map(|i| cols.iter().map(|(_, c)| c.get(i).copied().unwrap_or(f64::NAN)).collect());
         write_table(path, &header, rows)

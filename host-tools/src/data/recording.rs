@@ -5,7 +5,7 @@
 use std::path::Path;
 
 pub use super::table::TableError as RecordingError;
-use super::table::{col, read_table_mapped, write_table, ColumnMap};
+use super::table::{col, column_set, read_table_mapped, write_table, ColumnMap, ColumnSet};
 
 /// A recording, column by column (NaN where not available).
 #[derive(Debug, Clone, Default)]
@@ -38,6 +38,25 @@ pub struct Recording {
     /// `temp_c`: temperature at the magnetometer, °C.
     pub temp_c: Option<Vec<f64>>,
 }
+
+// The recording's columns by their registry names (`mx, my, mz` are `mag`).
+column_set!(Recording {
+    required: [],
+    optional: [
+        col::T => t_s,
+        col::ROLL_DEG => roll_deg,
+        col::PITCH_DEG => pitch_deg,
+        col::REF_HEADING_DEG => ref_heading_deg,
+        col::LAT_DEG => lat_deg,
+        col::LON_DEG => lon_deg,
+        col::GYRO[0] => gx_rad_s,
+        col::GYRO[1] => gy_rad_s,
+        col::GYRO[2] => gz_rad_s,
+        col::SPEED_MPS => speed_mps,
+        col::MOTOR_CURRENT_A => motor_current_a,
+        col::TEMP_C => temp_c,
+    ]
+});
 
 impl Recording {
     /// Rows in the recording.
@@ -82,27 +101,17 @@ impl Recording {
 
     /// [`Recording::from_reader`] with the file's names and units of `map`.
     pub fn from_reader_mapped<R: std::io::Read>(reader: R, path: &Path, map: &ColumnMap) -> Result<Self, RecordingError> {
-        use col::*;
-        let optional = [T, ROLL_DEG, PITCH_DEG, REF_HEADING_DEG, LAT_DEG, LON_DEG, GYRO[0], GYRO[1], GYRO[2], SPEED_MPS, MOTOR_CURRENT_A, TEMP_C];
-        let mut t = read_table_mapped(reader, path, &MAG, &optional, map)?;
-        let [mx, my, mz] = MAG.map(|c| t.take(c).unwrap_or_default());
+        let mut t = read_table_mapped(reader, path, &col::MAG, Self::NAMES, map)?;
+        let [mx, my, mz] = col::MAG.map(|c| t.take(c).unwrap_or_default());
         let mag: Vec<[f64; 3]> = mx.into_iter().zip(my).zip(mz).map(|((x, y), z)| [x, y, z]).collect();
         super::table::check_outliers(&mag, path)?;
-        Ok(Recording {
-            mag,
-            t_s: t.take(T),
-            roll_deg: t.take(ROLL_DEG),
-            pitch_deg: t.take(PITCH_DEG),
-            ref_heading_deg: t.take(REF_HEADING_DEG),
-            lat_deg: t.take(LAT_DEG),
-            lon_deg: t.take(LON_DEG),
-            gx_rad_s: t.take(GYRO[0]),
-            gy_rad_s: t.take(GYRO[1]),
-            gz_rad_s: t.take(GYRO[2]),
-            speed_mps: t.take(SPEED_MPS),
-            motor_current_a: t.take(MOTOR_CURRENT_A),
-            temp_c: t.take(TEMP_C),
-        })
+        let mut rec = Recording { mag, ..Recording::default() };
+        for name in Self::NAMES {
+            if let Some(slot) = rec.column_slot(name) {
+                *slot = t.take(name);
+            }
+        }
+        Ok(rec)
     }
 
     /// Writes the recording as CSV with the columns it has.
@@ -113,30 +122,15 @@ impl Recording {
     /// Writes the recording plus extra named columns (which readers ignore),
     /// e.g. the simulator's truth: `t` first, then `mx, my, mz`, then the
     /// rest.
-    pub fn write_with_extra(&self, path: &Path, extra: &[(&str, &Vec<f64>)]) -> Result<(), RecordingError> {
+    pub fn write_with_extra(&self, path: &Path, extra: &[(&str, &[f64])]) -> Result<(), RecordingError> {
         use col::*;
-        let mut cols: Vec<(&str, &Vec<f64>)> = [
-            (ROLL_DEG, &self.roll_deg),
-            (PITCH_DEG, &self.pitch_deg),
-            (REF_HEADING_DEG, &self.ref_heading_deg),
-            (LAT_DEG, &self.lat_deg),
-            (LON_DEG, &self.lon_deg),
-            (GYRO[0], &self.gx_rad_s),
-            (GYRO[1], &self.gy_rad_s),
-            (GYRO[2], &self.gz_rad_s),
-            (SPEED_MPS, &self.speed_mps),
-            (MOTOR_CURRENT_A, &self.motor_current_a),
-            (TEMP_C, &self.temp_c),
-        ]
-        .into_iter()
-        .filter_map(|(n, c)| c.as_ref().map(|c| (n, c)))
-        .collect();
+        let mut cols: Vec<(&str, &[f64])> = Self::NAMES.iter().filter(|n| **n != T).filter_map(|&n| self.column(n).map(|c| (n, c))).collect();
         cols.extend(extra.iter().copied().filter(|(n, _)| *n != T));
-        let t = self.t_s.as_ref().or_else(|| extra.iter().find(|(n, _)| *n == T).map(|(_, c)| *c));
+        let t = self.t_s.as_deref().or_else(|| extra.iter().find(|(n, _)| *n == T).map(|(_, c)| *c));
         let mut header: Vec<&str> = t.map(|_| T).into_iter().collect();
         header.extend(MAG);
         header.extend(cols.iter().map(|(n, _)| *n));
-        let at = |c: &Vec<f64>, i: usize| c.get(i).copied().unwrap_or(f64::NAN);
+        let at = |c: &[f64], i: usize| c.get(i).copied().unwrap_or(f64::NAN);
         let rows = self.mag.iter().enumerate().map(|(i, m)| t.map(|t| at(t, i)).into_iter().chain(*m).chain(cols.iter().map(|(_, c)| at(c, i))).collect());
         write_table(path, &header, rows)
     }

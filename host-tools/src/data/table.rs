@@ -72,8 +72,31 @@ pub enum Quantity {
     Other,
 }
 
+/// How a column is carried between two clocks (`magcal merge` resampling a
+/// navigation-log column to a board sample's time).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Interp {
+    /// Linearly.
+    Linear,
+    /// An angle on ±180° (roll), the short way round.
+    Angle180,
+    /// A heading or course on 0–360°, the short way round.
+    Heading360,
+}
+
+/// Which logs hold a column.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Logs {
+    /// A recording ([`crate::data::Recording`]: the calibration's input).
+    pub recording: bool,
+    /// A navigation log ([`crate::data::NavLog`]); with `recording` too,
+    /// `magcal merge` resamples it into the merged recording.
+    pub nav: bool,
+}
+
 /// One column of the project: its name, what it measures, the largest
-/// magnitude it may hold (angles, degrees).
+/// magnitude it may hold (angles, degrees), the logs that hold it and how it
+/// is resampled.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Column {
     /// The name in the header.
@@ -82,46 +105,101 @@ pub struct Column {
     pub quantity: Quantity,
     /// Values beyond ± this are refused by row (angles), degrees.
     pub limit_deg: Option<f64>,
+    /// The logs whose type holds it.
+    pub logs: Logs,
+    /// How it is resampled to another clock.
+    pub interp: Interp,
 }
 
-const fn column(name: &'static str, quantity: Quantity, limit_deg: Option<f64>) -> Column {
-    Column { name, quantity, limit_deg }
+const fn column(name: &'static str, quantity: Quantity, limit_deg: Option<f64>, logs: Logs, interp: Interp) -> Column {
+    Column { name, quantity, limit_deg, logs, interp }
 }
+
+/// In a recording only.
+const REC: Logs = Logs { recording: true, nav: false };
+/// In a navigation log only.
+const NAV: Logs = Logs { recording: false, nav: true };
+/// In both: merged from the navigation log into the recording.
+const BOTH: Logs = Logs { recording: true, nav: true };
+/// In neither type (another log's, a truth or an output column).
+const OTHER: Logs = Logs { recording: false, nav: false };
 
 /// Every column a recording, a navigation log or a board log may hold: the
-/// one list that the column mapping (`--columns`), the unit conversions and
-/// the range checks read. A new column is one line here (and its field in
-/// the type that holds it).
+/// one list that the column mapping (`--columns`), the unit conversions, the
+/// range checks, the recording's and navigation log's readers and writers,
+/// and `merge`'s resampling read. A new column is one line here and its
+/// field in the type that holds it ([`crate::data::Recording`],
+/// [`crate::data::NavLog`]: one line of their column list each).
 pub const COLUMNS: [Column; 24] = {
     use col::*;
+    use Interp::*;
     use Quantity::*;
     [
-        column(T, Time, None),
-        column(MAG[0], Field, None),
-        column(MAG[1], Field, None),
-        column(MAG[2], Field, None),
-        column(ROLL_DEG, Angle, Some(180.0)),
-        column(PITCH_DEG, Angle, Some(90.0)),
-        column(HEADING_DEG, Heading, None),
-        column(REF_HEADING_DEG, Heading, Some(360.0)),
-        column(LAT_DEG, Angle, None),
-        column(LON_DEG, Angle, None),
-        column(GYRO[0], Rate, None),
-        column(GYRO[1], Rate, None),
-        column(GYRO[2], Rate, None),
-        column(SPEED_MPS, Other, None),
-        column(MOTOR_CURRENT_A, Other, None),
-        column(TEMP_C, Other, None),
-        column(HEALTH, Other, None),
-        column(T_BOARD, Time, None),
-        column(TRUE_HEADING_DEG, Heading, None),
-        column(TRUE_FIELD_NT, Other, None),
-        column(COMPASS_HEADING_DEG, Heading, Some(360.0)),
-        column(VARIATION_DEG, Angle, Some(180.0)),
-        column(COURSE_DEG, Heading, Some(360.0)),
-        column(GPS_SPEED_MPS, Other, None),
+        column(T, Time, None, BOTH, Linear),
+        column(MAG[0], Field, None, REC, Linear),
+        column(MAG[1], Field, None, REC, Linear),
+        column(MAG[2], Field, None, REC, Linear),
+        column(ROLL_DEG, Angle, Some(180.0), BOTH, Angle180),
+        column(PITCH_DEG, Angle, Some(90.0), BOTH, Linear),
+        column(HEADING_DEG, Heading, None, NAV, Heading360),
+        column(REF_HEADING_DEG, Heading, Some(360.0), BOTH, Heading360),
+        column(LAT_DEG, Angle, None, BOTH, Linear),
+        column(LON_DEG, Angle, None, BOTH, Linear),
+        column(GYRO[0], Rate, None, BOTH, Linear),
+        column(GYRO[1], Rate, None, BOTH, Linear),
+        column(GYRO[2], Rate, None, BOTH, Linear),
+        column(SPEED_MPS, Other, None, BOTH, Linear),
+        column(MOTOR_CURRENT_A, Other, None, BOTH, Linear),
+        column(TEMP_C, Other, None, REC, Linear),
+        column(HEALTH, Other, None, OTHER, Linear),
+        column(T_BOARD, Time, None, OTHER, Linear),
+        column(TRUE_HEADING_DEG, Heading, None, OTHER, Heading360),
+        column(TRUE_FIELD_NT, Other, None, OTHER, Linear),
+        column(COMPASS_HEADING_DEG, Heading, Some(360.0), OTHER, Heading360),
+        column(VARIATION_DEG, Angle, Some(180.0), OTHER, Linear),
+        column(COURSE_DEG, Heading, Some(360.0), OTHER, Heading360),
+        column(GPS_SPEED_MPS, Other, None, OTHER, Linear),
     ]
 };
+
+/// The columns `magcal merge` carries from the navigation log into the
+/// recording (in both logs), but the time.
+pub fn merged_columns() -> impl Iterator<Item = &'static Column> {
+    COLUMNS.iter().filter(|c| c.logs.recording && c.logs.nav && c.name != col::T)
+}
+
+/// A log type whose columns are reached by their registry name. Implemented
+/// by [`column_set!`] from the one list of (name, field) pairs beside the
+/// type's definition; the registry test checks each pair against
+/// [`COLUMNS`]' `logs`.
+pub trait ColumnSet {
+    /// The names of the type's columns, required then optional.
+    const NAMES: &'static [&'static str];
+    /// The column named `name`, when the type holds it and it is present.
+    fn column(&self, name: &str) -> Option<&[f64]>;
+    /// The slot of an optional column named `name`, when the type holds one.
+    fn column_slot(&mut self, name: &str) -> Option<&mut Option<Vec<f64>>>;
+}
+
+/// Implements [`ColumnSet`] from `required: NAME => field, …; optional:
+/// NAME => field, …` (`Vec<f64>` and `Option<Vec<f64>>` fields).
+macro_rules! column_set {
+    ($ty:ty { required: [$($rn:expr => $rf:ident),* $(,)?], optional: [$($on:expr => $of:ident),* $(,)?] }) => {
+        impl $crate::data::table::ColumnSet for $ty {
+            const NAMES: &'static [&'static str] = &[$($rn,)* $($on,)*];
+            fn column(&self, name: &str) -> Option<&[f64]> {
+                $(if name == $rn { return Some(&self.$rf); })*
+                $(if name == $on { return self.$of.as_deref(); })*
+                None
+            }
+            fn column_slot(&mut self, name: &str) -> Option<&mut Option<Vec<f64>>> {
+                $(if name == $on { return Some(&mut self.$of); })*
+                None
+            }
+        }
+    };
+}
+pub(crate) use column_set;
 
 /// A project column by name.
 pub fn column_spec(name: &str) -> Option<&'static Column> {
@@ -789,28 +867,45 @@ fn line_cells(line: &str) -> Vec<String> {
 }
 
 /// The columns of a line stream (a FIFO, stdin): the header line's
-/// positions of the wanted names, then each line's values.
+/// positions of the wanted names, then each line's values, read by name.
 #[derive(Debug)]
 pub(crate) struct StreamColumns {
+    wanted: Vec<&'static str>,
     index: Vec<Option<usize>>,
+}
+
+/// One line's values of a stream's wanted columns.
+#[derive(Debug)]
+pub(crate) struct StreamRow<'a> {
+    wanted: &'a [&'static str],
+    values: Vec<f64>,
+}
+
+impl StreamRow<'_> {
+    /// The value of the column named `name` (NaN where the line or the
+    /// header lacks it, or it was not wanted).
+    pub(crate) fn get(&self, name: &str) -> f64 {
+        self.wanted.iter().position(|w| *w == name).and_then(|i| self.values.get(i).copied()).unwrap_or(f64::NAN)
+    }
 }
 
 impl StreamColumns {
     /// From the header line; `Err` names the first of `required` missing.
-    pub(crate) fn new(header: &str, wanted: &[&str], required: usize) -> Result<Self, StreamHeaderError> {
+    pub(crate) fn new(header: &str, wanted: &[&'static str], required: usize) -> Result<Self, StreamHeaderError> {
         let names = line_cells(header);
         let index: Vec<Option<usize>> = wanted.iter().map(|w| column_index(names.iter().map(String::as_str), w)).collect();
         match wanted.iter().zip(&index).take(required).find(|(_, i)| i.is_none()) {
             Some((name, _)) => Err(StreamHeaderError { column: (*name).to_string(), header: header.to_string() }),
-            None => Ok(Self { index }),
+            None => Ok(Self { wanted: wanted.to_vec(), index }),
         }
     }
 
     /// The wanted columns' values on a line (NaN where absent); `None` when
     /// a cell is not a number.
-    pub(crate) fn values(&self, line: &str) -> Option<Vec<f64>> {
+    pub(crate) fn values(&self, line: &str) -> Option<StreamRow<'_>> {
         let cells = line_cells(line);
-        self.index.iter().map(|i| i.and_then(|i| cells.get(i)).map_or(Some(f64::NAN), |c| parse_cell(c))).collect()
+        let values = self.index.iter().map(|i| i.and_then(|i| cells.get(i)).map_or(Some(f64::NAN), |c| parse_cell(c))).collect::<Option<Vec<f64>>>()?;
+        Some(StreamRow { wanted: &self.wanted, values })
     }
 }
 
@@ -820,6 +915,25 @@ mod tests {
 
     fn read(text: &[u8], required: &[&'static str], optional: &[&str]) -> Result<Table, TableError> {
         read_table_from(text, Path::new("x.csv"), required, optional)
+    }
+
+    /// The recording's and the navigation log's types hold exactly the
+    /// registry's columns of their log (`mx, my, mz` are the recording's
+    /// `mag`), so that reading, writing and merging, which iterate the
+    /// registry, miss none; and merge carries what both hold.
+    #[test]
+    fn each_log_type_holds_the_registry_columns_of_its_log() {
+        use crate::data::nav_log::NavLog;
+        use crate::data::Recording;
+        let sorted = |mut v: Vec<&'static str>| {
+            v.sort_unstable();
+            v
+        };
+        let of = |pick: fn(&Logs) -> bool| sorted(COLUMNS.iter().filter(|c| pick(&c.logs) && !col::MAG.contains(&c.name)).map(|c| c.name).collect());
+        assert_eq!(sorted(Recording::NAMES.to_vec()), of(|l| l.recording));
+        assert_eq!(sorted(NavLog::NAMES.to_vec()), of(|l| l.nav));
+        let merged: Vec<&str> = merged_columns().map(|c| c.name).collect();
+        assert_eq!(merged, ["roll_deg", "pitch_deg", "ref_heading_deg", "lat_deg", "lon_deg", "gx", "gy", "gz", "speed_mps", "motor_current_a"]);
     }
 
     /// The registry holds each name once, and every name of `col` (what
@@ -875,14 +989,14 @@ mod tests {
         assert_eq!(e.to_string(), "x.csv:2: column `mx`: `x` is not a number");
         let s = StreamColumns::new("\u{feff}T , Roll_deg", &["t", "roll_deg", "gx"], 2).unwrap();
         let v = s.values("1.5,2").unwrap();
-        assert!(v[0] == 1.5 && v[1] == 2.0 && v[2].is_nan());
+        assert!(v.get("t") == 1.5 && v.get("roll_deg") == 2.0 && v.get("gx").is_nan() && v.get("not_wanted").is_nan());
         let e = StreamColumns::new("t,x", &["t", "roll_deg"], 2).unwrap_err();
         assert_eq!(e, StreamHeaderError { column: "roll_deg".into(), header: "t,x".into() });
         assert_eq!(e.to_string(), "missing column `roll_deg` (the header has: t,x)");
         // Quoted cells by the CSV rules: a comma inside quotes is one cell.
         let s = StreamColumns::new("\"t\",note,roll_deg", &["t", "roll_deg"], 2).unwrap();
         let v = s.values("2.5,\"a, b\",-3").unwrap();
-        assert!(v[0] == 2.5 && v[1] == -3.0, "{v:?}");
+        assert!(v.get("t") == 2.5 && v.get("roll_deg") == -3.0, "{v:?}");
         assert_eq!((cell(f64::NAN), cell(1.25)), (String::new(), "1.25".to_string()));
     }
 

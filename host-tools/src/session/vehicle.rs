@@ -94,7 +94,8 @@ pub trait Vehicle {
 }
 
 /// Navigation columns a stream may carry (`t`, `roll_deg`, `pitch_deg`
-/// required).
+/// required, first): the navigation log's (the registry's), a reference
+/// heading and, from the simulator, the true field. Read by name.
 const NAV_COLUMNS: [&str; 13] = [
     col::T,
     col::ROLL_DEG,
@@ -141,20 +142,20 @@ impl<R: BufRead> NavStream<R> {
                 continue;
             }
             match self.columns.values(&line) {
-                Some(v) if v[0].is_finite() => {
+                Some(v) if v.get(col::T).is_finite() => {
                     return Ok(Some(Step {
-                        t_s: v[0],
-                        roll_deg: v[1],
-                        pitch_deg: v[2],
-                        ref_heading_deg: v[3],
-                        lat_deg: v[4],
-                        lon_deg: v[5],
-                        true_heading_deg: v[6],
+                        t_s: v.get(col::T),
+                        roll_deg: v.get(col::ROLL_DEG),
+                        pitch_deg: v.get(col::PITCH_DEG),
+                        ref_heading_deg: v.get(col::REF_HEADING_DEG),
+                        lat_deg: v.get(col::LAT_DEG),
+                        lon_deg: v.get(col::LON_DEG),
+                        true_heading_deg: v.get(col::TRUE_HEADING_DEG),
                         feed_seq: None,
-                        rate_rad_s: [v[7], v[8], v[9]],
-                        motor_current_a: v[10],
-                        speed_mps: v[11],
-                        true_field_nt: v[12],
+                        rate_rad_s: col::GYRO.map(|g| v.get(g)),
+                        motor_current_a: v.get(col::MOTOR_CURRENT_A),
+                        speed_mps: v.get(col::SPEED_MPS),
+                        true_field_nt: v.get(col::TRUE_FIELD_NT),
                     }))
                 }
                 _ => eprintln!("  navigation line {} skipped: not numbers: {line}", self.line_no),

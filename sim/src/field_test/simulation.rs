@@ -61,9 +61,13 @@ impl Simulation {
     /// Writes `path` (the recording plus truth columns) and `<path>.truth.json`.
     pub fn write(&self, path: &Path) -> Result<(), SimError> {
         let running: Vec<f64> = self.running.iter().map(|&r| if r { 1.0 } else { 0.0 }).collect();
-        let mut extra: Vec<(&str, &Vec<f64>)> =
-            vec![("true_heading_deg", &self.true_heading_deg), ("true_roll_deg", &self.true_roll_deg), ("true_pitch_deg", &self.true_pitch_deg), ("running", &running)];
-        extra.extend(self.effect_columns.iter().map(|(n, c)| (n.as_str(), c)));
+        let mut extra: Vec<(&str, &[f64])> = vec![
+            (host_tools::data::table::col::TRUE_HEADING_DEG, &self.true_heading_deg),
+            ("true_roll_deg", &self.true_roll_deg),
+            ("true_pitch_deg", &self.true_pitch_deg),
+            ("running", &running),
+        ];
+        extra.extend(self.effect_columns.iter().map(|(n, c)| (n.as_str(), c.as_slice())));
         self.recording.write_with_extra(path, &extra)?;
         let truth_path = truth_path(path);
         let text = serde_json::to_string_pretty(&self.truth).map_err(|e| SimError::Parameter(e.to_string()))?;

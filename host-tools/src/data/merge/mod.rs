@@ -21,7 +21,7 @@ pub use super::board_log::{BoardLog, HEALTH_AFTER_GAP, HEALTH_SATURATED};
 pub use super::nav_log::NavLog;
 use super::pairing::ClockMap;
 use super::recording::RecordingError;
-use super::table::ColumnMap;
+use super::table::{col, ColumnMap};
 use super::Recording;
 
 mod align;
@@ -372,11 +372,11 @@ pub struct Merged {
 
 impl Merged {
     /// The extra columns by name, as [`Recording::write_with_extra`] takes them.
-    pub fn extra_columns(&self) -> Vec<(&'static str, &Vec<f64>)> {
+    pub fn extra_columns(&self) -> Vec<(&'static str, &[f64])> {
         let e = &self.extra;
-        let mut cols = vec![("t_board", &e.t_board_s)];
+        let mut cols: Vec<(&'static str, &[f64])> = vec![(col::T_BOARD, &e.t_board_s)];
         if let Some(c) = &e.heading_deg {
-            cols.push(("heading_deg", c));
+            cols.push((col::HEADING_DEG, c));
         }
         cols
     }

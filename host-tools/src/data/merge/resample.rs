@@ -4,6 +4,7 @@
 //! nothing beyond the navigation log or across its long gaps).
 
 use super::super::pairing::{bracket, Bracket, ClockMap};
+use super::super::table::{col, column_spec, merged_columns, Column, ColumnSet, Interp};
 use super::super::Recording;
 use super::{median_interval, BoardLog, MergedExtra, NavLog};
 
@@ -23,41 +24,41 @@ fn push(col: &mut Option<Vec<f64>>, v: f64) {
     }
 }
 
-/// An empty recording with the columns the logs have.
+/// An empty recording with the columns the logs have: every column of the
+/// registry's that both logs hold ([`merged_columns`]) and the navigation
+/// log has, and the board's temperature.
 fn empty(board: &BoardLog, nav: &NavLog) -> (Recording, MergedExtra) {
-    let mut rec = Recording { t_s: Some(vec![]), roll_deg: Some(vec![]), pitch_deg: Some(vec![]), ..Recording::default() };
-    let opt = |c: &Option<Vec<f64>>| c.as_ref().map(|_| Vec::new());
-    rec.ref_heading_deg = opt(&nav.ref_heading_deg);
-    rec.lat_deg = opt(&nav.lat_deg);
-    rec.lon_deg = opt(&nav.lon_deg);
-    if nav.gyro_rad_s.is_some() {
-        (rec.gx_rad_s, rec.gy_rad_s, rec.gz_rad_s) = (Some(vec![]), Some(vec![]), Some(vec![]));
+    let mut rec = Recording { t_s: Some(vec![]), ..Recording::default() };
+    for c in merged_columns().filter(|c| nav.column(c.name).is_some()) {
+        if let Some(slot) = rec.column_slot(c.name) {
+            *slot = Some(Vec::new());
+        }
     }
-    rec.speed_mps = opt(&nav.speed_mps);
-    rec.motor_current_a = opt(&nav.motor_current_a);
+    let opt = |c: &Option<Vec<f64>>| c.as_ref().map(|_| Vec::new());
     rec.temp_c = opt(&board.temp_c);
     (rec, MergedExtra { t_board_s: vec![], heading_deg: opt(&nav.heading_deg) })
 }
 
+/// A navigation column at bracket `b` (NaN without one), as the registry
+/// says it is resampled.
+fn resampled(c: &Column, values: &[f64], b: Option<Bracket>) -> f64 {
+    b.map_or(f64::NAN, |b| match c.interp {
+        Interp::Linear => b.lerp(values),
+        Interp::Angle180 => b.lerp_angle_deg(values, false),
+        Interp::Heading360 => b.lerp_angle_deg(values, true),
+    })
+}
+
 /// Appends the navigation columns at bracket `b` (NaN without one).
 fn push_nav(rec: &mut Recording, extra: &mut MergedExtra, nav: &NavLog, b: Option<Bracket>) {
-    let lerp = |c: &[f64]| b.map_or(f64::NAN, |b| b.lerp(c));
-    let angle = |c: &[f64], heading: bool| b.map_or(f64::NAN, |b| b.lerp_angle_deg(c, heading));
-    push(&mut rec.roll_deg, angle(&nav.roll_deg, false));
-    push(&mut rec.pitch_deg, lerp(&nav.pitch_deg));
-    if let Some(c) = &nav.ref_heading_deg {
-        push(&mut rec.ref_heading_deg, angle(c, true));
+    for c in merged_columns() {
+        if let (Some(values), Some(Some(out))) = (nav.column(c.name), rec.column_slot(c.name)) {
+            out.push(resampled(c, values, b));
+        }
     }
-    nav.lat_deg.as_ref().inspect(|c| push(&mut rec.lat_deg, lerp(c)));
-    nav.lon_deg.as_ref().inspect(|c| push(&mut rec.lon_deg, lerp(c)));
-    if let Some([x, y, z]) = &nav.gyro_rad_s {
-        push(&mut rec.gx_rad_s, lerp(x));
-        push(&mut rec.gy_rad_s, lerp(y));
-        push(&mut rec.gz_rad_s, lerp(z));
+    if let (Some(values), Some(c)) = (&nav.heading_deg, column_spec(col::HEADING_DEG)) {
+        push(&mut extra.heading_deg, resampled(c, values, b));
     }
-    nav.heading_deg.as_ref().inspect(|c| push(&mut extra.heading_deg, angle(c, true)));
-    nav.speed_mps.as_ref().inspect(|c| push(&mut rec.speed_mps, lerp(c)));
-    nav.motor_current_a.as_ref().inspect(|c| push(&mut rec.motor_current_a, lerp(c)));
 }
 
 /// The board samples within the navigation log's span, on the navigation

@@ -268,10 +268,10 @@ fn board_signals(log: &BoardLog, dt: f64, max_gap_s: f64) -> (Signal, Signal) {
 
 /// The gyro's body rate on a grid of `dt`, averaged over the board's
 /// difference baseline.
-fn gyro_rate(log: &NavLog, g: &[Vec<f64>; 3], dt: f64, max_gap_s: f64) -> Vec<[f64; 3]> {
+fn gyro_rate(log: &NavLog, g: &[&[f64]; 3], dt: f64, max_gap_s: f64) -> Vec<[f64; 3]> {
     let (t0, n) = (log.t_s[0], grid_len(&log.t_s, dt));
     let k = ((RATE_HALF_BASE_S / dt).round() as usize).max(1);
-    let w: Vec<[f64; 3]> = (0..n).map(|i| bracket(&log.t_s, t0 + i as f64 * dt, max_gap_s).map_or([f64::NAN; 3], |b| [b.lerp(&g[0]), b.lerp(&g[1]), b.lerp(&g[2])])).collect();
+    let w: Vec<[f64; 3]> = (0..n).map(|i| bracket(&log.t_s, t0 + i as f64 * dt, max_gap_s).map_or([f64::NAN; 3], |b| [b.lerp(g[0]), b.lerp(g[1]), b.lerp(g[2])])).collect();
     (0..n)
         .map(|i| {
             if i < k || i + k >= n {
@@ -339,10 +339,11 @@ fn euler_rate(log: &NavLog, dt: f64, max_gap_s: f64) -> (Vec<[f64; 3]>, Vec<[f64
 /// rate lacks the heading's (no gyro, no heading), the down direction in
 /// the body: the heading's rate is a rate about it.
 fn nav_signal(log: &NavLog, dt: f64, max_gap_s: f64) -> (Signal, Option<Signal>) {
-    let gyro_usable = log.gyro_rad_s.as_ref().is_some_and(|g| g[0].iter().filter(|v| v.is_finite()).count() * 2 > g[0].len());
+    let gyro = log.gyro_rad_s();
+    let gyro_usable = gyro.is_some_and(|g| g[0].iter().filter(|v| v.is_finite()).count() * 2 > g[0].len());
     let grid = |v| Signal { t0_s: log.t_s[0], dt_s: dt, v };
-    match (&log.gyro_rad_s, gyro_usable) {
-        (Some(g), true) => (grid(gyro_rate(log, g, dt, max_gap_s)), None),
+    match (gyro, gyro_usable) {
+        (Some(g), true) => (grid(gyro_rate(log, &g, dt, max_gap_s)), None),
         _ => {
             let (rates, down) = euler_rate(log, dt, max_gap_s);
             (grid(rates), log.heading_deg.is_none().then(|| grid(down)))
