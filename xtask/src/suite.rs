@@ -166,7 +166,7 @@ impl Phases {
     /// The table printed at the end of the run.
     pub fn table(&self, total: Duration) -> String {
         let done = self.done.lock().unwrap_or_else(|e| e.into_inner());
-        let mut s = String::from("== time per phase (phases in the same lane add up; the two lanes run side by side)\n");
+        let mut s = String::from("== time per phase (phases in the same lane add up; the lanes run side by side)\n");
         for (name, d) in done.iter() {
             s.push_str(&format!("  {name:<72} {}\n", clock(*d)));
         }

@@ -14,9 +14,11 @@
 //!    one `cargo test --no-run` over the workspace and their binaries are
 //!    run directly, so no later cargo command resolves other features and
 //!    rebuilds them.
-//! 3. **run**, two lanes side by side: the QEMU lane (on-target, end-to-end,
-//!    demo session, report in the browser: one QEMU at a time) and the CPU
-//!    lane (host unit tests and doctests, then the fuzz runs).
+//! 3. **run**, three lanes side by side: the QEMU lane (on-target,
+//!    end-to-end, demo session, report in the browser: one QEMU at a time),
+//!    the CPU lane (host unit tests and doctests) and the fuzz lane (each
+//!    target for a fixed wall time at the lowest CPU priority, so it takes
+//!    the cores the other two leave idle and slows neither).
 //!
 //! The summary gives each suite's counts and the time each phase took, and
 //! the last line is `N passed, N failed`.
@@ -63,16 +65,13 @@ pub fn cmd_test() -> Result<()> {
     let built = phases.time("build (side by side): host, thumb, fuzz targets, log decoder", build_all);
     // Before the lanes start (no other thread reads the environment yet).
     crate::use_log_decoder(built.log_decoder);
-    let (qemu, cpu) = std::thread::scope(|s| {
+    let (qemu, host, fuzz) = std::thread::scope(|s| {
         let qemu = s.spawn(|| qemu_lane(&phases, &built));
-        let cpu = cpu_lane(&phases, &built);
-        (qemu.join(), cpu)
+        let fuzz = s.spawn(|| phases.time("fuzz lane: 10 s a target, at the lowest CPU priority", || fuzz_suite(&built)));
+        let host = phases.time("CPU lane: host unit tests and doctests", || host_suite(&built));
+        (qemu.join(), host, fuzz.join())
     });
-    let qemu = match qemu {
-        Ok(q) => q,
-        Err(_) => bail!("the QEMU lane panicked"),
-    };
-    let [host, fuzz] = cpu;
+    let (Ok(qemu), Ok(fuzz)) = (qemu, fuzz) else { bail!("a lane panicked") };
     let [on_target, e2e, demo, report] = qemu;
     let suites = vec![host, on_target, built.lints, built.size, e2e, fuzz, demo, report];
     let (passed, failed, all_ok) = summary(&suites);
@@ -209,13 +208,6 @@ fn test_binary(t: &TestBinary) -> Command {
     let mut c = Command::new(&t.exe);
     c.current_dir(&t.dir).env("CARGO_MANIFEST_DIR", &t.dir).env("CARGO_PKG_NAME", &t.package);
     c
-}
-
-/// The CPU lane: host unit tests and doctests, then the fuzz runs.
-fn cpu_lane(phases: &Phases, built: &Built) -> [Suite; 2] {
-    let host = phases.time("CPU lane: host unit tests and doctests", || host_suite(built));
-    let fuzz = phases.time("CPU lane: fuzzing, 10 s a target", || fuzz_suite(built));
-    [host, fuzz]
 }
 
 fn host_suite(built: &Built) -> Suite {
