@@ -23,6 +23,8 @@
 //!   the row, whose noise (the neighbours' difference) is independent of
 //!   the row's own.
 
+use calib_core::lsq::lm::{self, Acceptance, LmOptions, LmProblem, LmStop, Linearisation};
+
 use super::super::pairing::ClockMap;
 use super::coarse::{Fitted, Model};
 use super::fit::{line_fit, InstrumentFit, LineFit};
@@ -39,7 +41,7 @@ const WINDOW_SEARCH_S: f64 = 1.5;
 /// … in steps of, s.
 const WINDOW_SEARCH_STEP_S: f64 = 0.05;
 /// Gauss–Newton iterations of a window's lag, at most.
-const GN_ITERATIONS: usize = 20;
+const GN_ITERATIONS: u32 = 20;
 /// Fewest rows a window's lag is fitted from.
 const MIN_WINDOW_ROWS: usize = 2 * FEATURES;
 
@@ -203,48 +205,77 @@ impl Timed for AtNavRows<'_> {
     }
 }
 
-/// One window's lag relative to `map` (Gauss–Newton, the model held) and
-/// its σ: the residual's variance over how fast the prediction moves, each
-/// independent sample counted once. `None` when the window has too few
-/// rows, no motion, or the lag runs away.
-fn window_lag(
-    timed: &dyn Timed,
+/// One window's residuals against its lag, for the crate's one solver
+/// ([`calib_core::lsq::lm`]), run as Gauss–Newton: the rows' residuals and
+/// the prediction's rates at a lag, with the sums the σ needs.
+struct WindowLag<'a> {
+    timed: &'a dyn Timed,
     rows: std::ops::Range<usize>,
-    map: &ClockMap,
+    map: &'a ClockMap,
+    /// Where the search started: a lag more than 1 s from it has run away.
     start: f64,
-) -> Option<(f64, f64)> {
-    let mut lag = start;
-    for it in 0..GN_ITERATIONS {
-        let (mut sgr, mut sgg, mut srr, mut n, mut entries) = (0.0, 0.0, 0.0, 0usize, 0usize);
-        for i in rows.clone() {
-            let Some((r, g, used)) = timed.residual(i, map, lag) else {
+    /// At the last linearisation: Σr², entries used and rows read.
+    last: (f64, usize, usize),
+}
+
+impl LmProblem<f64, 1> for WindowLag<'_> {
+    fn linearise(&mut self, p: &[f64; 1]) -> Option<Linearisation<f64, 1>> {
+        let lag = p[0];
+        if !((lag - self.start).abs() <= 1.0) {
+            return None;
+        }
+        let mut lin = Linearisation::zero();
+        let (mut entries, mut n) = (0usize, 0usize);
+        for i in self.rows.clone() {
+            let Some((r, g, used)) = self.timed.residual(i, self.map, lag) else {
                 continue;
             };
+            // `g` is the prediction's rate: ∂r/∂lag = −g.
             for k in 0..used {
-                sgr += g[k] * r[k];
-                sgg += g[k] * g[k];
-                srr += r[k] * r[k];
+                lin.add_row(&[-g[k]], r[k]);
             }
             n += 1;
             entries += used;
         }
-        if n < MIN_WINDOW_ROWS || !(sgg > 0.0) {
+        if n < MIN_WINDOW_ROWS || !(lin.jtj[0][0] > 0.0) {
             return None;
         }
-        let step = (sgr / sgg).clamp(-0.5, 0.5);
-        lag += step;
-        if (lag - start).abs() > 1.0 {
-            return None;
-        }
-        // Converged, or close enough at the last iteration (the lag moves
-        // linearly when the model was fitted at other lags; the outer
-        // iterations finish it).
-        if step.abs() < 2e-5 || (it + 1 == GN_ITERATIONS && step.abs() < 1e-3) {
-            let s2 = srr / (entries - 1) as f64;
-            return Some((lag, (s2 * timed.rows_per_sample().max(1.0) / sgg).sqrt()));
-        }
+        self.last = (lin.cost, entries, n);
+        Some(lin)
     }
-    None
+
+    fn cost(&mut self, p: &[f64; 1]) -> Option<f64> {
+        self.linearise(p).map(|l| l.cost)
+    }
+}
+
+/// One window's lag relative to `map` (Gauss–Newton, the model held) and
+/// its σ: the residual's variance over how fast the prediction moves, each
+/// independent sample counted once. `None` when the window has too few
+/// rows, no motion, or the lag runs away (more than 1 s from `start`).
+fn window_lag(timed: &dyn Timed, rows: std::ops::Range<usize>, map: &ClockMap, start: f64) -> Option<(f64, f64)> {
+    let mut problem = WindowLag { timed, rows, map, start, last: (0.0, 0, 0) };
+    // Undamped Gauss–Newton: every step taken, converged when one is below
+    // 20 µs.
+    let mut opts = LmOptions::marquardt(0.0);
+    opts.acceptance = Acceptance::Always;
+    opts.min_damping = 0.0;
+    opts.max_iterations = GN_ITERATIONS;
+    opts.step_tolerance = 2e-5;
+    let out = lm::solve(&mut problem, &[start], &opts);
+    let lag = out.params[0];
+    // At the solution: its sums, and (after the iterations ran out) the
+    // step still to take, which must be small (the lag moves linearly
+    // when the model was fitted at other lags; the outer iterations
+    // finish it).
+    let lin = problem.linearise(&[lag])?;
+    let converged = match out.stop {
+        LmStop::SmallStep => true,
+        LmStop::MaxIterations => (lin.jtr[0] / lin.jtj[0][0]).abs() < 1e-3,
+        _ => false,
+    };
+    let (srr, entries, _) = problem.last;
+    (converged && entries > 1).then(|| (lag, (srr / (entries - 1) as f64 * timed.rows_per_sample().max(1.0) / lin.jtj[0][0]).sqrt()))
 }
 
 /// The window's misfit (the residuals' mean square) at the lags of
