@@ -187,10 +187,10 @@ fn with_advice(e: FitError, rec: &Recording) -> ComputeError {
     let attitude = rec.roll_deg.is_some() && rec.pitch_deg.is_some();
     let gyro = rec.gyro_rad_s().is_some();
     let advice = match (attitude, gyro) {
-        (true, true) => "use the attitude-aided model, `--model attitude` (roll_deg, pitch_deg), or the gyro-aided model, `--model gyro` (gx, gy, gz)",
-        (true, false) => "use the attitude-aided model, `--model attitude`, which needs only the roll_deg, pitch_deg this recording has",
-        (false, true) => "use the gyro-aided model, `--model gyro`, with the gx, gy, gz this recording has",
-        (false, false) => "record the AHRS roll and pitch (roll_deg, pitch_deg) and use the attitude-aided model, `--model attitude`",
+        (true, true) => "use the attitude-aided model (`attitude`: roll_deg, pitch_deg) or the gyro-aided model (`gyro`: gx, gy, gz)",
+        (true, false) => "use the attitude-aided model (`attitude`), which needs only the roll_deg, pitch_deg this recording has",
+        (false, true) => "use the gyro-aided model (`gyro`), with the gx, gy, gz this recording has",
+        (false, false) => "record the AHRS roll and pitch (roll_deg, pitch_deg) and use the attitude-aided model (`attitude`)",
     };
     ComputeError::Coverage { covered_pct, advice: advice.into() }
 }

@@ -92,7 +92,7 @@ fn the_ellipsoid_fits_refuse_the_glider_and_name_the_attitude_model() {
     let rec = Recording::read(&data("sg236_calib.csv")).unwrap();
     let e = fit_recording(&rec, &opts(ModelKind::Full)).unwrap_err();
     let text = e.to_string();
-    assert!(text.contains("of field directions were visited") && text.contains("--model attitude") && !text.contains("--model gyro"), "{text}");
+    assert!(text.contains("of field directions were visited") && text.contains("(`attitude`)") && !text.contains("`gyro`"), "{text}");
 }
 
 #[test]

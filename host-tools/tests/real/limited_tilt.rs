@@ -111,7 +111,7 @@ fn a_cap_of_directions_is_refused_by_the_sphere_and_ellipsoid_fits() {
         let text = e.to_string();
         assert!(matches!(e, ComputeError::Coverage { .. }), "{model:?}: {text}");
         // The recording has roll, pitch and the gyro: both models are named.
-        assert!(text.contains("of field directions were visited") && text.contains("--model gyro") && text.contains("--model attitude"), "{text}");
+        assert!(text.contains("of field directions were visited") && text.contains("(`gyro`") && text.contains("(`attitude`"), "{text}");
     }
     // With --allow-weak the sphere still answers, and says why it is weak.
     let doc = fit_recording(&rec, &FitOptions { allow_weak: true, ..opts(ModelKind::Sphere) }).unwrap();

@@ -146,6 +146,7 @@ fn fit_hint(e: &ComputeError) -> Option<&'static str> {
         ComputeError::NoReference => Some("give the reference field intensity with --field-nt (nT) or --lat/--lon/--date"),
         ComputeError::Gyro(GyroError::LagOutOfRange { .. }) => Some("give --gyro-lag-s within ±1 s"),
         ComputeError::AnglesLookLikeRadians { .. } => Some("if they are radians, say so: --columns roll_deg=roll_deg:rad,pitch_deg=pitch_deg:rad"),
+        ComputeError::Coverage { .. } => Some("choose the model with --model NAME"),
         ComputeError::Disagrees { .. } => Some("check the site (--lat/--lon/--date), --field-nt and the roll/pitch columns' units; --allow-weak keeps the fit with the disagreement written into the document"),
         _ => None,
     }

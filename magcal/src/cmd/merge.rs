@@ -43,12 +43,18 @@ pub struct Args {
     json: bool,
 }
 
-/// The navigation log missing a column, read without a mapping: the
-/// refusal says how to give one (the commands' one hint mechanism).
-fn hint_nav_columns(e: MergeError, nav: &Path, mapped: bool) -> anyhow::Error {
-    super::hinted(e, |e| {
-        let nav_missing = matches!(e, MergeError::Log(RecordingError::MissingColumn { path, .. }) if path == nav);
-        (nav_missing && !mapped).then_some("give the navigation log's own names with --nav-columns (e.g. --nav-columns \"t=Time,roll_deg=Roll:rad,pitch_deg=Pitch:rad\")")
+/// What to change on the command line (the commands' one hint mechanism):
+/// the navigation log missing a column, read without a mapping, says how to
+/// give one; a clock that could not be found, which options set it.
+fn merge_hint(e: MergeError, nav: &Path, mapped: bool) -> anyhow::Error {
+    super::hinted(e, |e| match e {
+        MergeError::Log(RecordingError::MissingColumn { path, .. }) if path == nav && !mapped => {
+            Some("give the navigation log's own names with --nav-columns (e.g. --nav-columns \"t=Time,roll_deg=Roll:rad,pitch_deg=Pitch:rad\")")
+        }
+        MergeError::NoRotation(_) | MergeError::DriftTooLarge { .. } => Some("give the clock offset with --offset-s (and its drift with --drift-ppm)"),
+        MergeError::OutsideWindow { .. } | MergeError::NoAgreement { .. } => Some("centre the search window with --approx-offset-s, widen it with --max-offset-s, or give --offset-s"),
+        MergeError::NotUnique { .. } => Some("centre a narrower window on the right offset with --approx-offset-s and --max-offset-s, or give --offset-s"),
+        _ => None,
     })
 }
 
@@ -61,7 +67,7 @@ pub fn run(a: Args) -> Result<()> {
     };
     let mapped = a.nav_columns.is_some();
     let working = super::working("merging the logs", a.json);
-    let merged = merge_files_mapped(&a.board, &a.nav, &a.nav_columns.unwrap_or_default(), clock).map_err(|e| hint_nav_columns(e, &a.nav, mapped))?;
+    let merged = merge_files_mapped(&a.board, &a.nav, &a.nav_columns.unwrap_or_default(), clock).map_err(|e| merge_hint(e, &a.nav, mapped))?;
     working.done();
     merged.write(&a.out).with_context(|| format!("writing {}", a.out.display()))?;
     let r = &merged.report;

@@ -140,6 +140,13 @@ fn the_merge_command_prints_its_report_and_refuses_in_one_line() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(err.trim_end().lines().count(), 1, "{err}");
     assert!(err.contains("do not overlap"), "{err}");
+    // A search window that misses the true offset (−33.3 s): the library's
+    // refusal says what to change in its own words, the command names the
+    // options that change it.
+    let out = magcal(&["merge", "--board", &p("board.csv"), "--nav", &p("nav.csv"), "--out", &p("rec2.csv"), "--approx-offset-s", "100", "--max-offset-s", "10"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.trim_end().lines().count() == 1, "{err}");
+    assert!(err.contains("--approx-offset-s") && err.contains("--max-offset-s"), "{err}");
     // A navigation log without attitude.
     std::fs::write(p("bad.csv"), "t,lat_deg\n1,2\n").unwrap();
     let out = magcal(&["merge", "--board", &p("board.csv"), "--nav", &p("bad.csv"), "--out", &p("rec3.csv")]);

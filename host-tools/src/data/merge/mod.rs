@@ -73,11 +73,11 @@ pub enum MergeError {
         detail: String,
     },
     /// Nothing turned, or the two logs do not see the same turns.
-    #[error("no rotation to align the clocks on: {0} (turn the vehicle while both log, or give --offset-s)")]
+    #[error("no rotation to align the clocks on: {0} (turn the vehicle while both log, or give the clock offset)")]
     NoRotation(NoRotation),
     /// The logs agree best at an end of the searched offsets: the true
     /// offset may lie beyond.
-    #[error("the logs agree best at a clock offset of {best_s:.2} s, the end of the search window {center_s} ± {max_offset_s} s: the true offset may lie outside it (centre the window with --approx-offset-s or widen it with --max-offset-s)")]
+    #[error("the logs agree best at a clock offset of {best_s:.2} s, the end of the search window {center_s} ± {max_offset_s} s: the true offset may lie outside it (centre the window on the approximate offset, or widen it)")]
     OutsideWindow {
         /// The best offset searched, s.
         best_s: f64,
@@ -89,7 +89,7 @@ pub enum MergeError {
     /// The logs agree no better at the best offset of the search window
     /// than chance does at others: the true offset lies outside the
     /// window, or the logs do not see the same motion.
-    #[error("at the best clock offset searched ({best_s:.2} s) the logs agree only {height_sigma:.1} σ better than at unrelated offsets ({min_height_sigma} σ needed): the true offset lies outside the search window {center_s} ± {max_offset_s} s (centre it with --approx-offset-s or widen it with --max-offset-s), or the two logs do not see the same motion (or give --offset-s)")]
+    #[error("at the best clock offset searched ({best_s:.2} s) the logs agree only {height_sigma:.1} σ better than at unrelated offsets ({min_height_sigma} σ needed): the true offset lies outside the search window {center_s} ± {max_offset_s} s (centre it on the approximate offset, or widen it), or the two logs do not see the same motion (or give the clock offset)")]
     NoAgreement {
         /// The best offset searched, s.
         best_s: f64,
@@ -106,7 +106,7 @@ pub enum MergeError {
     /// Two offsets agree about equally well: the motion repeats within the
     /// search window (a regular swing, steady circles), and the logs cannot
     /// tell which offset is the true one.
-    #[error("the logs agree about as well at a clock offset of {best_s:.2} s as at {runner_up_s:.2} s (the first better by only {margin_sigma:.1} σ of the agreement's spread at unrelated offsets; {min_margin_sigma} σ needed): the motion repeats within the search window {center_s} ± {max_offset_s} s, or the true offset lies outside it; centre a window on the right one with --approx-offset-s and --max-offset-s, or give --offset-s")]
+    #[error("the logs agree about as well at a clock offset of {best_s:.2} s as at {runner_up_s:.2} s (the first better by only {margin_sigma:.1} σ of the agreement's spread at unrelated offsets; {min_margin_sigma} σ needed): the motion repeats within the search window {center_s} ± {max_offset_s} s, or the true offset lies outside it; centre a narrower window on the right one, or give the clock offset")]
     NotUnique {
         /// The best offset, s.
         best_s: f64,
@@ -123,7 +123,7 @@ pub enum MergeError {
     },
     /// The windows' offsets drift apart faster than clocks do: they do not
     /// follow one clock.
-    #[error("the windows' offsets drift by {drift_ppm:.0} ppm, more than clocks do ({max_drift_ppm} ppm): the logs do not see the same motion throughout (or give --offset-s)")]
+    #[error("the windows' offsets drift by {drift_ppm:.0} ppm, more than clocks do ({max_drift_ppm} ppm): the logs do not see the same motion throughout (or give the clock offset)")]
     DriftTooLarge {
         /// The drift fitted, ppm.
         drift_ppm: f64,
@@ -497,7 +497,7 @@ mod tests {
         let (board, nav) = logs(3.0, 0.0, 200.0, false);
         let e = merge(&board, &nav, Clock::default()).unwrap_err();
         assert!(matches!(e, MergeError::NoRotation(_)), "{e}");
-        assert!(e.to_string().contains("--offset-s"), "{e}");
+        assert!(e.to_string().contains("give the clock offset"), "{e}");
     }
 
     /// Issue 24: a search window of ± 0 s with the true offset 37.25 s
@@ -533,7 +533,7 @@ mod tests {
         let e = merge(&board, &nav, Clock::Estimate { center_s: 0.0, max_offset_s: 20.0 }).unwrap_err();
         assert!(matches!(e, MergeError::OutsideWindow { .. } | MergeError::NoAgreement { .. } | MergeError::NotUnique { .. }), "{e}");
         let text = e.to_string();
-        assert!(text.contains("0 ± 20 s") && text.contains("--max-offset-s"), "{text}");
+        assert!(text.contains("0 ± 20 s") && text.contains("search window"), "{text}");
     }
 
     /// Without a heading column the tilt alone times the logs (the field's
@@ -568,7 +568,7 @@ mod tests {
         }
         assert!((best_s - runner_up_s).abs() > 15.0, "{e}");
         let text = e.to_string();
-        assert!(text.contains(&format!("{best_s:.2} s")) && text.contains(&format!("{runner_up_s:.2} s")) && text.contains("--approx-offset-s"), "{text}");
+        assert!(text.contains(&format!("{best_s:.2} s")) && text.contains(&format!("{runner_up_s:.2} s")) && text.contains("centre a narrower window"), "{text}");
     }
 
     fn read_board(text: &str) -> Result<BoardLog, RecordingError> {
