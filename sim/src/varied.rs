@@ -174,7 +174,7 @@ impl MagnitudeRanges {
     /// the crustal bodies magnetised by `site`'s IGRF field.
     pub fn draw(&self, site: &Site, seed: u64) -> Result<Effects, SimError> {
         if !(self.current_mps.lo >= 0.0 && self.current_mps.hi < 0.9) {
-            return Err(SimError::Parameter(format!("current range {:?} m/s must stay within 0 … 0.9 m/s (the slowest leg)", self.current_mps)));
+            return Err(SimError::Parameter { what: "the current's range, m/s", got: format!("{:?}", self.current_mps), allowed: "within 0 … 0.9 m/s (the slowest leg)" });
         }
         let mut rng = SplitMix64::new(seed ^ DRAW_SALT);
         let rng = &mut rng;

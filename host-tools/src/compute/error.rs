@@ -68,7 +68,7 @@ pub enum ComputeError {
         /// Percent of the direction bins visited.
         covered_pct: u8,
         /// What to do with this recording.
-        advice: String,
+        advice: &'static str,
     },
     /// The calibrated field disagrees with the independent reference (the
     /// world model at the site) beyond its allowance.

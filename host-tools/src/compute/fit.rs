@@ -192,7 +192,7 @@ fn with_advice(e: FitError, rec: &Recording) -> ComputeError {
         (false, true) => "use the gyro-aided model (`gyro`), with the gx, gy, gz this recording has",
         (false, false) => "record the AHRS roll and pitch (roll_deg, pitch_deg) and use the attitude-aided model (`attitude`)",
     };
-    ComputeError::Coverage { covered_pct, advice: advice.into() }
+    ComputeError::Coverage { covered_pct, advice }
 }
 
 /// When a model cannot be fitted, the usual cause is data that visit too

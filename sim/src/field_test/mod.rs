@@ -70,9 +70,35 @@ pub enum SimError {
     /// Writing the recording failed.
     #[error("{0}")]
     Recording(#[from] RecordingError),
-    /// A parameter is out of range.
-    #[error("{0}")]
-    Parameter(String),
+    /// A parameter is outside what the simulator (or the physics it
+    /// writes) allows.
+    #[error("{what} ({got}) must be {allowed}")]
+    Parameter {
+        /// Which parameter.
+        what: &'static str,
+        /// The value given, as given.
+        got: String,
+        /// What it must be.
+        allowed: &'static str,
+    },
+    /// The recording would be longer than the simulator writes.
+    #[error("{duration_s:.0} s at {rate_hz} Hz would be {rows:.3e} rows; the simulator writes at most {max_rows:.0e} rows (shorten the legs or lower the rate)")]
+    TooManyRows {
+        /// The recording's length, s.
+        duration_s: f64,
+        /// Its rate, Hz.
+        rate_hz: f64,
+        /// Its rows.
+        rows: f64,
+        /// The most rows written.
+        max_rows: f64,
+    },
+    /// The sensor's gain matrix cannot be inverted.
+    #[error("the sensor's gain matrix is singular")]
+    SingularSensor,
+    /// The truth document could not be encoded.
+    #[error("the truth document could not be encoded as JSON: {0}")]
+    Truth(#[source] serde_json::Error),
 }
 
 /// The southern Caspian Sea in 2021, where IGRF-14 gives within ~1 % of
@@ -90,13 +116,11 @@ pub const MAX_ROWS: f64 = 1e6;
 /// longer than [`MAX_ROWS`].
 fn check_rate(rate_hz: f64, duration_s: f64) -> Result<(), SimError> {
     if !(0.1..=1000.0).contains(&rate_hz) {
-        return Err(SimError::Parameter(format!("rate {rate_hz} Hz is outside 0.1 … 1000 Hz (the sensor's range)")));
+        return Err(SimError::Parameter { what: "the rate, Hz", got: format!("{rate_hz}"), allowed: "within 0.1 … 1000 Hz (the sensor's range)" });
     }
     let rows = duration_s * rate_hz;
     if rows > MAX_ROWS {
-        return Err(SimError::Parameter(format!(
-            "{duration_s:.0} s at {rate_hz} Hz would be {rows:.3e} rows; the simulator writes at most {MAX_ROWS:.0e} rows (shorten the legs or lower the rate)"
-        )));
+        return Err(SimError::TooManyRows { duration_s, rate_hz, rows, max_rows: MAX_ROWS });
     }
     Ok(())
 }

@@ -15,9 +15,13 @@ use crate::effects::Effects;
 
 /// The longest leg the simulator runs, m (100 km: a day's survey line).
 pub const MAX_LEG_M: f64 = 100_000.0;
+// The refusal states it in words.
+const _: () = assert!(MAX_LEG_M == 100_000.0);
 
 /// The fastest speed through water the simulator runs, m/s (about 20 kn).
 pub const MAX_SPEED_MPS: f64 = 10.0;
+// The refusal states it in words.
+const _: () = assert!(MAX_SPEED_MPS == 10.0);
 
 /// Parameters of an out-and-back run.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -166,32 +170,32 @@ impl<'a> Profile<'a> {
     fn new(params: &'a RunParams, effects: &Effects) -> Result<Self, SimError> {
         let speed_back_mps = params.speed_back_mps.unwrap_or(params.speed_mps);
         if !(params.leg_m > 0.0 && params.speed_mps > 0.0 && speed_back_mps > 0.0 && params.submerged_s > 0.0 && params.surface_s > 0.0) {
-            return Err(SimError::Parameter("leg length, speeds and dolphin times must be positive".into()));
+            return Err(SimError::Parameter { what: "leg length, speeds and dolphin times", got: format!("{} m, {} / {speed_back_mps} m/s, {} / {} s", params.leg_m, params.speed_mps, params.submerged_s, params.surface_s), allowed: "positive" });
         }
         if !(0.0..=45.0).contains(&params.wave_roll_deg) {
-            return Err(SimError::Parameter(format!("the waves' roll {}° must be within 0…45°", params.wave_roll_deg)));
+            return Err(SimError::Parameter { what: "the waves' roll, degrees", got: format!("{}", params.wave_roll_deg), allowed: "within 0…45°" });
         }
         if !(params.circles_s >= 0.0 && params.circles_s <= 100.0 * CIRCLE_PERIOD_S) {
-            return Err(SimError::Parameter(format!("circles for {} s: must be within 0…{} s", params.circles_s, 100.0 * CIRCLE_PERIOD_S)));
+            return Err(SimError::Parameter { what: "the circles' time, s", got: format!("{}", params.circles_s), allowed: "within 0 s and a hundred circles" });
         }
         if params.max_attitude_rate_deg_s.is_some_and(|r| !(r > 0.0 && r.is_finite())) {
-            return Err(SimError::Parameter(format!("the attitude rate limit {:?} °/s must be positive", params.max_attitude_rate_deg_s)));
+            return Err(SimError::Parameter { what: "the attitude rate limit, °/s", got: format!("{:?}", params.max_attitude_rate_deg_s), allowed: "positive" });
         }
         if params.leg_m > MAX_LEG_M {
-            return Err(SimError::Parameter(format!("a leg of {} m is longer than the simulator's limit of {MAX_LEG_M} m", params.leg_m)));
+            return Err(SimError::Parameter { what: "a leg, m", got: format!("{}", params.leg_m), allowed: "at most 100000 m (the simulator's limit)" });
         }
         if params.speed_mps > MAX_SPEED_MPS || speed_back_mps > MAX_SPEED_MPS {
-            return Err(SimError::Parameter(format!("speeds {} / {speed_back_mps} m/s: the simulator's limit is {MAX_SPEED_MPS} m/s", params.speed_mps)));
+            return Err(SimError::Parameter { what: "the speeds out and back, m/s", got: format!("{} / {speed_back_mps}", params.speed_mps), allowed: "at most 10 m/s (the simulator's limit)" });
         }
         if !(params.course_out_deg.is_finite() && params.course_back_deg.is_finite()) {
-            return Err(SimError::Parameter(format!("courses {} / {} degrees must be finite", params.course_out_deg, params.course_back_deg)));
+            return Err(SimError::Parameter { what: "the courses out and back, degrees", got: format!("{} / {}", params.course_out_deg, params.course_back_deg), allowed: "finite" });
         }
         let current = effects.water_current.as_ref().map_or((params.current_mps, params.current_to_deg), |w| (w.current_mps, w.current_to_deg));
         if !current.1.is_finite() {
-            return Err(SimError::Parameter(format!("the current's direction {} degrees must be finite", current.1)));
+            return Err(SimError::Parameter { what: "the current's direction, degrees", got: format!("{}", current.1), allowed: "finite" });
         }
         if !(current.0 >= 0.0 && current.0 < params.speed_mps.min(speed_back_mps) && params.gps_delay_s >= 0.0 && params.gps_delay_s < 60.0) {
-            return Err(SimError::Parameter("the current must be slower than the vehicle and the GPS delay within 0…60 s".into()));
+            return Err(SimError::Parameter { what: "the current and the GPS delay", got: format!("{} m/s, {} s", current.0, params.gps_delay_s), allowed: "slower than the vehicle, and within 0…60 s" });
         }
         let leg_s = params.leg_m / params.speed_mps;
         let leg_back_s = params.leg_m / speed_back_mps;

@@ -70,7 +70,7 @@ impl Simulation {
         extra.extend(self.effect_columns.iter().map(|(n, c)| (n.as_str(), c.as_slice())));
         self.recording.write_with_extra(path, &extra)?;
         let truth_path = truth_path(path);
-        let text = serde_json::to_string_pretty(&self.truth).map_err(|e| SimError::Parameter(e.to_string()))?;
+        let text = serde_json::to_string_pretty(&self.truth).map_err(SimError::Truth)?;
         host_tools::files::write_text_atomic(&truth_path, &text)?;
         Ok(())
     }

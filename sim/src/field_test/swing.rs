@@ -56,7 +56,7 @@ pub fn swing_with(sensor: &SensorModel, site: &Site, seed: u64, rate_hz: f64, ro
     let end = SWING_SEGMENTS_S[2].1;
     check_rate(rate_hz, end + steps.len() as f64 * THRUST_TEST_STEP_S)?;
     if !((0.0..=90.0).contains(&roll_amp_deg) && (0.0..=60.0).contains(&pitch_amp_deg)) {
-        return Err(SimError::Parameter(format!("swing amplitudes roll {roll_amp_deg}°, pitch {pitch_amp_deg}° are outside 0…90° / 0…60°")));
+        return Err(SimError::Parameter { what: "the swing's roll and pitch amplitudes, degrees", got: format!("{roll_amp_deg} / {pitch_amp_deg}"), allowed: "within 0…90° / 0…60°" });
     }
     let mut b = Rows::new(Truth::new(FieldTest::Swing, seed, sensor, site, None)?, sensor, seed, effects);
     let depth_m = if effects.is_none() { 0.0 } else { 0.5 };

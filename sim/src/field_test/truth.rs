@@ -48,7 +48,7 @@ impl Truth {
     /// the matrix that undoes the sensor.
     pub(super) fn new(scenario: FieldTest, seed: u64, sensor: &SensorModel, site: &Site, run: Option<RunParams>) -> Result<Self, SimError> {
         let f = geomag::igrf14(site.lat_deg, site.lon_deg, 0.0, site.decimal_year)?;
-        let ideal = calib_core::linalg::inverse3(&sensor.gain_raw_per_nt).ok_or_else(|| SimError::Parameter("sensor matrix is singular".into()))?;
+        let ideal = calib_core::linalg::inverse3(&sensor.gain_raw_per_nt).ok_or(SimError::SingularSensor)?;
         Ok(Self {
             scenario,
             seed,
