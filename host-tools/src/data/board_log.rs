@@ -8,7 +8,7 @@
 use std::path::Path;
 
 use super::recording::RecordingError;
-use super::table::{col, read_table, write_table};
+use super::table::{col, column_set, read_table, write_table, ColumnSet};
 
 /// `t`: seconds on the board's clock.
 pub const T: &str = col::T;
@@ -49,24 +49,28 @@ pub struct BoardLog {
     pub health: Option<Vec<f64>>,
 }
 
+// The board log's columns by their registry names (`mx, my, mz` are `mag`).
+column_set!(BoardLog { required: [T => t_s], optional: [TEMP_C => temp_c, HEALTH => health] });
+
 impl BoardLog {
     /// Reads a board log: `t, mx, my, mz` required, `temp_c`, `health` optional.
     pub fn read(path: &Path) -> Result<Self, RecordingError> {
-        let mut t = read_table(path, &[T, MAG[0], MAG[1], MAG[2]], &[TEMP_C, HEALTH])?;
+        let mut t = read_table(path, &[T, MAG[0], MAG[1], MAG[2]], Self::NAMES.get(1..).unwrap_or_default())?;
         let [mx, my, mz] = MAG.map(|c| t.take(c).unwrap_or_default());
-        Ok(Self {
-            t_s: t.take(T).unwrap_or_default(),
-            mag: mx.into_iter().zip(my).zip(mz).map(|((x, y), z)| [x, y, z]).collect(),
-            temp_c: t.take(TEMP_C),
-            health: t.take(HEALTH),
-        })
+        let mut log = Self { t_s: t.take(T).unwrap_or_default(), mag: mx.into_iter().zip(my).zip(mz).map(|((x, y), z)| [x, y, z]).collect(), ..Self::default() };
+        for name in Self::NAMES {
+            if let Some(slot) = log.column_slot(name) {
+                *slot = t.take(name);
+            }
+        }
+        Ok(log)
     }
 
     /// Writes the log in the columns [`BoardLog::read`] reads.
     pub fn write(&self, path: &Path) -> Result<(), RecordingError> {
-        let mut header = vec![T, MAG[0], MAG[1], MAG[2]];
-        let optional: Vec<&Vec<f64>> = [(TEMP_C, &self.temp_c), (HEALTH, &self.health)].into_iter().filter_map(|(n, c)| c.as_ref().inspect(|_| header.push(n))).collect();
-        let rows = self.t_s.iter().zip(&self.mag).enumerate().map(|(i, (t, m))| [*t].into_iter().chain(*m).chain(optional.iter().map(|c| c.get(i).copied().unwrap_or(f64::NAN))).collect());
+        let optional: Vec<(&str, &[f64])> = Self::NAMES.iter().filter(|n| **n != T).filter_map(|&n| self.column(n).map(|c| (n, c))).collect();
+        let header: Vec<&str> = [T, MAG[0], MAG[1], MAG[2]].into_iter().chain(optional.iter().map(|(n, _)| *n)).collect();
+        let rows = self.t_s.iter().zip(&self.mag).enumerate().map(|(i, (t, m))| [*t].into_iter().chain(*m).chain(optional.iter().map(|(_, c)| c.get(i).copied().unwrap_or(f64::NAN))).collect());
         write_table(path, &header, rows)
     }
 

@@ -92,6 +92,9 @@ pub struct Logs {
     /// A navigation log ([`crate::data::NavLog`]); with `recording` too,
     /// `magcal merge` resamples it into the merged recording.
     pub nav: bool,
+    /// A board log ([`crate::data::board_log::BoardLog`]: what `magcal log`
+    /// writes and `merge` reads).
+    pub board: bool,
 }
 
 /// One column of the project: its name, what it measures, the largest
@@ -115,30 +118,36 @@ const fn column(name: &'static str, quantity: Quantity, limit_deg: Option<f64>, 
     Column { name, quantity, limit_deg, logs, interp }
 }
 
-/// In a recording only.
-const REC: Logs = Logs { recording: true, nav: false };
 /// In a navigation log only.
-const NAV: Logs = Logs { recording: false, nav: true };
-/// In both: merged from the navigation log into the recording.
-const BOTH: Logs = Logs { recording: true, nav: true };
-/// In neither type (another log's, a truth or an output column).
-const OTHER: Logs = Logs { recording: false, nav: false };
+const NAV: Logs = Logs { recording: false, nav: true, board: false };
+/// In a recording and a navigation log: merged from the navigation log
+/// into the recording.
+const BOTH: Logs = Logs { recording: true, nav: true, board: false };
+/// In a recording and the board log (the board's own measurements).
+const REC_BOARD: Logs = Logs { recording: true, nav: false, board: true };
+/// In the board log only.
+const BOARD: Logs = Logs { recording: false, nav: false, board: true };
+/// In every log (the time, each on its own clock).
+const ALL: Logs = Logs { recording: true, nav: true, board: true };
+/// In none of the types (a truth, a compass log's or an output column).
+const OTHER: Logs = Logs { recording: false, nav: false, board: false };
 
 /// Every column a recording, a navigation log or a board log may hold: the
 /// one list that the column mapping (`--columns`), the unit conversions, the
 /// range checks, the recording's and navigation log's readers and writers,
 /// and `merge`'s resampling read. A new column is one line here and its
 /// field in the type that holds it ([`crate::data::Recording`],
-/// [`crate::data::NavLog`]: one line of their column list each).
+/// [`crate::data::NavLog`], [`crate::data::board_log::BoardLog`]: one line
+/// of their column list each).
 pub const COLUMNS: [Column; 24] = {
     use col::*;
     use Interp::*;
     use Quantity::*;
     [
-        column(T, Time, None, BOTH, Linear),
-        column(MAG[0], Field, None, REC, Linear),
-        column(MAG[1], Field, None, REC, Linear),
-        column(MAG[2], Field, None, REC, Linear),
+        column(T, Time, None, ALL, Linear),
+        column(MAG[0], Field, None, REC_BOARD, Linear),
+        column(MAG[1], Field, None, REC_BOARD, Linear),
+        column(MAG[2], Field, None, REC_BOARD, Linear),
         column(ROLL_DEG, Angle, Some(180.0), BOTH, Angle180),
         column(PITCH_DEG, Angle, Some(90.0), BOTH, Linear),
         column(HEADING_DEG, Heading, None, NAV, Heading360),
@@ -150,8 +159,8 @@ pub const COLUMNS: [Column; 24] = {
         column(GYRO[2], Rate, None, BOTH, Linear),
         column(SPEED_MPS, Other, None, BOTH, Linear),
         column(MOTOR_CURRENT_A, Other, None, BOTH, Linear),
-        column(TEMP_C, Other, None, REC, Linear),
-        column(HEALTH, Other, None, OTHER, Linear),
+        column(TEMP_C, Other, None, REC_BOARD, Linear),
+        column(HEALTH, Other, None, BOARD, Linear),
         column(T_BOARD, Time, None, OTHER, Linear),
         column(TRUE_HEADING_DEG, Heading, None, OTHER, Heading360),
         column(TRUE_FIELD_NT, Other, None, OTHER, Linear),
@@ -917,8 +926,8 @@ mod tests {
         read_table_from(text, Path::new("x.csv"), required, optional)
     }
 
-    /// The recording's and the navigation log's types hold exactly the
-    /// registry's columns of their log (`mx, my, mz` are the recording's
+    /// The recording's, the navigation log's and the board log's types hold
+    /// exactly the registry's columns of their log (`mx, my, mz` are their
     /// `mag`), so that reading, writing and merging, which iterate the
     /// registry, miss none; and merge carries what both hold.
     #[test]
@@ -932,6 +941,7 @@ mod tests {
         let of = |pick: fn(&Logs) -> bool| sorted(COLUMNS.iter().filter(|c| pick(&c.logs) && !col::MAG.contains(&c.name)).map(|c| c.name).collect());
         assert_eq!(sorted(Recording::NAMES.to_vec()), of(|l| l.recording));
         assert_eq!(sorted(NavLog::NAMES.to_vec()), of(|l| l.nav));
+        assert_eq!(sorted(crate::data::board_log::BoardLog::NAMES.to_vec()), of(|l| l.board));
         let merged: Vec<&str> = merged_columns().map(|c| c.name).collect();
         assert_eq!(merged, ["roll_deg", "pitch_deg", "ref_heading_deg", "lat_deg", "lon_deg", "gx", "gy", "gz", "speed_mps", "motor_current_a"]);
     }
