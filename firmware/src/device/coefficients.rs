@@ -117,14 +117,6 @@ pub fn decode_coefficients(bytes: &[u8], version: u16) -> Option<(Coefficients, 
     Some((c, cal))
 }
 
-/// What a coefficient request needs next.
-pub(super) enum BankReply {
-    /// The reply, ready.
-    Reply(ResponseBody),
-    /// A checked, encoded set to store, then [`Bank::finish_commit`].
-    Save(PendingCommit),
-}
-
 /// The coefficient bank: the set in use (with its calibration, where it
 /// came from and its store sequence number), the staged set, and the write
 /// lock. It alone changes them: a set is staged only unlocked and valid,
@@ -189,12 +181,14 @@ impl Bank {
 
     /// Read, unlock, stage, commit (validated and encoded here, stored by
     /// the caller).
-    pub(super) fn handle(&mut self, req: CoefficientRequest, now_ms: u32) -> Result<BankReply, DeviceError> {
+    /// A commit comes back as [`Handled::Save`], to store and then hand to
+    /// [`Bank::finish_commit`].
+    pub(super) fn handle(&mut self, req: CoefficientRequest, now_ms: u32) -> Result<Handled, DeviceError> {
         match req {
-            CoefficientRequest::Read => Ok(BankReply::Reply(ResponseBody::Coefficients { coefficients: self.in_use, source: self.source, seq: self.seq })),
-            CoefficientRequest::Unlock { key } => self.lock.unlock(key, now_ms).map(|()| BankReply::Reply(ResponseBody::Ack)),
-            CoefficientRequest::Write(c) => self.stage(c, now_ms).map(|()| BankReply::Reply(ResponseBody::Ack)),
-            CoefficientRequest::Commit { crc } => self.prepare_commit(crc, now_ms).map(BankReply::Save),
+            CoefficientRequest::Read => Ok(Handled::Reply(ResponseBody::Coefficients { coefficients: self.in_use, source: self.source, seq: self.seq })),
+            CoefficientRequest::Unlock { key } => self.lock.unlock(key, now_ms).map(|()| Handled::Reply(ResponseBody::Ack)),
+            CoefficientRequest::Write(c) => self.stage(c, now_ms).map(|()| Handled::Reply(ResponseBody::Ack)),
+            CoefficientRequest::Commit { crc } => self.prepare_commit(crc, now_ms).map(Handled::Save),
         }
     }
 
@@ -237,11 +231,7 @@ impl Bank {
 impl Device {
     /// The coefficient bank's requests.
     pub(super) fn handle_coefficients(&mut self, req: CoefficientRequest, now_ms: u32) -> Handled {
-        match self.bank.handle(req, now_ms) {
-            Ok(BankReply::Reply(body)) => Handled::Reply(body),
-            Ok(BankReply::Save(pending)) => Handled::Save(pending),
-            Err(e) => Handled::Reply(self.refuse(e)),
-        }
+        self.bank.handle(req, now_ms).unwrap_or_else(|e| Handled::Reply(self.refuse(e)))
     }
 
     /// Ends a commit after the store ([`Bank::finish_commit`]); a new set

@@ -8,7 +8,7 @@
 use std::path::Path;
 
 use super::recording::RecordingError;
-use super::table::{col, column_set, read_table, write_table, ColumnSet};
+use super::table::{col, column_set, present_columns, read_table, take_columns, write_table, ColumnSet};
 
 /// `t`: seconds on the board's clock.
 pub const T: &str = col::T;
@@ -58,17 +58,13 @@ impl BoardLog {
         let mut t = read_table(path, &[T, MAG[0], MAG[1], MAG[2]], Self::NAMES.get(1..).unwrap_or_default())?;
         let [mx, my, mz] = MAG.map(|c| t.take(c).unwrap_or_default());
         let mut log = Self { t_s: t.take(T).unwrap_or_default(), mag: mx.into_iter().zip(my).zip(mz).map(|((x, y), z)| [x, y, z]).collect(), ..Self::default() };
-        for name in Self::NAMES {
-            if let Some(slot) = log.column_slot(name) {
-                *slot = t.take(name);
-            }
-        }
+        take_columns(&mut log, &mut t);
         Ok(log)
     }
 
     /// Writes the log in the columns [`BoardLog::read`] reads.
     pub fn write(&self, path: &Path) -> Result<(), RecordingError> {
-        let optional: Vec<(&str, &[f64])> = Self::NAMES.iter().filter(|n| **n != T).filter_map(|&n| self.column(n).map(|c| (n, c))).collect();
+        let optional: Vec<(&str, &[f64])> = present_columns(self).into_iter().filter(|(n, _)| *n != T).collect();
         let header: Vec<&str> = [T, MAG[0], MAG[1], MAG[2]].into_iter().chain(optional.iter().map(|(n, _)| *n)).collect();
         let rows = self.t_s.iter().zip(&self.mag).enumerate().map(|(i, (t, m))| [*t].into_iter().chain(*m).chain(optional.iter().map(|(_, c)| c.get(i).copied().unwrap_or(f64::NAN))).collect());
         write_table(path, &header, rows)

@@ -5,7 +5,7 @@
 use std::path::Path;
 
 use super::recording::RecordingError;
-use super::table::{col, column_set, read_table_mapped, write_table, ColumnMap, ColumnSet, TableError};
+use super::table::{col, column_set, present_columns, read_table_mapped, take_columns, write_table, ColumnMap, ColumnSet, TableError};
 
 /// `t`: seconds on the navigation clock.
 pub const T: &str = col::T;
@@ -88,11 +88,7 @@ impl NavLog {
         let file = std::fs::File::open(path).map_err(|source| TableError::Io { path: path.into(), source })?;
         let mut t = read_table_mapped(file, path, &REQUIRED, Self::NAMES.get(REQUIRED.len()..).unwrap_or_default(), map)?;
         let mut log = Self { t_s: t.take(T).unwrap_or_default(), roll_deg: t.take(ROLL_DEG).unwrap_or_default(), pitch_deg: t.take(PITCH_DEG).unwrap_or_default(), ..Self::default() };
-        for name in Self::NAMES {
-            if let Some(slot) = log.column_slot(name) {
-                *slot = t.take(name);
-            }
-        }
+        take_columns(&mut log, &mut t);
         // The body rate is used only whole.
         if log.gx_rad_s.is_none() || log.gy_rad_s.is_none() || log.gz_rad_s.is_none() {
             (log.gx_rad_s, log.gy_rad_s, log.gz_rad_s) = (None, None, None);
@@ -107,7 +103,7 @@ impl NavLog {
 
     /// Writes the log in the columns [`NavLog::read`] reads.
     pub fn write(&self, path: &Path) -> Result<(), RecordingError> {
-        let cols: Vec<(&str, &[f64])> = Self::NAMES.iter().filter_map(|&n| self.column(n).map(|c| (n, c))).collect();
+        let cols = present_columns(self);
         let header: Vec<&str> = cols.iter().map(|(n, _)| *n).collect();
         let rows = (0..self.t_s.len()).map(|i| cols.iter().map(|(_, c)| c.get(i).copied().unwrap_or(f64::NAN)).collect());
         write_table(path, &header, rows)

@@ -5,7 +5,7 @@
 use std::path::Path;
 
 pub use super::table::TableError as RecordingError;
-use super::table::{col, column_set, read_table_mapped, write_table, ColumnMap, ColumnSet};
+use super::table::{col, column_set, present_columns, read_table_mapped, take_columns, write_table, ColumnMap, ColumnSet};
 
 /// A recording, column by column (NaN where not available).
 #[derive(Debug, Clone, Default)]
@@ -106,11 +106,7 @@ impl Recording {
         let mag: Vec<[f64; 3]> = mx.into_iter().zip(my).zip(mz).map(|((x, y), z)| [x, y, z]).collect();
         super::table::check_outliers(&mag, path)?;
         let mut rec = Recording { mag, ..Recording::default() };
-        for name in Self::NAMES {
-            if let Some(slot) = rec.column_slot(name) {
-                *slot = t.take(name);
-            }
-        }
+        take_columns(&mut rec, &mut t);
         Ok(rec)
     }
 
@@ -124,7 +120,7 @@ impl Recording {
     /// rest.
     pub fn write_with_extra(&self, path: &Path, extra: &[(&str, &[f64])]) -> Result<(), RecordingError> {
         use col::*;
-        let mut cols: Vec<(&str, &[f64])> = Self::NAMES.iter().filter(|n| **n != T).filter_map(|&n| self.column(n).map(|c| (n, c))).collect();
+        let mut cols: Vec<(&str, &[f64])> = present_columns(self).into_iter().filter(|(n, _)| *n != T).collect();
         cols.extend(extra.iter().copied().filter(|(n, _)| *n != T));
         let t = self.t_s.as_deref().or_else(|| extra.iter().find(|(n, _)| *n == T).map(|(_, c)| *c));
         let mut header: Vec<&str> = t.map(|_| T).into_iter().collect();

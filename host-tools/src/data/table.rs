@@ -190,6 +190,21 @@ pub trait ColumnSet {
     fn column_slot(&mut self, name: &str) -> Option<&mut Option<Vec<f64>>>;
 }
 
+/// Fills each optional column of `log` that `table` has, by name.
+pub(crate) fn take_columns<C: ColumnSet>(log: &mut C, table: &mut Table) {
+    for name in C::NAMES {
+        if let Some(slot) = log.column_slot(name) {
+            *slot = table.take(name);
+        }
+    }
+}
+
+/// The columns `log` has, by name, in its list's order (what its writer
+/// writes).
+pub(crate) fn present_columns<C: ColumnSet>(log: &C) -> Vec<(&'static str, &[f64])> {
+    C::NAMES.iter().filter_map(|&n| log.column(n).map(|c| (n, c))).collect()
+}
+
 /// Implements [`ColumnSet`] from `required: NAME => field, …; optional:
 /// NAME => field, …` (`Vec<f64>` and `Option<Vec<f64>>` fields).
 macro_rules! column_set {

@@ -18,56 +18,28 @@ pub(super) struct Counts {
     pub(super) saturated: usize,
 }
 
-fn push(col: &mut Option<Vec<f64>>, v: f64) {
-    if let Some(c) = col.as_mut() {
-        c.push(v);
-    }
-}
-
-/// An empty recording with the columns the logs have: every column of the
-/// registry's that both logs hold ([`merged_columns`]) and the navigation
-/// log has, and the board's temperature.
-fn empty(board: &BoardLog, nav: &NavLog) -> (Recording, MergedExtra) {
-    let mut rec = Recording { t_s: Some(vec![]), ..Recording::default() };
-    for c in merged_columns().filter(|c| nav.column(c.name).is_some()) {
-        if let Some(slot) = rec.column_slot(c.name) {
-            *slot = Some(Vec::new());
-        }
-    }
-    let opt = |c: &Option<Vec<f64>>| c.as_ref().map(|_| Vec::new());
-    rec.temp_c = opt(&board.temp_c);
-    (rec, MergedExtra { t_board_s: vec![], heading_deg: opt(&nav.heading_deg) })
-}
-
-/// A navigation column at bracket `b` (NaN without one), as the registry
-/// says it is resampled.
-fn resampled(c: &Column, values: &[f64], b: Option<Bracket>) -> f64 {
-    b.map_or(f64::NAN, |b| match c.interp {
-        Interp::Linear => b.lerp(values),
-        Interp::Angle180 => b.lerp_angle_deg(values, false),
-        Interp::Heading360 => b.lerp_angle_deg(values, true),
-    })
-}
-
-/// Appends the navigation columns at bracket `b` (NaN without one).
-fn push_nav(rec: &mut Recording, extra: &mut MergedExtra, nav: &NavLog, b: Option<Bracket>) {
-    for c in merged_columns() {
-        if let (Some(values), Some(Some(out))) = (nav.column(c.name), rec.column_slot(c.name)) {
-            out.push(resampled(c, values, b));
-        }
-    }
-    if let (Some(values), Some(c)) = (&nav.heading_deg, column_spec(col::HEADING_DEG)) {
-        push(&mut extra.heading_deg, resampled(c, values, b));
-    }
+/// A navigation column at each row's bracket (NaN without one), as the
+/// registry says it is resampled.
+fn resampled(c: &Column, values: &[f64], brackets: &[Option<Bracket>]) -> Vec<f64> {
+    let at = |b: &Option<Bracket>| {
+        b.map_or(f64::NAN, |b| match c.interp {
+            Interp::Linear => b.lerp(values),
+            Interp::Angle180 => b.lerp_angle_deg(values, false),
+            Interp::Heading360 => b.lerp_angle_deg(values, true),
+        })
+    };
+    brackets.iter().map(at).collect()
 }
 
 /// The board samples within the navigation log's span, on the navigation
-/// clock of `map`, with the navigation columns interpolated to them.
+/// clock of `map`, with the navigation columns interpolated to them: each
+/// row's bracket found once, then each column the registry merges
+/// ([`merged_columns`]) that the navigation log has, resampled in one pass.
 pub(super) fn rows(board: &BoardLog, nav: &NavLog, map: &ClockMap) -> (Recording, MergedExtra, Counts) {
     let nav_gap = (5.0 * median_interval(&nav.t_s)).max(1.0);
     let (n0, n1) = (nav.t_s[0], *nav.t_s.last().unwrap_or(&nav.t_s[0]));
-    let (mut rec, mut extra) = empty(board, nav);
     let mut counts = Counts { outside: 0, in_gaps: 0, saturated: 0 };
+    let (mut t_s, mut mag, mut t_board_s, mut brackets, mut kept) = (vec![], vec![], vec![], vec![], vec![]);
     for (i, (&tb, &m)) in board.t_s.iter().zip(&board.mag).enumerate() {
         let tn = map.to_nav(tb);
         if !(tn >= n0 && tn <= n1) {
@@ -82,11 +54,22 @@ pub(super) fn rows(board: &BoardLog, nav: &NavLog, map: &ClockMap) -> (Recording
         if bad {
             counts.saturated += 1;
         }
-        rec.mag.push(if bad { [f64::NAN; 3] } else { m });
-        push(&mut rec.t_s, tn);
-        push_nav(&mut rec, &mut extra, nav, b);
-        extra.t_board_s.push(tb);
-        board.temp_c.as_ref().inspect(|c| push(&mut rec.temp_c, c[i]));
+        mag.push(if bad { [f64::NAN; 3] } else { m });
+        t_s.push(tn);
+        t_board_s.push(tb);
+        brackets.push(b);
+        kept.push(i);
     }
-    (rec, extra, counts)
+    let mut rec = Recording { t_s: Some(t_s), mag, ..Recording::default() };
+    for c in merged_columns() {
+        if let (Some(values), Some(slot)) = (nav.column(c.name), rec.column_slot(c.name)) {
+            *slot = Some(resampled(c, values, &brackets));
+        }
+    }
+    rec.temp_c = board.temp_c.as_ref().map(|c| kept.iter().map(|&i| c.get(i).copied().unwrap_or(f64::NAN)).collect());
+    let heading_deg = match (&nav.heading_deg, column_spec(col::HEADING_DEG)) {
+        (Some(values), Some(c)) => Some(resampled(c, values, &brackets)),
+        _ => None,
+    };
+    (rec, MergedExtra { t_board_s, heading_deg }, counts)
 }
