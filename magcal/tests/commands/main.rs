@@ -26,6 +26,7 @@ mod card;
 mod cli;
 mod columns;
 mod export;
+mod hostile;
 mod import;
 mod input_checks;
 mod log;
