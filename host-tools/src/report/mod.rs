@@ -41,8 +41,27 @@ use error::io;
 use page::Page;
 use sections::Context;
 
+/// The page's file name in the report's folder.
+pub const INDEX: &str = "index.html";
+/// The deviation card's files in the report's folder: text, CSV, JSON.
+pub const CARD_FILES: [&str; 3] = ["deviation_card.txt", "deviation_card.csv", "deviation_card.json"];
+
+/// Checks the report's folder before any work: made when missing, and
+/// each file a report may write there ([`INDEX`], [`CARD_FILES`]) checked
+/// by [`crate::files::check_output`] against every input (the recordings
+/// and documents the report reads): an input under one of these names —
+/// the same file on disk, through any link — is refused, never overwritten.
+pub fn check_outputs(dir: &Path, inputs: &[&Path]) -> Result<(), ReportError> {
+    std::fs::create_dir_all(dir).map_err(io(dir))?;
+    for name in std::iter::once(INDEX).chain(CARD_FILES) {
+        crate::files::check_output(&dir.join(name), inputs)?;
+    }
+    Ok(())
+}
+
 /// Writes `index.html` (self-contained) into `dir` and, when the inputs
-/// allow, the deviation card as `deviation_card.txt`, `.csv` and `.json`.
+/// allow, the deviation card as `deviation_card.txt`, `.csv` and `.json`
+/// (check them against the inputs first: [`check_outputs`]).
 pub fn write_report(dir: &Path, inputs: &ReportInputs<'_>) -> Result<WrittenReport, ReportError> {
     std::fs::create_dir_all(dir).map_err(io(dir))?;
     let cx = Context::new(inputs)?;
@@ -60,7 +79,7 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs<'_>) -> Result<WrittenRepo
         Some(s) => format!("Magnetometer calibration report — {}", date_of_decimal_year(s.decimal_year)),
         None => "Magnetometer calibration report".into(),
     };
-    let index = dir.join("index.html");
+    let index = dir.join(INDEX);
     crate::files::write_text_atomic(&index, &page.html(&title))?;
     Ok(WrittenReport { index, card, figures: page.figures, missing: page.missing })
 }

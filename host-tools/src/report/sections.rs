@@ -232,11 +232,9 @@ fn card_section(page: &mut Page, dir: &Path, card: &DeviationCard, against: &str
 
 /// Writes the card as `deviation_card.txt`, `.csv` and `.json` in `dir`.
 pub fn write_card(dir: &Path, card: &DeviationCard, against: &str) -> Result<CardFiles, ReportError> {
-    let text = dir.join("deviation_card.txt");
+    let [text, csv, json] = super::CARD_FILES.map(|name| dir.join(name));
     crate::files::write_text_atomic(&text, &format!("Deviation card against the {against}\n{}", card.to_text()))?;
-    let csv = dir.join("deviation_card.csv");
     card.write_csv(&csv)?;
-    let json = dir.join("deviation_card.json");
     let body = serde_json::to_string_pretty(card)?;
     crate::files::write_text_atomic(&json, &body)?;
     Ok(CardFiles { text, csv, json, against: against.into() })

@@ -37,7 +37,8 @@ pub struct Args {
     json: bool,
 }
 
-/// Set by SIGINT/SIGTERM: the log ends cleanly at the next sample.
+/// Set by SIGINT, SIGTERM and SIGHUP (the terminal closed): the log ends
+/// cleanly at the next sample, keeping what it logged.
 static STOP: AtomicBool = AtomicBool::new(false);
 
 extern "C" fn on_signal(_: libc::c_int) {
@@ -47,9 +48,12 @@ extern "C" fn on_signal(_: libc::c_int) {
 fn catch_interrupts() {
     let handler = on_signal as extern "C" fn(libc::c_int) as libc::sighandler_t;
     // SAFETY: the handler only stores to an atomic (async-signal-safe).
+    // It replaces the handler that removes temporaries on these signals
+    // (`host_tools::files`): the log's own file is ended by `finish`.
     unsafe {
         libc::signal(libc::SIGINT, handler);
         libc::signal(libc::SIGTERM, handler);
+        libc::signal(libc::SIGHUP, handler);
     }
 }
 
@@ -63,14 +67,14 @@ pub fn run(a: Args) -> Result<()> {
     if !(1..=100).contains(&a.rate_hz) {
         bail!("--rate-hz must be 1 to 100, not {}", a.rate_hz);
     }
-    let file = create_log_file(&a.out, a.force).map_err(|e| hinted(e, |e| matches!(e, LogError::Exists(_)).then_some("give another --out, or --force to overwrite it")))?;
+    let mut file = create_log_file(&a.out, a.force).map_err(|e| hinted(e, |e| matches!(e, LogError::Exists(_)).then_some("give another --out, or --force to overwrite it")))?;
     let opts = LogOptions { duration, rate_hz: a.rate_hz, interactive: std::io::stderr().is_terminal(), ..LogOptions::default() };
     catch_interrupts();
     let total = duration.map_or(0, |d| (d.as_secs_f64() * f64::from(a.rate_hz)) as usize);
     let mut progress = Progress::new("log", total, opts.interactive);
     let port = a.port.clone();
     let mut connect = move || BoardClient::open(&port);
-    let result = log_board(&mut connect, file, a.out.clone(), &opts, &STOP, |p| {
+    let result = log_board(&mut connect, &mut file, a.out.clone(), &opts, &STOP, |p| {
         let line = if p.link_down {
             format!("link down, reconnecting (drops {}, gaps {})", p.link_drops, p.gaps)
         } else {
@@ -79,16 +83,15 @@ pub fn run(a: Args) -> Result<()> {
         progress.update((p.samples as usize).saturating_sub(1), &line);
     });
     progress.finish();
-    let s = match result {
-        Ok(s) => s,
-        Err(e) => {
-            // Nothing was logged: do not leave an empty file behind.
-            if std::fs::metadata(&a.out).is_ok_and(|m| m.len() <= 30) {
-                let _ = std::fs::remove_file(&a.out);
-            }
-            return Err(e.into());
-        }
-    };
+    // The file ends first: a log that holds samples is kept (a replacing
+    // one renamed over the old log), one that does not never replaces it.
+    let (replaces, samples) = (file.replaces(), file.holds_samples());
+    let ended = file.finish(result.is_ok());
+    let s = result?;
+    ended?;
+    if replaces && !samples {
+        eprintln!("note: no samples were logged: {} is kept as it was", a.out.display());
+    }
     eprintln!("{}", describe(&s));
     eprintln!("integrity: {}", integrity_text(&s.integrity));
     if let Some(e) = &s.recalibrate {

@@ -11,7 +11,7 @@ use host_tools::compute::card::read_reference_column;
 use host_tools::data::results::{SessionSettings, SessionSummary};
 use host_tools::data::CalDoc;
 use host_tools::geomag::Site;
-use host_tools::report::{write_report, ReportInputs, Validation};
+use host_tools::report::{check_outputs, write_report, ReportInputs, Validation};
 
 use super::SiteArgs;
 
@@ -91,6 +91,13 @@ pub fn run(a: Args) -> Result<()> {
     if run_path.is_none() && swing_path.is_none() && validation_path.is_none() && cal_paths.is_empty() {
         bail!("nothing to report: give --session DIR (a session's folder) or at least one of --run, --swing-input, --validation, --cal");
     }
+    let before_path = a.before.clone().or_else(|| in_session(dir, "cal_before.json"));
+    let (summary_path, settings_path) = (in_session(dir, "summary.json"), in_session(dir, "settings.json"));
+    // Every file the report writes, against every file it reads, before
+    // any work (a recording in the report's folder under a card's name was
+    // replaced by the card, issue 37).
+    let read: Vec<&Path> = [&run_path, &swing_path, &validation_path, &before_path, &summary_path, &settings_path].into_iter().flatten().map(PathBuf::as_path).chain(cal_paths.iter().map(PathBuf::as_path)).collect();
+    check_outputs(&out, &read).map_err(|e| anyhow::anyhow!("--out {e}"))?;
 
     let run = run_path.as_deref().map(|p| a.columns.read(p)).transpose()?;
     let swing = swing_path.as_deref().map(|p| a.columns.read(p)).transpose()?;
@@ -107,15 +114,15 @@ pub fn run(a: Args) -> Result<()> {
     };
     let docs = cal_paths.iter().map(|p| CalDoc::load(p)).collect::<Result<Vec<_>, _>>()?;
     let labels = cal_paths.iter().map(|p| p.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default());
-    let before = match (&a.before, in_session(dir, "cal_before.json")) {
+    let before = match (&a.before, before_path) {
         (Some(p), _) => Some(CalDoc::load(p)?),
         // The session saves the board's previous set unchecked: one that
         // does not pass as a calibration is left out, saying so.
         (None, Some(p)) => CalDoc::load(&p).map_err(|e| eprintln!("leaving out the coefficients before the session: {e}")).ok(),
         (None, None) => None,
     };
-    let summary: Option<SessionSummary> = in_session(dir, "summary.json").map(|p| read_json(&p)).transpose()?;
-    let settings: Option<SessionSettings> = in_session(dir, "settings.json").map(|p| read_json(&p)).transpose()?;
+    let summary: Option<SessionSummary> = summary_path.map(|p| read_json(&p)).transpose()?;
+    let settings: Option<SessionSettings> = settings_path.map(|p| read_json(&p)).transpose()?;
     let site = match a.site.site()? {
         Some(s) => Some(s),
         None if a.site.any() => bail!("give all of --lat, --lon and --date (or none)"),

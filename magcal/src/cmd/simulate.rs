@@ -2,7 +2,8 @@
 
 use std::path::PathBuf;
 
-use anyhow::Result;
+use anyhow::{Context, Result};
+use host_tools::files;
 use clap::ValueEnum;
 use magcal_sim::effects::Effects;
 use magcal_sim::field_test::{self, paper_site, truth_path, GyroModel, RunKind, RunParams, SensorModel, Simulation};
@@ -113,10 +114,25 @@ pub struct Args {
 
 /// Runs `magcal simulate`.
 pub fn run(a: Args) -> Result<()> {
-    super::check_out("--out", &a.out, &[])?;
-    let simulation = simulate(&a)?;
-    simulation.write(&a.out)?;
+    // Both targets checked before the work; both written, then both
+    // renamed: a truth that cannot be written leaves the old recording (it
+    // was replaced, then the truth failed, issue 37).
     let truth = truth_path(&a.out);
+    super::check_out("--out", &a.out, &[])?;
+    super::check_out("--out's truth", &truth, &[&a.out])?;
+    let simulation = simulate(&a)?;
+    files::write_together(&[&a.out, &truth], |temps: &[PathBuf]| -> Result<()> {
+        // The simulation names its truth after its CSV, as the temporaries are named.
+        simulation.write(&temps[0])?;
+        let written = truth_path(&temps[0]);
+        if written != temps[1] {
+            // (The CSV is a link into another folder.)
+            let moved = std::fs::rename(&written, &temps[1]);
+            let _ = std::fs::remove_file(&written);
+            moved.with_context(|| format!("{}: writing the truth", truth.display()))?;
+        }
+        Ok(())
+    })?;
     eprintln!("wrote {} ({} rows) and {}", a.out.display(), simulation.recording.len(), truth.display());
     if a.json {
         println!("{}", json!({"csv": a.out, "truth": truth, "rows": simulation.recording.len(), "site": simulation.truth.site, "effects": a.effects.list()}));
