@@ -7,7 +7,7 @@
 //! calls the `host-tools` library (or `magcal-sim` for `simulate` and the
 //! simulated vehicle) and formats the output.
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
 mod cmd;
 
@@ -68,8 +68,49 @@ enum Cmd {
     Log(cmd::log::Args),
 }
 
+/// The command line, parsed: every subcommand takes a negative number as
+/// an option's value (`--max-delay-s -2`, `--lat -33.9`), so its own range
+/// check answers instead of clap's "unexpected argument".
+/// A value out of its stated range is a failure like any other: one line
+/// on stderr and status 1 (clap's usage errors, help and version as clap
+/// gives them).
+fn parse() -> Cli {
+    let command = Cli::command().mut_subcommands(|s| s.allow_negative_numbers(true));
+    let parsed = command.try_get_matches().and_then(|m| Cli::from_arg_matches(&m));
+    parsed.unwrap_or_else(|e| {
+        use clap::error::ErrorKind;
+        if matches!(e.kind(), ErrorKind::ValueValidation | ErrorKind::InvalidValue) {
+            let text = e.to_string();
+            let line = text.lines().next().unwrap_or_default();
+            eprintln!("magcal: {}", line.strip_prefix("error: ").unwrap_or(line));
+            std::process::exit(1);
+        }
+        e.exit()
+    })
+}
+
+/// The process's signals, set once before any work.
+fn set_signals() {
+    #[cfg(unix)]
+    {
+        // A closed stdout (`magcal card --json | head -c 10`) ends the
+        // command as it ends any Unix tool, quietly by SIGPIPE: Rust
+        // ignores SIGPIPE, so the next print panicked. Files are written
+        // before anything is printed, so none is left half done.
+        // SAFETY: restoring a signal's default action, before any thread.
+        unsafe {
+            libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+        }
+        // Temporaries removed on SIGINT, SIGTERM and SIGHUP.
+        if let Err(e) = host_tools::files::remove_temporaries_on_signals() {
+            eprintln!("warning: temporary files would not be removed on a signal: {e}");
+        }
+    }
+}
+
 fn main() {
-    let cli = Cli::parse();
+    set_signals();
+    let cli = parse();
     let result = match cli.command {
         Cmd::Simulate(a) => cmd::simulate::run(a),
         Cmd::Session(a) => cmd::session::run(a),

@@ -22,13 +22,17 @@ use serde::{Deserialize, Serialize};
 use super::truth::true_headings_rad;
 use super::units::check_units;
 use super::error::ComputeError;
-use crate::data::table::{read_column, write_cells, Cell as TableCell, TableError};
+use crate::data::table::{column_spec, read_column, write_cells, Cell as TableCell, Quantity, TableError};
 use crate::data::compass::{CompassDoc, CompassLog};
 use crate::data::{CalDoc, Recording};
 use super::compass::compass_pairs;
 
 /// The 16 compass points from north, clockwise.
 pub const POINTS_16: [&str; 16] = ["N", "NNE", "NE", "ENE", "E", "ESE", "SE", "SSE", "S", "SSW", "SW", "WSW", "W", "WNW", "NW", "NNW"];
+
+/// The sector widths a card takes, degrees: at least 0.1° (3 600 sectors,
+/// the most a card allocates whatever it is given), at most 180°.
+pub const STEP_DEG_RANGE: std::ops::RangeInclusive<f64> = 0.1..=180.0;
 
 /// Why a card could not be made.
 #[derive(Debug, thiserror::Error)]
@@ -46,9 +50,19 @@ pub enum CardError {
     /// The reference column is empty everywhere.
     #[error("no row has both a reference heading (`ref_heading_deg`) and the heading (the magnetometer with roll and pitch, or a compass heading at its time): nothing to put on the card")]
     NoUsableRows,
-    /// The sector width does not divide the circle.
-    #[error("sectors of {0}° must divide 360° into whole sectors (e.g. 5, 10, 15, 22.5, 30, 45)")]
+    /// The sector width does not divide the circle or is outside
+    /// [`STEP_DEG_RANGE`].
+    #[error("sectors of {0}° must divide 360° into whole sectors and be 0.1° to 180° wide (e.g. 5, 10, 15, 22.5, 30, 45)")]
     BadStep(f64),
+    /// The reference column is one of the project's columns that is not a
+    /// heading (`mx` holds the field in counts or nT).
+    #[error("column `{column}` is {what}, not a heading: the card's reference must be a heading or course column (e.g. ref_heading_deg, true_heading_deg, compass_heading_deg, course_deg)")]
+    NotAHeading {
+        /// The column named.
+        column: String,
+        /// What it holds.
+        what: &'static str,
+    },
     /// The number of compass points is not 8 or 16.
     #[error("compass points must be 8 or 16, not {0}")]
     BadPoints(usize),
@@ -186,7 +200,8 @@ pub fn deviation_card(rec: &Recording, doc: &CalDoc, step_deg: f64, points: usiz
 /// The checked number of sectors for `step_deg`, and `points`.
 fn check_layout(step_deg: f64, points: usize) -> Result<usize, CardError> {
     let sectors = 360.0 / step_deg;
-    if !(step_deg.is_finite() && step_deg > 0.0 && step_deg <= 180.0 && (sectors - sectors.round()).abs() < 1e-9) {
+    // The range first: it bounds the sectors (and their allocation) to 3 600.
+    if !(STEP_DEG_RANGE.contains(&step_deg) && (sectors - sectors.round()).abs() < 1e-9) {
         return Err(CardError::BadStep(step_deg));
     }
     if points != 16 && points != 8 {
@@ -245,9 +260,26 @@ fn card_from_rows(rows: impl Iterator<Item = (f64, f64, f64)>, mut skipped: usiz
 /// One named column of a recording's CSV as the heading reference (a
 /// simulator's `true_heading_deg`, a lab's optical heading): the recording
 /// reader's rules ([`crate::data::table`]), an empty cell or `nan` is "not available". `Ok(None)`
-/// when the header has no such column.
+/// when the header has no such column. One of the project's columns that
+/// is not a heading (`mx`, `roll_deg`, `t`) is refused, naming what it holds;
+/// a column the project does not know (a lab's `optical_heading`) is taken.
 pub fn read_reference_column(path: &Path, column: &str) -> Result<Option<Vec<f64>>, CardError> {
+    check_reference_column(column)?;
     Ok(read_column(path, column)?)
+}
+
+/// Refuses a reference column that the column registry knows as something
+/// other than a heading ([`Quantity::Heading`]).
+pub fn check_reference_column(column: &str) -> Result<(), CardError> {
+    let what = match column_spec(column).map(|c| c.quantity) {
+        None | Some(Quantity::Heading) => return Ok(()),
+        Some(Quantity::Field) => "the magnetic field (nT, µT, gauss or counts)",
+        Some(Quantity::Angle) => "an attitude or position angle",
+        Some(Quantity::Rate) => "a body rate",
+        Some(Quantity::Time) => "a time",
+        Some(Quantity::Other) => "a quantity that is not an angle",
+    };
+    Err(CardError::NotAHeading { column: column.into(), what })
 }
 
 fn fmt_deg(v: f64) -> String {
@@ -371,6 +403,21 @@ mod tests {
         let mut rec = level_recording(&h, [0.0; 3]);
         let doc = identity_doc();
         assert!(matches!(deviation_card(&rec, &doc, 7.0, 16), Err(CardError::BadStep(_))));
+        // 1e-300° divides 360 (3.6e302 sectors, a whole number in f64):
+        // refused, not allocated (a capacity overflow, issue 37); 0.05°
+        // (7 200 sectors) is below the range.
+        for step in [1e-300, 1e-7, 0.05, 360.0, f64::NAN] {
+            assert!(matches!(deviation_card(&rec, &doc, step, 16), Err(CardError::BadStep(_))), "{step}");
+        }
+        assert_eq!(deviation_card(&level_recording(&h, [0.0; 3]), &doc, 0.1, 16).unwrap().by_heading.len(), 3600);
+        // A registry column that is not a heading is no reference.
+        for (column, what) in [("mx", "magnetic field"), ("roll_deg", "attitude"), ("t", "time"), ("temp_c", "not an angle")] {
+            let e = check_reference_column(column).unwrap_err();
+            assert!(e.to_string().starts_with(&format!("column `{column}` is")) && e.to_string().contains(what), "{e}");
+        }
+        for column in ["ref_heading_deg", "true_heading_deg", "course_deg", "optical_heading"] {
+            check_reference_column(column).unwrap();
+        }
         assert!(matches!(deviation_card(&rec, &doc, 15.0, 4), Err(CardError::BadPoints(4))));
         rec.ref_heading_deg = Some(vec![f64::NAN; 2]);
         assert!(matches!(deviation_card(&rec, &doc, 15.0, 16), Err(CardError::NoUsableRows)));

@@ -5,7 +5,7 @@
 use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
-use host_tools::compute::card::{compass_card, deviation_card, read_reference_column, CardError, DeviationCard};
+use host_tools::compute::card::{compass_card, deviation_card, check_reference_column, read_reference_column, CardError, DeviationCard, STEP_DEG_RANGE};
 use host_tools::data::compass::Document;
 
 use super::hinted;
@@ -26,11 +26,11 @@ pub struct Args {
     /// The column holding the reference (or truth) heading, degrees true.
     #[arg(long, default_value = "ref_heading_deg")]
     reference_column: String,
-    /// Width of the heading sectors, degrees (must divide 360).
-    #[arg(long, default_value_t = 15.0)]
+    /// Width of the heading sectors, degrees (0.1 to 180; must divide 360).
+    #[arg(long, default_value_t = 15.0, value_parser = super::number_in(STEP_DEG_RANGE, "degrees"))]
     step_deg: f64,
     /// Compass points: 16 (N, NNE, …) or 8 (N, NE, …).
-    #[arg(long, default_value_t = 16)]
+    #[arg(long, default_value_t = 16, value_parser = compass_points)]
     points: usize,
     /// Also write the card as CSV here.
     #[arg(long)]
@@ -42,6 +42,8 @@ pub struct Args {
 
 /// Runs `magcal card`.
 pub fn run(a: Args) -> Result<()> {
+    // `mx` is counts, not a heading (it was taken as one, issue 37).
+    check_reference_column(&a.reference_column).map_err(|e| hinted(e, |_| Some("name a heading column with --reference-column")))?;
     if let Some(csv) = &a.csv {
         super::check_out("--csv", csv, &[&a.input, &a.cal])?;
     }
@@ -83,4 +85,13 @@ fn print_card(a: &Args, card: &DeviationCard) -> Result<()> {
         print!("{}", card.to_text());
     }
     Ok(())
+}
+
+/// `--points`: 8 or 16.
+fn compass_points(text: &str) -> Result<usize, String> {
+    match text.trim() {
+        "8" => Ok(8),
+        "16" => Ok(16),
+        _ => Err("must be 8 or 16".into()),
+    }
 }

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
-use anyhow::{bail, Result};
+use anyhow::Result;
 use host_tools::board::log::{create_log_file, log_board, LogEnd, LogError, LogOptions, LogSummary, LOGGED_SAMPLES};
 use host_tools::integrity_evidence::{integrity_text, recalibrate_text};
 use host_tools::board::BoardClient;
@@ -23,11 +23,11 @@ pub struct Args {
     /// The board log to write (CSV: t, mx, my, mz, temp_c, health).
     #[arg(long)]
     out: PathBuf,
-    /// Stop after this many seconds (default: until Ctrl-C).
-    #[arg(long)]
+    /// Stop after this many seconds, 0.1 s to 30 days (default: until Ctrl-C).
+    #[arg(long, value_parser = super::number_in(0.1..=2_592_000.0, "s"))]
     duration_s: Option<f64>,
     /// The board's output rate, Hz (1–100).
-    #[arg(long, default_value_t = 100)]
+    #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u8).range(1..=100))]
     rate_hz: u8,
     /// Overwrite --out if it exists.
     #[arg(long)]
@@ -59,14 +59,8 @@ fn catch_interrupts() {
 
 /// Runs `magcal log`.
 pub fn run(a: Args) -> Result<()> {
-    let duration = match a.duration_s {
-        Some(d) if d > 0.0 && d.is_finite() => Some(Duration::from_secs_f64(d)),
-        Some(d) => bail!("--duration-s must be a positive number of seconds, not {d}"),
-        None => None,
-    };
-    if !(1..=100).contains(&a.rate_hz) {
-        bail!("--rate-hz must be 1 to 100, not {}", a.rate_hz);
-    }
+    // (Both in range: their parsers.)
+    let duration = a.duration_s.map(Duration::from_secs_f64);
     let mut file = create_log_file(&a.out, a.force).map_err(|e| hinted(e, |e| matches!(e, LogError::Exists(_)).then_some("give another --out, or --force to overwrite it")))?;
     let opts = LogOptions { duration, rate_hz: a.rate_hz, interactive: std::io::stderr().is_terminal(), ..LogOptions::default() };
     catch_interrupts();

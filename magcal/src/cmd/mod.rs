@@ -274,3 +274,20 @@ pub fn hinted<E: std::error::Error + Send + Sync + 'static>(e: E, hint_for: impl
         None => e.into(),
     }
 }
+
+/// A clap value parser for an `f64` option within `range` (both ends
+/// included), in `unit`: a number outside it, NaN or an infinity is
+/// refused as the command line is parsed, saying the range (issue 37: every
+/// numeric option has a stated range in its parser).
+pub fn number_in(range: std::ops::RangeInclusive<f64>, unit: &'static str) -> impl Fn(&str) -> Result<f64, String> + Clone + Send + Sync + 'static {
+    move |text: &str| {
+        let v: f64 = text.trim().parse().map_err(|_| format!("not a number (give one within {} … {} {unit})", range.start(), range.end()))?;
+        if range.contains(&v) {
+            Ok(v)
+        } else if !v.is_finite() {
+            Err(format!("must be finite, within {} … {} {unit}", range.start(), range.end()))
+        } else {
+            Err(format!("must be within {} … {} {unit}", range.start(), range.end()))
+        }
+    }
+}

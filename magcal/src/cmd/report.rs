@@ -44,8 +44,9 @@ pub struct Args {
     /// The coefficients before the calibration (the validation's "before").
     #[arg(long)]
     before: Option<PathBuf>,
-    /// Reference intensity for the field figure, nT (default: IGRF at the site).
-    #[arg(long)]
+    /// Reference intensity for the field figure, nT (10 000 to 100 000;
+    /// default: IGRF at the site).
+    #[arg(long, value_parser = field_nt)]
     field_nt: Option<f64>,
     #[command(flatten)]
     site: SiteArgs,
@@ -55,6 +56,13 @@ pub struct Args {
     /// Print what was written as JSON.
     #[arg(long)]
     json: bool,
+}
+
+/// `--field-nt`: an intensity at the Earth's surface, nT ([`super::check_field_nt`]).
+fn field_nt(text: &str) -> Result<f64, String> {
+    let v: f64 = text.trim().parse().map_err(|_| "not a number of nT".to_string())?;
+    super::check_field_nt(v, "the intensity").map_err(|e| e.to_string())?;
+    Ok(v)
 }
 
 fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T> {

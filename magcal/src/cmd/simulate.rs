@@ -55,36 +55,36 @@ pub struct Args {
     /// Output CSV.
     #[arg(long)]
     out: PathBuf,
-    /// Sample rate, Hz.
-    #[arg(long, default_value_t = 5.0)]
+    /// Sample rate, Hz (0.1 to 1000).
+    #[arg(long, default_value_t = 5.0, value_parser = super::number_in(0.1..=1000.0, "Hz"))]
     rate_hz: f64,
     /// The vehicle's error model.
     #[arg(long, value_enum, default_value = "paper-like")]
     vehicle: Hull,
-    /// Runs: speed of the current, m/s.
-    #[arg(long)]
+    /// Runs: speed of the current, m/s (0 to 10, slower than the vehicle).
+    #[arg(long, value_parser = super::number_in(0.0..=10.0, "m/s"))]
     current_mps: Option<f64>,
-    /// Runs: direction the current flows towards, degrees true.
-    #[arg(long, allow_hyphen_values = true)]
+    /// Runs: direction the current flows towards, degrees true (−360 to 360).
+    #[arg(long, allow_hyphen_values = true, value_parser = super::number_in(-360.0..=360.0, "degrees"))]
     current_to_deg: Option<f64>,
-    /// Runs: GPS course delay, seconds.
-    #[arg(long)]
+    /// Runs: GPS course delay, seconds (0 to 60).
+    #[arg(long, value_parser = super::number_in(0.0..=60.0, "s"))]
     gps_delay_s: Option<f64>,
     /// Runs: the base parameters (`paper`, or `effects`: the bench's effects
     /// runs); the flags below change them.
     #[arg(long, value_enum, default_value = "paper")]
     runs: Runs,
-    /// Runs: length of each leg, metres (at most 100 000).
-    #[arg(long)]
+    /// Runs: length of each leg, metres (1 to 100 000).
+    #[arg(long, value_parser = super::number_in(1.0..=100_000.0, "m"))]
     leg_m: Option<f64>,
-    /// Runs: speed through water on the outbound leg, m/s (at most 10).
-    #[arg(long)]
+    /// Runs: speed through water on the outbound leg, m/s (0.01 to 10).
+    #[arg(long, value_parser = super::number_in(0.01..=10.0, "m/s"))]
     speed_mps: Option<f64>,
-    /// Swing test: roll amplitude, degrees (paper: 55).
-    #[arg(long, default_value_t = 55.0)]
+    /// Swing test: roll amplitude, degrees (0 to 90; paper: 55).
+    #[arg(long, default_value_t = 55.0, value_parser = super::number_in(0.0..=90.0, "degrees"))]
     roll_amp_deg: f64,
-    /// Swing test: pitch amplitude, degrees (paper: 10).
-    #[arg(long, default_value_t = 10.0)]
+    /// Swing test: pitch amplitude, degrees (0 to 90; paper: 10).
+    #[arg(long, default_value_t = 10.0, value_parser = super::number_in(0.0..=90.0, "degrees"))]
     pitch_amp_deg: f64,
     /// Record a MEMS gyro too (`gx, gy, gz`: bias, noise, a small misalignment).
     #[arg(long)]
@@ -104,8 +104,9 @@ pub struct Args {
     /// yaw segment and step the thrusters (0, 2, 5, 10, 5, 0 A).
     #[arg(long)]
     thrust_test: bool,
-    /// Runs: speed through water on the return leg, m/s (default: the outbound speed).
-    #[arg(long)]
+    /// Runs: speed through water on the return leg, m/s (0.01 to 10;
+    /// default: the outbound speed).
+    #[arg(long, value_parser = super::number_in(0.01..=10.0, "m/s"))]
     speed_back_mps: Option<f64>,
     /// Print a JSON summary on stdout.
     #[arg(long)]

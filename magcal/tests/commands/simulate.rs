@@ -51,7 +51,7 @@ fn size_flags_are_bounded_with_the_limit_named() {
         (vec!["--speed-mps", "50"], "10 m/s"),
         (vec!["--leg-m", "100000", "--speed-mps", "0.2", "--rate-hz", "50"], "1e6 rows"),
         (vec!["--rate-hz", "5000"], "1000 Hz"),
-        (vec!["--leg-m", "NaN"], "must be positive"),
+        (vec!["--leg-m", "NaN"], "must be finite"),
         (vec!["--current-to-deg", "inf"], "must be finite"),
     ] {
         let mut all = vec!["simulate", "run", "--out", p(&out)];

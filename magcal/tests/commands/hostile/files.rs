@@ -203,3 +203,155 @@ fn a_folder_that_cannot_be_written_is_refused_before_the_work() {
     }
     set_mode(&locked, 0o755);
 }
+
+/// `card --step-deg 1e-300`: exit 101 (capacity overflow); `1e-7`: an
+/// abort allocating 115 GB. The step has a stated range in its parser, and
+/// the library's own check bounds the sectors to 3 600.
+#[test]
+fn card_step_out_of_its_range_is_refused_without_allocating() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = swing(dir.path(), "swing.csv");
+    let cal = calibration(dir.path(), &rec);
+    for step in ["1e-300", "1e-7", "0", "-15", "nan", "inf", "400"] {
+        let started = std::time::Instant::now();
+        let out = magcal(&["card", "--input", p(&rec), "--cal", p(&cal), "--reference-column", "true_heading_deg", "--step-deg", step]);
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(1), "{step}: {err}");
+        assert!(err.contains("--step-deg") && err.contains("0.1 … 180 degrees") && !err.contains("panicked"), "{step}: {err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{step}: {err}");
+        assert!(started.elapsed().as_secs_f64() < 5.0);
+    }
+    let out = magcal(&["card", "--input", p(&rec), "--cal", p(&cal), "--reference-column", "true_heading_deg", "--points", "4"]);
+    assert!(out.status.code() == Some(1) && stderr(&out).contains("--points") && stderr(&out).contains("8 or 16"), "{}", stderr(&out));
+}
+
+/// `card --reference-column mx` took the field's counts as a heading. The
+/// reference must be a heading column of the registry (or one the project
+/// does not know, a lab's own): `mx` is refused, saying what it holds.
+#[test]
+fn card_refuses_a_reference_column_that_is_not_a_heading() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = swing(dir.path(), "swing.csv");
+    let cal = calibration(dir.path(), &rec);
+    for (column, what) in [("mx", "the magnetic field"), ("roll_deg", "an attitude or position angle"), ("t", "a time")] {
+        let out = magcal(&["card", "--input", p(&rec), "--cal", p(&cal), "--reference-column", column]);
+        let err = stderr(&out);
+        assert!(!out.status.success() && out.stdout.is_empty(), "{column}: {err}");
+        assert!(err.contains(&format!("column `{column}` is {what}")) && err.contains("not a heading") && err.contains("--reference-column"), "{column}: {err}");
+    }
+    let out = magcal(&["card", "--input", p(&rec), "--cal", p(&cal), "--reference-column", "true_heading_deg"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    // The report's truth column is read through the same check.
+    let out = magcal(&["report", "--validation", p(&rec), "--cal", p(&cal), "--truth-column", "mx", "--out", p(&dir.path().join("rep"))]);
+    assert!(!out.status.success() && stderr(&out).contains("column `mx` is the magnetic field"), "{}", stderr(&out));
+}
+
+/// `card --json | head -c 10`: a panic on the closed pipe. A closed stdout
+/// ends the command quietly (SIGPIPE, as any Unix tool), with no panic
+/// message and no temporary left. The card at 0.5° (720 sectors, some
+/// 300 kB of JSON) overfills the pipe's 64 kB, so the write meets the
+/// closed pipe whatever the timing.
+#[cfg(unix)]
+#[test]
+fn a_closed_stdout_ends_the_command_quietly() {
+    use std::io::Read;
+    use std::os::unix::process::ExitStatusExt;
+    use std::process::{Command, Stdio};
+    let dir = tempfile::tempdir().unwrap();
+    let rec = swing(dir.path(), "swing.csv");
+    let cal = calibration(dir.path(), &rec);
+    let csv = dir.path().join("card.csv");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_magcal"))
+        .args(["card", "--input", p(&rec), "--cal", p(&cal), "--reference-column", "true_heading_deg", "--step-deg", "0.5", "--json", "--csv", p(&csv)])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut head = [0u8; 10];
+    child.stdout.take().unwrap().read_exact(&mut head).unwrap();
+    // (The read end is dropped here: the pipe is closed.)
+    let out = child.wait_with_output().unwrap();
+    let err = stderr(&out);
+    assert_eq!(&head[..1], b"{");
+    assert!(!err.contains("panicked") && !err.contains("Broken pipe"), "{err}");
+    assert!(out.status.success() || out.status.signal() == Some(libc_sigpipe()), "{:?}: {err}", out.status);
+    assert!(csv.is_file() && temporaries(dir.path()).is_empty());
+}
+
+/// SIGPIPE's number (13 on Linux and the BSDs).
+#[cfg(unix)]
+fn libc_sigpipe() -> i32 {
+    13
+}
+
+/// SIGTERM, SIGINT and SIGHUP left `.magcal-*.tmp` files (up to 2 MB)
+/// beside the output. A long simulation (400 000 rows, 64 MB) is signalled
+/// the moment its temporary appears: the temporary is removed, the old
+/// recording is kept, and the status is 128 + the signal.
+#[cfg(unix)]
+#[test]
+fn a_signal_mid_write_leaves_no_temporary_and_the_old_file() {
+    use std::process::{Command, Stdio};
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("big.csv");
+    std::fs::write(&out, "old recording\n").unwrap();
+    for (signal, number) in [("TERM", 15), ("INT", 2), ("HUP", 1), ("TERM", 15)] {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_magcal"))
+            .args(["simulate", "run", "--leg-m", "100000", "--speed-mps", "2", "--rate-hz", "4", "--out", p(&out)])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        let started = std::time::Instant::now();
+        while temporaries(dir.path()).is_empty() {
+            assert!(started.elapsed().as_secs() < 60, "no temporary appeared");
+            assert!(child.try_wait().unwrap().is_none(), "finished before it was signalled");
+            std::thread::sleep(std::time::Duration::from_millis(1));
+        }
+        let kill = Command::new("kill").args([&format!("-{signal}"), &child.id().to_string()]).status().unwrap();
+        assert!(kill.success());
+        let status = child.wait().unwrap();
+        assert_eq!(status.code(), Some(128 + number), "SIG{signal}: {status:?}");
+        assert!(temporaries(dir.path()).is_empty(), "SIG{signal}: {:?}", temporaries(dir.path()));
+        assert!(std::fs::read_to_string(&out).unwrap() == "old recording\n", "SIG{signal}: the old recording is lost");
+    }
+}
+
+/// Negative option values (`--max-delay-s -2`) were parsed as unknown
+/// flags. Every subcommand takes them as values: the command's own range
+/// check answers.
+#[test]
+fn a_negative_value_is_a_value_and_meets_its_range() {
+    let out = magcal(&["swing", "--input", "nowhere.csv", "--estimate-delay", "--max-delay-s", "-2"]);
+    let err = stderr(&out);
+    assert!(!out.status.success() && !err.contains("unexpected argument"), "{err}");
+    assert!(err.contains("--max-delay-s") && err.contains("-2"), "{err}");
+    let out = magcal(&["simulate", "swing", "--roll-amp-deg", "-5", "--out", "x.csv"]);
+    let err = stderr(&out);
+    assert!(out.status.code() == Some(1) && err.contains("--roll-amp-deg") && err.contains("0 … 90 degrees") && !err.contains("unexpected argument"), "{err}");
+}
+
+/// `report --field-nt 5` was accepted; every numeric option of report,
+/// card, simulate and log now has a stated range in its parser: one line,
+/// status 1, the range named, before any work.
+#[test]
+fn numeric_options_have_stated_ranges() {
+    let dir = tempfile::tempdir().unwrap();
+    let x = dir.path().join("x.csv");
+    let cases: [(&[&str], &str); 7] = [
+        (&["report", "--field-nt", "5", "--out", p(dir.path())], "5 nT is not a geomagnetic field intensity"),
+        (&["report", "--field-nt", "nan", "--out", p(dir.path())], "--field-nt"),
+        (&["simulate", "swing", "--rate-hz", "nan", "--out", p(&x)], "0.1 … 1000 Hz"),
+        (&["simulate", "run", "--gps-delay-s", "-1", "--out", p(&x)], "0 … 60 s"),
+        (&["log", "--port", "/nonexistent", "--out", p(&x), "--duration-s", "nan"], "0.1 … 2592000 s"),
+        (&["log", "--port", "/nonexistent", "--out", p(&x), "--rate-hz", "0"], "--rate-hz"),
+        (&["card", "--input", p(&x), "--cal", p(&x), "--step-deg", "inf"], "0.1 … 180 degrees"),
+    ];
+    for (args, says) in cases {
+        let out = magcal(args);
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
+        assert!(err.contains(says) && err.trim_end().lines().count() == 1, "{args:?}: {err}");
+        assert!(!x.exists());
+    }
+}
