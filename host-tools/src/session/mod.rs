@@ -65,6 +65,37 @@ const RECONNECT_ATTEMPTS: u32 = 5;
 /// Upload attempts (each on a fresh connection).
 const UPLOAD_ATTEMPTS: u32 = 3;
 
+/// The files a session writes into its folder (its report's go into
+/// `report/`, [`crate::report::check_outputs`]).
+pub const SESSION_FILES: [&str; 10] = [
+    "swing.csv",
+    "run.csv",
+    "validation.csv",
+    "validation_truth.csv",
+    "cal_step1.json",
+    "cal_backstep.json",
+    "cal_final.json",
+    "cal_before.json",
+    "settings.json",
+    "summary.json",
+];
+
+/// Checks the session's folder before the session (it takes the vehicle's
+/// time, so nothing may fail for a file at its end): made when missing,
+/// and each file the session and its report write checked by
+/// [`crate::files::check_output`] against `inputs` (the navigation
+/// streams: a stream in the folder under a session file's name would be
+/// overwritten) — a directory, a read-only file, a folder that cannot be
+/// written refused now.
+pub fn check_outputs(out_dir: &Path, inputs: &[&Path]) -> Result<(), SessionError> {
+    std::fs::create_dir_all(out_dir).map_err(|source| SessionError::File { path: out_dir.to_path_buf(), source })?;
+    for name in SESSION_FILES {
+        crate::files::check_output(&out_dir.join(name), inputs)?;
+    }
+    crate::report::check_outputs(&out_dir.join("report"), inputs)?;
+    Ok(())
+}
+
 /// The whole session with `vehicle`, over links opened by `connect`:
 /// swing test, out-and-back run, computation, verified upload and (when the
 /// vehicle has one) a validation run. Writes everything into `cfg.out_dir`
@@ -74,7 +105,7 @@ pub fn run<P: Read + Write>(
     connect: &mut dyn FnMut() -> Result<BoardClient<P>, ClientError>,
     cfg: &SessionConfig,
 ) -> Result<SessionSummary, SessionError> {
-    std::fs::create_dir_all(&cfg.out_dir).map_err(|source| SessionError::File { path: cfg.out_dir.clone(), source })?;
+    check_outputs(&cfg.out_dir, &[])?;
     let field = cfg.site.field().map_err(ComputeError::from)?;
     let mut link = connect()?;
     let id = link.identify()?;

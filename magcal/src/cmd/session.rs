@@ -69,6 +69,9 @@ pub fn run(a: Args) -> Result<()> {
     use std::io::IsTerminal;
     let site = a.place.site()?;
     let cfg = SessionConfig { site, out_dir: a.out.clone(), interactive: std::io::stderr().is_terminal() };
+    // The session's files against its navigation streams, before any work.
+    let streams: Vec<&std::path::Path> = [&a.nav_swing, &a.nav_run, &a.nav_validation].into_iter().flatten().map(PathBuf::as_path).collect();
+    session::check_outputs(&a.out, &streams).map_err(|e| anyhow::anyhow!("--out {e}"))?;
     let open = |p: &PathBuf| std::fs::File::open(p).map(BufReader::new).with_context(|| format!("navigation stream {}", p.display()));
     let mut vehicle: Box<dyn Vehicle> = match (&a.sim_feed, &a.nav_swing, &a.nav_run) {
         (Some(feed), None, None) => {

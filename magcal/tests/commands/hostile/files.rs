@@ -355,3 +355,24 @@ fn numeric_options_have_stated_ranges() {
         assert!(!x.exists());
     }
 }
+
+/// `session --nav-run out/run.csv --out out`: the session writes
+/// `out/run.csv` at the end of the run it is reading. Every file the session
+/// and its report write is checked against the navigation streams before
+/// the port is touched.
+#[test]
+fn session_refuses_a_navigation_stream_among_its_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("session");
+    std::fs::create_dir(&out).unwrap();
+    let nav = "t,roll_deg,pitch_deg,ref_heading_deg,lat_deg,lon_deg\n0,0,0,10,36.9,50.6\n";
+    let (swing_nav, run_nav) = (dir.path().join("swing_nav.csv"), out.join("run.csv"));
+    std::fs::write(&swing_nav, nav).unwrap();
+    std::fs::write(&run_nav, nav).unwrap();
+    let o = magcal(&[
+        "session", "--port", "/nonexistent", "--nav-swing", p(&swing_nav), "--nav-run", p(&run_nav), "--lat", "36.9", "--lon", "50.6", "--date", "2021-01-01", "--out", p(&out),
+    ]);
+    let err = stderr(&o);
+    assert!(!o.status.success() && err.contains("run.csv is the input") && !err.contains("serial port"), "{err}");
+    assert_eq!(std::fs::read_to_string(&run_nav).unwrap(), nav);
+}
