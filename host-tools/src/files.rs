@@ -281,7 +281,8 @@ impl Temporary {
     /// A named temporary `name` in `folder` (none there yet), listed.
     fn create_named(folder: &Path, name: &str) -> std::io::Result<Self> {
         let mut live = live();
-        let path = folder.join(name);
+        // Absolute, as `tempfile` makes its own: the batch's paths compare.
+        let path = std::path::absolute(folder)?.join(name);
         let file = std::fs::OpenOptions::new().write(true).create_new(true).open(&path)?;
         live.push(path.clone());
         Ok(Self { file, out: PathBuf::new(), target: PathBuf::new(), path, committed: false })

@@ -126,7 +126,7 @@ pub fn run(a: Args) -> Result<()> {
         // The simulation names its truth after its CSV, as the temporaries are named.
         simulation.write(&temps[0])?;
         let written = truth_path(&temps[0]);
-        if written != temps[1] {
+        if !files::same_file(&written, &temps[1]) {
             // (The CSV is a link into another folder.)
             let moved = std::fs::rename(&written, &temps[1]);
             let _ = std::fs::remove_file(&written);
