@@ -28,8 +28,11 @@ use super::Recording;
 use crate::compute::error::ComputeError;
 
 /// The sample intervals a recording or a log may have, s: 1 kHz to one
-/// sample every 100 s (a slow navigation log, a glider's science log).
-pub const PLAUSIBLE_INTERVAL_S: std::ops::RangeInclusive<f64> = 1e-3..=100.0;
+/// sample every 10 s (a slow navigation log at 0.1 Hz; the Seagliders'
+/// science logs sample every 5 s). A longer step in seconds is far less
+/// likely than the same number in milliseconds (a 10 Hz log's 100 ms); a
+/// log that really samples that slowly says so in its mapping (`t=NAME:s`).
+pub const PLAUSIBLE_INTERVAL_S: std::ops::RangeInclusive<f64> = 1e-3..=10.0;
 
 /// The field intensity the radians test levels with, nT: the test compares
 /// the residuals of two readings of the angles, so any intensity of the
@@ -132,8 +135,8 @@ pub fn take_in(mut recording: Recording, path: &Path, map: &ColumnMap) -> Result
 /// are fewer than two distinct times, or seconds fit): seconds when the
 /// step is a plausible interval in seconds ([`PLAUSIBLE_INTERVAL_S`]);
 /// otherwise the one of milliseconds and microseconds that makes it one.
-/// Refused when both do (a step of 1 000 … 100 000: 1–100 s in ms,
-/// 1–100 ms in µs) or neither.
+/// Refused when both do (a step of 1 000 … 10 000: 1–10 s in ms,
+/// 1–10 ms in µs) or neither.
 pub fn time_unit(t: &[f64], path: &Path) -> Result<Option<ColumnUnit>, IntakeError> {
     let Some(step) = super::pairing::median_step_s(t) else { return Ok(None) };
     if step <= *PLAUSIBLE_INTERVAL_S.end() {
@@ -318,9 +321,9 @@ mod tests {
         s
     }
 
-    /// `t` at 50 Hz in s, at 1 Hz in ms (1 000 ms: also 1 ms in µs, a
-    /// refusal), at 5 Hz in ms (200: only ms), 0.1 Hz in µs (10⁷ µs: only
-    /// µs), and at 50 Hz in µs (20 000: 20 s in ms or 20 ms in µs: refused).
+    /// `t` at 50 Hz in s; at 5 Hz in ms (200: only ms); at 0.1 Hz and
+    /// 50 Hz in µs (10⁷ and 20 000: only µs); at 1 Hz or 0.2 Hz in ms
+    /// (1 000, 5 000: also 1 kHz or 200 Hz in µs): refused.
     #[test]
     fn the_time_unit_is_found_from_the_step_or_refused() {
         let r = take(&rows(|k| k as f64 * 0.02), "").unwrap();
@@ -331,7 +334,10 @@ mod tests {
         let r = take(&rows(|k| k as f64 * 1e7), "").unwrap();
         let t = r.recording.t_s.unwrap();
         assert!((t[1] - 10.0).abs() < 1e-9 && r.notes[0].contains("microseconds"), "{:?}", r.notes);
-        for step in [20_000.0, 1_000.0] {
+        let r = take(&rows(|k| 123_456_789.0 + k as f64 * 20_000.0), "").unwrap();
+        let t = r.recording.t_s.unwrap();
+        assert!((t[1] - t[0] - 0.02).abs() < 1e-9 && r.notes[0].contains("microseconds"), "{:?}", r.notes);
+        for step in [5_000.0, 1_000.0] {
             let e = take(&rows(|k| 123_456_789.0 + k as f64 * step), "").unwrap_err();
             assert!(matches!(e, IntakeError::TimeUnit { .. }) && e.to_string().contains("t=NAME:us"), "{e}");
         }
