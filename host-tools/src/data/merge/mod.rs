@@ -427,17 +427,22 @@ fn check_span(log: &'static str, t: &[f64]) -> Result<(), MergeError> {
     Err(MergeError::SpanTooLong { log, span_s, rows: t.len(), median_step_s: median_interval(t), largest_step_s, row: i + 1, grid_step_s })
 }
 
+/// A log's largest step when it is far longer than its others
+/// ([`JUMP_RATIO`], [`JUMP_MIN_S`]): (0-based row before it, step s, step
+/// over the median step).
+fn jump(t: &[f64]) -> Option<(usize, f64, f64)> {
+    let median = median_interval(t);
+    let (i, step) = largest_step(t)?;
+    (step >= JUMP_MIN_S && step >= JUMP_RATIO * median).then_some((i, step, step / median))
+}
+
 /// A failed search with the logs' clock jump named, when one has a step
 /// far longer than its others ([`JUMP_RATIO`], [`JUMP_MIN_S`]).
 fn with_jump(e: MergeError, board: &BoardLog, nav: &NavLog) -> MergeError {
     if !matches!(e, MergeError::OutsideWindow { .. } | MergeError::NoAgreement { .. } | MergeError::NotUnique { .. } | MergeError::DriftTooLarge { .. } | MergeError::NoRotation(_)) {
         return e;
     }
-    let jump = |log: &'static str, t: &[f64]| {
-        let median = median_interval(t);
-        let (i, step) = largest_step(t)?;
-        (step >= JUMP_MIN_S && step >= JUMP_RATIO * median).then_some((log, i, step, step / median, t[i], t[i + 1]))
-    };
+    let jump = |log: &'static str, t: &[f64]| jump(t).map(|(i, step, ratio)| (log, i, step, ratio, t[i], t[i + 1]));
     match [jump("navigation", &nav.t_s), jump("board", &board.t_s)].into_iter().flatten().max_by(|a, b| a.3.total_cmp(&b.3)) {
         Some((log, i, step_s, ratio, from_s, to_s)) => MergeError::ClockJump { log, row: i + 1, from_s, to_s, step_s, ratio, source: Box::new(e) },
         None => e,
@@ -535,6 +540,16 @@ pub fn merge_with(board: &BoardLog, nav: &NavLog, clock: Clock, opts: &MergeOpti
     let (recording, extra, counts) = resample::rows(board, nav, &alignment.clock, max_gap_s);
     if recording.mag.is_empty() {
         return Err(no_overlap(board, nav, format!("with the clock offset {:.3} s (navigation − board) no board sample falls within the navigation log", alignment.clock.offset_s)));
+    }
+    for (log, t) in [("navigation", &nav.t_s), ("board", &board.t_s)] {
+        if let Some((i, step_s, ratio)) = jump(t) {
+            warnings.push(format!(
+                "the {log} log's time steps from {:.3} s to {:.3} s after data row {} ({step_s:.3} s, {ratio:.0}× its median step): a clock jump or a gap; the clock offset holds on both sides only if it is a gap",
+                t[i],
+                t[i + 1],
+                i + 1
+            ));
+        }
     }
     let nav_step = median_interval(&nav.t_s);
     if nav_step > max_gap_s {

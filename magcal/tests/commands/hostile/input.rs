@@ -177,3 +177,166 @@ fn a_declination_change_beyond_the_limit_is_refused_unless_allowed() {
     let e = ok(&magcal(&[&["fit", "--input", p(&near), "--model", "axis"][..], &SITE[..]].concat()));
     assert!(e.contains("km from the site") && !e.contains("declination there"), "{e}");
 }
+
+// ---- merge ----
+
+use host_tools::data::merge::{BoardLog, MergeReport, NavLog};
+use magcal_sim::field_test::{self, paper_site, SensorModel};
+use magcal_sim::logs::{self, LogSplit, NavHeading};
+
+/// The swing test (seed 7, 50 Hz board) split into a board log and a
+/// navigation log of every `nav_every`-th row, the navigation clock
+/// 33.3 s behind… ahead: `t_nav = t_board − 33.3 s` (as the merge tests).
+fn split_logs(nav_every: usize) -> (BoardLog, NavLog) {
+    let sim = field_test::swing(&SensorModel::paper_like(), &paper_site(), 7, 50.0).unwrap();
+    logs::split(&sim, &LogSplit { offset_s: -33.3, drift_ppm: 0.0, nav_every, trim_s: (5.0, 5.0), seed: 7, nav_heading: NavHeading::Ahrs })
+}
+
+/// The logs written with their `t` multiplied by `board_k` and `nav_k`.
+fn write_logs(dir: &Path, (board, nav): &(BoardLog, NavLog), board_k: f64, nav_k: f64) -> (PathBuf, PathBuf) {
+    let (b, n) = (dir.join("board.csv"), dir.join("nav.csv"));
+    BoardLog { t_s: board.t_s.iter().map(|t| t * board_k).collect(), ..board.clone() }.write(&b).unwrap();
+    NavLog { t_s: nav.t_s.iter().map(|t| t * nav_k).collect(), ..nav.clone() }.write(&n).unwrap();
+    (b, n)
+}
+
+fn merge_report(o: &std::process::Output) -> MergeReport {
+    ok(o);
+    serde_json::from_slice(&o.stdout).expect("the report")
+}
+
+/// Issue 37: both logs' `t` in microseconds (ArduPilot's `TimeUS`) aborted
+/// allocating 319 GB; in milliseconds with `--max-offset-s 1e8` it took
+/// over 120 s and 1.5 GB. Each log's unit is found from its step (50 Hz
+/// board: 20 000 µs or 20 ms; 10 Hz navigation: 100 000 µs or 100 ms),
+/// converted and said; the offset is the one put in. A step two units
+/// explain (a 1 Hz log in ms: 1 000, or 1 kHz in µs) is refused, naming
+/// the option that settles it.
+#[test]
+fn merge_finds_the_logs_time_unit_or_refuses_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let logs = split_logs(5);
+    let out = dir.path().join("rec.csv");
+    for (k, unit, extra) in [(1e6, "microseconds", &[][..]), (1e3, "milliseconds", &["--max-offset-s", "1e8"][..])] {
+        let (b, n) = write_logs(dir.path(), &logs, k, k);
+        let started = std::time::Instant::now();
+        let o = magcal(&[&["merge", "--board", p(&b), "--nav", p(&n), "--out", p(&out), "--json"][..], extra].concat());
+        let r = merge_report(&o);
+        // Measured: the offset within 1 ms (as in seconds), in a few seconds.
+        assert!((r.offset_s + 33.3).abs() < 0.01, "{unit}: {r:?}");
+        assert!(started.elapsed().as_secs_f64() < 60.0, "{unit}: {:?}", started.elapsed());
+        let e = stderr(&o);
+        assert_eq!(e.matches(&format!("`t` read as {unit}")).count(), 2, "{e}");
+    }
+    // A 1 Hz navigation log in ms: 1 000 per step is 1 s in ms or 1 ms in µs.
+    let slow = split_logs(50);
+    let (b, n) = write_logs(dir.path(), &slow, 1.0, 1e3);
+    let e = refused(&magcal(&["merge", "--board", p(&b), "--nav", p(&n), "--out", p(&out)]));
+    assert!(e.contains("nav.csv: `t`'s median step is 1000") && e.contains("--nav-columns"), "{e}");
+    let r = merge_report(&magcal(&["merge", "--board", p(&b), "--nav", p(&n), "--out", p(&out), "--json", "--nav-columns", "t=t:ms"]));
+    assert!((r.offset_s + 33.3).abs() < 0.05, "{r:?}");
+}
+
+/// Issue 37 mechanism 4: every allocation bounded by the input's size. A
+/// board log whose clock jumps by 10⁹ s (the search's grids would need
+/// 5·10¹⁰ points) is refused before any grid is made, naming the log, its
+/// span and the step.
+#[test]
+fn merge_refuses_a_log_whose_span_its_rows_cannot_fill() {
+    let dir = tempfile::tempdir().unwrap();
+    let (mut board, nav) = split_logs(5);
+    let half = board.t_s.len() / 2;
+    board.t_s.iter_mut().skip(half).for_each(|t| *t += 1e9);
+    let (b, n) = write_logs(dir.path(), &(board, nav), 1.0, 1.0);
+    let e = refused(&magcal(&["merge", "--board", p(&b), "--nav", p(&n), "--out", p(&dir.path().join("r.csv"))]));
+    assert!(e.contains("the board log spans 1.0") && e.contains(&format!("after data row {half}")) && e.contains("does its clock jump"), "{e}");
+}
+
+/// Issue 37: `merge` interpolated a 0.1 Hz navigation log across its 10 s
+/// steps without a word (roll 9.6° RMS off). Now only gaps up to 2 s are
+/// interpolated (`--max-nav-gap-s`): the rows between are written without
+/// navigation, counted and said.
+#[test]
+fn a_slow_navigation_log_is_not_interpolated_across_long_gaps() {
+    let dir = tempfile::tempdir().unwrap();
+    let (b, n) = write_logs(dir.path(), &split_logs(500), 1.0, 1.0);
+    let out = dir.path().join("rec.csv");
+    let o = magcal(&["merge", "--board", p(&b), "--nav", p(&n), "--out", p(&out), "--offset-s", "-33.3", "--json"]);
+    let r = merge_report(&o);
+    // One board sample in 500 falls on a navigation row.
+    assert!(r.rows_in_nav_gaps as f64 > 0.99 * r.rows as f64, "{r:?}");
+    assert_eq!(r.nav_gap_limit_s, 2.0);
+    assert!(stderr(&o).contains("is longer than the 2 s interpolated across"), "{}", stderr(&o));
+    let rec = host_tools::data::Recording::read(&out).unwrap();
+    let with_roll = rec.roll_deg.unwrap().iter().filter(|v| v.is_finite()).count();
+    assert_eq!(with_roll, r.rows - r.rows_in_nav_gaps);
+    // Asked for: interpolated across its 10 s steps.
+    let r = merge_report(&magcal(&["merge", "--board", p(&b), "--nav", p(&n), "--out", p(&out), "--offset-s", "-33.3", "--json", "--max-nav-gap-s", "20"]));
+    assert_eq!(r.rows_in_nav_gaps, 0, "{r:?}");
+}
+
+/// Issue 37: `merge --offset-s` with the wrong sign was used unchecked.
+/// The data show −33.3 s; +33.3 s given is refused naming both, kept with
+/// `--allow-weak` and said; the right one is taken without a word.
+#[test]
+fn a_given_offset_the_data_disagree_with_is_refused_unless_allowed() {
+    let dir = tempfile::tempdir().unwrap();
+    let (b, n) = write_logs(dir.path(), &split_logs(5), 1.0, 1.0);
+    let out = dir.path().join("rec.csv");
+    let args = |offset: &'static str| vec!["merge", "--board", p(&b), "--nav", p(&n), "--out", p(&out), "--json", "--offset-s", offset];
+    let e = refused(&magcal(&args("33.3")));
+    assert!(e.contains("the clock offset given, 33.300 s") && e.contains("agree best at -33.30") && e.contains("--allow-weak"), "{e}");
+    assert!(!out.exists());
+    let o = magcal(&[&args("33.3")[..], &["--allow-weak"]].concat());
+    let r = merge_report(&o);
+    assert!(r.offset_s == 33.3 && r.warnings.len() == 1 && r.warnings[0].contains("kept as weak results are allowed"), "{r:?}");
+    assert!(stderr(&o).contains("warning: the clock offset given"), "{}", stderr(&o));
+    let o = magcal(&args("-33.3"));
+    let r = merge_report(&o);
+    assert!(r.warnings.is_empty() && !stderr(&o).contains("warning"), "{r:?}");
+}
+
+/// Issue 37 mechanism 7: an offset found at its search window's edge is
+/// said, and refused with `--strict`: the true −33.3 s searched within
+/// 0 ± 33.7 s is found 0.4 s inside the window's end.
+#[test]
+fn an_offset_at_the_window_edge_is_said_and_refused_when_strict() {
+    let dir = tempfile::tempdir().unwrap();
+    let (b, n) = write_logs(dir.path(), &split_logs(5), 1.0, 1.0);
+    let out = dir.path().join("rec.csv");
+    let args = vec!["merge", "--board", p(&b), "--nav", p(&n), "--out", p(&out), "--json", "--max-offset-s", "33.7"];
+    let o = magcal(&args);
+    let r = merge_report(&o);
+    assert!((r.offset_s + 33.3).abs() < 0.01, "{r:?}");
+    assert!(r.warnings.iter().any(|w| w.contains("of the end of the offsets searched")), "{r:?}");
+    let e = refused(&magcal(&[&args[..], &["--strict"]].concat()));
+    assert!(e.contains("end of the offsets searched") && e.contains("refused as strict"), "{e}");
+    // Well inside the window: nothing said.
+    let r = merge_report(&magcal(&["merge", "--board", p(&b), "--nav", p(&n), "--out", p(&out), "--json", "--strict"]));
+    assert!(r.warnings.is_empty(), "{r:?}");
+}
+
+/// Issue 37: a clock jump was reported as "offset outside the window".
+/// The navigation clock steps 100 s forward halfway: the two halves agree
+/// at offsets 100 s apart, and the refusal names the jump, where and how
+/// large. Stepping 3 600 s (a GPS time fix), the first half merges alone:
+/// the jump is said, with the rows it left without navigation.
+#[test]
+fn a_clock_jump_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let jumped = |step_s: f64| {
+        let (board, mut nav) = split_logs(5);
+        let half = nav.t_s.len() / 2;
+        nav.t_s.iter_mut().skip(half).for_each(|t| *t += step_s);
+        (write_logs(dir.path(), &(board, nav), 1.0, 1.0), half)
+    };
+    let out = dir.path().join("r.csv");
+    let ((b, n), half) = jumped(100.0);
+    let e = refused(&magcal(&["merge", "--board", p(&b), "--nav", p(&n), "--out", p(&out)]));
+    assert!(e.contains("the navigation log's time steps from") && e.contains(&format!("after data row {half} (100.100 s")) && e.contains("clock jump"), "{e}");
+    let ((b, n), half) = jumped(3600.0);
+    let o = magcal(&["merge", "--board", p(&b), "--nav", p(&n), "--out", p(&out), "--json"]);
+    let r = merge_report(&o);
+    assert!(r.warnings.iter().any(|w| w.contains(&format!("after data row {half} (3600.100 s")) && w.contains("clock jump")), "{r:?}");
+    assert!(r.rows_in_nav_gaps > r.rows / 3, "{r:?}");
+}
