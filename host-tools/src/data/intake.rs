@@ -120,15 +120,24 @@ pub fn take_in(mut recording: Recording, path: &Path, map: &ColumnMap) -> Result
         crate::compute::attitude::check_attitude_units(&recording, NOMINAL_FIELD_NT).map_err(|source| IntakeError::AttitudeUnits { path: path.into(), source })?;
     }
     if let (Some(lat), Some(lon)) = (recording.lat_deg.as_mut(), recording.lon_deg.as_mut()) {
-        let placeholders = drop_placeholder_fixes(lat, lon);
-        if placeholders > 0 {
-            notes.push(format!(
-                "{}: {placeholders} row(s) at lat/lon (0, 0) (a GPS receiver's placeholder before its first fix) taken as no position",
-                path.display()
-            ));
-        }
+        notes.extend(placeholder_note(drop_placeholder_fixes(lat, lon), path));
     }
     Ok(Intake { recording, notes })
+}
+
+/// A heading-only compass's log through the one way in: its `t`'s unit
+/// and its placeholder fixes judged as a recording's (it has no roll and
+/// pitch to judge). Returns the log and the notes.
+pub fn read_compass(path: &Path, map: &ColumnMap) -> Result<(super::compass::CompassLog, Vec<String>), IntakeError> {
+    let mut log = super::compass::CompassLog::read_mapped(path, map)?;
+    let mut notes = Vec::new();
+    if map.unit(col::T).is_none() {
+        notes.extend(convert_time(&mut log.t_s, path)?);
+    }
+    if let (Some(lat), Some(lon)) = (log.lat_deg.as_mut(), log.lon_deg.as_mut()) {
+        notes.extend(placeholder_note(drop_placeholder_fixes(lat, lon), path));
+    }
+    Ok((log, notes))
 }
 
 /// The unit `t` is in, from its median positive step (`None` when there
@@ -175,6 +184,11 @@ pub fn convert_time(t: &mut [f64], path: &Path) -> Result<Option<String>, Intake
         path.display(),
         step * k
     )))
+}
+
+/// The note for `placeholders` rows at (0, 0) dropped (none for none).
+fn placeholder_note(placeholders: usize, path: &Path) -> Option<String> {
+    (placeholders > 0).then(|| format!("{}: {placeholders} row(s) at lat/lon (0, 0) (a GPS receiver's placeholder before its first fix) taken as no position", path.display()))
 }
 
 /// Sets positions that are no fix to NaN: exactly (0°, 0°) (a receiver's
@@ -346,6 +360,22 @@ mod tests {
         assert!(r.notes.is_empty() && (r.recording.t_s.unwrap()[1] - 0.02).abs() < 1e-12);
         let e = take(&rows(|k| k as f64 * 1e12), "").unwrap_err();
         assert!(e.to_string().contains("no unit of s, ms, µs"), "{e}");
+    }
+
+    /// A compass log is judged as a recording: `t` in ms at 10 Hz read as
+    /// seconds, a (0, 0) fix dropped.
+    #[test]
+    fn a_compass_log_goes_the_same_way_in() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("c.csv");
+        let mut s = String::from("t,compass_heading_deg,lat_deg,lon_deg\n");
+        for k in 0..20 {
+            s += &if k == 0 { format!("{},10,0,0\n", k * 100) } else { format!("{},{},45,10\n", k * 100, 10 + k) };
+        }
+        std::fs::write(&path, s).unwrap();
+        let (log, notes) = read_compass(&path, &ColumnMap::default()).unwrap();
+        assert!((log.t_s[1] - 0.1).abs() < 1e-12 && log.lat_deg.unwrap()[0].is_nan(), "{notes:?}");
+        assert!(notes.len() == 2 && notes[0].contains("milliseconds") && notes[1].contains("1 row(s) at lat/lon (0, 0)"), "{notes:?}");
     }
 
     #[test]

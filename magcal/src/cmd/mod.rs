@@ -57,10 +57,16 @@ impl InputColumns {
         Ok(intake.recording)
     }
 
-    /// Reads a heading-only compass's log under the mapping.
+    /// Reads a heading-only compass's log under the mapping, through the
+    /// one way in ([`intake::read_compass`]: the time's unit, placeholder
+    /// fixes), saying what it converted or dropped.
     pub fn read_compass(&self, path: &Path) -> Result<CompassLog> {
         let map = self.columns.clone().unwrap_or_default();
-        Ok(CompassLog::read_mapped(path, &map)?)
+        let (log, notes) = intake::read_compass(path, &map).map_err(|e| hinted(e, intake_hint))?;
+        for note in &notes {
+            eprintln!("note: {note}");
+        }
+        Ok(log)
     }
 }
 
