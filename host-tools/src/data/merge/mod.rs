@@ -499,6 +499,11 @@ pub fn merge_with(board: &BoardLog, nav: &NavLog, clock: Clock, opts: &MergeOpti
             if let Some(search) = &found.search {
                 let at = found.clock.to_nav(b_mid) - b_mid;
                 let (lo, hi) = search.range;
+                if lo > center_s - max_offset_s || hi < center_s + max_offset_s {
+                    notes.push(format!(
+                        "the search window {center_s} ± {max_offset_s} s reaches beyond the offsets at which the logs overlap (at least 20 s and half the shorter log): searched {lo:.2} … {hi:.2} s"
+                    ));
+                }
                 let end = if (at - lo).abs() < (hi - at).abs() { lo } else { hi };
                 if (at - end).abs() <= WINDOW_EDGE_S {
                     let text = format!(

@@ -227,6 +227,10 @@ fn merge_finds_the_logs_time_unit_or_refuses_it() {
         assert!(started.elapsed().as_secs_f64() < 60.0, "{unit}: {:?}", started.elapsed());
         let e = stderr(&o);
         assert_eq!(e.matches(&format!("`t` read as {unit}")).count(), 2, "{e}");
+        if !extra.is_empty() {
+            // The window that does not fit the logs is said, and cut to them.
+            assert!(e.contains("the search window 0 ± 100000000 s reaches beyond the offsets at which the logs overlap"), "{e}");
+        }
     }
     // A 1 Hz navigation log in ms: 1 000 per step is 1 s in ms or 1 ms in µs.
     let slow = split_logs(50);
