@@ -45,7 +45,7 @@ pub struct Args {
     /// The longest gap of the navigation log interpolated across, s: the
     /// board samples in a longer one are written without navigation (and
     /// counted). A vehicle's attitude changes by degrees within a second or
-    /// two.
+    /// two. Never beyond five of the log's median steps (at least 1 s).
     #[arg(long, default_value_t = host_tools::data::merge::MAX_NAV_GAP_S, value_parser = positive_s)]
     max_nav_gap_s: f64,
     /// Keep a given --offset-s the data disagree with (said in the output).

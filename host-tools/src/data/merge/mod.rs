@@ -392,7 +392,8 @@ pub const JUMP_MIN_S: f64 = 5.0;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MergeOptions {
     /// The longest gap of the navigation log interpolated across, s
-    /// ([`MAX_NAV_GAP_S`]).
+    /// ([`MAX_NAV_GAP_S`]); never beyond five of the log's median steps
+    /// (at least 1 s), the rule for a log's dropouts.
     pub max_nav_gap_s: f64,
     /// Keep a given offset the data disagree with (said in the report's
     /// warnings).
@@ -738,6 +739,38 @@ mod tests {
         let m = merge(&board, &nav, Clock::Given { offset_s: 12.0, drift_ppm: 0.0 }).unwrap();
         assert!(!m.report.estimated && m.report.offset_s == 12.0);
         assert_eq!(m.recording.roll_deg.as_ref().unwrap()[0], 1.0);
+    }
+
+    /// Issue 37: a given offset with the wrong sign was used unchecked. The
+    /// data show −47.3 s: +47.3 s is refused naming both, kept when weak
+    /// results are allowed (and said); the right one passes unsaid.
+    #[test]
+    fn a_given_offset_is_checked_against_the_data() {
+        let (board, nav) = logs(-47.3, 500.0, 300.0, true);
+        let given = |offset_s: f64, allow_weak: bool| merge_with(&board, &nav, Clock::Given { offset_s, drift_ppm: 0.0 }, &MergeOptions { allow_weak, ..MergeOptions::default() });
+        let e = given(47.3, false).unwrap_err();
+        let MergeError::GivenOffsetDisagrees { found_s, diff_s, .. } = e else { panic!("{e}") };
+        assert!((found_s + 47.3).abs() < 0.01 && (diff_s - 94.6).abs() < 0.01, "{e}");
+        let m = given(47.3, true).unwrap();
+        assert!(m.report.offset_s == 47.3 && m.report.warnings.len() == 1, "{:?}", m.report);
+        let m = given(-47.3, false).unwrap();
+        assert!(m.report.warnings.is_empty() && m.report.notes.is_empty(), "{:?}", m.report);
+    }
+
+    /// The navigation is interpolated across gaps up to the limit only: a
+    /// 10 Hz log with its rows at 50.0 … 52.9 s cut out leaves the board
+    /// samples strictly between 49.9 s and 53.0 s without navigation
+    /// (50 Hz: 3.1 s × 50 − 1 = 154).
+    #[test]
+    fn navigation_gaps_beyond_the_limit_are_left_empty_and_counted() {
+        let (board, mut nav) = logs(0.0, 0.0, 100.0, true);
+        let keep: Vec<bool> = nav.t_s.iter().map(|t| !(50.0..53.0).contains(t)).collect();
+        let cut = |v: &[f64]| v.iter().zip(&keep).filter(|(_, k)| **k).map(|(x, _)| *x).collect::<Vec<f64>>();
+        nav = NavLog { t_s: cut(&nav.t_s), roll_deg: cut(&nav.roll_deg), pitch_deg: cut(&nav.pitch_deg), heading_deg: nav.heading_deg.as_deref().map(cut), ref_heading_deg: nav.ref_heading_deg.as_deref().map(cut), ..NavLog::default() };
+        let clock = Clock::Given { offset_s: 0.0, drift_ppm: 0.0 };
+        let m = merge_with(&board, &nav, clock, &MergeOptions::default()).unwrap();
+        assert_eq!(m.report.rows_in_nav_gaps, 154, "{:?}", m.report);
+        assert_eq!(m.report.nav_gap_limit_s, MAX_NAV_GAP_S);
     }
 
     #[test]
