@@ -21,8 +21,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 use host_tools::data::compass::CompassLog;
-use host_tools::data::table::ColumnMap;
 use host_tools::data::intake::{self, IntakeError};
+use host_tools::data::table::ColumnMap;
 use host_tools::data::{CalDoc, Recording, RecordingError};
 use host_tools::files::{self, Replaces};
 use host_tools::geomag::{self, Field, Site};
@@ -194,9 +194,8 @@ pub fn check_out(flag: &str, out: &Path, inputs: &[&Path]) -> Result<()> {
 /// Checks the recording's own positions (`lat_deg`/`lon_deg`, where present)
 /// against the site of the reference field ([`intake::check_positions`]):
 /// a warning beyond [`intake::SITE_WARN_KM`], a refusal beyond
-/// [`intake::SITE_REFUSE_KM`],
-/// naming both. Without a date the declination is not compared (see
-/// [`check_site`]).
+/// [`intake::SITE_REFUSE_KM`], naming both. Without a date the declination
+/// is not compared (see [`check_site`]).
 pub fn check_positions(rec: &Recording, path: &Path, lat_deg: f64, lon_deg: f64) -> Result<()> {
     site_checked(intake::check_positions(rec, path, lat_deg, lon_deg, None, false), lat_deg, lon_deg)
 }
