@@ -8,7 +8,7 @@
 use std::path::Path;
 
 use super::recording::RecordingError;
-use super::table::{col, column_set, present_columns, read_table, take_columns, write_table, ColumnSet};
+use super::table::{col, column_set, present_columns, read_table_mapped, take_columns, write_table, ColumnMap, ColumnSet};
 
 /// `t`: seconds on the board's clock.
 pub const T: &str = col::T;
@@ -55,7 +55,14 @@ column_set!(BoardLog { required: [T => t_s], optional: [TEMP_C => temp_c, HEALTH
 impl BoardLog {
     /// Reads a board log: `t, mx, my, mz` required, `temp_c`, `health` optional.
     pub fn read(path: &Path) -> Result<Self, RecordingError> {
-        let mut t = read_table(path, &[T, MAG[0], MAG[1], MAG[2]], Self::NAMES.get(1..).unwrap_or_default())?;
+        Self::read_mapped(path, &ColumnMap::default())
+    }
+
+    /// [`BoardLog::read`] under the file's own names and units (`map`: a
+    /// board log exported by another tool, `t` in µs).
+    pub fn read_mapped(path: &Path, map: &ColumnMap) -> Result<Self, RecordingError> {
+        let file = std::fs::File::open(path).map_err(|source| super::table::TableError::Io { path: path.into(), source })?;
+        let mut t = read_table_mapped(file, path, &[T, MAG[0], MAG[1], MAG[2]], Self::NAMES.get(1..).unwrap_or_default(), map)?;
         let [mx, my, mz] = MAG.map(|c| t.take(c).unwrap_or_default());
         let mut log = Self { t_s: t.take(T).unwrap_or_default(), mag: mx.into_iter().zip(my).zip(mz).map(|((x, y), z)| [x, y, z]).collect(), ..Self::default() };
         take_columns(&mut log, &mut t);

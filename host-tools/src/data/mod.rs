@@ -8,6 +8,7 @@
 pub mod caldoc;
 pub mod compass;
 pub mod dataflash;
+pub mod intake;
 pub mod board_log;
 pub mod merge;
 pub mod nav_log;

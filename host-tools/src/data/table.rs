@@ -276,6 +276,32 @@ pub enum TableError {
         /// The columns found.
         header: String,
     },
+    /// A column read appears more than once in the header.
+    #[error("{path}: the header has `{name}` {times} times: which one is `{column}`? (rename or remove the others)")]
+    DuplicateColumn {
+        /// The file.
+        path: PathBuf,
+        /// The project's column.
+        column: String,
+        /// The file's name for it.
+        name: String,
+        /// How many times the header has it.
+        times: usize,
+    },
+    /// Two of the project's columns would be read from one cell of the
+    /// header (a mapping naming a column the header also holds under the
+    /// project's name, or two columns mapped to one name).
+    #[error("{path}: `{first}` and `{second}` would both be read from the header's `{name}`: each column needs its own")]
+    SharedColumn {
+        /// The file.
+        path: PathBuf,
+        /// The first project column.
+        first: String,
+        /// The second.
+        second: String,
+        /// The header's cell.
+        name: String,
+    },
     /// The header line holds more than one of comma, semicolon and tab.
     #[error("{path}: the header line `{header}` has more than one of comma, semicolon and tab: which separates the cells?")]
     AmbiguousSeparator {
@@ -583,6 +609,17 @@ impl ColumnMap {
         self.entries.iter().find(|(c, _, _)| *c == column).map_or(column, |(_, n, _)| n.as_str())
     }
 
+    /// The unit the mapping gives the project's `column`, if any.
+    pub fn unit(&self, column: &str) -> Option<ColumnUnit> {
+        self.entries.iter().find(|(c, _, _)| *c == column).and_then(|(_, _, u)| *u)
+    }
+
+    /// The file's name of the project's `column` (its own name when not
+    /// mapped).
+    pub fn name_of<'a>(&'a self, column: &'a str) -> &'a str {
+        self.file_name(column)
+    }
+
     /// The factor from the file's unit of `column` to the project's.
     fn factor(&self, column: &str) -> f64 {
         self.entries.iter().find(|(c, _, _)| *c == column).and_then(|(_, _, u)| *u).map_or(1.0, ColumnUnit::factor)
@@ -720,6 +757,20 @@ fn locate(header: &csv::StringRecord, path: &Path, required: &[&'static str], op
         index.push(Some(i));
     }
     index.extend(optional.iter().map(|name| column_index(names.iter().copied(), map.file_name(name))));
+    // A column read must be one cell of the header, and each cell at most
+    // one column: a name twice (`mx,…,mx`) or two columns on one cell (a
+    // mapping `my=mx`) would be read silently from the first.
+    for (k, name) in required.iter().chain(optional).enumerate() {
+        let Some(i) = index[k] else { continue };
+        let file_name = map.file_name(name);
+        let times = names.iter().filter(|h| h.eq_ignore_ascii_case(file_name)).count();
+        if times > 1 {
+            return Err(TableError::DuplicateColumn { path: path.into(), column: name.to_string(), name: names[i].to_string(), times });
+        }
+        if let Some(other) = required.iter().chain(optional).take(k).zip(&index).find(|(_, j)| **j == Some(i)).map(|(n, _)| n) {
+            return Err(TableError::SharedColumn { path: path.into(), first: other.to_string(), second: name.to_string(), name: names[i].to_string() });
+        }
+    }
     Ok(index)
 }
 
@@ -1087,6 +1138,22 @@ mod tests {
         assert!(matches!(parse("roll_deg=a:deg/s"), ColumnMapError::WrongUnit(_)));
         assert!(matches!(parse("speed_mps=a:ms"), ColumnMapError::WrongUnit(_)));
         assert!(matches!(parse("mx=a,MX=b"), ColumnMapError::Duplicate(_)));
+    }
+
+    /// Issue 37: a column read twice from the header, or two columns read
+    /// from one cell, is refused (the first `mx` was read silently); a
+    /// column twice that is not read stays harmless.
+    #[test]
+    fn a_column_read_twice_or_two_from_one_cell_are_refused() {
+        let e = mapped("t,mx,my,mz,MX\n0,1,2,3,4\n", "").unwrap_err();
+        assert!(matches!(e, TableError::DuplicateColumn { times: 2, .. }), "{e}");
+        assert_eq!(e.to_string(), "x.csv: the header has `mx` 2 times: which one is `mx`? (rename or remove the others)");
+        let e = mapped("t,a,b,c\n0,1,2,3\n", "mx=a,my=a,mz=c").unwrap_err();
+        assert_eq!(e.to_string(), "x.csv: `mx` and `my` would both be read from the header's `a`: each column needs its own");
+        let e = mapped("t,mx,my,mz\n0,1,2,3\n", "roll_deg=mx").unwrap_err();
+        assert!(matches!(e, TableError::SharedColumn { .. }), "{e}");
+        let mut t = mapped("t,mx,my,mz,note,note\n0,1,2,3,a,b\n", "").unwrap();
+        assert_eq!(t.take("mx"), Some(vec![1.0]));
     }
 
     /// Issue 24: "missing column `mx`" alone left other tools' users stuck.

@@ -90,8 +90,10 @@ pub fn run(a: Args) -> Result<()> {
         None => None,
     };
     let rec = a.columns.read(&a.input)?;
-    if let (Some(lat), Some(lon)) = (a.site.lat, a.site.lon) {
-        check_positions(&rec, &a.input, lat, lon)?;
+    match (&site, a.site.lat, a.site.lon) {
+        (Some(s), _, _) => super::check_site(&rec, &a.input, s, a.allow_weak)?,
+        (None, Some(lat), Some(lon)) => check_positions(&rec, &a.input, lat, lon)?,
+        _ => {}
     }
     let opts = FitOptions { model: match a.model { ModelArg::Kind(m) => m, ModelArg::Auto => ModelKind::Attitude }, field_nt: reference.total_nt(), saturation: a.saturation, allow_weak: a.allow_weak, gyro_lag: if a.estimate_gyro_lag { GyroLag::Estimate } else { GyroLag::Given(a.gyro_lag_s) }, reference: world };
     let working = super::working(&format!("fitting {} rows", rec.len()), a.json);

@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
-use host_tools::data::merge::{merge_files_mapped, Clock, MergeError, SharedSignal};
+use host_tools::data::merge::{merge_files_with, Clock, MergeError, MergeOptions, SharedSignal};
 use host_tools::data::RecordingError;
 use host_tools::data::table::ColumnMap;
 
@@ -38,6 +38,23 @@ pub struct Args {
     /// Half-width of the offset search, s.
     #[arg(long, default_value_t = 120.0, conflicts_with = "offset_s")]
     max_offset_s: f64,
+    /// The board log's own names (and units) for its columns, as
+    /// `--nav-columns` (e.g. `t=TimeUS:us`).
+    #[arg(long, value_name = "COLUMN=NAME[:UNIT],...")]
+    board_columns: Option<ColumnMap>,
+    /// The longest gap of the navigation log interpolated across, s: the
+    /// board samples in a longer one are written without navigation (and
+    /// counted). A vehicle's attitude changes by degrees within a second or
+    /// two. Never beyond five of the log's median steps (at least 1 s).
+    #[arg(long, default_value_t = host_tools::data::merge::MAX_NAV_GAP_S, value_parser = positive_s)]
+    max_nav_gap_s: f64,
+    /// Keep a given --offset-s the data disagree with (said in the output).
+    #[arg(long)]
+    allow_weak: bool,
+    /// Refuse an offset found at its search window's edge (otherwise kept
+    /// with a warning).
+    #[arg(long)]
+    strict: bool,
     /// Print the clocks found (and counts) as one JSON document on stdout.
     #[arg(long)]
     json: bool,
@@ -53,6 +70,10 @@ fn merge_hint(e: MergeError, nav: &Path, mapped: bool) -> anyhow::Error {
         }
         MergeError::NoRotation(_) | MergeError::DriftTooLarge { .. } => Some("give the clock offset with --offset-s (and its drift with --drift-ppm)"),
         MergeError::OutsideWindow { .. } | MergeError::NoAgreement { .. } => Some("centre the search window with --approx-offset-s, widen it with --max-offset-s, or give --offset-s"),
+        MergeError::GivenOffsetDisagrees { .. } => Some("check --offset-s (its sign), leave it out to use the offset found, or give --allow-weak to keep it (said in the output)"),
+        MergeError::AtWindowEdge(_) => Some("centre the search window with --approx-offset-s, widen it with --max-offset-s, or leave out --strict to keep it with a warning"),
+        MergeError::Time(_) => Some("give the log's time unit with --nav-columns or --board-columns (e.g. t=t:us)"),
+        MergeError::SpanTooLong { .. } => Some("give the log's time unit with --nav-columns or --board-columns (e.g. t=t:ms), or cut the log at the jump"),
         MergeError::NotUnique { .. } => Some("centre a narrower window on the right offset with --approx-offset-s and --max-offset-s, or give --offset-s"),
         _ => None,
     })
@@ -67,16 +88,24 @@ pub fn run(a: Args) -> Result<()> {
     };
     let mapped = a.nav_columns.is_some();
     let working = super::working("merging the logs", a.json);
-    let merged = merge_files_mapped(&a.board, &a.nav, &a.nav_columns.unwrap_or_default(), clock).map_err(|e| merge_hint(e, &a.nav, mapped))?;
+    let opts = MergeOptions { max_nav_gap_s: a.max_nav_gap_s, allow_weak: a.allow_weak, strict: a.strict };
+    let merged = merge_files_with(&a.board, &a.board_columns.unwrap_or_default(), &a.nav, &a.nav_columns.unwrap_or_default(), clock, &opts).map_err(|e| merge_hint(e, &a.nav, mapped))?;
     working.done();
+    for note in &merged.report.notes {
+        eprintln!("note: {note}");
+    }
+    for warning in &merged.report.warnings {
+        eprintln!("warning: {warning}");
+    }
     merged.write(&a.out).with_context(|| format!("writing {}", a.out.display()))?;
     let r = &merged.report;
     eprintln!(
-        "wrote {} ({} rows; {} board samples outside the navigation log left out, {} in its gaps without navigation, {} saturated without a field)",
+        "wrote {} ({} rows; {} board samples outside the navigation log left out, {} in its gaps (over {} s) without navigation, {} saturated without a field)",
         a.out.display(),
         r.rows,
         r.board_samples_outside_nav,
         r.rows_in_nav_gaps,
+        r.nav_gap_limit_s,
         r.saturated_rows
     );
     if a.json {
@@ -111,5 +140,13 @@ fn signal_name(s: SharedSignal) -> &'static str {
         SharedSignal::Course => "GPS course",
         SharedSignal::Tilt => "tilt (roll and pitch)",
         SharedSignal::Rates => "rates of turn",
+    }
+}
+
+/// A positive, finite number of seconds.
+fn positive_s(text: &str) -> std::result::Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!("`{text}` is not a positive number of seconds")),
     }
 }

@@ -21,6 +21,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 use host_tools::data::compass::CompassLog;
+use host_tools::data::intake::{self, IntakeError};
 use host_tools::data::table::ColumnMap;
 use host_tools::data::{CalDoc, Recording, RecordingError};
 use host_tools::files::{self, Replaces};
@@ -42,22 +43,44 @@ pub struct InputColumns {
 }
 
 impl InputColumns {
-    /// Reads a recording under the mapping; a missing field column whose
-    /// header suggests a mapping says to give it with `--columns`.
+    /// Reads a recording under the mapping through the one way in
+    /// ([`host_tools::data::intake`]: the time's unit, roll and pitch in
+    /// radians, placeholder fixes, duplicated columns), saying on stderr
+    /// what it converted or dropped; a refusal says which `--columns` entry
+    /// settles it.
     pub fn read(&self, path: &Path) -> Result<Recording> {
         let map = self.columns.clone().unwrap_or_default();
-        Recording::read_mapped(path, &map).map_err(|e| {
-            hinted(e, |e| match e {
-                RecordingError::MissingColumn { hint, .. } if !hint.is_empty() => Some("give the mapping with --columns"),
-                _ => None,
-            })
-        })
+        let intake = intake::read_recording(path, &map).map_err(|e| hinted(e, intake_hint))?;
+        for note in &intake.notes {
+            eprintln!("note: {note}");
+        }
+        Ok(intake.recording)
     }
 
-    /// Reads a heading-only compass's log under the mapping.
+    /// Reads a heading-only compass's log under the mapping, through the
+    /// one way in ([`intake::read_compass`]: the time's unit, placeholder
+    /// fixes), saying what it converted or dropped.
     pub fn read_compass(&self, path: &Path) -> Result<CompassLog> {
         let map = self.columns.clone().unwrap_or_default();
-        Ok(CompassLog::read_mapped(path, &map)?)
+        let (log, notes) = intake::read_compass(path, &map).map_err(|e| hinted(e, intake_hint))?;
+        for note in &notes {
+            eprintln!("note: {note}");
+        }
+        Ok(log)
+    }
+}
+
+/// What to change on the command line when the one way in refuses a
+/// recording.
+pub fn intake_hint(e: &IntakeError) -> Option<&'static str> {
+    match e {
+        IntakeError::Read(RecordingError::MissingColumn { hint, .. }) if !hint.is_empty() => Some("give the mapping with --columns"),
+        IntakeError::Read(RecordingError::DuplicateColumn { .. } | RecordingError::SharedColumn { .. }) => Some("name the header's column for each with --columns"),
+        IntakeError::TimeUnit { .. } => Some("give it with --columns (e.g. --columns t=t:us)"),
+        IntakeError::AttitudeUnits { .. } => Some(
+            "looks like radians: give --columns roll_deg=roll_deg:rad,pitch_deg=pitch_deg:rad (the file's names for them); if they really are degrees, say so with :deg",
+        ),
+        _ => None,
     }
 }
 
@@ -168,46 +191,38 @@ pub fn check_out(flag: &str, out: &Path, inputs: &[&Path]) -> Result<()> {
     Ok(())
 }
 
-/// Distance beyond which a recording's positions are warned about as far
-/// from the site (the declination can move by tenths of a degree), km.
-pub const SITE_WARN_KM: f64 = 20.0;
-/// Distance beyond which they are refused (a wrong sign or a typo in
-/// --lat/--lon: the reference field would be another place's), km.
-pub const SITE_REFUSE_KM: f64 = 500.0;
-
-/// Great-circle distance on a sphere of the Earth's mean radius, km.
-pub fn distance_km(lat1_deg: f64, lon1_deg: f64, lat2_deg: f64, lon2_deg: f64) -> f64 {
-    let (p1, p2) = (lat1_deg.to_radians(), lat2_deg.to_radians());
-    let (dp, dl) = (p2 - p1, (lon2_deg - lon1_deg).to_radians());
-    let h = (dp / 2.0).sin().powi(2) + p1.cos() * p2.cos() * (dl / 2.0).sin().powi(2);
-    2.0 * 6371.0 * h.sqrt().clamp(0.0, 1.0).asin()
+/// Checks the recording's own positions (`lat_deg`/`lon_deg`, where present)
+/// against the site of the reference field ([`intake::check_positions`]):
+/// a warning beyond [`intake::SITE_WARN_KM`], a refusal beyond
+/// [`intake::SITE_REFUSE_KM`], naming both. Without a date the declination
+/// is not compared (see [`check_site`]).
+pub fn check_positions(rec: &Recording, path: &Path, lat_deg: f64, lon_deg: f64) -> Result<()> {
+    site_checked(intake::check_positions(rec, path, lat_deg, lon_deg, None, false), lat_deg, lon_deg)
 }
 
-/// Checks the recording's own positions (`lat_deg`/`lon_deg`, where present)
-/// against the site of the reference field: a warning beyond
-/// [`SITE_WARN_KM`], a refusal beyond [`SITE_REFUSE_KM`], naming both.
-pub fn check_positions(rec: &Recording, path: &Path, lat_deg: f64, lon_deg: f64) -> Result<()> {
-    let (Some(lat), Some(lon)) = (&rec.lat_deg, &rec.lon_deg) else { return Ok(()) };
-    let far = lat
-        .iter()
-        .zip(lon)
-        .enumerate()
-        .filter(|(_, (a, o))| a.is_finite() && o.is_finite())
-        .map(|(i, (&a, &o))| (distance_km(lat_deg, lon_deg, a, o), i, a, o))
-        .max_by(|x, y| x.0.total_cmp(&y.0));
-    let Some((km, row, a, o)) = far else { return Ok(()) };
-    let what = format!(
-        "{}: the recording's position {a:.5}°, {o:.5}° (data row {}) is {km:.0} km from the site --lat {lat_deg} --lon {lon_deg}",
-        path.display(),
-        row + 1
-    );
-    if km > SITE_REFUSE_KM {
-        bail!("{what}: the reference field and declination would be another place's; give the site where the recording was made");
+/// [`check_positions`] against a site with its date: the declination at the
+/// farthest position against the site's too, refused beyond
+/// [`intake::DECLINATION_CHANGE_LIMIT_DEG`] unless `allow_weak` (then said
+/// on stderr).
+pub fn check_site(rec: &Recording, path: &Path, site: &Site, allow_weak: bool) -> Result<()> {
+    site_checked(intake::check_positions(rec, path, site.lat_deg, site.lon_deg, Some(site.decimal_year), allow_weak), site.lat_deg, site.lon_deg)
+}
+
+/// The warnings of a site check on stderr, or its refusal with its hint;
+/// both name the site as given on the command line.
+fn site_checked(found: std::result::Result<Vec<intake::SiteWarning>, IntakeError>, lat_deg: f64, lon_deg: f64) -> Result<()> {
+    let site = format!("--lat {lat_deg} --lon {lon_deg}");
+    match found {
+        Ok(warnings) => {
+            for w in warnings {
+                eprintln!("warning: {w} (the site: {site})");
+            }
+            Ok(())
+        }
+        Err(e @ IntakeError::FarFromSite(_)) => bail!("{e}: check {site} (the sign of each)"),
+        Err(e @ IntakeError::DeclinationChange { .. }) => bail!("{e}: check {site}, or give --allow-weak to keep it (said in the output)"),
+        Err(e) => Err(hinted(e, intake_hint)),
     }
-    if km > SITE_WARN_KM {
-        eprintln!("warning: {what}: the reference field and declination are the site's, not the recording's");
-    }
-    Ok(())
 }
 
 /// A spinner with the elapsed time on stderr while `what` runs, on a

@@ -51,6 +51,9 @@ pub(super) struct Search {
     pub(super) margin_sigma: Option<f64>,
     /// The runner-up's offset, s.
     pub(super) runner_up_s: Option<f64>,
+    /// The offsets searched (`t_nav − t_board`), s: the window, cut to
+    /// where the logs overlap.
+    pub(super) range: (f64, f64),
 }
 
 /// What the alignment found.
@@ -145,7 +148,7 @@ fn parabolic_vertex(a: f64, b: f64, c: f64) -> f64 {
 }
 
 /// Grid of the rates' fine correlation, s.
-const RATE_FINE_DT_S: f64 = 0.02;
+pub(super) const RATE_FINE_DT_S: f64 = 0.02;
 /// Lag step of the fine rate correlation, s (refined by a parabola).
 const RATE_LAG_STEP_S: f64 = 0.01;
 
@@ -297,6 +300,7 @@ pub(super) fn estimate_clock(board: &BoardLog, nav: &NavLog, center_s: f64, max_
         timed_by,
         margin_sigma: peak.margin_sigma.is_finite().then_some(peak.margin_sigma),
         runner_up_s: peak.runner_up.map(|j| lags[j]),
+        range,
     });
     Ok(found)
 }

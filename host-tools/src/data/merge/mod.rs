@@ -156,6 +156,66 @@ pub enum MergeError {
         /// The navigation log's rows.
         nav_rows: usize,
     },
+    /// A log's `t` is in a unit its step does not make clear.
+    #[error(transparent)]
+    Time(#[from] super::intake::IntakeError),
+    /// A log spans more time than its rows can fill on the search's grids
+    /// (`t` in another unit than it is read in, or a clock that jumps).
+    #[error("the {log} log spans {span_s:.6e} s over {rows} rows (median step {median_step_s} s; its largest step {largest_step_s:.6e} s after data row {row}): more time than its rows can fill on the clock search's grids (at most {GRID_POINTS_FLOOR:e} + {GRID_POINTS_PER_ROW} × rows steps of {grid_step_s} s); is `t` in the unit it is read in, or does its clock jump there?")]
+    SpanTooLong {
+        /// `"board"` or `"navigation"`.
+        log: &'static str,
+        /// Its span, s.
+        span_s: f64,
+        /// Its rows.
+        rows: usize,
+        /// Its median step, s.
+        median_step_s: f64,
+        /// Its largest step, s.
+        largest_step_s: f64,
+        /// The 1-based data row the largest step follows.
+        row: usize,
+        /// The grid's step, s.
+        grid_step_s: f64,
+    },
+    /// The clock search failed across a step of one log's time far longer
+    /// than its others: a clock jump (or a gap after which the clocks
+    /// differ).
+    #[error("the {log} log's time steps from {from_s:.3} s to {to_s:.3} s after data row {row} ({step_s:.3} s, {ratio:.0}× its median step): a clock jump (or a gap after which the clocks differ), and the logs cannot share one offset across it; merge the parts on either side of it separately. The search said: {source}")]
+    ClockJump {
+        /// `"board"` or `"navigation"`.
+        log: &'static str,
+        /// The 1-based data row before the step.
+        row: usize,
+        /// The time before the step, s.
+        from_s: f64,
+        /// The time after it, s.
+        to_s: f64,
+        /// The step, s.
+        step_s: f64,
+        /// The step over the log's median step.
+        ratio: f64,
+        /// What the search said.
+        source: Box<MergeError>,
+    },
+    /// A given clock offset disagrees with what the data show.
+    #[error("the clock offset given, {given_s:.3} s (navigation − board), disagrees with the data: the logs agree best at {found_s:.3} ± {sigma_s:.3} s, {diff_s:.3} s away (allowed: {allowance_s:.3} s, the larger of {MIN_OFFSET_ALLOWANCE_S} s and {OFFSET_ALLOWANCE_SIGMA} σ); check its sign and its size, or leave it out to use the offset found")]
+    GivenOffsetDisagrees {
+        /// The offset given at the board log's middle, s.
+        given_s: f64,
+        /// The offset the data show there, s.
+        found_s: f64,
+        /// Its 1σ, s.
+        sigma_s: f64,
+        /// The largest difference over the board log, s.
+        diff_s: f64,
+        /// The allowance, s.
+        allowance_s: f64,
+    },
+    /// The offset found lies at an end of the offsets searched, and the
+    /// search is strict.
+    #[error("{0} (refused as strict)")]
+    AtWindowEdge(String),
     /// A given clock is not usable numbers.
     #[error("offset {offset_s} s / drift {drift_ppm} ppm: not usable numbers")]
     BadGivenClock {
@@ -284,6 +344,110 @@ pub struct MergeReport {
     pub nav_interval_s: f64,
     /// The board samples' median interval, s.
     pub board_interval_s: f64,
+    /// The longest gap of the navigation log interpolated across, s
+    /// (longer gaps' rows are written without navigation and counted in
+    /// `rows_in_nav_gaps`).
+    #[serde(default)]
+    pub nav_gap_limit_s: f64,
+    /// What was converted or not checked, in words (a log's time unit, a
+    /// given offset the data could not check).
+    #[serde(default)]
+    pub notes: Vec<String>,
+    /// What the data leave weak and was kept, in words (an offset found
+    /// at its search window's end; a given offset the data disagree with,
+    /// kept as weak results are allowed).
+    #[serde(default)]
+    pub warnings: Vec<String>,
+}
+
+/// The longest gap of the navigation log interpolated across by default,
+/// s: a vehicle's roll and pitch change by degrees within a second or two
+/// (a wave's or a glider's roll period is a few seconds), so a straight
+/// line across a longer gap makes attitude up (a 0.1 Hz navigation log
+/// interpolated across its 10 s steps was 9.6° RMS off in roll).
+pub const MAX_NAV_GAP_S: f64 = 2.0;
+
+/// A given offset may differ from the one the data show by this much, s
+/// (a coarse search step, twice)…
+pub const MIN_OFFSET_ALLOWANCE_S: f64 = 0.5;
+/// …or this many of the found offset's σ, whichever is larger.
+pub const OFFSET_ALLOWANCE_SIGMA: f64 = 5.0;
+/// The half-width of the search around a given offset that checks it, s
+/// (the default search window's).
+pub const OFFSET_CHECK_WINDOW_S: f64 = 120.0;
+/// An offset found within this of an end of the offsets searched is "at
+/// the window's edge", s (four coarse steps: the peak's lobe reaches it).
+pub const WINDOW_EDGE_S: f64 = 1.0;
+/// The clock search's grids may hold this many points per log row…
+pub const GRID_POINTS_PER_ROW: f64 = 64.0;
+/// …beyond this many (a floor for short logs with pauses).
+pub const GRID_POINTS_FLOOR: f64 = 1e6;
+/// A step this many times a log's median step, and at least
+/// [`JUMP_MIN_S`], is named as a possible clock jump when the search fails.
+pub const JUMP_RATIO: f64 = 20.0;
+/// The shortest step named as a possible clock jump, s.
+pub const JUMP_MIN_S: f64 = 5.0;
+
+/// What `merge` may keep, and how far it interpolates.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MergeOptions {
+    /// The longest gap of the navigation log interpolated across, s
+    /// ([`MAX_NAV_GAP_S`]); never beyond five of the log's median steps
+    /// (at least 1 s), the rule for a log's dropouts.
+    pub max_nav_gap_s: f64,
+    /// Keep a given offset the data disagree with (said in the report's
+    /// warnings).
+    pub allow_weak: bool,
+    /// Refuse an offset found at its search window's edge (otherwise kept
+    /// and said).
+    pub strict: bool,
+}
+
+impl Default for MergeOptions {
+    fn default() -> Self {
+        Self { max_nav_gap_s: MAX_NAV_GAP_S, allow_weak: false, strict: false }
+    }
+}
+
+/// The largest step of `t`: (0-based index before it, step).
+fn largest_step(t: &[f64]) -> Option<(usize, f64)> {
+    t.windows(2).map(|w| w[1] - w[0]).enumerate().max_by(|a, b| a.1.total_cmp(&b.1))
+}
+
+/// Refuses a log whose span the clock search's grids (steps of
+/// [`align::RATE_FINE_DT_S`]) could not hold in memory proportional to
+/// its rows ([`GRID_POINTS_PER_ROW`], [`GRID_POINTS_FLOOR`]).
+fn check_span(log: &'static str, t: &[f64]) -> Result<(), MergeError> {
+    let (Some(first), Some(last)) = (t.first(), t.last()) else { return Ok(()) };
+    let span_s = last - first;
+    let grid_step_s = align::RATE_FINE_DT_S;
+    if span_s / grid_step_s <= GRID_POINTS_FLOOR + GRID_POINTS_PER_ROW * t.len() as f64 {
+        return Ok(());
+    }
+    let (i, largest_step_s) = largest_step(t).unwrap_or((0, span_s));
+    Err(MergeError::SpanTooLong { log, span_s, rows: t.len(), median_step_s: median_interval(t), largest_step_s, row: i + 1, grid_step_s })
+}
+
+/// A log's largest step when it is far longer than its others
+/// ([`JUMP_RATIO`], [`JUMP_MIN_S`]): (0-based row before it, step s, step
+/// over the median step).
+fn jump(t: &[f64]) -> Option<(usize, f64, f64)> {
+    let median = median_interval(t);
+    let (i, step) = largest_step(t)?;
+    (step >= JUMP_MIN_S && step >= JUMP_RATIO * median).then_some((i, step, step / median))
+}
+
+/// A failed search with the logs' clock jump named, when one has a step
+/// far longer than its others ([`JUMP_RATIO`], [`JUMP_MIN_S`]).
+fn with_jump(e: MergeError, board: &BoardLog, nav: &NavLog) -> MergeError {
+    if !matches!(e, MergeError::OutsideWindow { .. } | MergeError::NoAgreement { .. } | MergeError::NotUnique { .. } | MergeError::DriftTooLarge { .. } | MergeError::NoRotation(_)) {
+        return e;
+    }
+    let jump = |log: &'static str, t: &[f64]| jump(t).map(|(i, step, ratio)| (log, i, step, ratio, t[i], t[i + 1]));
+    match [jump("navigation", &nav.t_s), jump("board", &board.t_s)].into_iter().flatten().max_by(|a, b| a.3.total_cmp(&b.3)) {
+        Some((log, i, step_s, ratio, from_s, to_s)) => MergeError::ClockJump { log, row: i + 1, from_s, to_s, step_s, ratio, source: Box::new(e) },
+        None => e,
+    }
 }
 
 /// The median interval, s; NaN with fewer than two distinct times.
@@ -307,22 +471,98 @@ fn no_overlap(board: &BoardLog, nav: &NavLog, detail: String) -> MergeError {
 /// have them. Extra columns (ignored by the recording reader but kept for
 /// users): `t_board`, `heading_deg` — see [`Merged::extra_columns`].
 pub fn merge(board: &BoardLog, nav: &NavLog, clock: Clock) -> Result<Merged, MergeError> {
+    merge_with(board, nav, clock, &MergeOptions::default())
+}
+
+/// [`merge`] with `opts`: the navigation interpolated across gaps up to
+/// `opts.max_nav_gap_s`; a given offset checked against the offset the
+/// data show within [`OFFSET_CHECK_WINDOW_S`] of it (refused beyond
+/// [`MIN_OFFSET_ALLOWANCE_S`] or [`OFFSET_ALLOWANCE_SIGMA`] σ unless
+/// `opts.allow_weak`, then said); an offset found within
+/// [`WINDOW_EDGE_S`] of the end of the offsets searched said (refused
+/// when `opts.strict`); a failed search across a log's clock jump names
+/// the jump; a log whose span its rows cannot fill refused before any grid
+/// is made.
+pub fn merge_with(board: &BoardLog, nav: &NavLog, clock: Clock, opts: &MergeOptions) -> Result<Merged, MergeError> {
     if board.t_s.is_empty() || nav.t_s.is_empty() {
         return Err(MergeError::EmptyLog { board_rows: board.t_s.len(), nav_rows: nav.t_s.len() });
     }
+    let (mut notes, mut warnings) = (Vec::new(), Vec::new());
+    let estimate = |center_s: f64, max_offset_s: f64| -> Result<align::Alignment, MergeError> {
+        check_span("board", &board.t_s)?;
+        check_span("navigation", &nav.t_s)?;
+        align::estimate_clock(board, nav, center_s, max_offset_s).map_err(|e| with_jump(e, board, nav))
+    };
+    let b_mid = 0.5 * (board.t_s[0] + board.t_s[board.t_s.len() - 1]);
     let alignment = match clock {
-        Clock::Estimate { center_s, max_offset_s } => align::estimate_clock(board, nav, center_s, max_offset_s)?,
+        Clock::Estimate { center_s, max_offset_s } => {
+            let found = estimate(center_s, max_offset_s)?;
+            if let Some(search) = &found.search {
+                let at = found.clock.to_nav(b_mid) - b_mid;
+                let (lo, hi) = search.range;
+                if lo > center_s - max_offset_s || hi < center_s + max_offset_s {
+                    notes.push(format!(
+                        "the search window {center_s} ± {max_offset_s} s reaches beyond the offsets at which the logs overlap (at least 20 s and half the shorter log): searched {lo:.2} … {hi:.2} s"
+                    ));
+                }
+                let end = if (at - lo).abs() < (hi - at).abs() { lo } else { hi };
+                if (at - end).abs() <= WINDOW_EDGE_S {
+                    let text = format!(
+                        "the clock offset found, {at:.3} s (navigation − board, mid-log), is within {WINDOW_EDGE_S} s of the end of the offsets searched ({lo:.2} … {hi:.2} s: the window {center_s} ± {max_offset_s} s where the logs overlap): the logs may agree better beyond it"
+                    );
+                    if opts.strict {
+                        return Err(MergeError::AtWindowEdge(text));
+                    }
+                    warnings.push(text);
+                }
+            }
+            found
+        }
         Clock::Given { offset_s, drift_ppm } => {
             if !(offset_s.is_finite() && drift_ppm.is_finite() && drift_ppm.abs() < 1e5) {
                 return Err(MergeError::BadGivenClock { offset_s, drift_ppm });
             }
             let clock = ClockMap { offset_s, drift_ppm, board_ref_s: board.t_s[0] };
+            let given_mid = clock.to_nav(b_mid) - b_mid;
+            match estimate(given_mid, OFFSET_CHECK_WINDOW_S) {
+                Ok(found) => {
+                    let ends = [board.t_s[0], board.t_s[board.t_s.len() - 1]];
+                    let diff_s = ends.iter().map(|&t| (clock.to_nav(t) - found.clock.to_nav(t)).abs()).fold(0.0, f64::max);
+                    let allowance_s = MIN_OFFSET_ALLOWANCE_S.max(OFFSET_ALLOWANCE_SIGMA * found.offset_sigma_s);
+                    if !(diff_s <= allowance_s) {
+                        let e = MergeError::GivenOffsetDisagrees { given_s: given_mid, found_s: found.clock.to_nav(b_mid) - b_mid, sigma_s: found.offset_sigma_s, diff_s, allowance_s };
+                        if !opts.allow_weak {
+                            return Err(e);
+                        }
+                        warnings.push(format!("{e}: kept as weak results are allowed"));
+                    }
+                }
+                Err(e) => notes.push(format!("the clock offset given could not be checked against the data ({e})")),
+            }
             align::Alignment { clock, offset_sigma_s: 0.0, drift_sigma_ppm: 0.0, drift_fitted: false, windows: 0, agreement: f64::NAN, search: None }
         }
     };
-    let (recording, extra, counts) = resample::rows(board, nav, &alignment.clock);
+    let max_gap_s = if opts.max_nav_gap_s > 0.0 { opts.max_nav_gap_s } else { MAX_NAV_GAP_S };
+    let (recording, extra, counts) = resample::rows(board, nav, &alignment.clock, max_gap_s);
     if recording.mag.is_empty() {
         return Err(no_overlap(board, nav, format!("with the clock offset {:.3} s (navigation − board) no board sample falls within the navigation log", alignment.clock.offset_s)));
+    }
+    for (log, t) in [("navigation", &nav.t_s), ("board", &board.t_s)] {
+        if let Some((i, step_s, ratio)) = jump(t) {
+            warnings.push(format!(
+                "the {log} log's time steps from {:.3} s to {:.3} s after data row {} ({step_s:.3} s, {ratio:.0}× its median step): a clock jump or a gap; the clock offset holds on both sides only if it is a gap",
+                t[i],
+                t[i + 1],
+                i + 1
+            ));
+        }
+    }
+    let nav_step = median_interval(&nav.t_s);
+    if nav_step > max_gap_s {
+        notes.push(format!(
+            "the navigation log's median step {nav_step:.3} s is longer than the {max_gap_s} s interpolated across: the board samples between its rows are written without navigation ({} rows)",
+            counts.in_gaps
+        ));
     }
     let map = alignment.clock;
     let report = MergeReport {
@@ -346,6 +586,9 @@ pub fn merge(board: &BoardLog, nav: &NavLog, clock: Clock) -> Result<Merged, Mer
         saturated_rows: counts.saturated,
         nav_interval_s: median_interval(&nav.t_s),
         board_interval_s: median_interval(&board.t_s),
+        nav_gap_limit_s: max_gap_s,
+        notes,
+        warnings,
     };
     Ok(Merged { recording, extra, report })
 }
@@ -395,8 +638,27 @@ pub fn merge_files(board: &Path, nav: &Path, clock: Clock) -> Result<Merged, Mer
 /// [`merge_files`] with the navigation log under its own column names and
 /// units (`nav_columns`).
 pub fn merge_files_mapped(board: &Path, nav: &Path, nav_columns: &ColumnMap, clock: Clock) -> Result<Merged, MergeError> {
-    let (b, n) = (BoardLog::read(board)?, NavLog::read_mapped(nav, nav_columns)?);
-    merge(&b, &n, clock)
+    merge_files_with(board, &ColumnMap::default(), nav, nav_columns, clock, &MergeOptions::default())
+}
+
+/// [`merge_files_mapped`] with the board log's mapping too and `opts`
+/// ([`merge_with`]). Each log's `t` in ms or µs (found from its step by
+/// [`super::intake::time_unit`] unless its mapping gives the unit) is
+/// converted to seconds and said in the report's notes, or refused when
+/// its step does not tell.
+pub fn merge_files_with(board: &Path, board_columns: &ColumnMap, nav: &Path, nav_columns: &ColumnMap, clock: Clock, opts: &MergeOptions) -> Result<Merged, MergeError> {
+    let (mut b, mut n) = (BoardLog::read_mapped(board, board_columns)?, NavLog::read_mapped(nav, nav_columns)?);
+    let mut notes = Vec::new();
+    if board_columns.unit(col::T).is_none() {
+        notes.extend(super::intake::convert_time(&mut b.t_s, board)?);
+    }
+    if nav_columns.unit(col::T).is_none() {
+        notes.extend(super::intake::convert_time(&mut n.t_s, nav)?);
+    }
+    let mut merged = merge_with(&b, &n, clock, opts)?;
+    notes.append(&mut merged.report.notes);
+    merged.report.notes = notes;
+    Ok(merged)
 }
 
 #[cfg(test)]
@@ -477,6 +739,38 @@ mod tests {
         let m = merge(&board, &nav, Clock::Given { offset_s: 12.0, drift_ppm: 0.0 }).unwrap();
         assert!(!m.report.estimated && m.report.offset_s == 12.0);
         assert_eq!(m.recording.roll_deg.as_ref().unwrap()[0], 1.0);
+    }
+
+    /// Issue 37: a given offset with the wrong sign was used unchecked. The
+    /// data show −47.3 s: +47.3 s is refused naming both, kept when weak
+    /// results are allowed (and said); the right one passes unsaid.
+    #[test]
+    fn a_given_offset_is_checked_against_the_data() {
+        let (board, nav) = logs(-47.3, 500.0, 300.0, true);
+        let given = |offset_s: f64, allow_weak: bool| merge_with(&board, &nav, Clock::Given { offset_s, drift_ppm: 0.0 }, &MergeOptions { allow_weak, ..MergeOptions::default() });
+        let e = given(47.3, false).unwrap_err();
+        let MergeError::GivenOffsetDisagrees { found_s, diff_s, .. } = e else { panic!("{e}") };
+        assert!((found_s + 47.3).abs() < 0.01 && (diff_s - 94.6).abs() < 0.01, "{e}");
+        let m = given(47.3, true).unwrap();
+        assert!(m.report.offset_s == 47.3 && m.report.warnings.len() == 1, "{:?}", m.report);
+        let m = given(-47.3, false).unwrap();
+        assert!(m.report.warnings.is_empty() && m.report.notes.is_empty(), "{:?}", m.report);
+    }
+
+    /// The navigation is interpolated across gaps up to the limit only: a
+    /// 10 Hz log with its rows at 50.0 … 52.9 s cut out leaves the board
+    /// samples strictly between 49.9 s and 53.0 s without navigation
+    /// (50 Hz: 3.1 s × 50 − 1 = 154).
+    #[test]
+    fn navigation_gaps_beyond_the_limit_are_left_empty_and_counted() {
+        let (board, mut nav) = logs(0.0, 0.0, 100.0, true);
+        let keep: Vec<bool> = nav.t_s.iter().map(|t| !(50.0..53.0).contains(t)).collect();
+        let cut = |v: &[f64]| v.iter().zip(&keep).filter(|(_, k)| **k).map(|(x, _)| *x).collect::<Vec<f64>>();
+        nav = NavLog { t_s: cut(&nav.t_s), roll_deg: cut(&nav.roll_deg), pitch_deg: cut(&nav.pitch_deg), heading_deg: nav.heading_deg.as_deref().map(cut), ref_heading_deg: nav.ref_heading_deg.as_deref().map(cut), ..NavLog::default() };
+        let clock = Clock::Given { offset_s: 0.0, drift_ppm: 0.0 };
+        let m = merge_with(&board, &nav, clock, &MergeOptions::default()).unwrap();
+        assert_eq!(m.report.rows_in_nav_gaps, 154, "{:?}", m.report);
+        assert_eq!(m.report.nav_gap_limit_s, MAX_NAV_GAP_S);
     }
 
     #[test]

@@ -35,8 +35,11 @@ fn resampled(c: &Column, values: &[f64], brackets: &[Option<Bracket>]) -> Vec<f6
 /// clock of `map`, with the navigation columns interpolated to them: each
 /// row's bracket found once, then each column the registry merges
 /// ([`merged_columns`]) that the navigation log has, resampled in one pass.
-pub(super) fn rows(board: &BoardLog, nav: &NavLog, map: &ClockMap) -> (Recording, MergedExtra, Counts) {
-    let nav_gap = (5.0 * median_interval(&nav.t_s)).max(1.0);
+/// Navigation rows more than `max_gap_s` apart are not interpolated
+/// between ([`super::MergeOptions::max_nav_gap_s`]; nor beyond five of the
+/// log's median steps, at least 1 s).
+pub(super) fn rows(board: &BoardLog, nav: &NavLog, map: &ClockMap, max_gap_s: f64) -> (Recording, MergedExtra, Counts) {
+    let nav_gap = (5.0 * median_interval(&nav.t_s)).max(1.0).min(max_gap_s);
     let (n0, n1) = (nav.t_s[0], *nav.t_s.last().unwrap_or(&nav.t_s[0]));
     let mut counts = Counts { outside: 0, in_gaps: 0, saturated: 0 };
     let (mut t_s, mut mag, mut t_board_s, mut brackets, mut kept) = (vec![], vec![], vec![], vec![], vec![]);
