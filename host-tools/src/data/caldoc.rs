@@ -478,4 +478,43 @@ mod tests {
         both.save(&out).unwrap();
         assert_eq!(CalDoc::load(&out).unwrap(), both);
     }
+
+    #[test]
+    fn the_one_check_refuses_what_cannot_be_a_calibration_and_a_weak_one_unless_allowed() {
+        let p = Path::new("cal.json");
+        let reason = |d: &CalDoc| d.validate(p).unwrap_err().to_string();
+        // A fold: 1 + B cos ψ is 0.1 at 180° with B = 0.9 (the compass form's rule).
+        let mut d = doc();
+        d.swing = Some(Swing { a: 0.0, b: 0.9, c: 0.0, d: 0.0, e: 0.0 });
+        assert!(reason(&d).contains("folds headings") && reason(&d).contains("0.10°"), "{}", reason(&d));
+        assert!((min_correction_slope(&d.swing.unwrap()) - 0.1).abs() < 1e-12);
+        // A model its matrix is not.
+        let mut d = doc();
+        d.matrix[0][1] = 0.3;
+        assert!(reason(&d).contains("model `axis`"), "{}", reason(&d));
+        d.model = ModelKind::Full;
+        d.validate(p).unwrap();
+        d.model = ModelKind::Sphere;
+        d.matrix = [[5.0, 0.0, 0.0], [0.0, 5.0, 0.0], [0.0, 0.0, 5.0]];
+        d.validate(p).unwrap();
+        d.matrix[2][2] = 5.5;
+        assert!(reason(&d).contains("model `sphere`"), "{}", reason(&d));
+        // Field in µT, a heading error of 10⁹ degrees.
+        let mut d = doc();
+        d.field_nt = 48.73;
+        assert!(reason(&d).contains("looks like µT"), "{}", reason(&d));
+        let mut d = doc();
+        d.quality.predicted_heading_rms_deg = Some(1e9);
+        assert!(reason(&d).contains("predicted_heading_rms_deg"), "{}", reason(&d));
+        // A failed reference check: refused, or kept with allow_weak and said.
+        let mut d = doc();
+        let mut r = crate::compute::reference::Reference::user_intensity(48_730.0);
+        r.check = Some(crate::compute::reference::ReferenceCheck { inclination_deg: None, inclination_allowance_deg: None, field_nt: 30_000.0, agrees: false, disagreement: "the calibrated intensity is 30000 nT".into() });
+        d.reference = Some(r);
+        d.validate(p).unwrap();
+        assert!(matches!(d.check(p, false), Err(CalDocError::WeakReference { .. })));
+        let said = d.check(p, true).unwrap();
+        assert!(said.len() == 1 && said[0].contains("30000 nT"), "{said:?}");
+        assert!(doc().check(p, false).unwrap().is_empty());
+    }
 }
