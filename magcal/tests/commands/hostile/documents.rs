@@ -101,6 +101,25 @@ fn a_document_whose_own_reference_check_failed_is_refused_unless_allowed_and_the
     }
 }
 
+#[test]
+fn what_fit_allow_weak_writes_after_a_failed_site_check_is_refused_by_apply_unless_allowed_again() {
+    let dir = tempfile::tempdir().unwrap();
+    let cal = dir.path().join("weak.json");
+    let out = dir.path().join("out.csv");
+    // SG236 (tests/data/seaglider-sg236) fitted at the wrong site: 10° N
+    // instead of 46.9° N (IGRF-14's dip 27° against the glider's 66°).
+    accepted(&magcal(&["fit", "--model", "attitude", "--input", p(&data("seaglider-sg236/sg236_calib.csv")), "--lat", "10", "--lon", "-124.894", "--date", "2023-06-01", "--allow-weak", "--out", p(&cal)]));
+    let validate = data("seaglider-sg236/sg236_validate.csv");
+    let e = refused(&apply(&cal, &validate, &out, &[]));
+    assert!(e.contains(p(&cal)) && e.contains("disagrees with its own reference field") && e.contains("dip") && e.contains("--allow-weak"), "{e}");
+    assert!(!out.exists());
+    let o = apply(&cal, &validate, &out, &["--allow-weak"]);
+    let e = accepted(&o);
+    assert!(e.contains("warning:") && e.contains("disagrees with its own reference field"), "{e}");
+    let s: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(s["warnings"][0].as_str().unwrap().contains("disagrees"), "{s}");
+}
+
 /// The output CSV's header and one column by name.
 fn column(path: &Path, name: &str) -> (String, Vec<f64>) {
     let text = std::fs::read_to_string(path).unwrap();
