@@ -60,7 +60,8 @@ pub struct ApplyOptions {
 pub struct AppliedRow {
     /// Calibrated field, nT (NaN for a row without a complete sample).
     pub field_nt: [f64; 3],
-    /// True heading, degrees in [0, 360) (`None` without attitude).
+    /// Heading, degrees in [0, 360) (`None` without attitude): true when
+    /// the calibration holds a declination, else magnetic ([`North`]).
     pub heading_deg: Option<f64>,
     /// Its 1σ, degrees (`None` without attitude).
     pub heading_sigma_deg: Option<f64>,
