@@ -60,7 +60,8 @@ pub struct ApplyOptions {
 pub struct AppliedRow {
     /// Calibrated field, nT (NaN for a row without a complete sample).
     pub field_nt: [f64; 3],
-    /// True heading, degrees in [0, 360) (`None` without attitude).
+    /// Heading, degrees in [0, 360) (`None` without attitude): true when
+    /// the calibration holds a declination, else magnetic ([`North`]).
     pub heading_deg: Option<f64>,
     /// Its 1σ, degrees (`None` without attitude).
     pub heading_sigma_deg: Option<f64>,
@@ -160,6 +161,72 @@ pub fn choose_inclination(
         (None, Some(d), _) => (Some(d), InclinationSource::Document),
         (None, None, Some(d)) => (Some(d), InclinationSource::Site),
         (None, None, None) => (None, InclinationSource::Learned),
+    }
+}
+
+/// Where the heading's north comes from: the heading is true only when a
+/// declination is known (the document's, its swing's A, or the world
+/// model's at a site); otherwise it is magnetic and labelled so.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum North {
+    /// The document's `declination_deg`.
+    DocumentDeclination,
+    /// The document's swing, fitted against a true reference heading: its
+    /// A holds the declination.
+    Swing,
+    /// IGRF-14's declination at the site given to `apply`.
+    Site,
+    /// IGRF-14's declination at the document's own reference site.
+    DocumentSite,
+    /// No declination known: the heading is magnetic.
+    Magnetic,
+}
+
+impl North {
+    /// The output's heading column: `heading_deg` (true) or
+    /// `magnetic_heading_deg`.
+    pub fn heading_column(self) -> &'static str {
+        match self {
+            North::Magnetic => MAGNETIC_HEADING_DEG,
+            _ => col::HEADING_DEG,
+        }
+    }
+
+    /// Why the heading is true or magnetic, in words.
+    pub fn reason(self) -> &'static str {
+        match self {
+            North::DocumentDeclination => "true heading: the document's declination_deg added",
+            North::Swing => "true heading: the document's swing was fitted against a true reference heading, so its A holds the declination",
+            North::Site => "true heading: IGRF-14's declination at the site given added",
+            North::DocumentSite => "true heading: IGRF-14's declination at the document's reference site added",
+            North::Magnetic => "magnetic heading: neither the document (no declination_deg, no swing, no reference site) nor a site gives a declination",
+        }
+    }
+}
+
+/// The output column of a magnetic heading (no declination known), degrees.
+pub const MAGNETIC_HEADING_DEG: &str = "magnetic_heading_deg";
+
+/// Where the heading's north comes from for `doc`, and the declination to
+/// add when it is not the document's own (degrees east): the document's
+/// `declination_deg`, else its swing (A holds it), else the world model's
+/// at `site` (given to `apply`), else at the document's reference site,
+/// else none (magnetic).
+pub fn choose_north(doc: &CalDoc, site: Option<&crate::geomag::Site>) -> (North, Option<f64>) {
+    if doc.declination_deg.is_some() {
+        return (North::DocumentDeclination, None);
+    }
+    if doc.swing.is_some() {
+        return (North::Swing, None);
+    }
+    let declination = |s: &crate::geomag::Site| s.field().ok().map(|f| f.declination_deg());
+    if let Some(d) = site.and_then(declination) {
+        return (North::Site, Some(d));
+    }
+    match doc.reference.as_ref().and_then(|r| r.site.as_ref()).and_then(declination) {
+        Some(d) => (North::DocumentSite, Some(d)),
+        None => (North::Magnetic, None),
     }
 }
 
@@ -353,6 +420,19 @@ pub struct ApplySummary {
     /// Where the inclination came from (set by the caller that chose it).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub inclination_source: Option<InclinationSource>,
+    /// Where the heading's north came from (set by the caller that chose it).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub north: Option<North>,
+    /// The output's heading column and why ([`North::reason`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub heading_column: Option<&'static str>,
+    /// Why the heading is true or magnetic.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub north_reason: Option<&'static str>,
+    /// What the run must say about its inputs: a weak document used, a
+    /// value beyond its allowance kept (empty: nothing).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
     /// Longest run not ok, s.
     pub longest_disturbance_s: f64,
     /// The on-line hard-iron estimate at the end, nT, with its 1σ.
@@ -416,6 +496,10 @@ pub fn summarize(applied: &Applied, reference: Option<(&str, &[f64])>) -> ApplyS
         noise_nt: applied.reference.noise_nt,
         inclination_deg: applied.inclination_deg,
         inclination_source: None,
+        north: None,
+        heading_column: None,
+        north_reason: None,
+        warnings: Vec::new(),
         longest_disturbance_s: applied.health.longest_disturbance_s,
         hard_iron_nt: applied.hard_iron.map(|h| h.offset_nt),
         hard_iron_sigma_nt: applied.hard_iron.map(|h| h.sigma_nt),
@@ -451,7 +535,8 @@ pub fn summarize(applied: &Applied, reference: Option<(&str, &[f64])>) -> ApplyS
 }
 
 /// Writes `OUT.csv`: the input's `t` (when it has one) and, per row, the
-/// calibrated field, heading, σ and integrity, through
+/// calibrated field, heading (under `north`'s column: `heading_deg` true,
+/// `magnetic_heading_deg` magnetic), σ and integrity, through
 /// [`crate::files::write_atomic`], after [`crate::files::check_output`]:
 /// never over `input` (also through a hard or symbolic link).
 pub fn write_applied(
@@ -459,10 +544,11 @@ pub fn write_applied(
     input: &Path,
     t_s: Option<&[f64]>,
     applied: &Applied,
+    north: North,
 ) -> Result<(), ApplyError> {
     crate::files::check_output(path, &[input])?;
     let mut header = if t_s.is_some() { vec![col::T] } else { vec![] };
-    header.extend(["field_x_nt", "field_y_nt", "field_z_nt", col::HEADING_DEG, "heading_sigma_deg", "integrity"]);
+    header.extend(["field_x_nt", "field_y_nt", "field_z_nt", north.heading_column(), "heading_sigma_deg", "integrity"]);
     write_cells(path, &header, |w| {
         for (i, r) in applied.rows.iter().enumerate() {
             let mut cells = Vec::with_capacity(7);

@@ -161,6 +161,10 @@ fn paper_trace_entry(e: &calib_core::backstep::TraceEntry<f64>) -> TraceEntry {
 /// Refines a calibration on an out-and-back run.
 pub fn backstep_recording(rec: &Recording, doc: &CalDoc, opts: &BackstepOptions) -> Result<(CalDoc, BackstepReport), ComputeError> {
     use calib_core::backstep::{paper_backstep, run_stats, AxisCoefficients};
+    // The document's own problem first, before any work on the recording.
+    if opts.method == BackstepMethod::Paper && AxisCoefficients::from_field_cal(&doc.field_cal()).is_none() {
+        return Err(ComputeError::PaperNeedsAxis { model: doc.model.name() });
+    }
     let t = rec.t_s.as_ref().ok_or(ComputeError::NeedsColumn("t"))?;
     rec.roll_deg.as_ref().ok_or(ComputeError::NeedsColumn("roll_deg"))?;
     rec.pitch_deg.as_ref().ok_or(ComputeError::NeedsColumn("pitch_deg"))?;

@@ -203,3 +203,98 @@ pub fn shown(cal: &FieldCal<f64>, rec: &Recording) -> (Option<f64>, f64) {
     let dip = calib_core::series::median(&mut dips);
     (dip, calib_core::series::median(&mut mags).unwrap_or(f64::NAN))
 }
+
+/// The allowance of a user's inclination against the recording's own
+/// levelled dip through the document's calibration, degrees: a first
+/// step's calibration (before the back-stepping corrects its vertical) may
+/// show a dip a few degrees off, never one of the other sign or tens of
+/// degrees away (a vertical given with its sign flipped is off by twice
+/// the dip: 112° at 56°).
+pub const DATA_DIP_ALLOWANCE_DEG: f64 = 10.0;
+
+/// The world model's field where a recording was made: IGRF-14 at the
+/// median of its `lat_deg`/`lon_deg` (where it has positions), else at the
+/// site, at the site's date. `None` without a site (no date) or when the
+/// model cannot be evaluated there.
+pub fn world_field_for(rec: &Recording, site: Option<Site>) -> Option<(Site, Field)> {
+    let site = site?;
+    let median_of = |c: &Option<Vec<f64>>| c.as_ref().and_then(|v| calib_core::series::median(&mut v.iter().copied().filter(|x| x.is_finite()).collect::<Vec<_>>()));
+    let at = match (median_of(&rec.lat_deg), median_of(&rec.lon_deg)) {
+        (Some(lat), Some(lon)) => Site { lat_deg: lat, lon_deg: lon, decimal_year: site.decimal_year },
+        _ => site,
+    };
+    at.field().ok().map(|f| (at, f))
+}
+
+/// The world model's 1σ allowance at a field of intensity `field_nt`: the
+/// model's error and local anomalies in quadrature, (inclination degrees,
+/// intensity nT) — what [`Reference::world_model`] holds.
+pub fn world_allowance(field_nt: f64) -> (f64, f64) {
+    (MODEL_INCLINATION_SIGMA_DEG.hypot(LOCAL_INCLINATION_SIGMA_DEG), MODEL_INTENSITY_SIGMA_NT.hypot(LOCAL_INTENSITY_SIGMA_REL * field_nt))
+}
+
+/// A value given by the user against what a source gives: words when they
+/// differ by more than [`REFUSE_SIGMAS`] × `sigma` (`None`: they agree).
+/// `what` names the value, `unit` its unit as written after a number
+/// (`"°"`, `" nT"`), `source` where `expected` came from.
+pub fn given_disagreement(what: &str, given: f64, expected: f64, sigma: f64, unit: &str, source: &str) -> Option<String> {
+    let off = (given - expected).abs();
+    (off > REFUSE_SIGMAS * sigma).then(|| {
+        format!("{what} {given:.1}{unit} is {off:.1}{unit} from the {expected:.1}{unit} of {source} (allowance {REFUSE_SIGMAS} × {sigma:.1}{unit})")
+    })
+}
+
+/// Checks a reference field given as its horizontal and down components
+/// (nT): refused outright (`Err`) when it cannot be a geomagnetic field —
+/// the horizontal intensity not positive, or the intensity outside
+/// [`crate::data::caldoc::FIELD_NT_RANGE`]; otherwise the disagreements
+/// (empty: none) with the world model where it is known (`world`) and with
+/// the dip the recording itself shows (`data_dip_deg`, levelled through
+/// the calibration it will refine; allowance [`DATA_DIP_ALLOWANCE_DEG`]).
+pub fn check_given_field(h_nt: f64, z_nt: f64, world: Option<&(Site, Field)>, data_dip_deg: Option<f64>) -> Result<Vec<String>, String> {
+    if !(h_nt.is_finite() && z_nt.is_finite() && h_nt > 0.0) {
+        return Err(format!(
+            "a horizontal intensity of {h_nt} nT is not one of the Earth's field (positive everywhere but at the magnetic poles, where a heading has no meaning)"
+        ));
+    }
+    let f = h_nt.hypot(z_nt);
+    if let Some(why) = crate::data::caldoc::field_nt_problem(f) {
+        return Err(format!("the horizontal and down components give an intensity of {why}"));
+    }
+    let dip = z_nt.atan2(h_nt).to_degrees();
+    let mut words = Vec::new();
+    if let Some((site, field)) = world {
+        let (si, sf) = world_allowance(field.total_nt());
+        let source = format!("IGRF-14 at {:.3}°, {:.3}°, {:.2}", site.lat_deg, site.lon_deg, site.decimal_year);
+        words.extend(given_disagreement("the inclination they give", dip, field.inclination_deg(), si, "°", &source));
+        words.extend(given_disagreement("the intensity they give", f, field.total_nt(), sf, " nT", &source));
+    }
+    if let Some(d) = data_dip_deg {
+        words.extend(given_disagreement("the inclination they give", dip, d, DATA_DIP_ALLOWANCE_DEG / REFUSE_SIGMAS, "°", "the recording's own levelled dip through the calibration"));
+    }
+    Ok(words)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_given_field_is_held_to_physics_the_world_model_and_the_data() {
+        // IGRF-14 at 36.9° N, 50.6° E in 2021 (the simulator's site): about
+        // H 27 300 nT, Z 40 600 nT, dip 56°.
+        let site = Site::new(36.9, 50.6, "2021-01-01").unwrap();
+        let world = (site, site.field().unwrap());
+        let (h, z) = (world.1.horizontal_nt(), world.1.down_nt);
+        assert!(check_given_field(h, z, Some(&world), Some(56.0)).unwrap().is_empty());
+        // The vertical's sign flipped: the dip −56° against +56° both ways.
+        let words = check_given_field(h, -z, Some(&world), Some(56.0)).unwrap();
+        assert_eq!(words.len(), 2, "{words:?}");
+        assert!(words[0].contains("IGRF-14") && words[1].contains("levelled dip"), "{words:?}");
+        // No horizontal field, or µT typed for nT: no field at all.
+        assert!(check_given_field(0.0, 48_000.0, None, None).unwrap_err().contains("horizontal"));
+        assert!(check_given_field(27.3, 40.6, None, None).unwrap_err().contains("µT"));
+        // 4 % off in intensity is within 3 × 3 %: kept.
+        assert!(check_given_field(h * 1.04, z * 1.04, Some(&world), None).unwrap().is_empty());
+    }
+}

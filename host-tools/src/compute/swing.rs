@@ -7,7 +7,7 @@ use calib_core::swing::{aligned_pairs, estimate_delay, fit_swing, SwingFit, Swin
 
 use super::units::check_units;
 use super::error::ComputeError;
-use crate::data::results::{HeldOutSwing, SwingCurrent, SwingQuality};
+use crate::data::results::{DelaySearch, HeldOutSwing, SwingCurrent, SwingQuality};
 use crate::data::{CalDoc, Recording};
 
 /// How to treat the reference's delay.
@@ -166,7 +166,7 @@ fn delay_in_current(i: &TrackInputs<'_>, gps: &GpsColumns, reference: &[f64], ra
             .zip(speed)
             .map(|(&r, &s)| heading_from_course(r + decl, s, c).map_or(f64::NAN, |h| h - decl))
             .collect();
-        let Ok(next) = estimate_delay(t, headings, t, &converted, range_s, 0.1, gap) else { return (delay_s, estimated) };
+        let Ok(next) = estimate_delay(t, headings, t, &converted, range_s, DELAY_STEP_S, gap) else { return (delay_s, estimated) };
         estimated = true;
         let moved = (next.delay_s - delay_s).abs();
         delay_s = next.delay_s;
@@ -251,7 +251,7 @@ pub(crate) fn fit_swing_inputs(i: &SwingInputs<'_>, delay: Delay, water_current:
     // heading, or the error stands.
     let first = match delay {
         Delay::Given(s) => Ok(s),
-        Delay::Estimate { min_s, max_s } => estimate_delay(t, &headings, t, &reference, (min_s, max_s), 0.1, gap).map(|d| d.delay_s),
+        Delay::Estimate { min_s, max_s } => estimate_delay(t, &headings, t, &reference, (min_s, max_s), DELAY_STEP_S, gap).map(|d| d.delay_s),
     };
     let can_convert = water_current == WaterCurrentMode::Auto && i.speed_mps.is_some();
     let mut delay_s = match (first, delay) {
@@ -326,11 +326,24 @@ pub(crate) fn fit_swing_inputs(i: &SwingInputs<'_>, delay: Delay, water_current:
     }
     warnings.extend(fit_warnings(&fit));
     let held_out = if current_report.is_none() { held_out(t, &headings, fitted, delay_s, gap) } else { None };
+    let delay_search = match delay {
+        Delay::Estimate { min_s, max_s } => {
+            let edge = delay_edge_s(delay_s, min_s, max_s);
+            if let Some(b) = edge {
+                warnings.push(format!(
+                    "the delay search stopped at its window's edge: {delay_s:.2} s found in [{min_s}, {max_s}] s, within {DELAY_STEP_S} s of {b} s; the residual may fall further outside the window, so the delay and the A it shifts are the window's, not the data's: widen the window"
+                ));
+            }
+            Some(Box::new(DelaySearch { window_s: [min_s, max_s], at_edge_s: edge }))
+        }
+        Delay::Given(_) => None,
+    };
     let quality = SwingQuality {
         terms: fit.terms,
         samples: fit.samples,
         delay_s,
         delay_estimated: matches!(delay, Delay::Estimate { .. }),
+        delay_search,
         a_only_rad: fit.a_only_rad,
         before_rms_deg: fit.before_rms_rad.to_degrees(),
         after_rms_deg: fit.residual_rms_rad.to_degrees(),
@@ -339,6 +352,24 @@ pub(crate) fn fit_swing_inputs(i: &SwingInputs<'_>, delay: Delay, water_current:
         warnings,
     };
     Ok((fit, quality, delay_s))
+}
+
+/// The delay search's step, s (calib-core's scan; its minimum refined by a
+/// parabola within one step).
+pub const DELAY_STEP_S: f64 = 0.1;
+
+/// The bound of `[min_s, max_s]` a delay found lies within one search step
+/// of ([`DELAY_STEP_S`]), with a margin for rounding: a search stopped by
+/// its window, not by a minimum of the residual (`None`: inside).
+pub fn delay_edge_s(delay_s: f64, min_s: f64, max_s: f64) -> Option<f64> {
+    let near = |b: f64| (delay_s - b).abs() <= DELAY_STEP_S * (1.0 + 1e-9);
+    if near(min_s) {
+        Some(min_s)
+    } else if near(max_s) {
+        Some(max_s)
+    } else {
+        None
+    }
 }
 
 /// Fewest reference pairs in a half for the held-out check.

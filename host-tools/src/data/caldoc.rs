@@ -49,6 +49,96 @@ pub enum CalDocError {
         /// Why.
         reason: String,
     },
+    /// The document's own reference check failed (`reference.check.agrees`
+    /// false: kept by a fit that allowed weak results) and weak documents
+    /// were not allowed by the command using it.
+    #[error("{path}: the calibration disagrees with its own reference field ({disagreement}); it was kept only because weak results were allowed when it was fitted")]
+    WeakReference {
+        /// The file.
+        path: PathBuf,
+        /// The document's `reference.check.disagreement`.
+        disagreement: String,
+    },
+}
+
+/// The range of the geomagnetic field's intensity at the Earth's surface
+/// (IGRF: about 22 000 nT off Brazil to 67 000 nT near the south magnetic
+/// pole), widened for local anomalies: 10 000 … 100 000 nT. A document's
+/// `field_nt` and every intensity a user gives are held to it.
+pub const FIELD_NT_RANGE: std::ops::RangeInclusive<f64> = 10_000.0..=100_000.0;
+
+/// Why `field_nt` is not a geomagnetic field intensity at the Earth's
+/// surface in nT, saying which unit it looks like (`None`: it is one).
+pub fn field_nt_problem(field_nt: f64) -> Option<String> {
+    if FIELD_NT_RANGE.contains(&field_nt) {
+        return None;
+    }
+    // The Earth's field is 22–67 µT: which unit makes the number one?
+    let guess = [("µT", 1e3), ("mGauss", 100.0), ("Gauss", 1e5), ("pT", 1e-3)]
+        .iter()
+        .find(|(_, nt_per_unit)| FIELD_NT_RANGE.contains(&(field_nt * nt_per_unit)))
+        .map(|(unit, k)| format!(" (it looks like {unit}: {field_nt} {unit} is {:.0} nT)", field_nt * k))
+        .unwrap_or_default();
+    Some(format!(
+        "{field_nt} nT is not a geomagnetic field intensity at the Earth's surface ({:.0} … {:.0} nT){guess}",
+        FIELD_NT_RANGE.start(),
+        FIELD_NT_RANGE.end()
+    ))
+}
+
+/// The smallest slope of the corrected heading against the measured one
+/// that a swing may have, degrees per degree: below it the correction
+/// (nearly) folds neighbouring headings onto one another (at 0, two
+/// measured headings give one corrected heading; below 0 the corrected
+/// heading turns back). Held for both forms of document.
+pub const MIN_CORRECTION_SLOPE: f64 = 0.2;
+
+/// The smallest slope `d(ψ + δψ(ψ))/dψ = 1 + B cos ψ − C sin ψ + 2D cos 2ψ
+/// − 2E sin 2ψ` over all headings, on a 0.25° grid (the slope's second
+/// harmonic moves by under 0.03 % of 2·|D, E| between grid points).
+pub fn min_correction_slope(s: &Swing<f64>) -> f64 {
+    (0..1440)
+        .map(|k| {
+            let h = (k as f64 * 0.25).to_radians();
+            1.0 + s.b * h.cos() - s.c * h.sin() + 2.0 * s.d * (2.0 * h).cos() - 2.0 * s.e * (2.0 * h).sin()
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// Why a swing cannot be applied (`None`: it can): a coefficient not finite
+/// or beyond 1 rad, or a correction that folds the heading (slope below
+/// [`MIN_CORRECTION_SLOPE`] somewhere). The one check of the swing of both
+/// the field calibration and the heading-only compass's document.
+pub fn swing_problem(s: &Swing<f64>) -> Option<String> {
+    if ![s.a, s.b, s.c, s.d, s.e].iter().all(|v| v.is_finite() && v.abs() < 1.0) {
+        return Some("swing coefficients must be finite and below 1 rad".into());
+    }
+    let slope = min_correction_slope(s);
+    (slope < MIN_CORRECTION_SLOPE).then(|| {
+        format!("the swing folds headings: the corrected heading rises only {slope:.2}° per degree of the measured heading somewhere (at least {MIN_CORRECTION_SLOPE} needed)")
+    })
+}
+
+/// Why the matrix is not of the document's model (`None`: it is): a
+/// `sphere` is one scale (`g·I`), an `axis` model three scales (diagonal),
+/// a `triangular` one upper triangular (paper 001); `full`, `gyro` and
+/// `attitude` may hold any matrix. Entries that must be zero may differ
+/// from it by 1e-6 of the largest entry (a hand-rounded file), the sphere's
+/// scales from each other by as much.
+pub fn model_problem(model: ModelKind, m: &[[f64; 3]; 3]) -> Option<String> {
+    let tol = 1e-6 * m.iter().flatten().fold(0.0f64, |a, v| a.max(v.abs()));
+    let small = |v: f64| v.abs() <= tol;
+    let off_diagonal_zero = (0..3).all(|i| (0..3).all(|j| i == j || small(m[i][j])));
+    match model {
+        ModelKind::Sphere if !(off_diagonal_zero && small(m[0][0] - m[1][1]) && small(m[0][0] - m[2][2])) => {
+            Some("model `sphere` is one scale on every axis (the matrix a multiple of the identity), but the matrix has other terms: the model does not match the coefficients".into())
+        }
+        ModelKind::Axis if !off_diagonal_zero => Some("model `axis` has three axis scales (a diagonal matrix), but the matrix has off-diagonal terms: the model does not match the coefficients".into()),
+        ModelKind::Triangular if !(small(m[1][0]) && small(m[2][0]) && small(m[2][1])) => {
+            Some("model `triangular` is upper triangular, but the matrix has terms below the diagonal: the model does not match the coefficients".into())
+        }
+        _ => None,
+    }
 }
 
 /// Largest thruster term accepted, raw units per ampere (a 100 A thruster
@@ -202,17 +292,26 @@ impl CalDoc {
         cols
     }
 
-    /// Checks the coefficients.
+    /// Checks the coefficients: finite, the matrix keeping the field's
+    /// handedness and of the document's model, `field_nt` an intensity at
+    /// the Earth's surface ([`FIELD_NT_RANGE`]), a swing that does not fold
+    /// the heading ([`swing_problem`]), the reference and the quality
+    /// numbers in their ranges. What a document must be to be written at
+    /// all; [`CalDoc::check`] adds what a command using it must know.
     pub fn validate(&self, path: &Path) -> Result<(), CalDocError> {
         let invalid = |reason: &str| CalDocError::Invalid { path: path.into(), reason: reason.to_string() };
         self.field_cal().validate(MAX_BIAS_ABS).map_err(|e| invalid(cal_error_text(e)))?;
-        if !(self.field_nt > 0.0 && self.field_nt.is_finite()) {
-            return Err(invalid("field_nt must be a positive number of nT"));
+        if let Some(why) = model_problem(self.model, &self.matrix) {
+            return Err(invalid(&why));
         }
-        if let Some(s) = self.swing {
-            if ![s.a, s.b, s.c, s.d, s.e].iter().all(|v| v.is_finite() && v.abs() < 1.0) {
-                return Err(invalid("swing coefficients must be finite and below 1 rad"));
-            }
+        if let Some(why) = field_nt_problem(self.field_nt) {
+            return Err(invalid(&format!("field_nt {why}")));
+        }
+        if let Some(why) = self.swing.as_ref().and_then(swing_problem) {
+            return Err(invalid(&why));
+        }
+        if let Some(why) = self.quality.range_problem() {
+            return Err(invalid(&format!("quality: {why}")));
         }
         if let Some(r) = &self.reference {
             let pos = |v: f64| v.is_finite() && v > 0.0;
@@ -237,16 +336,47 @@ impl CalDoc {
         Ok(())
     }
 
-    /// Reads and validates a document.
+    /// The document's own reference check's disagreement, when it failed
+    /// (`reference.check.agrees` false: a fit that allowed weak results).
+    pub fn reference_disagreement(&self) -> Option<&str> {
+        let check = self.reference.as_ref()?.check.as_ref()?;
+        (!check.agrees).then_some(if check.disagreement.is_empty() { "no reason recorded" } else { check.disagreement.as_str() })
+    }
+
+    /// The one check of a document a command is about to use:
+    /// [`CalDoc::validate`], and a failed reference check refused unless
+    /// `allow_weak` ([`CalDocError::WeakReference`]). Returns what the
+    /// command must say about the document (on stderr and in its summary):
+    /// empty for a sound one.
+    pub fn check(&self, path: &Path, allow_weak: bool) -> Result<Vec<String>, CalDocError> {
+        self.validate(path)?;
+        let mut said = Vec::new();
+        if let Some(d) = self.reference_disagreement() {
+            if !allow_weak {
+                return Err(CalDocError::WeakReference { path: path.into(), disagreement: d.to_string() });
+            }
+            said.push(format!("{}: the calibration disagrees with its own reference field ({d}); used because weak results were allowed", path.display()));
+        }
+        Ok(said)
+    }
+
+    /// Reads a document and runs [`CalDoc::check`] on it: weak documents
+    /// (a failed reference check) refused. [`CalDoc::load_with`] to allow them.
     pub fn load(path: &Path) -> Result<Self, CalDocError> {
+        Self::load_with(path, false).map(|(doc, _)| doc)
+    }
+
+    /// Reads a document and runs [`CalDoc::check`] on it with `allow_weak`:
+    /// the document and what must be said about it.
+    pub fn load_with(path: &Path, allow_weak: bool) -> Result<(Self, Vec<String>), CalDocError> {
         // A UTF-8 byte-order mark (Windows editors) is not part of the JSON.
         let text = super::compass::read_doc_text(path)?;
         if super::compass::is_compass_doc(&text) {
             return Err(CalDocError::HeadingOnly(path.into()));
         }
         let doc: CalDoc = serde_json::from_str(&text).map_err(|source| CalDocError::Parse { path: path.into(), source })?;
-        doc.validate(path)?;
-        Ok(doc)
+        let said = doc.check(path, allow_weak)?;
+        Ok((doc, said))
     }
 
     /// Validates and writes the document (pretty JSON), through
@@ -347,5 +477,44 @@ mod tests {
         let out = dir.path().join("out.json");
         both.save(&out).unwrap();
         assert_eq!(CalDoc::load(&out).unwrap(), both);
+    }
+
+    #[test]
+    fn the_one_check_refuses_what_cannot_be_a_calibration_and_a_weak_one_unless_allowed() {
+        let p = Path::new("cal.json");
+        let reason = |d: &CalDoc| d.validate(p).unwrap_err().to_string();
+        // A fold: 1 + B cos ψ is 0.1 at 180° with B = 0.9 (the compass form's rule).
+        let mut d = doc();
+        d.swing = Some(Swing { a: 0.0, b: 0.9, c: 0.0, d: 0.0, e: 0.0 });
+        assert!(reason(&d).contains("folds headings") && reason(&d).contains("0.10°"), "{}", reason(&d));
+        assert!((min_correction_slope(&d.swing.unwrap()) - 0.1).abs() < 1e-12);
+        // A model its matrix is not.
+        let mut d = doc();
+        d.matrix[0][1] = 0.3;
+        assert!(reason(&d).contains("model `axis`"), "{}", reason(&d));
+        d.model = ModelKind::Full;
+        d.validate(p).unwrap();
+        d.model = ModelKind::Sphere;
+        d.matrix = [[5.0, 0.0, 0.0], [0.0, 5.0, 0.0], [0.0, 0.0, 5.0]];
+        d.validate(p).unwrap();
+        d.matrix[2][2] = 5.5;
+        assert!(reason(&d).contains("model `sphere`"), "{}", reason(&d));
+        // Field in µT, a heading error of 10⁹ degrees.
+        let mut d = doc();
+        d.field_nt = 48.73;
+        assert!(reason(&d).contains("looks like µT"), "{}", reason(&d));
+        let mut d = doc();
+        d.quality.predicted_heading_rms_deg = Some(1e9);
+        assert!(reason(&d).contains("predicted_heading_rms_deg"), "{}", reason(&d));
+        // A failed reference check: refused, or kept with allow_weak and said.
+        let mut d = doc();
+        let mut r = crate::compute::reference::Reference::user_intensity(48_730.0);
+        r.check = Some(crate::compute::reference::ReferenceCheck { inclination_deg: None, inclination_allowance_deg: None, field_nt: 30_000.0, agrees: false, disagreement: "the calibrated intensity is 30000 nT".into() });
+        d.reference = Some(r);
+        d.validate(p).unwrap();
+        assert!(matches!(d.check(p, false), Err(CalDocError::WeakReference { .. })));
+        let said = d.check(p, true).unwrap();
+        assert!(said.len() == 1 && said[0].contains("30000 nT"), "{said:?}");
+        assert!(doc().check(p, false).unwrap().is_empty());
     }
 }

@@ -112,10 +112,9 @@ pub enum DocForm {
 }
 
 /// The smallest slope of the corrected heading against the compass's that a
-/// swing may have: below it the correction would fold neighbouring
-/// headings onto one another (at 0, two compass headings give one corrected
-/// heading).
-pub const MIN_CORRECTION_SLOPE: f64 = 0.2;
+/// swing may have (the field calibration's too: one check,
+/// [`super::caldoc::swing_problem`]).
+pub use super::caldoc::MIN_CORRECTION_SLOPE;
 
 /// A heading-only compass's calibration: the swing and the declination.
 /// What `magcal swing` writes for a compass log; `apply` and `card` use it.
@@ -147,15 +146,11 @@ impl CompassDoc {
     /// heading rising with the compass's by at least [`MIN_CORRECTION_SLOPE`].
     pub fn validate(&self, path: &Path) -> Result<(), CalDocError> {
         let invalid = |reason: String| CalDocError::Invalid { path: path.into(), reason };
-        let s = self.swing;
-        if ![s.a, s.b, s.c, s.d, s.e].iter().all(|v| v.is_finite() && v.abs() < 1.0) {
-            return Err(invalid("swing coefficients must be finite and below 1 rad".into()));
+        if let Some(why) = super::caldoc::swing_problem(&self.swing) {
+            return Err(invalid(why));
         }
-        let slope = min_correction_slope(&s);
-        if slope < MIN_CORRECTION_SLOPE {
-            return Err(invalid(format!(
-                "the swing folds headings: the corrected heading rises only {slope:.2}° per degree of the compass's somewhere (at least {MIN_CORRECTION_SLOPE} needed)"
-            )));
+        if let Some(why) = self.quality.range_problem() {
+            return Err(invalid(format!("quality: {why}")));
         }
         if let Some(d) = self.declination_deg {
             if !(d.is_finite() && d.abs() <= 180.0) {
@@ -172,16 +167,6 @@ impl CompassDoc {
         crate::files::write_text_atomic(path, &(text + "\n"))?;
         Ok(())
     }
-}
-
-/// `min over ψ of d(ψ + δψ(ψ))/dψ` on a 0.25° grid.
-fn min_correction_slope(s: &Swing<f64>) -> f64 {
-    (0..1440)
-        .map(|k| {
-            let h = (k as f64 * 0.25).to_radians();
-            1.0 + s.b * h.cos() - s.c * h.sin() + 2.0 * s.d * (2.0 * h).cos() - 2.0 * s.e * (2.0 * h).sin()
-        })
-        .fold(f64::INFINITY, f64::min)
 }
 
 /// A calibration document of either form.
@@ -213,15 +198,24 @@ pub(crate) fn is_compass_doc(text: &str) -> bool {
 }
 
 impl Document {
-    /// Reads and validates a calibration document of either form.
+    /// Reads and checks a calibration document of either form, weak
+    /// documents refused ([`Document::load_with`]).
     pub fn load(path: &Path) -> Result<Self, CalDocError> {
+        Self::load_with(path, false).map(|(doc, _)| doc)
+    }
+
+    /// Reads a calibration document of either form and runs its one check
+    /// ([`CalDoc::check`], [`CompassDoc::validate`]) with `allow_weak`: the
+    /// document and what must be said about it.
+    pub fn load_with(path: &Path, allow_weak: bool) -> Result<(Self, Vec<String>), CalDocError> {
         let text = read_doc_text(path)?;
         if is_compass_doc(&text) {
             let doc: CompassDoc = serde_json::from_str(&text).map_err(|source| CalDocError::Parse { path: PathBuf::from(path), source })?;
             doc.validate(path)?;
-            Ok(Self::Compass(doc))
+            Ok((Self::Compass(doc), Vec::new()))
         } else {
-            Ok(Self::Field(Box::new(CalDoc::load(path)?)))
+            let (doc, said) = CalDoc::load_with(path, allow_weak)?;
+            Ok((Self::Field(Box::new(doc)), said))
         }
     }
 }

@@ -79,12 +79,65 @@ impl GyroQuality {
     }
 }
 
+/// The largest heading error a quality number may state, degrees: a
+/// heading is never further than half a turn from another.
+pub const MAX_HEADING_ERROR_DEG: f64 = 180.0;
+
+/// Largest delay of a reference behind a heading a document may state, s
+/// (the command line's bound on `--delay-s`).
+pub const MAX_DELAY_S: f64 = 3600.0;
+
 impl Quality {
     /// Every warning of every step, in order (fit, back-stepping, swing).
     pub fn warnings(&self) -> impl Iterator<Item = &str> {
         let fit = self.fit.iter().flat_map(|f| f.warnings.iter());
         let swing = self.swing.iter().flat_map(|s| s.warnings.iter());
         fit.chain(swing).map(String::as_str)
+    }
+
+    /// Why a number of the block is out of its stated range (`None`: all
+    /// are in range): heading errors within 0 … [`MAX_HEADING_ERROR_DEG`],
+    /// residuals finite and not negative, coverage 0 … 100 %, the axis
+    /// spread 0 … 1, a swing's delay within ±[`MAX_DELAY_S`].
+    pub fn range_problem(&self) -> Option<String> {
+        let mut headings: Vec<(&str, f64)> = vec![];
+        let mut residuals: Vec<(&str, f64)> = vec![];
+        if let Some(v) = self.predicted_heading_rms_deg {
+            headings.push(("predicted_heading_rms_deg", v));
+        }
+        if let Some(v) = self.expected_heading_rms_deg {
+            headings.push(("expected_heading_rms_deg", v));
+        }
+        if let Some(f) = &self.fit {
+            residuals.extend([("residual_rms_nt", f.residual_rms_nt), ("residual_rms_pct", f.residual_rms_pct), ("residual_max_nt", f.residual_max_nt)]);
+            if f.coverage_pct > 100 {
+                return Some(format!("coverage_pct {} is beyond 100 %", f.coverage_pct));
+            }
+            if !f.axis_spread.iter().all(|v| (0.0..=1.0).contains(v)) {
+                return Some(format!("axis_spread {:?} must be within 0 … 1", f.axis_spread));
+            }
+        }
+        if let Some(g) = &self.gyro {
+            headings.push(("gyro.predicted_heading_rms_deg", g.predicted_heading_rms_deg));
+            residuals.push(("gyro.residual_rms_nt", g.residual_rms_nt));
+        }
+        if let Some(e) = self.backstep.as_ref().and_then(|b| b.estimates.as_ref()) {
+            headings.push(("backstep.estimates.predicted_heading_rms_deg", e.predicted_heading_rms_deg));
+            residuals.push(("backstep.estimates.residual_rms_nt", e.residual_rms_nt));
+        }
+        if let Some(s) = &self.swing {
+            headings.extend([("swing.before_rms_deg", s.before_rms_deg), ("swing.after_rms_deg", s.after_rms_deg)]);
+            if !(s.delay_s.is_finite() && s.delay_s.abs() <= MAX_DELAY_S) {
+                return Some(format!("swing.delay_s {} must be within ±{MAX_DELAY_S} s", s.delay_s));
+            }
+        }
+        if let Some((name, v)) = headings.into_iter().find(|(_, v)| !(0.0..=MAX_HEADING_ERROR_DEG).contains(v)) {
+            return Some(format!("{name} {v} must be within 0 … {MAX_HEADING_ERROR_DEG}°"));
+        }
+        if let Some((name, v)) = residuals.into_iter().find(|(_, v)| !(v.is_finite() && *v >= 0.0)) {
+            return Some(format!("{name} {v} must be a finite number, not negative"));
+        }
+        None
     }
 }
 
@@ -260,6 +313,10 @@ pub struct SwingQuality {
     pub delay_s: f64,
     /// Whether the delay was estimated (or given).
     pub delay_estimated: bool,
+    /// The delay search: its window and whether it stopped at an edge
+    /// (absent when the delay was given).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub delay_search: Option<Box<DelaySearch>>,
     /// The constant-only fit's A, rad (a sanity check of the full fit).
     pub a_only_rad: f64,
     /// Heading error against the reference before the swing correction, ° RMS.
@@ -278,6 +335,20 @@ pub struct SwingQuality {
     /// What the operator should know.
     #[serde(default)]
     pub warnings: Vec<String>,
+}
+
+/// Where the delay of a swing's reference was searched, and whether the
+/// search stopped at the window's edge.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct DelaySearch {
+    /// The window searched, s.
+    pub window_s: [f64; 2],
+    /// The window's bound the search stopped at, s, when the delay found is
+    /// within one search step of it: the residual may fall further outside
+    /// the window, and the delay (and the A it shifts) is then the window's,
+    /// not the data's.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub at_edge_s: Option<f64>,
 }
 
 /// A swing judged on held-out data: each half of the reference pairs (split

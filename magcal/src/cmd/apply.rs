@@ -6,10 +6,13 @@
 use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
-use host_tools::compute::apply::{apply_recording, choose_inclination, summarize, write_applied, ApplyOptions, InclinationSource};
+use host_tools::compute::apply::{apply_recording, choose_inclination, choose_north, document_inclination_deg, summarize, write_applied, ApplyError, ApplyOptions, InclinationSource};
 use host_tools::compute::card::read_reference_column;
 use host_tools::compute::compass::{apply_compass, write_compass_applied};
+use host_tools::compute::reference::{given_disagreement, shown, world_allowance, world_field_for};
 use host_tools::data::compass::{CompassDoc, Document};
+use host_tools::data::{CalDoc, Recording};
+use host_tools::geomag::Site;
 
 
 /// Arguments of `magcal apply`.
@@ -27,7 +30,8 @@ pub struct Args {
     #[arg(long)]
     cal: PathBuf,
     /// Where to write the result (t, field_x_nt, field_y_nt, field_z_nt,
-    /// heading_deg, heading_sigma_deg, integrity); never the input.
+    /// heading_deg — magnetic_heading_deg when no declination is known —,
+    /// heading_sigma_deg, integrity); never the input.
     #[arg(long)]
     out: PathBuf,
     /// The intensity the calibration reproduces, nT (default: the
@@ -53,6 +57,12 @@ pub struct Args {
     /// name of the BROAD files' optical heading, too) or ref_heading_deg.
     #[arg(long)]
     json: bool,
+    /// Use a weak document (one whose own reference check failed: `fit
+    /// --allow-weak`), a recording made far from the document's site, or an
+    /// --inclination-deg/--field-nt beyond its allowance: kept, and said
+    /// on stderr and in the summary's `warnings`.
+    #[arg(long)]
+    allow_weak: bool,
 }
 
 /// The true heading's name in files prepared before it had one name
@@ -77,12 +87,26 @@ pub fn run(a: Args) -> Result<()> {
             bail!("--field-sigma-nt must be a positive number of nT, not {s}");
         }
     }
-    let doc = match Document::load(&a.cal)? {
-        Document::Field(doc) => *doc,
-        Document::Compass(doc) => return run_compass(&a, &doc),
+    let (doc, mut warnings) = match Document::load_with(&a.cal, a.allow_weak).map_err(|e| super::hinted(e, weak_hint))? {
+        (Document::Field(doc), said) => (*doc, said),
+        (Document::Compass(doc), _) => return run_compass(&a, &doc),
     };
+    for w in &warnings {
+        eprintln!("warning: {w}");
+    }
     let rec = a.columns.read(&a.input)?;
-    let site_deg = match a.site.site()? {
+    let given_site = a.site.site()?;
+    // The recording's positions against the site the document's reference
+    // field and declination are for (the one given, else the document's).
+    let doc_site = doc.reference.as_ref().and_then(|r| r.site);
+    if let Some(site) = given_site.or(doc_site) {
+        let whose = if given_site.is_some() { "the site given" } else { "the document's reference site" };
+        weak_or_refused(&mut warnings, a.allow_weak, super::check_positions(&rec, &a.input, site.lat_deg, site.lon_deg).with_context(|| format!("{}: against {whose}", a.cal.display())))?;
+    }
+    for w in given_values_disagree(&a, &doc, &rec, given_site.or(doc_site)) {
+        weak_or_refused(&mut warnings, a.allow_weak, Err(anyhow::anyhow!("{w}: the value given would judge the recording against another field; check it")))?;
+    }
+    let site_deg = match given_site {
         Some(s) => Some(s.field()?.inclination_deg()),
         None => None,
     };
@@ -94,12 +118,23 @@ pub fn run(a: Args) -> Result<()> {
         );
     }
     if a.site.any() && source != InclinationSource::Site {
-        eprintln!("note: --lat/--lon/--date not used: the inclination is the {}", if source == InclinationSource::User { "one given" } else { "document's" });
+        eprintln!("note: --lat/--lon/--date not used for the inclination: it is the {}", if source == InclinationSource::User { "one given" } else { "document's" });
     }
+    // The heading's north: true only where a declination is known.
+    let (north, add_declination) = choose_north(&doc, given_site.as_ref());
+    let mut doc = doc;
+    if add_declination.is_some() {
+        doc.declination_deg = add_declination;
+    }
+    eprintln!("note: {}: {}", north.heading_column(), north.reason());
     let opts = ApplyOptions { field_nt: a.field_nt, inclination_deg, field_sigma_nt: a.field_sigma_nt, tuning: None };
     let working = super::working(&format!("applying the calibration to {} rows", rec.len()), a.json);
-    let applied = apply_recording(&rec, &doc, &opts).with_context(|| format!("{}", a.input.display()))?;
-    write_applied(&a.out, &a.input, rec.t_s.as_deref(), &applied)?;
+    let applied = apply_recording(&rec, &doc, &opts).map_err(|e| {
+        // A reference the monitor cannot use is the document's problem.
+        let blamed = if matches!(e, ApplyError::Reference(_)) { &a.cal } else { &a.input };
+        anyhow::Error::new(e).context(blamed.display().to_string())
+    })?;
+    write_applied(&a.out, &a.input, rec.t_s.as_deref(), &applied, north)?;
     working.done();
     eprintln!("wrote {}", a.out.display());
     // The true heading by its one name, or the BROAD files' older one.
@@ -117,16 +152,76 @@ pub fn run(a: Args) -> Result<()> {
     };
     let mut summary = summarize(&applied, reference);
     summary.inclination_source = Some(source);
+    summary.north = Some(north);
+    summary.heading_column = Some(north.heading_column());
+    summary.north_reason = Some(north.reason());
+    summary.warnings = warnings;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&summary)?);
     } else {
         let states: Vec<String> = summary.rows_per_state.iter().map(|(k, v)| format!("{k} {v}")).collect();
         println!("{} rows: {}", summary.rows, states.join(", "));
+        println!("{}: {}", north.heading_column(), north.reason());
         if let (Some(name), Some(all), Some(ok)) = (&summary.heading_reference, summary.heading_rms_deg, summary.heading_rms_ok_deg) {
             println!("heading RMS against {name}: {all:.2}° all rows, {ok:.2}° on the ok rows");
         }
+        for w in &summary.warnings {
+            println!("warning: {w}");
+        }
     }
     Ok(())
+}
+
+/// The hint for a weak document refused.
+pub(crate) fn weak_hint(e: &host_tools::data::CalDocError) -> Option<&'static str> {
+    matches!(e, host_tools::data::CalDocError::WeakReference { .. }).then_some("give --allow-weak to use it anyway (it is then said in the output)")
+}
+
+/// A check's refusal: returned, or with `allow_weak` kept as a warning
+/// (said on stderr now and in the summary).
+pub(crate) fn weak_or_refused(warnings: &mut Vec<String>, allow_weak: bool, checked: Result<()>) -> Result<()> {
+    match checked {
+        Ok(()) => Ok(()),
+        Err(e) if allow_weak => {
+            let w = format!("{e:#} (kept: --allow-weak)");
+            eprintln!("warning: {w}");
+            warnings.push(w);
+            Ok(())
+        }
+        Err(e) => Err(anyhow::anyhow!("{e:#}; refused: --allow-weak keeps it and says so")),
+    }
+}
+
+/// `--inclination-deg` and `--field-nt` against what is known apart from
+/// them, beyond `REFUSE_SIGMAS` of the allowance: the inclination
+/// against IGRF-14 at the recording's positions (or the site: given, else
+/// the document's), else the document's own; the intensity against what
+/// the recording shows through the calibration (the scale it reproduces:
+/// the option exists for a calibration from another tool whose scale is
+/// its own, so the world model's intensity is not its judge).
+fn given_values_disagree(a: &Args, doc: &CalDoc, rec: &Recording, site: Option<Site>) -> Vec<String> {
+    let mut words = Vec::new();
+    if let Some(i) = a.inclination_deg {
+        let world = world_field_for(rec, site);
+        let expected = match &world {
+            Some((s, f)) => Some((f.inclination_deg(), world_allowance(f.total_nt()).0, format!("IGRF-14 at {:.3}°, {:.3}°, {:.2}", s.lat_deg, s.lon_deg, s.decimal_year))),
+            None => document_inclination_deg(doc, doc.field_nt).map(|d| {
+                let sigma = doc.reference.as_ref().and_then(|r| r.inclination_sigma_deg).unwrap_or_else(|| world_allowance(doc.field_nt).0);
+                (d, sigma, format!("{} (the document's inclination)", a.cal.display()))
+            }),
+        };
+        if let Some((d, sigma, source)) = expected {
+            words.extend(given_disagreement("--inclination-deg", i, d, sigma, "°", &source));
+        }
+    }
+    if let Some(f) = a.field_nt {
+        let (_, shown_nt) = shown(&doc.field_cal(), rec);
+        if shown_nt.is_finite() {
+            let sigma = world_allowance(shown_nt).1;
+            words.extend(given_disagreement("--field-nt", f, shown_nt, sigma, " nT", &format!("{}'s median intensity through the calibration", a.input.display())));
+        }
+    }
+    words
 }
 
 /// A heading-only compass's document on its log: the corrected heading per

@@ -2,12 +2,13 @@
 
 use std::path::PathBuf;
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use clap::ValueEnum;
 use host_tools::compute::{self, BackstepMethod, BackstepOptions, RunReference, SwingMagnitudes};
 use host_tools::data::CalDoc;
 
 use super::{check_field_nt, check_out, check_positions, emit, hinted, SiteArgs};
+use host_tools::compute::reference::{check_given_field, shown, world_field_for};
 use host_tools::compute::ComputeError;
 
 /// The solver, as the command line names it.
@@ -57,6 +58,11 @@ pub struct Args {
     /// Print the calibration document (with its trace) on stdout.
     #[arg(long)]
     json: bool,
+    /// Use a weak document (its own reference check failed: `fit
+    /// --allow-weak`), or --field-h-nt/--field-z-nt beyond their allowance
+    /// against the world model or the recording's own dip: kept, and said.
+    #[arg(long)]
+    allow_weak: bool,
 }
 
 /// Runs `magcal backstep`.
@@ -73,13 +79,27 @@ pub fn run(a: Args) -> Result<()> {
         }
         _ => bail!("give the reference as --lat/--lon/--date or as --field-h-nt/--field-z-nt"),
     };
-    let doc = CalDoc::load(&a.cal)?;
-    // A step-1 calibration fitted to a field in other units (µT typed for
-    // nT) scales the run wrongly: nothing after it could be right.
-    check_field_nt(doc.field_nt, &format!("{}: the calibration's field_nt", a.cal.display()))?;
+    // The one document check (a step-1 calibration fitted to a field in
+    // other units — µT typed for nT — is refused there: nothing after it
+    // could be right).
+    let (doc, mut warnings) = CalDoc::load_with(&a.cal, a.allow_weak).map_err(|e| hinted(e, super::apply::weak_hint))?;
+    for w in &warnings {
+        eprintln!("warning: {w}");
+    }
     let rec = a.columns.read(&a.input)?;
     if let (Some(lat), Some(lon)) = (a.site.lat, a.site.lon) {
         check_positions(&rec, &a.input, lat, lon)?;
+    }
+    if let RunReference::Given { h_nt, z_nt } = reference {
+        // Against physics (refused), the world model where the document's
+        // site gives a date, and the dip the run shows through the
+        // calibration it refines (refused unless --allow-weak).
+        let world = world_field_for(&rec, doc.reference.as_ref().and_then(|r| r.site));
+        let (data_dip, _) = shown(&doc.field_cal(), &rec);
+        let words = check_given_field(h_nt, z_nt, world.as_ref(), data_dip).map_err(|e| anyhow::anyhow!("--field-h-nt {h_nt} --field-z-nt {z_nt}: {e}"))?;
+        if !words.is_empty() {
+            super::apply::weak_or_refused(&mut warnings, a.allow_weak, Err(anyhow::anyhow!("--field-h-nt {h_nt} --field-z-nt {z_nt}: {}", words.join("; "))))?;
+        }
     }
     let mut opts = BackstepOptions::new(reference);
     opts.method = match a.method {
@@ -95,7 +115,12 @@ pub fn run(a: Args) -> Result<()> {
         opts.thrust_test = Some(a.columns.read(p)?);
     }
     let working = super::working(&format!("back-stepping {} rows", rec.len()), a.json);
-    let (out_doc, report) = compute::backstep_recording(&rec, &doc, &opts).map_err(|e| hinted(e, backstep_hint)).with_context(|| format!("{}: back-stepping", a.input.display()))?;
+    let (mut out_doc, report) = compute::backstep_recording(&rec, &doc, &opts)
+        .map_err(|e| {
+            // A calibration the paper's solver cannot start from is the document's problem.
+            let blamed = if matches!(e, ComputeError::PaperNeedsAxis { .. }) { &a.cal } else { &a.input };
+            hinted(e, backstep_hint).context(format!("{}: back-stepping", blamed.display()))
+        })?;
     drop(working);
     if !a.json {
         for e in out_doc.trace.iter().flatten() {
@@ -113,6 +138,10 @@ pub fn run(a: Args) -> Result<()> {
     if let Some(e) = out_doc.quality.backstep.as_ref().and_then(|b| b.estimates.as_ref()) {
         print_estimates(e, a.swing_input.is_some());
         check_field_nt(e.local_hz_nt[0].hypot(e.local_hz_nt[1]), &format!("{}: the back-stepped local field", a.input.display()))?;
+    }
+    // What was kept with --allow-weak goes into the document too.
+    if let Some(f) = out_doc.quality.fit.as_mut() {
+        f.warnings.extend(warnings);
     }
     check_field_nt(report.after.f_nt, &format!("{}: the run's mean field through the back-stepped calibration", a.input.display()))?;
     let summary = format!(

@@ -57,6 +57,28 @@ pub struct Args {
     /// Print the calibration document on stdout.
     #[arg(long)]
     json: bool,
+    /// Refuse a delay search that stopped at its window's edge (by default
+    /// it is warned about and written in `quality.swing.delay_search.at_edge_s`).
+    #[arg(long)]
+    strict: bool,
+    /// Use a weak field calibration (its own reference check failed: `fit
+    /// --allow-weak`): kept, and said.
+    #[arg(long)]
+    allow_weak: bool,
+}
+
+/// With `--strict`, a delay search stopped at its window's edge is refused.
+fn strict_edge(a: &Args, q: Option<&host_tools::data::results::SwingQuality>) -> Result<()> {
+    if let (true, Some(q)) = (a.strict, q) {
+        if let Some((Some(b), [lo, hi])) = q.delay_search.as_ref().map(|d| (d.at_edge_s, d.window_s)) {
+            bail!(
+                "{}: the delay search stopped at its window's edge ({:.2} s found in [{lo}, {hi}] s, at {b} s): the delay is the window's, not the data's; widen --min-delay-s/--max-delay-s, or give --delay-s (refused with --strict)",
+                a.input.display(),
+                q.delay_s
+            );
+        }
+    }
+    Ok(())
 }
 
 /// Runs `magcal swing`.
@@ -85,11 +107,15 @@ pub fn run(a: Args) -> Result<()> {
     if a.declination_deg.is_some() {
         bail!("--declination-deg is for a heading-only compass (no --cal); a field calibration carries its own declination");
     }
-    let doc = CalDoc::load(cal)?;
+    let (doc, said) = CalDoc::load_with(cal, a.allow_weak).map_err(|e| super::hinted(e, super::apply::weak_hint))?;
+    for w in &said {
+        eprintln!("warning: {w}");
+    }
     let rec = a.columns.read(&a.input)?;
     let (doc, fit, delay_s) =
         compute::swing::swing_recording_with(&rec, &doc, delay, mode).with_context(|| format!("{}: swing fit", a.input.display()))?;
     warn_all(&doc);
+    strict_edge(&a, doc.quality.swing.as_ref())?;
     let s = fit.swing;
     let current_removed = doc.quality.swing.as_ref().and_then(|q| q.current);
     if current_removed.is_none() && !has_reciprocal(fit.sectors.visited_mask()) {
@@ -128,6 +154,7 @@ fn run_compass(a: &Args, delay: Delay, mode: WaterCurrentMode) -> Result<()> {
     for w in q.map(|q| q.warnings.as_slice()).unwrap_or_default() {
         eprintln!("warning: {w}");
     }
+    strict_edge(a, q)?;
     let s = fit.swing;
     let declination = match (source, doc.declination_deg) {
         (DeclinationSource::InA, _) | (_, None) => "no declination (A holds it)".to_string(),
