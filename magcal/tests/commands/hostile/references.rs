@@ -257,3 +257,36 @@ fn one_rmc_dated_a_year_ahead_is_refused_alone() {
     assert_eq!((r["duration_s"].as_f64(), r["start_utc"].as_str()), (Some(59.0), Some("2026-01-01T10:00:00Z")), "{r}");
     assert!(stderr(&o).contains("1 dated more than"), "{}", stderr(&o));
 }
+
+/// Issue 37: `igrf --model wmm2025 --date 2021` answered with the WMM2020
+/// field the crate holds for 2021 and labelled it WMM2025. A date outside
+/// the model's validity is refused with the range; inside it, answered.
+#[test]
+fn a_model_is_not_used_outside_its_years() {
+    let o = magcal(&["igrf", "--lat", "45", "--lon", "10", "--date", "2021", "--model", "wmm2025"]);
+    assert!(!o.status.success(), "{}", stdout_of(&o));
+    assert!(stderr(&o).contains("date 2021 is outside WMM2025's validity (2025.0 to 2030.0"), "{}", stderr(&o));
+    let o = magcal(&["igrf", "--lat", "45", "--lon", "10", "--date", "2030-06-01", "--model", "igrf14"]);
+    assert!(!o.status.success() && stderr(&o).contains("IGRF-14's validity (1900.0 to 2030.0)"), "{}", stderr(&o));
+    let o = magcal(&["igrf", "--lat", "45", "--lon", "10", "--date", "2021", "--model", "igrf14", "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = magcal(&["igrf", "--lat", "45", "--lon", "10", "--date", "2029-12-01", "--model", "wmm2025", "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+/// Issue 37: PX4's export refused a gain naming ArduPilot's
+/// `COMPASS_SCALE`. Each stack's message names its own parameters.
+#[test]
+fn each_export_names_its_own_parameters() {
+    let dir = tempfile::tempdir().unwrap();
+    let cal = dir.path().join("cal.json");
+    // A gain of 2 per mGauss: raw units given wrongly.
+    std::fs::write(&cal, r#"{"model": "full", "bias": [0, 0, 0], "matrix": [[200, 0, 0], [0, 200, 0], [0, 0, 200]], "field_nt": 48730}"#).unwrap();
+    let out = dir.path().join("x.params");
+    let o = magcal(&["export", "--cal", p(&cal), "--format", "px4", "--raw-unit", "mgauss", "--out", p(&out)]);
+    let e = stderr(&o);
+    assert!(!o.status.success() && e.contains("CAL_MAG0_XSCALE") && !e.contains("COMPASS_"), "{e}");
+    let o = magcal(&["export", "--cal", p(&cal), "--format", "ardupilot", "--raw-unit", "mgauss", "--out", p(&out)]);
+    let e = stderr(&o);
+    assert!(!o.status.success() && e.contains("COMPASS_SCALE") && !e.contains("CAL_MAG"), "{e}");
+}
