@@ -261,7 +261,7 @@ pub enum ExportError {
     },
     /// The gain in the stack's unit is far from 1: the raw units are wrong
     /// (and ArduPilot would ignore the scale factor).
-    #[error("the calibration's gain in {stack}'s {unit} is {scale:.3}, outside the {:.3}..{:.3} of a calibration whose raw units are right (and in which ArduPilot applies COMPASS_SCALE): the raw units look wrong", ARDUPILOT_SCALE_RANGE.0, ARDUPILOT_SCALE_RANGE.1)]
+    #[error("the calibration's gain in {stack}'s {unit} is {scale:.3}, outside the {:.3}..{:.3} of a calibration whose raw units are right ({consequence}): the raw units look wrong", ARDUPILOT_SCALE_RANGE.0, ARDUPILOT_SCALE_RANGE.1)]
     Gain {
         /// cbrt(det P).
         scale: f64,
@@ -269,6 +269,8 @@ pub enum ExportError {
         stack: &'static str,
         /// Its unit.
         unit: &'static str,
+        /// What the stack would do with such a gain, in its own parameters' names.
+        consequence: &'static str,
     },
     /// The matrix could not be decomposed.
     #[error("the matrix cannot be decomposed (singular or not finite)")]
@@ -419,7 +421,11 @@ pub fn export(doc: &CalDoc, opts: &ExportOptions) -> Result<Export, ExportError>
     // for either stack (PX4 took XSCALE 5.1 or 0.00005 without a word).
     let scale = gain(&p);
     if !(scale >= ARDUPILOT_SCALE_RANGE.0 && scale <= ARDUPILOT_SCALE_RANGE.1) {
-        return Err(ExportError::Gain { scale, stack: stack.name(), unit: stack.unit_name() });
+        let consequence = match stack {
+            Stack::ArduPilot => "the range in which ArduPilot applies COMPASS_SCALE; outside it the scale is ignored",
+            Stack::Px4 => "PX4 would take CAL_MAG0_XSCALE, YSCALE, ZSCALE as given and scale the field by it",
+        };
+        return Err(ExportError::Gain { scale, stack: stack.name(), unit: stack.unit_name(), consequence });
     }
     let angle_deg = ((r[0][0] + r[1][1] + r[2][2] - 1.0) / 2.0).clamp(-1.0, 1.0).acos().to_degrees();
     if angle_deg > opts.max_rotation_deg {
@@ -534,6 +540,12 @@ mod tests {
         assert!(matches!(export(&doc2, &opts), Err(ExportError::Gain { .. })));
         // PX4 is held to the same range (it took XSCALE 2 before, 5.1 with
         // a wrong --raw-unit): its gain in gauss is the same 2.
-        assert!(matches!(export(&doc2, &ExportOptions { stack: Stack::Px4, ..opts }), Err(ExportError::Gain { scale, .. }) if (scale - 2.0).abs() < 1e-12));
+        let e = export(&doc2, &ExportOptions { stack: Stack::Px4, ..opts }).unwrap_err();
+        assert!(matches!(e, ExportError::Gain { scale, .. } if (scale - 2.0).abs() < 1e-12), "{e}");
+        // Each stack's message names its own parameters (PX4's named
+        // ArduPilot's COMPASS_SCALE).
+        assert!(e.to_string().contains("CAL_MAG0_XSCALE") && !e.to_string().contains("COMPASS"), "{e}");
+        let e = export(&doc2, &opts).unwrap_err().to_string();
+        assert!(e.contains("COMPASS_SCALE") && !e.contains("CAL_MAG"), "{e}");
     }
 }

@@ -300,8 +300,16 @@ pub fn igrf14(lat_deg: f64, lon_deg: f64, height_m: f64, year: f64) -> Result<Fi
     Ok(Field { north_nt: x * cd + z * sd, east_nt: y, down_nt: z * cd - x * sd })
 }
 
-/// WMM2025 at a geodetic position, through `world_magnetic_model` (f32).
+/// WMM2025's validity, decimal years: the crate answers outside it with an
+/// older model (WMM2020 for 2021), which must not be labelled WMM2025.
+pub const WMM2025_YEARS: (f64, f64) = (2025.0, 2030.0);
+
+/// WMM2025 at a geodetic position, through `world_magnetic_model` (f32);
+/// a date outside [`WMM2025_YEARS`] is refused.
 pub fn wmm2025(lat_deg: f64, lon_deg: f64, height_m: f64, year: f64) -> Result<Field, GeomagError> {
+    if !(year >= WMM2025_YEARS.0 && year <= WMM2025_YEARS.1) {
+        return Err(GeomagError::DateOutOfRange(year, "WMM2025's validity (2025.0 to 2030.0; for an earlier date, IGRF-14 covers 1900.0 to 2030.0)"));
+    }
     let y = year.floor() as i32;
     let leap = (y % 4 == 0 && y % 100 != 0) || y % 400 == 0;
     let days = if leap { 366.0 } else { 365.0 };
@@ -363,6 +371,13 @@ mod tests {
     #[test]
     fn out_of_range_inputs_are_refused() {
         assert!(matches!(igrf14(0.0, 0.0, 0.0, 2031.0), Err(GeomagError::DateOutOfRange(..))));
+        assert!(matches!(igrf14(0.0, 0.0, 0.0, 1899.9), Err(GeomagError::DateOutOfRange(..))));
+        // WMM2025 from 2025.0 to 2030.0 only (the crate gave WMM2020's field
+        // for 2021, then labelled WMM2025).
+        for year in [2021.0, 2024.99, 2030.01] {
+            assert!(matches!(wmm2025(0.0, 0.0, 0.0, year), Err(GeomagError::DateOutOfRange(..))), "{year}");
+        }
+        assert!(wmm2025(0.0, 0.0, 0.0, 2025.0).is_ok() && wmm2025(0.0, 0.0, 0.0, 2029.99).is_ok());
         assert!(matches!(igrf14(91.0, 0.0, 0.0, 2026.0), Err(GeomagError::BadPosition { .. })));
         assert!(matches!(igrf14(0.0, 0.0, -12_000.0, 2026.0), Err(GeomagError::BadHeight(_))));
         assert!(matches!(igrf14(0.0, 0.0, 1.1e6, 2026.0), Err(GeomagError::BadHeight(_))));

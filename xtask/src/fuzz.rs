@@ -18,8 +18,10 @@ use std::process::Command;
 
 use anyhow::{bail, Context, Result};
 
-/// The fuzz targets: each decoder that takes outside bytes.
-pub const TARGETS: [&str; 4] = ["frame_decoder", "coefficient_record", "csv_reader", "caldoc_loader"];
+/// The fuzz targets: each decoder that takes outside bytes, and `commands`:
+/// recordings, documents, NMEA logs and option values through the
+/// library's command entry points (issue 37).
+pub const TARGETS: [&str; 5] = ["frame_decoder", "coefficient_record", "csv_reader", "caldoc_loader", "commands"];
 
 /// Time box of one target, s.
 pub const SECONDS_PER_TARGET: u32 = 10;

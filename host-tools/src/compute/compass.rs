@@ -42,11 +42,54 @@ pub fn compass_headings_rad(log: &CompassLog) -> Vec<f64> {
     log.t_s.iter().map(|&t| interp_angle(&ct, &ch, t, gap).unwrap_or(f64::NAN)).collect()
 }
 
+/// The largest scatter (median absolute deviation) of reference − compass
+/// at which the reference is taken for the compass's own heading, degrees.
+/// An independent reference scatters by its own noise and the deviation
+/// (GPS course: 0.3–1°; a GNSS compass: 0.1–0.3°); the compass's heading
+/// plus a constant (its `HDT`), written to 0.1°, by 0.
+pub const SELF_REFERENCE_SCATTER_DEG: f64 = 0.05;
+
+/// The fewest reference samples on which [`SELF_REFERENCE_SCATTER_DEG`] is judged.
+const SELF_REFERENCE_MIN_PAIRS: usize = 10;
+
+/// Refuses a compass log that cannot be judged as it is:
+/// `compass_heading_deg` in radians (every value within ±2π, spanning more
+/// than 1), or a reference that is the compass's own heading plus a
+/// constant (the scatter of reference − compass below
+/// [`SELF_REFERENCE_SCATTER_DEG`]: e.g. the compass's own `HDT`).
+pub fn check_compass_log(log: &CompassLog) -> Result<(), ComputeError> {
+    let finite: Vec<f64> = log.compass_heading_deg.iter().copied().filter(|h| h.is_finite()).collect();
+    let (min, max) = finite.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &h| (lo.min(h), hi.max(h)));
+    let two_pi = std::f64::consts::TAU;
+    if !finite.is_empty() && min >= -two_pi && max <= two_pi && max - min > 1.0 {
+        return Err(ComputeError::CompassLooksLikeRadians { count: finite.len(), min, max, span: max - min });
+    }
+    let Some(reference) = log.ref_heading_deg.as_deref() else { return Ok(()) };
+    let headings = compass_headings_rad(log);
+    let diff: Vec<f64> = reference.iter().zip(&headings).filter(|(r, h)| r.is_finite() && h.is_finite()).map(|(r, h)| wrap_pi(r.to_radians() - h)).collect();
+    if diff.len() < SELF_REFERENCE_MIN_PAIRS {
+        return Ok(());
+    }
+    // About the circular mean, so that a difference near ±180° stays whole.
+    let (s, c) = diff.iter().fold((0.0, 0.0), |(s, c), d| (s + d.sin(), c + d.cos()));
+    let centre = s.atan2(c);
+    let mut spread: Vec<f64> = diff.iter().map(|d| wrap_pi(d - centre).to_degrees()).collect();
+    let median = calib_core::series::median(&mut spread.clone()).unwrap_or(0.0);
+    let offset = wrap_pi(centre + median.to_radians()).to_degrees();
+    let mut deviations: Vec<f64> = spread.iter_mut().map(|v| (*v - median).abs()).collect();
+    let scatter = calib_core::series::median(&mut deviations).unwrap_or(f64::INFINITY);
+    if scatter < SELF_REFERENCE_SCATTER_DEG {
+        return Err(ComputeError::ReferenceIsTheCompass { offset_deg: offset, scatter_deg: scatter, pairs: diff.len() });
+    }
+    Ok(())
+}
+
 /// Fits the swing of a heading-only compass against the log's
 /// `ref_heading_deg`; `declination_deg` given, or else the log's stated
 /// variation, or else none (A then holds it, said in the warnings).
 pub fn swing_compass(log: &CompassLog, declination_deg: Option<f64>, delay: Delay, water_current: WaterCurrentMode) -> Result<(CompassDoc, SwingFit<f64>, f64, DeclinationSource), ComputeError> {
     let reference_deg = log.ref_heading_deg.as_deref().ok_or(ComputeError::NeedsColumn(col::REF_HEADING_DEG))?;
+    check_compass_log(log)?;
     let (declination, source) = match (declination_deg, log.stated_variation_deg()) {
         (Some(d), _) => (Some(d), DeclinationSource::Given),
         (None, Some(v)) => (Some(v), DeclinationSource::Log),
@@ -138,6 +181,7 @@ pub struct CompassApplySummary {
 /// compass has none) and the summary against the reference when the log
 /// has one.
 pub fn apply_compass(log: &CompassLog, doc: &CompassDoc) -> Result<(Vec<f64>, CompassApplySummary), ComputeError> {
+    check_compass_log(log)?;
     let corrected: Vec<f64> = log.compass_heading_deg.iter().map(|&h| if h.is_finite() { doc.corrected_deg(h) } else { f64::NAN }).collect();
     let (pairs, _) = if log.ref_heading_deg.is_some() { compass_pairs(log, doc)? } else { (Vec::new(), 0) };
     let rms = |f: fn(&CompassPair) -> f64| -> Option<f64> {
@@ -255,6 +299,23 @@ mod tests {
             let diff = wrap_pi((in_a.corrected_deg(c) - doc.corrected_deg(c)).to_radians()).to_degrees();
             assert!(diff.abs() < 0.1, "{c}: {diff}");
         }
+    }
+
+    /// The compass's own heading plus a constant as the reference, and
+    /// the compass in radians: refused by name; the boat's own course (its
+    /// noise 0.5°, the compass's 0.3°) is not taken for the compass.
+    #[test]
+    fn a_compass_is_not_judged_by_itself_nor_read_in_radians() {
+        let (log, _) = boat_log(3);
+        check_compass_log(&log).unwrap();
+        let mut own = log.clone();
+        let headings = compass_headings_rad(&log);
+        own.ref_heading_deg = Some(log.ref_heading_deg.as_ref().unwrap().iter().zip(&headings).map(|(r, h)| if r.is_finite() { ((h.to_degrees() + 4.2) * 10.0).round() / 10.0 } else { f64::NAN }).collect());
+        let e = swing_compass(&own, None, Delay::Given(0.0), WaterCurrentMode::Off).unwrap_err();
+        assert!(matches!(e, ComputeError::ReferenceIsTheCompass { offset_deg, .. } if (offset_deg - 4.2).abs() < 0.06), "{e}");
+        let mut radians = log.clone();
+        radians.compass_heading_deg.iter_mut().for_each(|h| *h = h.to_radians());
+        assert!(matches!(swing_compass(&radians, None, Delay::Given(0.0), WaterCurrentMode::Off), Err(ComputeError::CompassLooksLikeRadians { .. })));
     }
 
     #[test]

@@ -102,6 +102,31 @@ pub enum ComputeError {
         /// The same as radians, nT.
         as_radians_nt: f64,
     },
+    /// A compass log's reference is the compass's own heading (plus a
+    /// constant): it cannot judge the compass.
+    #[error(
+        "ref_heading_deg is the compass's own heading: it differs from compass_heading_deg by {offset_deg:+.2}° with a scatter of {scatter_deg:.3}° (median absolute deviation over {pairs} samples), where an independent reference scatters by tenths of a degree at least; a compass cannot be judged by itself — the reference must be another instrument (a GNSS compass, a gyrocompass) or the GPS course"
+    )]
+    ReferenceIsTheCompass {
+        /// The median of reference − compass, degrees.
+        offset_deg: f64,
+        /// Its median absolute deviation, degrees.
+        scatter_deg: f64,
+        /// The samples compared.
+        pairs: usize,
+    },
+    /// A compass log's heading column holds radians.
+    #[error("compass_heading_deg looks like radians: all {count} values lie within ±2π ({min:.3} to {max:.3}) yet span {span:.2}, where a compass swung in degrees goes round to 360; the column must be in degrees")]
+    CompassLooksLikeRadians {
+        /// The values looked at.
+        count: usize,
+        /// The smallest.
+        min: f64,
+        /// The largest.
+        max: f64,
+        /// max − min.
+        span: f64,
+    },
     /// The reference field could not be computed.
     #[error("{0}")]
     Geomag(#[from] crate::geomag::GeomagError),

@@ -29,6 +29,7 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use super::recording::Recording;
+use super::table::col;
 
 /// The message type of `FMT`.
 pub const FMT_TYPE: u8 = 128;
@@ -356,6 +357,12 @@ pub struct ImportReport {
     pub rows_with_course: usize,
     /// Rows with a battery current.
     pub rows_with_current: usize,
+    /// Each column written, with the message, field and instance it comes
+    /// from; `ref_heading_deg` is the GPS course, independent of the
+    /// compass; `ahrs_yaw_deg`, the autopilot's heading from its own
+    /// compasses, is never the reference.
+    #[serde(default)]
+    pub column_sources: std::collections::BTreeMap<String, String>,
     /// Notes (assumptions made).
     pub notes: Vec<String>,
 }
@@ -538,6 +545,20 @@ fn rows(c: &Collected, opts: &ImportOptions, report: &mut ImportReport) -> Impor
         }
     }
     report.rows = n;
+    let k = opts.mag_instance;
+    for (column, source) in [
+        ("mx, my, mz", format!("MAG instance {k} (MAG with I = {k}, or MAG{} of older logs), MagX/Y/Z with ArduPilot's correction undone: the raw field", if k == 0 { String::new() } else { (k + 1).to_string() })),
+        (col::ROLL_DEG, "ATT Roll".to_string()),
+        (col::PITCH_DEG, "ATT Pitch".to_string()),
+        (col::REF_HEADING_DEG, format!("GPS instance 0 GCrs (course over ground) with a 3D fix at a ground speed of {} m/s or more", opts.min_course_speed_mps)),
+        ("ahrs_yaw_deg", "ATT Yaw: the autopilot's own heading, from its compasses (not a reference)".to_string()),
+        (col::GPS_SPEED_MPS, "GPS instance 0 Spd".to_string()),
+        (col::LAT_DEG, "GPS instance 0 Lat".to_string()),
+        (col::LON_DEG, "GPS instance 0 Lng".to_string()),
+        (col::MOTOR_CURRENT_A, "BAT/CURR instance 0 Curr".to_string()),
+    ] {
+        report.column_sources.insert(column.to_string(), source);
+    }
     let recording = Recording {
         t_s: Some(mag.iter().map(|m| m.0).collect()),
         mag: mag.iter().map(|m| m.1).collect(),
@@ -610,5 +631,8 @@ mod tests {
         assert_eq!(ok.recording.mag[0], [90.0, 180.0, 270.0]);
         assert_eq!(ok.report.skipped.garbage_bytes, 3);
         assert_eq!(ok.report.notes.len(), 1, "defaults assumed and said");
+        // Every column says where it came from; the reference is the course.
+        assert!(ok.report.column_sources["mx, my, mz"].starts_with("MAG instance 1"));
+        assert!(ok.report.column_sources[col::REF_HEADING_DEG].starts_with("GPS instance 0 GCrs"));
     }
 }

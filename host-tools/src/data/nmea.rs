@@ -35,7 +35,8 @@
 //! reading before its own deviation: `compass_heading_deg`), the deviation
 //! (reported, never applied) and the variation (`variation_deg`, east
 //! positive). `HDM`: the magnetic heading, taken as the compass's own reading.
-//! `HDT`: the true heading (`ref_heading_deg`). `RMC`: time, date, status,
+//! `HDT`: a true heading (`ref_heading_deg` when its talker is independent
+//! of the compass: see *A reference is independent*). `RMC`: time, date, status,
 //! position, speed over ground (knots), course over ground (true), variation.
 //! `VTG`: course (true), speed (knots, else km/h). `VHW`: speed through
 //! water (knots, else km/h; `speed_mps`). `GGA`: time of day,
@@ -51,6 +52,25 @@
 //! talker-and-type pairs (`HCHDG`, `04HDM`, …) giving a heading, the one with
 //! the most sentences; the others are counted (`other_source`) and named in
 //! a note. The same for `HDT`.
+//!
+//! **A reference is independent.** An `HDT` of the compass's own talker
+//! (the talker of the `HDG`/`HDM` used, or `HC`, the magnetic compass's) is
+//! the compass's heading plus the variation: it can judge nothing, and the
+//! recording already holds it (`compass_heading_deg`, `variation_deg`), so it
+//! is left out and counted (`compass_true_headings`), never
+//! `ref_heading_deg` — not written as a second column either, which a later
+//! command could take for a reference. An `HDT` of a GNSS compass or a
+//! gyrocompass ([`REFERENCE_TALKERS`]) or of the talker named in
+//! [`ImportOptions::reference_talker`] is the reference; any other talker's
+//! (`II`, which may relay the compass) is counted
+//! (`unplaced_true_headings`) and not used. The report names each column's
+//! sources (`column_sources`).
+//!
+//! **Date jumps.** A dated sentence more than [`MAX_DATE_JUMP_S`] from the
+//! dated sentences before and after it, which agree with each other, is a
+//! bad date (a receiver's clock a year ahead): refused alone and counted
+//! (`date_jumps`), so that the rest of the log is not "earlier than the one
+//! before".
 //!
 //! **Time** ([`TIME_RULE`]). `RMC` and `ZDA` give date and time; `GGA`,
 //! `GLL` (and a `ZDA` without a four-digit year) the time of day, on the day
@@ -70,7 +90,7 @@
 //! in time order: `t, compass_heading_deg, variation_deg, ref_heading_deg,
 //! course_deg, gps_speed_mps, lat_deg, lon_deg`, an empty cell where that
 //! sentence has no such value; a column the log never fills is not written.
-//! `ref_heading_deg` is `HDT`'s heading when the log has one, else the GPS
+//! `ref_heading_deg` is an independent `HDT`'s heading when the log has one, else the GPS
 //! course (`RMC`/`VTG`) where the same sentence gives a ground speed of at
 //! least [`ImportOptions::min_course_speed_mps`]. No `mx, my, mz`: a heading
 //! compass has no raw field.
@@ -751,18 +771,38 @@ fn for_each_line<R: Read>(mut reader: R, mut each: impl FnMut(Option<&[u8]>)) ->
 }
 
 /// What to import.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct ImportOptions {
     /// GPS course is the reference heading (without `HDT`) only where its
     /// sentence gives this ground speed or more, m/s.
     pub min_course_speed_mps: f64,
+    /// A talker (two characters, e.g. `II`) whose `HDT` is an independent
+    /// true heading besides [`REFERENCE_TALKERS`]; never the compass's own.
+    pub reference_talker: Option<String>,
 }
 
 impl Default for ImportOptions {
     fn default() -> Self {
-        Self { min_course_speed_mps: 0.5 }
+        Self { min_course_speed_mps: 0.5, reference_talker: None }
     }
 }
+
+/// The talkers whose `HDT` is a true heading independent of the magnetic
+/// compass: a GNSS compass (`GP` GPS, `GN` combined, `GA` Galileo, `GB`
+/// and `BD` BeiDou, `GL` GLONASS, `GQ` QZSS, `GI` NavIC) or a north-seeking
+/// gyrocompass (`HE`). Any other talker's `HDT` may be the magnetic
+/// compass's own heading plus the variation, relayed (an instrument bus,
+/// `II`): not a reference unless named ([`ImportOptions::reference_talker`]).
+pub const REFERENCE_TALKERS: [&str; 9] = ["GP", "GN", "GA", "GB", "BD", "GL", "GQ", "GI", "HE"];
+
+/// The talker of a magnetic compass (NMEA 0183: "heading, magnetic
+/// compass"): its `HDT` is never a reference, whatever else the log holds.
+pub const MAGNETIC_COMPASS_TALKER: &str = "HC";
+
+/// A dated sentence (`RMC`, `ZDA`) more than this from the dated sentences
+/// before and after it, which agree with each other within it, is a date
+/// jump (a receiver's bad date, a year ahead): refused alone, s.
+pub const MAX_DATE_JUMP_S: f64 = 3600.0;
 
 /// Where `ref_heading_deg` comes from.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -814,6 +854,23 @@ pub struct NmeaReport {
     pub other_source: usize,
     /// Timed sentences earlier than the one before: not used.
     pub time_backwards: usize,
+    /// Dated sentences (`RMC`, `ZDA`) whose date and time are more than
+    /// [`MAX_DATE_JUMP_S`] from the dated sentences around them (which agree
+    /// with each other): not used, and the rest of the log kept.
+    #[serde(default)]
+    pub date_jumps: usize,
+    /// `HDT` of the compass's own talker (the talker of its `HDG`/`HDM`, or
+    /// `HC`): its heading plus the variation, which `compass_heading_deg`
+    /// and `variation_deg` already hold; never the reference: not used.
+    #[serde(default)]
+    pub compass_true_headings: usize,
+    /// `HDT` of talkers neither the compass's nor known independent
+    /// ([`REFERENCE_TALKERS`], [`ImportOptions::reference_talker`]): not used.
+    #[serde(default)]
+    pub unplaced_true_headings: usize,
+    /// The sources (talker and type, e.g. `IIHDT`) of `unplaced_true_headings`.
+    #[serde(default)]
+    pub unplaced_true_heading_sources: Vec<String>,
     /// Sentences without a time before the first timed sentence: not used.
     pub untimed_before_first_time: usize,
     /// Sentences without a time after the last timed sentence: not used.
@@ -833,6 +890,12 @@ pub struct NmeaReport {
     pub reference: Reference,
     /// The compass (`compass_heading_deg`): talker and type, e.g. `HCHDM`.
     pub compass_source: Option<String>,
+    /// Each heading, course and variation column written, with the
+    /// sentences it comes from (talker and type: `compass_heading_deg` →
+    /// `HCHDG`, `ref_heading_deg` → `GPHDT`, or the course's `GPRMC, GPVTG`
+    /// and the speed it needs).
+    #[serde(default)]
+    pub column_sources: BTreeMap<String, String>,
     /// Notes (assumptions made, values present and not applied).
     pub notes: Vec<String>,
 }
@@ -847,6 +910,9 @@ impl NmeaReport {
             + self.empty_values
             + self.other_source
             + self.time_backwards
+            + self.date_jumps
+            + self.compass_true_headings
+            + self.unplaced_true_headings
             + self.untimed_before_first_time
             + self.untimed_after_last_time
             + self.untimed_in_gaps
@@ -882,6 +948,17 @@ pub enum NmeaError {
         /// What the log held.
         detail: String,
     },
+    /// The reference talker named is the compass's own.
+    #[error("{talker} is the compass's own talker ({compass}): its HDT is the compass's heading plus the variation, which cannot judge the compass; a reference must be another instrument (a GNSS compass, a gyrocompass) or the GPS course")]
+    ReferenceIsTheCompass {
+        /// The talker named.
+        talker: String,
+        /// The compass's source, e.g. `HCHDG`.
+        compass: String,
+    },
+    /// The reference talker named is not two upper-case letters or digits.
+    #[error("a talker is two upper-case letters or digits (GP, II, 24), not {0:?}")]
+    BadTalker(String),
     /// No sentence gives a time.
     #[error("no sentence gives a time (RMC, GGA, GLL or ZDA with a time and a valid fix), so no row can be timed: {detail}")]
     NoTime {
@@ -1066,6 +1143,48 @@ fn one_source(kept: &mut Vec<Kept>, kinds: &[&str]) -> (Option<String>, usize, V
     (Some(best), before - kept.len(), others)
 }
 
+/// Keeps only the `HDT` that may be a reference: of a talker in
+/// [`REFERENCE_TALKERS`] or the one named. The compass's own (its talker's,
+/// or `HC`'s) and the others are counted and removed; the notes say which.
+fn independent_hdt_only(kept: &mut Vec<Kept>, compass_talker: &str, named: Option<&str>, report: &mut NmeaReport) -> Vec<String> {
+    let mut own: BTreeMap<String, usize> = BTreeMap::new();
+    let mut unplaced: BTreeMap<String, usize> = BTreeMap::new();
+    kept.retain(|k| {
+        if k.sentence.kind() != "HDT" {
+            return true;
+        }
+        let t = k.talker.as_str();
+        let source = format!("{t}HDT");
+        if t == compass_talker || t == MAGNETIC_COMPASS_TALKER {
+            bump(&mut own, &source);
+            false
+        } else if REFERENCE_TALKERS.contains(&t) || named == Some(t) {
+            true
+        } else {
+            bump(&mut unplaced, &source);
+            false
+        }
+    });
+    let list = |m: &BTreeMap<String, usize>| m.iter().map(|(s, n)| format!("{s} ({n})")).collect::<Vec<_>>().join(", ");
+    let mut notes = Vec::new();
+    report.compass_true_headings = own.values().sum();
+    if !own.is_empty() {
+        notes.push(format!(
+            "{} is the compass's own true heading (its heading plus the variation, already in compass_heading_deg and variation_deg): not a reference, not used",
+            list(&own)
+        ));
+    }
+    report.unplaced_true_headings = unplaced.values().sum();
+    report.unplaced_true_heading_sources = unplaced.keys().cloned().collect();
+    if !unplaced.is_empty() {
+        notes.push(format!(
+            "{}: a true heading from a talker that is neither a GNSS receiver's nor a gyrocompass's (it may relay the compass's own heading): not used as the reference; if it is an independent instrument, name its talker as the reference talker",
+            list(&unplaced)
+        ));
+    }
+    notes
+}
+
 /// `hh:mm:ss[.sss]`.
 fn clock_text(tod_s: f64) -> String {
     let ms = (tod_s * 1000.0).round() as i64;
@@ -1077,11 +1196,43 @@ fn clock_text(tod_s: f64) -> String {
     }
 }
 
+/// The dated sentences (`RMC`, `ZDA` with a date) that jump: more than
+/// [`MAX_DATE_JUMP_S`] from the dated sentences before and after them,
+/// which agree with each other (at the log's ends: from the one neighbour,
+/// which agrees with its own next). One bad date is refused alone; a
+/// genuine pause (the neighbours apart too) is kept.
+fn date_jumps(kept: &[Kept]) -> Vec<bool> {
+    let dated: Vec<(usize, f64)> = kept
+        .iter()
+        .enumerate()
+        .filter_map(|(i, k)| match k.sentence.stamp() {
+            Some((tod, Some(d))) => Some((i, d.days_since_epoch() as f64 * 86_400.0 + tod)),
+            _ => None,
+        })
+        .collect();
+    let far = |a: f64, b: f64| (a - b).abs() > MAX_DATE_JUMP_S;
+    let mut out = vec![false; kept.len()];
+    for (j, &(i, t)) in dated.iter().enumerate() {
+        let at = |k: usize| dated.get(k).map(|d| d.1);
+        let prev = j.checked_sub(1).and_then(at);
+        let next = at(j + 1);
+        out[i] = match (prev, next) {
+            (Some(p), Some(n)) => far(t, p) && far(t, n) && !far(p, n),
+            (None, Some(n)) => far(t, n) && at(j + 2).is_some_and(|m| !far(n, m)),
+            (Some(p), None) => far(t, p) && j.checked_sub(2).and_then(at).is_some_and(|m| !far(p, m)),
+            (None, None) => false,
+        };
+    }
+    out
+}
+
 /// Each kept sentence's time, seconds since the epoch (or since day 0 of a
 /// log without a date); `None` where it cannot be timed. Counts what is not
 /// used.
 fn times(kept: &[Kept], report: &mut NmeaReport) -> (Vec<Option<f64>>, bool) {
-    let first_dated = kept.iter().find_map(|k| k.sentence.stamp().and_then(|(tod, d)| d.map(|d| (d.days_since_epoch(), tod))));
+    let jumps = date_jumps(kept);
+    report.date_jumps = jumps.iter().filter(|&&j| j).count();
+    let first_dated = kept.iter().zip(&jumps).filter(|(_, &j)| !j).find_map(|(k, _)| k.sentence.stamp().and_then(|(tod, d)| d.map(|d| (d.days_since_epoch(), tod))));
     let half_day = 43_200.0;
     // Anchors: the timed sentences, on one time line.
     let mut anchor: Vec<Option<f64>> = vec![None; kept.len()];
@@ -1089,6 +1240,10 @@ fn times(kept: &[Kept], report: &mut NmeaReport) -> (Vec<Option<f64>>, bool) {
     let (mut current, mut last): (Option<(i64, f64)>, Option<f64>) = (None, None);
     for (i, k) in kept.iter().enumerate() {
         let Some((tod, date)) = k.sentence.stamp() else { continue };
+        if jumps[i] {
+            dropped[i] = true;
+            continue;
+        }
         let day = match (date, current, first_dated) {
             (Some(d), _, _) => d.days_since_epoch(),
             (None, Some((day, prev_tod)), _) | (None, None, Some((day, prev_tod))) => {
@@ -1143,6 +1298,11 @@ fn times(kept: &[Kept], report: &mut NmeaReport) -> (Vec<Option<f64>>, bool) {
 
 /// Imports a log from any reader (`path` names it in errors).
 pub fn import_reader<R: Read>(reader: R, path: &Path, opts: &ImportOptions) -> Result<Imported, NmeaError> {
+    if let Some(t) = &opts.reference_talker {
+        if !(t.len() == 2 && t.bytes().all(|b| b.is_ascii_uppercase() || b.is_ascii_digit())) {
+            return Err(NmeaError::BadTalker(t.clone()));
+        }
+    }
     let mut report = NmeaReport { time_rule: TIME_RULE.to_string(), ..NmeaReport::default() };
     let (mut g, total, binary) = gather(reader, path, &mut report)?;
     if g.dollar_framed == 0 {
@@ -1162,6 +1322,11 @@ pub fn import_reader<R: Read>(reader: R, path: &Path, opts: &ImportOptions) -> R
     if !names.is_empty() {
         notes.push(format!("compass_heading_deg is from {} only; the headings of {} are another compass (or another sentence of it) and were not used", compass.as_deref().unwrap_or(""), names.join(", ")));
     }
+    let compass_talker = compass.as_deref().map_or(MAGNETIC_COMPASS_TALKER, |c| &c[..2]);
+    if let Some(t) = opts.reference_talker.as_deref().filter(|t| *t == compass_talker || *t == MAGNETIC_COMPASS_TALKER) {
+        return Err(NmeaError::ReferenceIsTheCompass { talker: t.to_string(), compass: compass.clone().unwrap_or_else(|| format!("{t}: a magnetic compass")) });
+    }
+    notes.extend(independent_hdt_only(&mut g.kept, compass_talker, opts.reference_talker.as_deref(), &mut report));
     let (true_source, others, names) = one_source(&mut g.kept, &["HDT"]);
     report.other_source += others;
     if !names.is_empty() {
@@ -1178,6 +1343,7 @@ pub fn import_reader<R: Read>(reader: R, path: &Path, opts: &ImportOptions) -> R
         [col::T, col::COMPASS_HEADING_DEG, col::VARIATION_DEG, col::REF_HEADING_DEG, col::COURSE_DEG, col::GPS_SPEED_MPS, col::LAT_DEG, col::LON_DEG, col::SPEED_MPS];
     let mut columns: Vec<Vec<f64>> = vec![Vec::new(); NAMES.len()];
     let mut gps_talkers: Vec<&str> = Vec::new();
+    let mut sources: Vec<Vec<String>> = vec![Vec::new(); NAMES.len()];
     for (k, t) in g.kept.iter().zip(&t) {
         let Some(t) = *t else { continue };
         let mut row = [f64::NAN; 9];
@@ -1227,6 +1393,12 @@ pub fn import_reader<R: Read>(reader: R, path: &Path, opts: &ImportOptions) -> R
         for (c, v) in columns.iter_mut().zip(row) {
             c.push(v);
         }
+        for (c, v) in row.iter().enumerate().skip(1) {
+            let source = format!("{}{}", k.talker, k.sentence.kind());
+            if v.is_finite() && !sources[c].contains(&source) && sources[c].len() < MAX_KEYS {
+                sources[c].push(source);
+            }
+        }
     }
     report.rows = columns[0].len();
     let with = |c: usize| columns[c].iter().filter(|v| v.is_finite()).count();
@@ -1262,6 +1434,12 @@ pub fn import_reader<R: Read>(reader: R, path: &Path, opts: &ImportOptions) -> R
             g.hdg_deviation.0, g.hdg_deviation.1
         ));
     }
+    if report.date_jumps > 0 {
+        notes.push(format!(
+            "{} RMC/ZDA dated more than {MAX_DATE_JUMP_S} s from the dated sentences before and after them (which agree with each other): a bad date, not used; the rest of the log is timed without them",
+            report.date_jumps
+        ));
+    }
     if g.zda_two_digit_year > 0 {
         notes.push(format!("{} ZDA sentences gave a two-digit year: their date was not used (their time of day was)", g.zda_two_digit_year));
     }
@@ -1286,6 +1464,13 @@ pub fn import_reader<R: Read>(reader: R, path: &Path, opts: &ImportOptions) -> R
     report.notes = notes;
     let keep: Vec<usize> = (0..NAMES.len()).filter(|&c| c == 0 || with(c) > 0).collect();
     report.columns = keep.iter().map(|&c| NAMES[c].to_string()).collect();
+    for &c in keep.iter().filter(|&&c| c > 0) {
+        let mut text = sources[c].join(", ");
+        if c == 3 && report.reference == Reference::Course {
+            text += &format!(" (course over ground at {} m/s or more)", opts.min_course_speed_mps);
+        }
+        report.column_sources.insert(NAMES[c].to_string(), text);
+    }
     let mut columns: Vec<Option<Vec<f64>>> = columns.into_iter().map(Some).collect();
     let columns = keep.iter().filter_map(|&c| columns[c].take().map(|v| (NAMES[c], v))).collect();
     Ok(Imported { columns, report })
@@ -1660,6 +1845,44 @@ mod tests {
         assert!(r.notes.iter().any(|n| n.contains("two-digit year")), "{:?}", r.notes);
         assert_eq!(im.column(col::REF_HEADING_DEG).unwrap()[3], 100.1);
         assert_eq!(r.columns, [col::T, col::COMPASS_HEADING_DEG, col::VARIATION_DEG, col::REF_HEADING_DEG, col::COURSE_DEG, col::GPS_SPEED_MPS, col::LAT_DEG, col::LON_DEG]);
+    }
+
+    /// Each HDT by its talker: the compass's own (its HDG's talker, or HC)
+    /// left out and counted; a GNSS compass's the reference; another
+    /// talker's only when named; the compass's talker never.
+    #[test]
+    fn an_hdt_is_the_reference_only_from_an_independent_talker() {
+        let log = |hdt: &str| format!("$GPRMC,100000,A,4807.038,N,01131.000,E,5.0,090.0,010121,,\n$24HDG,010.0,,,,\n${hdt}HDT,012.0,T\n$GPRMC,100001,A,4807.038,N,01131.000,E,5.0,091.0,010121,,\n");
+        let run = |hdt: &str, named: Option<&str>| import(log(hdt).as_bytes(), &ImportOptions { reference_talker: named.map(str::to_string), ..ImportOptions::default() });
+        let im = run("24", None).unwrap();
+        assert_eq!((im.report.reference, im.report.compass_true_headings), (Reference::Course, 1));
+        assert_eq!(im.report.column_sources.get(col::REF_HEADING_DEG).map(String::as_str), Some("GPRMC (course over ground at 0.5 m/s or more)"));
+        assert_eq!(run("HC", None).unwrap().report.compass_true_headings, 1);
+        let im = run("GN", None).unwrap();
+        assert_eq!((im.report.reference, im.report.column_sources.get(col::REF_HEADING_DEG).map(String::as_str)), (Reference::Hdt, Some("GNHDT")));
+        let im = run("II", None).unwrap();
+        assert_eq!((im.report.reference, im.report.unplaced_true_headings, im.report.unplaced_true_heading_sources.clone()), (Reference::Course, 1, vec!["IIHDT".to_string()]));
+        assert_eq!(run("II", Some("II")).unwrap().report.reference, Reference::Hdt);
+        let e = run("24", Some("24")).unwrap_err().to_string();
+        assert!(e.starts_with("24 is the compass's own talker (24HDG)"), "{e}");
+        assert!(run("II", Some("ii")).unwrap_err().to_string().contains("not \"ii\""));
+    }
+
+    /// A dated sentence far from both neighbours is refused alone, at the
+    /// log's start, middle and end; a pause (neighbours apart too) is kept.
+    #[test]
+    fn a_date_jump_is_refused_alone() {
+        let rmc = |s: u32, date: &str| format!("$GPRMC,1000{s:02},A,4807.038,N,01131.000,E,5.0,090.0,{date},,\n");
+        for bad in [0, 5, 9] {
+            let log: String = (0..10).map(|s| rmc(s, if s == bad { "010122" } else { "010121" })).collect();
+            let im = import(log.as_bytes(), &ImportOptions::default()).unwrap();
+            assert_eq!((im.report.date_jumps, im.report.rows, im.report.time_backwards), (1, 9, 0), "{bad}");
+            assert_eq!(im.report.start_utc.as_deref(), Some(if bad == 0 { "2021-01-01T10:00:01Z" } else { "2021-01-01T10:00:00Z" }));
+        }
+        // Two days apart, five fixes each: a pause, nothing refused.
+        let log: String = (0..10).map(|s| rmc(s, if s < 5 { "010121" } else { "030121" })).collect();
+        let im = import(log.as_bytes(), &ImportOptions::default()).unwrap();
+        assert_eq!((im.report.date_jumps, im.report.rows), (0, 10));
     }
 
     /// The refusals, each with what the input looked like.

@@ -30,6 +30,12 @@ pub struct Args {
     /// more, m/s (NMEA: only where no HDT gives a true heading).
     #[arg(long, default_value_t = 0.5)]
     min_course_speed_mps: f64,
+    /// NMEA: a talker (e.g. II) whose HDT is an independent true heading,
+    /// besides a GNSS compass's (GP, GN, GA, GB, BD, GL, GQ, GI) and a
+    /// gyrocompass's (HE). The compass's own talker's HDT is never the
+    /// reference (it is the compass's heading plus the variation).
+    #[arg(long, conflicts_with = "dataflash", value_name = "XX")]
+    reference_talker: Option<String>,
     /// Print the import report as JSON on stdout.
     #[arg(long)]
     json: bool,
@@ -87,7 +93,7 @@ fn counts(map: &std::collections::BTreeMap<String, usize>) -> String {
 }
 
 fn run_nmea(a: &Args, log: &Path) -> Result<()> {
-    let opts = nmea::ImportOptions { min_course_speed_mps: a.min_course_speed_mps };
+    let opts = nmea::ImportOptions { min_course_speed_mps: a.min_course_speed_mps, reference_talker: a.reference_talker.clone() };
     let im = nmea::import_file(log, &opts).with_context(|| format!("{}: NMEA 0183 import", log.display()))?;
     let r = &im.report;
     for n in &r.notes {
@@ -103,6 +109,9 @@ fn run_nmea(a: &Args, log: &Path) -> Result<()> {
             (r.empty_values, "with an empty heading or VTG".to_string()),
             (r.other_source, format!("headings of another compass than {}", r.compass_source.as_deref().unwrap_or("the one used"))),
             (r.time_backwards, "with a time going back".to_string()),
+            (r.date_jumps, format!("dated more than {} s from the dated sentences around them", nmea::MAX_DATE_JUMP_S)),
+            (r.compass_true_headings, "HDT of the compass itself (not a reference)".to_string()),
+            (r.unplaced_true_headings, format!("HDT of talkers not known independent ({})", r.unplaced_true_heading_sources.join(", "))),
             (
                 untimed,
                 format!(
@@ -120,16 +129,20 @@ fn run_nmea(a: &Args, log: &Path) -> Result<()> {
         .collect();
         eprintln!("warning: skipped {} of {} sentences: {}", r.skipped(), r.sentences, parts.join("; "));
     }
+    for source in &r.unplaced_true_heading_sources {
+        eprintln!("hint: if {source} is an independent heading sensor (not the compass relayed), give --reference-talker {}", &source[..2.min(source.len())]);
+    }
     im.write(&a.out)?;
     eprintln!("wrote {} ({} rows)", a.out.display(), r.rows);
     if a.json {
         println!("{}", serde_json::to_string_pretty(r)?);
     } else {
         let start = r.start_utc.clone().unwrap_or_else(|| format!("{} UTC (no date in the log)", r.start_time_of_day_utc));
+        let source = r.column_sources.get(host_tools::data::table::col::REF_HEADING_DEG).map(|s| format!(" from {s}")).unwrap_or_default();
         let reference = match r.reference {
-            nmea::Reference::Hdt => "HDT",
-            nmea::Reference::Course => "GPS course at speed",
-            nmea::Reference::None => "none",
+            nmea::Reference::Hdt => format!("HDT{source}"),
+            nmea::Reference::Course => format!("GPS course at speed{source}"),
+            nmea::Reference::None => "none".to_string(),
         };
         println!(
             "{} rows over {:.1} s from {start}, from {} of {} sentences ({}); columns {}; reference heading: {reference}",
