@@ -87,7 +87,7 @@ pub fn run(a: Args) -> Result<()> {
             bail!("--field-sigma-nt must be a positive number of nT, not {s}");
         }
     }
-    let (doc, mut warnings) = match Document::load_with(&a.cal, a.allow_weak).map_err(|e| super::hinted(e, weak_hint))? {
+    let (doc, mut warnings) = match Document::load_with(&a.cal, a.allow_weak).map_err(|e| super::hinted(e, super::weak_hint))? {
         (Document::Field(doc), said) => (*doc, said),
         (Document::Compass(doc), _) => return run_compass(&a, &doc),
     };
@@ -101,10 +101,10 @@ pub fn run(a: Args) -> Result<()> {
     let doc_site = doc.reference.as_ref().and_then(|r| r.site);
     if let Some(site) = given_site.or(doc_site) {
         let whose = if given_site.is_some() { "the site given" } else { "the document's reference site" };
-        weak_or_refused(&mut warnings, a.allow_weak, super::check_positions(&rec, &a.input, site.lat_deg, site.lon_deg).with_context(|| format!("{}: against {whose}", a.cal.display())))?;
+        super::weak_or_refused(&mut warnings, a.allow_weak, super::check_site(&rec, &a.input, &site, false).with_context(|| format!("{}: against {whose}", a.cal.display())))?;
     }
     for w in given_values_disagree(&a, &doc, &rec, given_site.or(doc_site)) {
-        weak_or_refused(&mut warnings, a.allow_weak, Err(anyhow::anyhow!("{w}: the value given would judge the recording against another field; check it")))?;
+        super::weak_or_refused(&mut warnings, a.allow_weak, Err(anyhow::anyhow!("{w}: the value given would judge the recording against another field; check it")))?;
     }
     let site_deg = match given_site {
         Some(s) => Some(s.field()?.inclination_deg()),
@@ -170,26 +170,6 @@ pub fn run(a: Args) -> Result<()> {
         }
     }
     Ok(())
-}
-
-/// The hint for a weak document refused.
-pub(crate) fn weak_hint(e: &host_tools::data::CalDocError) -> Option<&'static str> {
-    matches!(e, host_tools::data::CalDocError::WeakReference { .. }).then_some("give --allow-weak to use it anyway (it is then said in the output)")
-}
-
-/// A check's refusal: returned, or with `allow_weak` kept as a warning
-/// (said on stderr now and in the summary).
-pub(crate) fn weak_or_refused(warnings: &mut Vec<String>, allow_weak: bool, checked: Result<()>) -> Result<()> {
-    match checked {
-        Ok(()) => Ok(()),
-        Err(e) if allow_weak => {
-            let w = format!("{e:#} (kept: --allow-weak)");
-            eprintln!("warning: {w}");
-            warnings.push(w);
-            Ok(())
-        }
-        Err(e) => Err(anyhow::anyhow!("{e:#}; refused: --allow-weak keeps it and says so")),
-    }
 }
 
 /// `--inclination-deg` and `--field-nt` against what is known apart from

@@ -82,13 +82,15 @@ pub fn run(a: Args) -> Result<()> {
     // The one document check (a step-1 calibration fitted to a field in
     // other units — µT typed for nT — is refused there: nothing after it
     // could be right).
-    let (doc, mut warnings) = CalDoc::load_with(&a.cal, a.allow_weak).map_err(|e| hinted(e, super::apply::weak_hint))?;
+    let (doc, mut warnings) = CalDoc::load_with(&a.cal, a.allow_weak).map_err(|e| hinted(e, super::weak_hint))?;
     for w in &warnings {
         eprintln!("warning: {w}");
     }
     let rec = a.columns.read(&a.input)?;
-    if let (Some(lat), Some(lon)) = (a.site.lat, a.site.lon) {
-        check_positions(&rec, &a.input, lat, lon)?;
+    match (a.site.site()?, a.site.lat, a.site.lon) {
+        (Some(site), _, _) => super::check_site(&rec, &a.input, &site, a.allow_weak)?,
+        (None, Some(lat), Some(lon)) => check_positions(&rec, &a.input, lat, lon)?,
+        _ => {}
     }
     if let RunReference::Given { h_nt, z_nt } = reference {
         // Against physics (refused), the world model where the document's
@@ -98,7 +100,7 @@ pub fn run(a: Args) -> Result<()> {
         let (data_dip, _) = shown(&doc.field_cal(), &rec);
         let words = check_given_field(h_nt, z_nt, world.as_ref(), data_dip).map_err(|e| anyhow::anyhow!("--field-h-nt {h_nt} --field-z-nt {z_nt}: {e}"))?;
         if !words.is_empty() {
-            super::apply::weak_or_refused(&mut warnings, a.allow_weak, Err(anyhow::anyhow!("--field-h-nt {h_nt} --field-z-nt {z_nt}: {}", words.join("; "))))?;
+            super::weak_or_refused(&mut warnings, a.allow_weak, Err(anyhow::anyhow!("--field-h-nt {h_nt} --field-z-nt {z_nt}: {}", words.join("; "))))?;
         }
     }
     let mut opts = BackstepOptions::new(reference);

@@ -35,6 +35,10 @@ pub struct Args {
     /// Also write the card as CSV here.
     #[arg(long)]
     csv: Option<PathBuf>,
+    /// Use a document whose own reference check failed (written by `fit
+    /// --allow-weak`); it is then said on stderr.
+    #[arg(long)]
+    allow_weak: bool,
     /// Print the card as JSON on stdout.
     #[arg(long)]
     json: bool,
@@ -47,7 +51,7 @@ pub fn run(a: Args) -> Result<()> {
     if let Some(csv) = &a.csv {
         super::check_out("--csv", csv, &[&a.input, &a.cal])?;
     }
-    let doc = match Document::load(&a.cal)? {
+    let doc = match super::load_document(&a.cal, a.allow_weak)? {
         Document::Field(doc) => *doc,
         Document::Compass(doc) => {
             if a.reference_column != "ref_heading_deg" {

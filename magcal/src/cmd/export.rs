@@ -4,7 +4,6 @@
 use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
-use host_tools::data::CalDoc;
 use host_tools::export::{export, ExportError, ExportOptions, Stack};
 
 use super::hinted;
@@ -54,6 +53,10 @@ pub struct Args {
     /// a warning) rather than refused, degrees.
     #[arg(long, default_value_t = 2.0)]
     max_rotation_deg: f64,
+    /// Use a document whose own reference check failed (written by `fit
+    /// --allow-weak`); it is then said on stderr.
+    #[arg(long)]
+    allow_weak: bool,
     /// Print the export (parameters and typed warnings) as JSON on stdout.
     #[arg(long)]
     json: bool,
@@ -65,7 +68,7 @@ pub fn run(a: Args) -> Result<()> {
     if !(a.max_rotation_deg.is_finite() && a.max_rotation_deg >= 0.0) {
         bail!("--max-rotation-deg must be a non-negative number of degrees, not {}", a.max_rotation_deg);
     }
-    let doc = CalDoc::load(&a.cal)?;
+    let doc = super::load_field_doc(&a.cal, a.allow_weak)?;
     let stack = match a.format {
         Format::Ardupilot => Stack::ArduPilot,
         Format::Px4 => Stack::Px4,

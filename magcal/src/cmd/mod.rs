@@ -153,28 +153,14 @@ pub fn reference_field(field_nt: Option<f64>, site: &SiteArgs) -> Result<Field> 
     }
 }
 
-/// The range of the geomagnetic field's intensity at the Earth's surface
-/// (IGRF: about 22 000 nT off Brazil to 67 000 nT near the south magnetic
-/// pole), widened for local anomalies: 10 000 … 100 000 nT.
-pub const FIELD_NT_RANGE: std::ops::RangeInclusive<f64> = 10_000.0..=100_000.0;
-
 /// Refuses a field intensity that is not one at the Earth's surface in nT,
-/// saying which unit it looks like (`what` names where it came from).
+/// saying which unit it looks like (`what` names where it came from): the
+/// one rule of the document check ([`host_tools::data::caldoc::field_nt_problem`]).
 pub fn check_field_nt(field_nt: f64, what: &str) -> Result<()> {
-    if FIELD_NT_RANGE.contains(&field_nt) {
-        return Ok(());
+    match host_tools::data::caldoc::field_nt_problem(field_nt) {
+        None => Ok(()),
+        Some(why) => bail!("{what} {why}"),
     }
-    // The Earth's field is 22–67 µT: which unit makes the number one?
-    let guess = [("µT", 1e3), ("mGauss", 100.0), ("Gauss", 1e5), ("pT", 1e-3)]
-        .iter()
-        .find(|(_, nt_per_unit)| FIELD_NT_RANGE.contains(&(field_nt * nt_per_unit)))
-        .map(|(unit, k)| format!(" (it looks like {unit}: {field_nt} {unit} is {:.0} nT)", field_nt * k))
-        .unwrap_or_default();
-    bail!(
-        "{what} {field_nt} nT is not a geomagnetic field intensity at the Earth's surface ({:.0} … {:.0} nT){guess}",
-        FIELD_NT_RANGE.start(),
-        FIELD_NT_RANGE.end()
-    )
 }
 
 /// Checks an output path before any work is done
@@ -305,4 +291,45 @@ pub fn number_in(range: std::ops::RangeInclusive<f64>, unit: &'static str) -> im
             Err(format!("must be within {} … {} {unit}", range.start(), range.end()))
         }
     }
+}
+
+/// The hint for a weak document refused.
+pub fn weak_hint(e: &host_tools::data::CalDocError) -> Option<&'static str> {
+    matches!(e, host_tools::data::CalDocError::WeakReference { .. }).then_some("give --allow-weak to use it anyway (it is then said in the output)")
+}
+
+/// A check's refusal: returned, or with `allow_weak` kept as a warning
+/// (said on stderr now and in the summary).
+pub fn weak_or_refused(warnings: &mut Vec<String>, allow_weak: bool, checked: Result<()>) -> Result<()> {
+    match checked {
+        Ok(()) => Ok(()),
+        Err(e) if allow_weak => {
+            let w = format!("{e:#} (kept: --allow-weak)");
+            eprintln!("warning: {w}");
+            warnings.push(w);
+            Ok(())
+        }
+        Err(e) => Err(anyhow::anyhow!("{e:#}; refused: --allow-weak keeps it and says so")),
+    }
+}
+
+/// A field calibration document through the one document check, with
+/// `--allow-weak` (a document whose own reference check failed is refused
+/// without it, and said on stderr with it).
+pub fn load_field_doc(path: &Path, allow_weak: bool) -> Result<CalDoc> {
+    let (doc, said) = CalDoc::load_with(path, allow_weak).map_err(|e| hinted(e, weak_hint))?;
+    for w in said {
+        eprintln!("warning: {w}");
+    }
+    Ok(doc)
+}
+
+/// Either form of document (field or heading-only) through the one
+/// document check, as [`load_field_doc`].
+pub fn load_document(path: &Path, allow_weak: bool) -> Result<host_tools::data::compass::Document> {
+    let (doc, said) = host_tools::data::compass::Document::load_with(path, allow_weak).map_err(|e| hinted(e, weak_hint))?;
+    for w in said {
+        eprintln!("warning: {w}");
+    }
+    Ok(doc)
 }

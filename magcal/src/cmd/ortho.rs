@@ -8,7 +8,6 @@ use calib_core::fit::{fit_batch, Full};
 use calib_core::quality::{assess, Gates, Quality};
 use clap::ValueEnum;
 use host_tools::compute::{self, OrthoSolver};
-use host_tools::data::CalDoc;
 use serde_json::json;
 
 /// The solver, as the command line names it.
@@ -57,7 +56,7 @@ pub struct Args {
 pub fn run(a: Args) -> Result<()> {
     let rec = a.columns.read(&a.input)?;
     let bias = match (&a.cal, a.zero_bias) {
-        (Some(p), _) => Some(CalDoc::load(p)?.bias),
+        (Some(p), _) => Some(super::load_field_doc(p, a.allow_weak)?.bias),
         (None, true) => Some([0.0; 3]),
         (None, false) => None,
     };

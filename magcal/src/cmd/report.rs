@@ -53,6 +53,10 @@ pub struct Args {
     /// Output directory (default: `<session>/report`).
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Use a document whose own reference check failed (written by `fit
+    /// --allow-weak`); it is then said on stderr.
+    #[arg(long)]
+    allow_weak: bool,
     /// Print what was written as JSON.
     #[arg(long)]
     json: bool,
@@ -120,13 +124,13 @@ pub fn run(a: Args) -> Result<()> {
         }
         None => None,
     };
-    let docs = cal_paths.iter().map(|p| CalDoc::load(p)).collect::<Result<Vec<_>, _>>()?;
+    let docs = cal_paths.iter().map(|p| super::load_field_doc(p, a.allow_weak)).collect::<Result<Vec<_>, _>>()?;
     let labels = cal_paths.iter().map(|p| p.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default());
     let before = match (&a.before, before_path) {
-        (Some(p), _) => Some(CalDoc::load(p)?),
+        (Some(p), _) => Some(super::load_field_doc(p, a.allow_weak)?),
         // The session saves the board's previous set unchecked: one that
         // does not pass as a calibration is left out, saying so.
-        (None, Some(p)) => CalDoc::load(&p).map_err(|e| eprintln!("leaving out the coefficients before the session: {e}")).ok(),
+        (None, Some(p)) => CalDoc::load_with(&p, a.allow_weak).map(|(d, _)| d).map_err(|e| eprintln!("leaving out the coefficients before the session: {e}")).ok(),
         (None, None) => None,
     };
     let summary: Option<SessionSummary> = summary_path.map(|p| read_json(&p)).transpose()?;
@@ -142,7 +146,7 @@ pub fn run(a: Args) -> Result<()> {
         let recordings = [(&run_path, run.as_ref()), (&swing_path, swing.as_ref()), (&validation_path, validation.as_ref().map(|(r, _)| r))];
         for (path, rec) in recordings {
             if let (Some(p), Some(r)) = (path, rec) {
-                super::check_positions(r, p, s.lat_deg, s.lon_deg)?;
+                super::check_site(r, p, s, a.allow_weak)?;
             }
         }
     }

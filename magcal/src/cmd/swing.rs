@@ -107,7 +107,7 @@ pub fn run(a: Args) -> Result<()> {
     if a.declination_deg.is_some() {
         bail!("--declination-deg is for a heading-only compass (no --cal); a field calibration carries its own declination");
     }
-    let (doc, said) = CalDoc::load_with(cal, a.allow_weak).map_err(|e| super::hinted(e, super::apply::weak_hint))?;
+    let (doc, said) = CalDoc::load_with(cal, a.allow_weak).map_err(|e| super::hinted(e, super::weak_hint))?;
     for w in &said {
         eprintln!("warning: {w}");
     }

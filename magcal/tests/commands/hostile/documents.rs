@@ -99,6 +99,18 @@ fn a_document_whose_own_reference_check_failed_is_refused_unless_allowed_and_the
         let e = refused(&magcal(&cmd));
         assert!(e.contains(p(&cal)) && e.contains("disagrees with its own reference field") && e.contains("--allow-weak"), "{e}");
     }
+    // card and export too: refused, then used with --allow-weak and said.
+    let parm = dir.path().join("compass.parm");
+    let card = ["card", "--input", p(&input), "--cal", p(&cal), "--reference-column", "truth_heading_deg"];
+    let export = ["export", "--cal", p(&cal), "--format", "ardupilot", "--out", p(&parm)];
+    for cmd in [&card[..], &export[..]] {
+        let e = refused(&magcal(cmd));
+        assert!(e.contains(p(&cal)) && e.contains("disagrees with its own reference field") && e.contains("--allow-weak"), "{e}");
+        let allowed: Vec<&str> = cmd.iter().copied().chain(["--allow-weak"]).collect();
+        let e = accepted(&magcal(&allowed));
+        assert!(e.contains("warning:") && e.contains("27.2σ off"), "{e}");
+    }
+    assert!(parm.exists());
 }
 
 #[test]
