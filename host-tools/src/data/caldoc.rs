@@ -352,6 +352,15 @@ impl CalDoc {
         self.validate(path)?;
         let mut said = Vec::new();
         if let Some(d) = self.reference_disagreement() {
+            // A reference the fit estimated from its own calibration
+            // recording is no independent judge: its disagreement is said,
+            // not refused (the session's chain writes such documents when
+            // no site is known; the world model's or a user's is refused).
+            let independent = self.reference.as_ref().is_some_and(|r| r.source != crate::compute::reference::ReferenceSource::CalibrationData);
+            if !independent {
+                said.push(format!("{}: the calibration disagrees with the field estimated from its own calibration recording ({d}): no independent reference judged it", path.display()));
+                return Ok(said);
+            }
             if !allow_weak {
                 return Err(CalDocError::WeakReference { path: path.into(), disagreement: d.to_string() });
             }
@@ -516,5 +525,9 @@ mod tests {
         let said = d.check(p, true).unwrap();
         assert!(said.len() == 1 && said[0].contains("30000 nT"), "{said:?}");
         assert!(doc().check(p, false).unwrap().is_empty());
+        // Against the fit's own estimate (no independent judge): said, not refused.
+        d.reference.as_mut().unwrap().source = crate::compute::reference::ReferenceSource::CalibrationData;
+        let said = d.check(p, false).unwrap();
+        assert!(said.len() == 1 && said[0].contains("no independent reference"), "{said:?}");
     }
 }
