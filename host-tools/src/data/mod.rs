@@ -12,6 +12,7 @@ pub mod intake;
 pub mod board_log;
 pub mod merge;
 pub mod nav_log;
+pub mod import;
 pub mod nmea;
 pub mod pairing;
 pub mod recording;

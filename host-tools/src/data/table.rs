@@ -51,6 +51,9 @@ pub mod col {
     pub const COURSE_DEG: &str = "course_deg";
     /// `gps_speed_mps`: GPS speed over ground, m/s.
     pub const GPS_SPEED_MPS: &str = "gps_speed_mps";
+    /// `ahrs_yaw_deg`: the vehicle's own heading estimate (an autopilot's
+    /// yaw, from its compasses: never a reference), degrees.
+    pub const AHRS_YAW_DEG: &str = "ahrs_yaw_deg";
 }
 
 /// What a column measures: the unit a mapping may give it, and how it is
@@ -139,7 +142,7 @@ const OTHER: Logs = Logs { recording: false, nav: false, board: false };
 /// field in the type that holds it ([`crate::data::Recording`],
 /// [`crate::data::NavLog`], [`crate::data::board_log::BoardLog`]: one line
 /// of their column list each).
-pub const COLUMNS: [Column; 24] = {
+pub const COLUMNS: [Column; 25] = {
     use col::*;
     use Interp::*;
     use Quantity::*;
@@ -168,6 +171,7 @@ pub const COLUMNS: [Column; 24] = {
         column(VARIATION_DEG, Angle, Some(180.0), OTHER, Linear),
         column(COURSE_DEG, Heading, Some(360.0), OTHER, Heading360),
         column(GPS_SPEED_MPS, Other, None, OTHER, Linear),
+        column(AHRS_YAW_DEG, Heading, Some(360.0), OTHER, Heading360),
     ]
 };
 

@@ -99,12 +99,12 @@ fn the_compass_own_hdt_is_not_the_reference() {
     let o = magcal(&["import", "--nmea", p(&log), "--out", p(&rec), "--json"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    assert_eq!(report["reference"], "course", "{report}");
+    assert_eq!(report["detail"]["nmea0183"]["reference"], "course", "{report}");
     // Every heading column says where it came from.
-    assert_eq!(report["column_sources"]["compass_heading_deg"], "HCHDG", "{report}");
-    assert!(report["column_sources"]["ref_heading_deg"].as_str().unwrap().contains("GPRMC"), "{report}");
+    assert_eq!(report["column_sources"]["compass_heading_deg"]["from"], "HCHDG", "{report}");
+    assert!(report["column_sources"]["ref_heading_deg"]["from"].as_str().unwrap().contains("GPRMC"), "{report}");
     // The compass's HDT left out, counted and said.
-    let hdt = report["compass_true_headings"].as_u64().unwrap();
+    let hdt = report["detail"]["nmea0183"]["compass_true_headings"].as_u64().unwrap();
     assert!(hdt > 500, "{report}");
     assert!(stderr(&o).contains("HCHDT"), "{}", stderr(&o));
     let (header, _) = read_csv(&rec);
@@ -151,19 +151,19 @@ fn a_gnss_hdt_is_the_reference_and_a_named_talker_too() {
     let o = magcal(&["import", "--nmea", p(&log), "--out", p(&rec), "--json"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    assert_eq!((report["reference"].as_str(), report["column_sources"]["ref_heading_deg"].as_str()), (Some("hdt"), Some("GPHDT")), "{report}");
+    assert_eq!((report["detail"]["nmea0183"]["reference"].as_str(), report["column_sources"]["ref_heading_deg"]["from"].as_str()), (Some("hdt"), Some("GPHDT")), "{report}");
     // II: not the reference by default (the course is), the reference when named.
     let log = dir.path().join("ii.nmea");
     std::fs::write(&log, boat_log(Some("II"))).unwrap();
     let o = magcal(&["import", "--nmea", p(&log), "--out", p(&rec), "--json"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    assert_eq!(report["reference"], "course", "{report}");
+    assert_eq!(report["detail"]["nmea0183"]["reference"], "course", "{report}");
     assert!(stderr(&o).contains("--reference-talker II"), "{}", stderr(&o));
     let o = magcal(&["import", "--nmea", p(&log), "--out", p(&rec), "--json", "--reference-talker", "II"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    assert_eq!(report["column_sources"]["ref_heading_deg"], "IIHDT", "{report}");
+    assert_eq!(report["column_sources"]["ref_heading_deg"]["from"], "IIHDT", "{report}");
     // The compass's own talker named: refused, not taken.
     let log = dir.path().join("hc.nmea");
     std::fs::write(&log, boat_log(Some("HC"))).unwrap();
@@ -253,9 +253,9 @@ fn one_rmc_dated_a_year_ahead_is_refused_alone() {
     // 59 RMC rows and 59 HDG rows (the last HDG follows the last RMC: not
     // timed); the RMC of second 30 refused, the HDG after it spread between
     // seconds 29 and 31.
-    assert_eq!((r["date_jumps"].as_u64(), r["rows"].as_u64(), r["time_backwards"].as_u64()), (Some(1), Some(59 + 59), Some(0)), "{r}");
-    assert_eq!((r["duration_s"].as_f64(), r["start_utc"].as_str()), (Some(59.0), Some("2026-01-01T10:00:00Z")), "{r}");
-    assert!(stderr(&o).contains("1 dated more than"), "{}", stderr(&o));
+    assert_eq!((r["detail"]["nmea0183"]["date_jumps"].as_u64(), r["rows"].as_u64(), r["detail"]["nmea0183"]["time_backwards"].as_u64()), (Some(1), Some(59 + 59), Some(0)), "{r}");
+    assert_eq!((r["duration_s"].as_f64(), r["detail"]["nmea0183"]["start_utc"].as_str()), (Some(59.0), Some("2026-01-01T10:00:00Z")), "{r}");
+    assert!(stderr(&o).contains("1 RMC/ZDA dated more than"), "{}", stderr(&o));
 }
 
 /// Issue 37: `igrf --model wmm2025 --date 2021` answered with the WMM2020
