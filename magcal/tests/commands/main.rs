@@ -28,6 +28,7 @@ mod columns;
 mod export;
 mod hostile;
 mod import;
+mod import_formats;
 mod input_checks;
 mod log;
 mod log_workflow;

@@ -1,0 +1,1 @@
+//! `magcal import` of dataflash_gyro logs (being written).

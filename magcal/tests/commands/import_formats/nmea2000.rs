@@ -1,0 +1,1 @@
+//! `magcal import` of nmea2000 logs (being written).

@@ -1,0 +1,1 @@
+//! `magcal import` of ros2 logs (being written).

@@ -1,0 +1,1 @@
+//! `magcal import` of tlog logs (being written).

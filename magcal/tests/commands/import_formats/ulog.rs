@@ -1,0 +1,1 @@
+//! `magcal import` of ulog logs (being written).
