@@ -1347,7 +1347,6 @@ pub fn import_reader<R: Read>(reader: R, path: &Path, opts: &ImportOptions) -> R
     for (k, t) in g.kept.iter().zip(&t) {
         let Some(t) = *t else { continue };
         let mut row = [f64::NAN; 9];
-        let at_speed = |speed: Option<f64>| speed.is_some_and(|s| s >= opts.min_course_speed_mps);
         match k.sentence {
             Sentence::Hdg { heading_deg, variation_deg, .. } => {
                 row[1] = heading_deg.unwrap_or(f64::NAN);
@@ -1361,15 +1360,15 @@ pub fn import_reader<R: Read>(reader: R, path: &Path, opts: &ImportOptions) -> R
                 row[5] = speed_mps.unwrap_or(f64::NAN);
                 row[6] = lat_deg.unwrap_or(f64::NAN);
                 row[7] = lon_deg.unwrap_or(f64::NAN);
-                if !has_hdt && at_speed(speed_mps) {
-                    row[3] = row[4];
+                if !has_hdt {
+                    row[3] = super::import::rules::course_at_speed_deg(row[4], row[5], opts.min_course_speed_mps);
                 }
             }
             Sentence::Vtg { course_deg, speed_mps, .. } => {
                 row[4] = course_deg.unwrap_or(f64::NAN);
                 row[5] = speed_mps.unwrap_or(f64::NAN);
-                if !has_hdt && at_speed(speed_mps) {
-                    row[3] = row[4];
+                if !has_hdt {
+                    row[3] = super::import::rules::course_at_speed_deg(row[4], row[5], opts.min_course_speed_mps);
                 }
             }
             Sentence::Gga { lat_deg, lon_deg, .. } | Sentence::Gll { lat_deg, lon_deg, .. } => {
