@@ -20,8 +20,9 @@ use anyhow::{bail, Context, Result};
 
 /// The fuzz targets: each decoder that takes outside bytes, and `commands`:
 /// recordings, documents, NMEA logs and option values through the
-/// library's command entry points (issue 37).
-pub const TARGETS: [&str; 5] = ["frame_decoder", "coefficient_record", "csv_reader", "caldoc_loader", "commands"];
+/// library's command entry points; `import`: every vehicle log format
+/// through the one importer.
+pub const TARGETS: [&str; 6] = ["frame_decoder", "coefficient_record", "csv_reader", "caldoc_loader", "commands", "import"];
 
 /// Time box of one target, s.
 pub const SECONDS_PER_TARGET: u32 = 10;

@@ -226,7 +226,7 @@ fn host_suite(built: &Built) -> Suite {
 }
 
 fn fuzz_suite(built: &Built) -> Suite {
-    let mut suite = Suite { name: "fuzz: frame decoder, coefficient record, CSV reader, calibration JSON", passed: 0, failed: 0, ok: true, failures: vec![], flaky: vec![] };
+    let mut suite = Suite { name: "fuzz: frame decoder, coefficient record, CSV reader, calibration JSON, commands, vehicle logs", passed: 0, failed: 0, ok: true, failures: vec![], flaky: vec![] };
     for target in fuzz::TARGETS {
         let ok = match &built.fuzz {
             Some(host) => capture(&format!("fuzzing {target} (libFuzzer, {} s)", fuzz::SECONDS_PER_TARGET), &mut fuzz::run_command(host, target)).is_ok_and(|o| o.success),
