@@ -11,6 +11,7 @@ use calib_core::ortho::{identify_all_samples, identify_linear, identify_ml, iden
 use serde_json::json;
 
 mod compass;
+mod import_speed;
 mod integrity;
 mod real_data;
 mod varied;
@@ -790,6 +791,10 @@ pub fn run(out_dir: &Path) -> Result<()> {
     let (varied_numbers, varied_md) = varied::varied_sites_section();
     eprintln!("{varied_md}");
     results["effects_varied_sites"] = varied_numbers;
+    eprintln!("== import speed per format beside the independent readers");
+    let (import_numbers, import_md) = import_speed::section(&root);
+    eprintln!("{import_md}");
+    results["import_speed"] = import_numbers;
     if let Some(obj) = mcu.as_object() {
         for (k, v) in obj {
             results[k] = v.clone();
@@ -801,7 +806,7 @@ pub fn run(out_dir: &Path) -> Result<()> {
         serde_json::to_string_pretty(&mcu)?,
         serde_json::to_string_pretty(&results["host_throughput"])?
     );
-    let md = md + &format!("\n## The five effects on varied sites (issue 29, item 4)\n\nThe five effects at three sites unlike paper 000's — high latitude (Trondheimsfjord, inclination 75°), low latitude (off Goa, 19.5°), southern (off Fiji, −40°, declination 13°) — with every effect's magnitudes drawn by seed from the ranges of `magcal_sim::varied::MagnitudeRanges` (thruster places and moments, thermocline, sensor lag and gains, the crustal bodies' strength, depth and place, magnetised by the site's field, the AHRS misalignment, the current's speed and direction). Our chain with the local field's gradient along the track in the joint back-stepping, and without it (the chain before). `cargo test --release -p xtask bench::tests::varied_sites_section -- --ignored --nocapture`.\n\n{varied_md}");
+    let md = md + &format!("\n## The five effects on varied sites (issue 29, item 4)\n\nThe five effects at three sites unlike paper 000's — high latitude (Trondheimsfjord, inclination 75°), low latitude (off Goa, 19.5°), southern (off Fiji, −40°, declination 13°) — with every effect's magnitudes drawn by seed from the ranges of `magcal_sim::varied::MagnitudeRanges` (thruster places and moments, thermocline, sensor lag and gains, the crustal bodies' strength, depth and place, magnetised by the site's field, the AHRS misalignment, the current's speed and direction). Our chain with the local field's gradient along the track in the joint back-stepping, and without it (the chain before). `cargo test --release -p xtask bench::tests::varied_sites_section -- --ignored --nocapture`.\n\n{varied_md}\n\n## Import speed per format\n\n`magcal import`'s one importer in process (best of five) beside the independent reader each format's tests compare against (`xtask/python/read_speed.py`, the read only, best of three), on the committed fixtures: `cargo test --release -p xtask bench::tests::import_speed_section -- --ignored --nocapture`.\n{import_md}");
     let md = md + &format!("\n## A heading-only compass's swing (issue 29)\n\nThe yacht Cirrus's real calibration circles: compass − GNSS course before and after the swing, in-sample and on held-out halves (each half corrected by the swing fitted on the other), against numpy's plain least squares.\n{compass_md}");
     std::fs::write(out_dir.join("results.md"), md)?;
     eprintln!("wrote {}", out_dir.join("results.json").display());
@@ -861,6 +866,24 @@ mod tests {
         eprintln!("{md}");
         for s in v["summary"].as_array().into_iter().flatten() {
             assert_eq!(s["seeds"].as_u64(), Some(super::varied::VARIED_SEEDS.len() as u64), "{s}");
+        }
+    }
+
+    /// Only the import-speed section:
+    /// `cargo test --release -p xtask bench::tests::import_speed_section -- --ignored --nocapture`.
+    /// Every fixture is in the tree and imports; ours is not slower than
+    /// the independent reader where that was measured.
+    #[test]
+    #[ignore = "a benchmark: prints its numbers"]
+    fn import_speed_section() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        let (v, md) = super::import_speed::section(&root);
+        eprintln!("{md}");
+        for row in v.as_array().into_iter().flatten() {
+            assert!(row["rows"].as_u64().is_some_and(|n| n > 0), "{row}");
+            if let Some(r) = row["ratio"].as_f64() {
+                assert!(r >= 1.0, "{row}");
+            }
         }
     }
 
