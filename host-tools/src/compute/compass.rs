@@ -114,7 +114,7 @@ pub fn swing_compass(log: &CompassLog, declination_deg: Option<f64>, delay: Dela
             "no declination given and none in the log: A holds the declination, so the corrected heading is true, not magnetic; give the declination (or the site) to keep them apart".into(),
         ),
     }
-    let doc = CompassDoc { form: DocForm::HeadingOnly, swing: fit.swing, declination_deg: declination, quality: Quality { swing: Some(quality), ..Quality::default() } };
+    let doc = CompassDoc { format_version: crate::data::caldoc::FORMAT_VERSION, form: DocForm::HeadingOnly, swing: fit.swing, declination_deg: declination, quality: Quality { swing: Some(quality), ..Quality::default() } };
     Ok((doc, fit, delay_s, source))
 }
 

@@ -38,6 +38,22 @@ pub enum CalDocError {
         #[source]
         source: serde_json::Error,
     },
+    /// A document of a format newer than this build reads.
+    #[error("{path}: a calibration document of format {version}, newer than this magcal reads (up to format {newest}): read it with the magcal that wrote it, or a newer one", newest = FORMAT_VERSION)]
+    NewerFormat {
+        /// The file.
+        path: PathBuf,
+        /// Its `format_version`.
+        version: u64,
+    },
+    /// A `format_version` that is no format.
+    #[error("{path}: format_version {version} is not a calibration document format (formats count from 1)")]
+    BadFormat {
+        /// The file.
+        path: PathBuf,
+        /// Its `format_version`.
+        version: u64,
+    },
     /// A heading-only compass's document where a field calibration is needed.
     #[error("{0}: a heading-only calibration (`\"form\": \"heading_only\"`: a compass's swing, no field calibration); this needs a magnetometer's field calibration")]
     HeadingOnly(PathBuf),
@@ -164,12 +180,29 @@ pub struct TemperatureBlock {
     pub gain_per_c: [f64; 3],
 }
 
+/// The format of the calibration documents this build writes and the newest
+/// it reads (`format_version`, both forms: the field calibration and the
+/// heading-only compass's). A document without the key is of format 1 (the
+/// format before it was numbered). Raise it when a block changes meaning; a
+/// new optional block that older readers refuse by name needs no new number.
+pub const FORMAT_VERSION: u32 = 1;
+
+/// What a document without `format_version` is.
+pub(crate) fn format_one() -> u32 {
+    1
+}
+
 /// The calibration document. A key it does not know is refused with the
 /// key's name (the contract: a reader that does not know a block must
 /// refuse the document rather than ignore it).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CalDoc {
+    /// The document's format ([`FORMAT_VERSION`] when written; a document
+    /// without it was written before formats were numbered and is read as
+    /// format 1; a newer one is refused when read).
+    #[serde(default = "format_one")]
+    pub format_version: u32,
     /// `sphere`, `axis`, `full` or `triangular`.
     #[serde(with = "model_name")]
     pub model: ModelKind,
@@ -240,6 +273,7 @@ impl CalDoc {
     /// A document for a field calibration.
     pub fn new(kind: ModelKind, cal: &FieldCal<f64>, field_nt: f64, quality: Quality) -> Self {
         Self {
+            format_version: FORMAT_VERSION,
             model: kind,
             bias: cal.bias,
             matrix: cal.matrix,
@@ -406,6 +440,44 @@ mod tests {
     fn doc() -> CalDoc {
         let cal = FieldCal { bias: [1.0, 2.0, 3.0], matrix: [[5.0, 0.0, 0.0], [0.0, 5.5, 0.0], [0.0, 0.0, 4.8]] };
         CalDoc::new(ModelKind::Axis, &cal, 48_730.0, Quality::default())
+    }
+
+    /// `format_version`: written as 1; a document without it (every one
+    /// written before it was numbered) loads as format 1; 2 is refused for
+    /// its format, before its unknown keys; 0 is no format. Both forms.
+    #[test]
+    fn documents_carry_their_format_and_a_newer_one_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("cal.json");
+        doc().save(&p).unwrap();
+        let written: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&p).unwrap()).unwrap();
+        assert_eq!(written["format_version"], 1);
+        let with = |key_value: Option<&str>, extra: &str| {
+            let mut v = written.clone();
+            let obj = v.as_object_mut().unwrap();
+            obj.remove("format_version");
+            let mut text = serde_json::to_string(&v).unwrap();
+            text.pop();
+            if let Some(kv) = key_value {
+                text += &format!(",{kv}");
+            }
+            text += extra;
+            text += "}";
+            std::fs::write(&p, text).unwrap();
+            CalDoc::load(&p)
+        };
+        assert_eq!(with(None, "").unwrap().format_version, 1, "an older document loads");
+        let e = with(Some("\"format_version\": 2"), ",\"gradient\": {}").unwrap_err().to_string();
+        assert!(e.contains("format 2, newer than this magcal reads (up to format 1)"), "{e}");
+        let e = with(Some("\"format_version\": 0"), "").unwrap_err().to_string();
+        assert!(e.contains("format_version 0 is not"), "{e}");
+        // The heading-only form through the same reader.
+        let c = dir.path().join("compass.json");
+        std::fs::write(&c, r#"{"format_version": 3, "form": "heading_only", "swing": {"a": 0, "b": 0, "c": 0, "d": 0, "e": 0}}"#).unwrap();
+        let e = super::super::compass::Document::load(&c).unwrap_err().to_string();
+        assert!(e.contains("format 3, newer"), "{e}");
+        std::fs::write(&c, r#"{"form": "heading_only", "swing": {"a": 0, "b": 0, "c": 0, "d": 0, "e": 0}}"#).unwrap();
+        assert!(super::super::compass::Document::load(&c).is_ok());
     }
 
     #[test]

@@ -121,6 +121,10 @@ pub use super::caldoc::MIN_CORRECTION_SLOPE;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CompassDoc {
+    /// The document's format ([`super::caldoc::FORMAT_VERSION`]; absent:
+    /// format 1).
+    #[serde(default = "super::caldoc::format_one")]
+    pub format_version: u32,
     /// `heading_only`.
     pub form: DocForm,
     /// The swing correction: `ψ_magnetic = ψ_compass + δψ(ψ_compass)`.
@@ -185,10 +189,30 @@ struct FormProbe {
     form: Option<DocForm>,
 }
 
-/// The document's text without a UTF-8 byte-order mark.
+/// Just the `format_version` key, read before the document's own types
+/// (which refuse keys they do not know: a newer document must be refused
+/// for its format, not for its first new key).
+#[derive(Deserialize)]
+struct VersionProbe {
+    #[serde(default)]
+    format_version: Option<u64>,
+}
+
+/// The document's text without a UTF-8 byte-order mark, refused when its
+/// `format_version` is newer than [`super::caldoc::FORMAT_VERSION`] or 0
+/// (text that is not JSON is left to the document's reader to name).
 pub(crate) fn read_doc_text(path: &Path) -> Result<String, CalDocError> {
     let text = std::fs::read_to_string(path).map_err(|source| CalDocError::Io { path: path.into(), source })?;
-    Ok(text.strip_prefix('\u{feff}').map(str::to_string).unwrap_or(text))
+    let text = text.strip_prefix('\u{feff}').map(str::to_string).unwrap_or(text);
+    if let Ok(VersionProbe { format_version: Some(version) }) = serde_json::from_str::<VersionProbe>(&text) {
+        if version == 0 {
+            return Err(CalDocError::BadFormat { path: path.into(), version });
+        }
+        if version > u64::from(super::caldoc::FORMAT_VERSION) {
+            return Err(CalDocError::NewerFormat { path: path.into(), version });
+        }
+    }
+    Ok(text)
 }
 
 /// Whether a document's text is the heading-only form (`false` when it
@@ -225,7 +249,7 @@ mod tests {
     use super::*;
 
     fn doc(s: Swing<f64>) -> CompassDoc {
-        CompassDoc { form: DocForm::HeadingOnly, swing: s, declination_deg: Some(3.0), quality: Quality::default() }
+        CompassDoc { format_version: crate::data::caldoc::FORMAT_VERSION, form: DocForm::HeadingOnly, swing: s, declination_deg: Some(3.0), quality: Quality::default() }
     }
 
     #[test]
