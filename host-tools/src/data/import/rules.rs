@@ -4,6 +4,10 @@
 //! quaternion, and the choice among several instances of one sensor.
 
 use super::ImportError;
+use crate::data::pairing::{bracket, Bracket};
+
+/// An angle difference on −180…180° (the project's one).
+pub use crate::data::pairing::wrap180;
 
 /// nT per gauss (PX4's `sensor_mag`, `vehicle_magnetometer`).
 pub const NT_PER_GAUSS: f64 = 1e5;
@@ -39,20 +43,22 @@ pub enum Kind {
 }
 
 /// Samples of one message kind in time order, `K` values each: carried to
-/// the compass's times by [`Series::at`].
+/// the compass's times by [`Series::at`] through the project's one
+/// bracketing rule ([`crate::data::pairing::bracket`]).
 #[derive(Debug, Clone)]
 pub struct Series<const K: usize> {
     t_s: Vec<f64>,
-    v: Vec<[f64; K]>,
+    /// One column a value.
+    v: [Vec<f64>; K],
     kinds: [Kind; K],
-    /// Samples dropped because their time went back.
+    /// Samples dropped because their time went back or was not finite.
     pub out_of_order: usize,
 }
 
 impl<const K: usize> Series<K> {
     /// An empty series whose values interpolate as `kinds` say.
     pub fn new(kinds: [Kind; K]) -> Self {
-        Self { t_s: Vec::new(), v: Vec::new(), kinds, out_of_order: 0 }
+        Self { t_s: Vec::new(), v: std::array::from_fn(|_| Vec::new()), kinds, out_of_order: 0 }
     }
 
     /// Adds a sample; one older than the last is dropped and counted (the
@@ -63,7 +69,9 @@ impl<const K: usize> Series<K> {
             Some(&last) if t_s < last => self.out_of_order += 1,
             _ => {
                 self.t_s.push(t_s);
-                self.v.push(v);
+                for (column, value) in self.v.iter_mut().zip(v) {
+                    column.push(value);
+                }
             }
         }
     }
@@ -79,41 +87,25 @@ impl<const K: usize> Series<K> {
     }
 
     /// The values at `t_s`: interpolated between the samples around it when
-    /// both are within `max_age_s` of it, else the latest sample at or before
-    /// it when not older than `max_age_s`; `None` without either.
+    /// they are at most `max_age_s` apart, else the latest sample at or
+    /// before it when not older than `max_age_s`; `None` without either.
     pub fn at(&self, t_s: f64, max_age_s: f64) -> Option<[f64; K]> {
-        let i = self.t_s.partition_point(|&x| x <= t_s);
-        let before = i.checked_sub(1)?;
-        let (t0, v0) = (*self.t_s.get(before)?, self.v.get(before)?);
-        if t_s - t0 > max_age_s {
-            return None;
-        }
-        let Some((&t1, v1)) = self.t_s.get(i).zip(self.v.get(i)) else { return Some(*v0) };
-        if t1 - t_s > max_age_s || t1 <= t0 {
-            return Some(*v0);
-        }
-        let w = (t_s - t0) / (t1 - t0);
-        let mut out = *v0;
-        for (k, o) in out.iter_mut().enumerate() {
-            let (a, b) = (v0[k], v1[k]);
-            *o = match self.kinds[k] {
-                Kind::Linear => a + w * (b - a),
-                Kind::Angle180 => wrap180(a + w * wrap180(b - a)),
-                Kind::Heading360 => (a + w * wrap180(b - a)).rem_euclid(360.0),
-                Kind::Latest => a,
-            };
-        }
-        Some(out)
-    }
-}
-
-/// An angle on (−180°, 180°].
-pub fn wrap180(a_deg: f64) -> f64 {
-    let w = a_deg.rem_euclid(360.0);
-    if w > 180.0 {
-        w - 360.0
-    } else {
-        w
+        let b = match bracket(&self.t_s, t_s, max_age_s) {
+            Some(b) => b,
+            None => {
+                let lo = self.t_s.partition_point(|&x| x <= t_s).checked_sub(1)?;
+                if t_s - self.t_s[lo] > max_age_s {
+                    return None;
+                }
+                Bracket { lo, hi: lo, weight: 0.0 }
+            }
+        };
+        Some(std::array::from_fn(|k| match self.kinds[k] {
+            Kind::Linear => b.lerp(&self.v[k]),
+            Kind::Angle180 => b.lerp_angle_deg(&self.v[k], false),
+            Kind::Heading360 => b.lerp_angle_deg(&self.v[k], true),
+            Kind::Latest => self.v[k][b.lo],
+        }))
     }
 }
 
