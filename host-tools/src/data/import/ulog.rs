@@ -1,21 +1,388 @@
-//! PX4 ULog: not read yet (this module is being written).
+//! PX4 ULog (`.ulg`): the magnetometer, the gyro, the attitude, the GNSS and
+//! the `CAL_MAG*` parameters of the log PX4 writes on every vehicle.
+//!
+//! **Read by hand** ([`reader`], from the PX4 documentation's "ULog File
+//! Format") rather than with the `px4-ulog` crate (0.6.1, maintained under
+//! the PX4 organisation): that crate panics on a subscription (`A`) or
+//! parameter (`P`) message shorter than its fixed part (it indexes the
+//! payload before checking its length: a 3-byte log tail `00 00 41` after
+//! the definitions is enough), and it ends the whole read at the first
+//! malformed message instead of skipping it (its README: recovery by the
+//! synchronisation message "planned"). Here every length is checked, nested
+//! formats resolve to a bounded depth, and a bad message is skipped and
+//! counted by kind.
+//!
+//! What is read, one row per sample of the chosen magnetometer:
+//! * the field, gauss (PX4's unit, the one `magcal export --format px4`
+//!   writes), from the first of
+//!   - `sensor_mag` (every instance: the first, or `--instance N`; the note
+//!     says which exist and their device ids): the magnetometer's own
+//!     field. PX4 v1.12 on applies `CAL_MAGn_*` in its sensors module, so
+//!     `sensor_mag` is raw; before v1.12 the drivers applied the offsets and
+//!     scales (`(raw − OFF)·SCALE`) before publishing, and that correction is
+//!     undone (`field/SCALE + OFF`, with the `CAL_MAGn` whose `ID` is the
+//!     instance's `device_id`). The field stays in the magnetometer's axes,
+//!     where PX4 applies `CAL_MAGn`'s offsets; a rotation
+//!     (`CAL_MAGn_ROT`, or `SENS_BOARD_ROT` for an internal one) is not
+//!     applied and is said in a note;
+//!   - `vehicle_magnetometer.magnetometer_ga` (`--topic vehicle_magnetometer`
+//!     when `sensor_mag` is there too): PX4's **corrected** field, in the
+//!     vehicle's axes, said so and not undone;
+//!   - `sensor_combined.magnetometer_ga` (older PX4): the corrected field
+//!     too, one row per new sample (`timestamp + magnetometer_timestamp_relative`);
+//! * `roll_deg`, `pitch_deg` and `ahrs_yaw_deg` (the vehicle's own estimate,
+//!   never a reference) from `vehicle_attitude.q` (Hamilton `w, x, y, z`,
+//!   body FRD to world NED);
+//! * `gx, gy, gz` (rad/s) from `sensor_combined.gyro_rad` (the vehicle's
+//!   axes), else `sensor_gyro` instance 0 (the gyro's axes, said);
+//! * `lat_deg`, `lon_deg`, `course_deg`, `gps_speed_mps` from
+//!   `vehicle_gps_position` (else `sensor_gps`): `lat`/`lon` in 1e-7° or
+//!   `latitude_deg`/`longitude_deg`, `vel_m_s`, `cog_rad`; fixes with
+//!   `fix_type` < 2 are skipped and counted;
+//! * `ref_heading_deg`: the GNSS compass's `heading` (rad, NaN when the
+//!   receiver has none) when the log has one finite, else the course at
+//!   speed ([`rules::course_at_speed_deg`]).
+//!
+//! Time: the ULog `timestamp`, µs since PX4's boot, in s. Dropouts (the
+//! logger's buffer overran) are counted in the report's `skipped`.
 
-use super::{ImportOptions, Imported};
+mod reader;
+
+use std::collections::{BTreeMap, HashMap};
+
+use super::rules::{self, Kind, Series};
+use super::{Builder, Format, ImportError, ImportOptions, Imported, Role};
+use crate::data::table::col;
 
 /// Why a PX4 ULog could not be imported.
 #[derive(Debug, thiserror::Error)]
 pub enum UlogError {
-    /// This format is not read yet.
-    #[error("the PX4 ULog is not read yet")]
-    NotRead,
+    /// The first bytes are not a ULog's.
+    #[error("not a PX4 ULog: the file does not start with the ULog magic \"ULog\" 01 12 35")]
+    NotUlog,
+    /// The file ends inside its 16-byte header.
+    #[error("the ULog is truncated in its header ({0} of 16 bytes)")]
+    TruncatedHeader(usize),
+    /// An incompatible flag this reader does not know is set.
+    #[error("the ULog sets incompatible flag byte {index} = {value:#04x}, which this reader does not know")]
+    Incompatible {
+        /// Byte of the incompatible flags.
+        index: usize,
+        /// Its value.
+        value: u8,
+    },
+    /// The file ends before the data section.
+    #[error("the ULog ends before its data section (truncated in the definitions)")]
+    NoDataSection,
+    /// No magnetometer topic with data.
+    #[error("the ULog has no magnetometer (sensor_mag, vehicle_magnetometer or sensor_combined.magnetometer_ga); topics with data: {}", topics.join(", "))]
+    NoMagnetometer {
+        /// The topics with data.
+        topics: Vec<String>,
+    },
+    /// `--topic` names no magnetometer topic with data.
+    #[error("--topic {wanted}: not a magnetometer topic with data in this ULog (found: {})", found.join(", "))]
+    NoTopic {
+        /// The topic asked for.
+        wanted: String,
+        /// The magnetometer topics with data.
+        found: Vec<String>,
+    },
 }
 
 /// Whether a log's first bytes look like a PX4 ULog.
-pub fn looks_like(_head: &[u8]) -> bool {
-    false
+pub fn looks_like(head: &[u8]) -> bool {
+    head.starts_with(&reader::MAGIC)
+}
+
+/// The magnetometer topics, in the order they are preferred.
+const MAG_TOPICS: [&str; 3] = ["sensor_mag", "vehicle_magnetometer", "sensor_combined"];
+/// `magnetometer_timestamp_relative` when there is no new sample.
+const RELATIVE_INVALID: f64 = 2_147_483_647.0;
+
+/// The topics and fields read (`timestamp` comes first by itself).
+fn wanted() -> HashMap<&'static str, Vec<&'static str>> {
+    let gps = vec!["lat", "lon", "latitude_deg", "longitude_deg", "vel_m_s", "cog_rad", "heading", "fix_type"];
+    HashMap::from([
+        ("sensor_mag", vec!["x", "y", "z", "device_id", "temperature"]),
+        ("vehicle_magnetometer", vec!["magnetometer_ga[0]", "magnetometer_ga[1]", "magnetometer_ga[2]", "device_id"]),
+        (
+            "sensor_combined",
+            vec!["magnetometer_ga[0]", "magnetometer_ga[1]", "magnetometer_ga[2]", "magnetometer_timestamp_relative", "gyro_rad[0]", "gyro_rad[1]", "gyro_rad[2]"],
+        ),
+        ("sensor_gyro", vec!["x", "y", "z"]),
+        ("vehicle_attitude", vec!["q[0]", "q[1]", "q[2]", "q[3]"]),
+        ("vehicle_gps_position", gps.clone()),
+        ("sensor_gps", gps),
+    ])
 }
 
 /// Imports a PX4 ULog held in memory.
-pub fn import(_bytes: &[u8], _opts: &ImportOptions) -> Result<Imported, super::ImportError> {
-    Err(UlogError::NotRead.into())
+pub fn import(bytes: &[u8], opts: &ImportOptions) -> Result<Imported, ImportError> {
+    let log = reader::read(bytes, &wanted()).map_err(|e| match e {
+        reader::ReadError::NotUlog => UlogError::NotUlog,
+        reader::ReadError::TruncatedHeader(n) => UlogError::TruncatedHeader(n),
+        reader::ReadError::Incompatible { index, value } => UlogError::Incompatible { index, value },
+        reader::ReadError::NoDataSection => UlogError::NoDataSection,
+    })?;
+    let rows_of = |topic: &str, instance: u8| log.rows.get(&(topic.to_string(), instance)).map(Vec::as_slice).unwrap_or_default();
+    // Instances of a magnetometer topic with a finite field.
+    let mag_instances = |topic: &str| -> Vec<u32> {
+        log.rows.iter().filter(|((t, _), rows)| t == topic && rows.iter().any(|r| r.get(1).is_some_and(|v| v.is_finite()))).map(|((_, i), _)| u32::from(*i)).collect()
+    };
+    let present: Vec<&str> = MAG_TOPICS.into_iter().filter(|t| !mag_instances(t).is_empty()).collect();
+    let topic = match &opts.topic {
+        Some(w) => *present.iter().find(|t| *t == w).ok_or_else(|| UlogError::NoTopic { wanted: w.clone(), found: present.iter().map(|t| t.to_string()).collect() })?,
+        None => *present.first().ok_or_else(|| UlogError::NoMagnetometer { topics: log.counts.keys().map(|(t, i)| format!("{t}/{i}")).collect() })?,
+    };
+    let (instance, choice) = rules::choose_instance(topic, &mag_instances(topic), opts.instance)?;
+    let instance = u8::try_from(instance).unwrap_or_default();
+
+    // The compass's samples: time (s) and field (gauss), temperature.
+    let mut t_s = Vec::new();
+    let mut field = Vec::new();
+    let mut temp_c = Vec::new();
+    let mut repeats = 0usize;
+    for r in rows_of(topic, instance) {
+        let v = |k: usize| r.get(k).copied().unwrap_or(f64::NAN);
+        let (t_us, m, temp) = match topic {
+            "sensor_combined" => {
+                let rel = v(4);
+                if !rel.is_finite() || rel == RELATIVE_INVALID {
+                    continue;
+                }
+                (v(0) + rel, [v(1), v(2), v(3)], f64::NAN)
+            }
+            _ => (v(0), [v(1), v(2), v(3)], if topic == "sensor_mag" { v(5) } else { f64::NAN }),
+        };
+        let t = t_us * 1e-6;
+        if topic == "sensor_combined" && t_s.last() == Some(&t) {
+            repeats += 1;
+            continue;
+        }
+        t_s.push(t);
+        field.push(m);
+        temp_c.push(temp);
+    }
+    let device_id = rows_of(topic, instance).iter().find_map(|r| r.get(4).copied().filter(|d| d.is_finite() && *d > 0.0 && topic != "sensor_combined"));
+
+    let mut b = Builder::new(Format::Ulog, t_s.clone(), "s since PX4's boot (the ULog timestamp, µs)");
+    b.report.field_unit = Some("gauss".into());
+    if let Some(c) = choice {
+        b.note(c);
+    }
+    if repeats > 0 {
+        b.note(format!("{repeats} sensor_combined messages repeat the previous magnetometer sample: one row per sample"));
+    }
+    let params = &log.params;
+    let cal = device_id.and_then(|id| (0..10).find(|k| params.get(&format!("CAL_MAG{k}_ID")) == Some(&id)));
+    // ver_sw_release: major, minor, patch, type (below 64 a development
+    // build, then alpha, beta, release candidate, 255 a release).
+    let release = log.info_num.get("ver_sw_release").map(|&v| v as u32);
+    let version = release.map(|v| ((v >> 24) & 0xff, (v >> 16) & 0xff, (v >> 8) & 0xff));
+    let version_text = match release {
+        Some(v) => {
+            let kind = match v & 0xff {
+                0..64 => " (development build)",
+                64..128 => " (alpha)",
+                128..192 => " (beta)",
+                192..255 => " (release candidate)",
+                _ => "",
+            };
+            format!("v{}.{}.{}{kind}", (v >> 24) & 0xff, (v >> 16) & 0xff, (v >> 8) & 0xff)
+        }
+        None => "of unknown version".to_string(),
+    };
+    let mut from = match topic {
+        "sensor_mag" => format!("sensor_mag instance {instance} x, y, z (gauss{})", device_id.map_or(String::new(), |d| format!(", device id {d}"))),
+        "vehicle_magnetometer" => format!("vehicle_magnetometer instance {instance} magnetometer_ga[0..2] (gauss, PX4's corrected field)"),
+        _ => "sensor_combined magnetometer_ga[0..2] (gauss, PX4's corrected field)".to_string(),
+    };
+    match topic {
+        "sensor_mag" => {
+            let instances = mag_instances(topic);
+            let ids: Vec<String> = instances
+                .iter()
+                .map(|&i| {
+                    let id = rows_of(topic, u8::try_from(i).unwrap_or_default()).iter().find_map(|r| r.get(4).copied().filter(|d| d.is_finite()));
+                    let k = id.and_then(|id| (0..10).find(|k| params.get(&format!("CAL_MAG{k}_ID")) == Some(&id)));
+                    let prime = id.is_some() && params.get("CAL_MAG_PRIME") == id.as_ref();
+                    format!("{i} = device id {}{}{}", id.map_or("?".into(), |d| format!("{d}")), k.map_or(String::new(), |k| format!(" (CAL_MAG{k})")), if prime { " CAL_MAG_PRIME" } else { "" })
+                })
+                .collect();
+            b.note(format!("sensor_mag instances: {}", ids.join("; ")));
+            let before_1_12 = version.is_some_and(|(a, b, _)| (a, b) < (1, 12));
+            if version.is_none() {
+                b.note("PX4's version is not in the log (no ver_sw_release): sensor_mag taken as the raw field, as PX4 v1.12 on writes it (before v1.12 its drivers applied CAL_MAG*)");
+            } else if !before_1_12 {
+                b.note(format!("sensor_mag of PX4 {version_text} is the drivers' field before PX4's calibration (CAL_MAG* applied in the sensors module from v1.12 on): the raw field"));
+            } else {
+                let p = |k: usize, name: &str| params.get(&format!("CAL_MAG{k}_{name}")).copied();
+                let undo = cal.and_then(|k| {
+                    let off = [p(k, "XOFF")?, p(k, "YOFF")?, p(k, "ZOFF")?];
+                    let scale = [p(k, "XSCALE")?, p(k, "YSCALE")?, p(k, "ZSCALE")?];
+                    (off.iter().chain(&scale).all(|v| v.is_finite()) && scale.iter().all(|s| *s != 0.0)).then_some((k, off, scale))
+                });
+                match undo {
+                    Some((k, off, scale)) => {
+                        for m in &mut field {
+                            for a in 0..3 {
+                                m[a] = m[a] / scale[a] + off[a];
+                            }
+                        }
+                        from.push_str(&format!(", CAL_MAG{k}'s correction undone: the raw field"));
+                        b.note(format!(
+                            "sensor_mag of PX4 {version_text} (before v1.12) is corrected by its driver, (raw − OFF)·SCALE: undone with CAL_MAG{k} (OFF {:.6} {:.6} {:.6} gauss, SCALE {:.6} {:.6} {:.6}) as the log starts",
+                            off[0], off[1], off[2], scale[0], scale[1], scale[2]
+                        ));
+                        if log.param_changes.iter().any(|(n, _)| n.starts_with(&format!("CAL_MAG{k}_"))) {
+                            b.note(format!("CAL_MAG{k} changes during the log: the values as it starts are undone throughout"));
+                        }
+                    }
+                    None => {
+                        from.push_str(", corrected by its driver (not undone)");
+                        b.note(format!("sensor_mag of PX4 {version_text} (before v1.12) is corrected by its driver and the log has no complete CAL_MAGn for device id {}: the field is the corrected one, not undone", device_id.map_or("?".into(), |d| format!("{d}"))));
+                    }
+                }
+            }
+            if let Some(k) = cal {
+                let rot = params.get(&format!("CAL_MAG{k}_ROT")).copied().unwrap_or(-1.0);
+                let board = params.get("SENS_BOARD_ROT").copied().unwrap_or(0.0);
+                let turned = if rot < 0.0 { (board != 0.0).then(|| format!("internal: SENS_BOARD_ROT = {board}")) } else { (rot != 0.0).then(|| format!("CAL_MAG{k}_ROT = {rot}")) };
+                if let Some(turned) = turned {
+                    b.note(format!("the field is in the magnetometer's axes, where PX4 applies CAL_MAG{k}'s offsets (as `magcal export --format px4` writes them); its rotation to the vehicle's axes ({turned}, PX4's rotation enumeration) is not applied, so its axes are not the attitude's and the gyro's"));
+                }
+                let comp_type = params.get("CAL_MAG_COMP_TYP").copied().unwrap_or(0.0);
+                let comp = ["XCOMP", "YCOMP", "ZCOMP"].iter().any(|c| params.get(&format!("CAL_MAG{k}_{c}")).is_some_and(|v| *v != 0.0));
+                if comp_type != 0.0 && comp {
+                    b.note(format!("CAL_MAG_COMP_TYP = {comp_type}: PX4's power compensation (CAL_MAG{k}_XCOMP…) is in the log and not undone"));
+                }
+            } else if device_id.is_some() {
+                b.note("no CAL_MAGn_ID is this instance's device id: its rotation to the vehicle's axes is unknown");
+            }
+        }
+        "vehicle_magnetometer" => {
+            b.note("vehicle_magnetometer is PX4's corrected field (CAL_MAG* offsets, scales and rotation applied, the vehicle's axes), not undone: prefer sensor_mag, the raw field, where the log has it (PX4's SDLOG_PROFILE \"sensor comparison\" logs it)");
+        }
+        _ => {
+            b.note("sensor_combined.magnetometer_ga (older PX4) is the corrected field of the primary magnetometer (its driver's offsets and scales, the board rotation applied), not undone: which magnetometer it was is not logged");
+        }
+    }
+    for k in 0..10 {
+        let p = |name: &str| params.get(&format!("CAL_MAG{k}_{name}")).copied();
+        let Some(id) = p("ID").filter(|id| *id != 0.0) else { continue };
+        let v = |names: [&str; 3]| names.map(|n| p(n).map_or("?".into(), |v| format!("{v:.6}"))).join(" ");
+        b.note(format!(
+            "CAL_MAG{k}: ID {id}, EN {}, ROT {}, OFF {} gauss, SCALE {}",
+            p("EN").map_or("?".into(), |v| v.to_string()),
+            p("ROT").map_or("?".into(), |v| v.to_string()),
+            v(["XOFF", "YOFF", "ZOFF"]),
+            v(["XSCALE", "YSCALE", "ZSCALE"])
+        ));
+    }
+    for (k, name) in col::MAG.into_iter().enumerate() {
+        b.column(name, field.iter().map(|m| m[k]).collect(), from.clone(), Role::Compass)?;
+    }
+    b.column(col::TEMP_C, temp_c, format!("{topic} instance {instance} temperature (°C)"), Role::Sensor)?;
+
+    // Other messages, carried to the compass's times.
+    let max_age = opts.max_age_s;
+    let mut out_of_order = 0;
+    // Attitude.
+    let mut att = Series::new([Kind::Angle180, Kind::Angle180, Kind::Heading360]);
+    for r in rows_of("vehicle_attitude", 0) {
+        let q = [1, 2, 3, 4].map(|k| r.get(k).copied().unwrap_or(f64::NAN));
+        if let Some(e) = rules::quaternion_to_euler_deg(q) {
+            att.push(r.first().copied().unwrap_or(f64::NAN) * 1e-6, e);
+        }
+    }
+    out_of_order += att.out_of_order;
+    let at: Vec<Option<[f64; 3]>> = t_s.iter().map(|&t| att.at(t, max_age)).collect();
+    let pick = |v: &[Option<[f64; 3]>], k: usize| v.iter().map(|e| e.map_or(f64::NAN, |e| e[k])).collect::<Vec<f64>>();
+    b.column(col::ROLL_DEG, pick(&at, 0), "vehicle_attitude q (roll of body FRD to NED, Z-Y-X)", Role::Sensor)?;
+    b.column(col::PITCH_DEG, pick(&at, 1), "vehicle_attitude q (pitch of body FRD to NED, Z-Y-X)", Role::Sensor)?;
+    b.column(col::AHRS_YAW_DEG, pick(&at, 2), "vehicle_attitude q (yaw: PX4's own estimate from its compass, not a reference)", Role::OwnEstimate)?;
+
+    // Gyro: sensor_combined (the vehicle's axes) else sensor_gyro 0.
+    let combined = rows_of("sensor_combined", 0);
+    let (gyro_rows, gyro_cols, gyro_from): (&[Vec<f64>], [usize; 3], &str) = if combined.iter().any(|r| r.get(5).is_some_and(|v| v.is_finite())) {
+        (combined, [5, 6, 7], "sensor_combined gyro_rad[0..2] (rad/s, the vehicle's axes)")
+    } else {
+        (rows_of("sensor_gyro", 0), [1, 2, 3], "sensor_gyro instance 0 x, y, z (rad/s, the gyro's axes)")
+    };
+    let mut gyro = Series::new([Kind::Linear; 3]);
+    for r in gyro_rows {
+        gyro.push(r.first().copied().unwrap_or(f64::NAN) * 1e-6, gyro_cols.map(|k| r.get(k).copied().unwrap_or(f64::NAN)));
+    }
+    out_of_order += gyro.out_of_order;
+    let g: Vec<Option<[f64; 3]>> = t_s.iter().map(|&t| gyro.at(t, max_age)).collect();
+    for (k, name) in col::GYRO.into_iter().enumerate() {
+        b.column(name, pick(&g, k), gyro_from, Role::Sensor)?;
+    }
+
+    // GNSS.
+    let gps_topic = if !rows_of("vehicle_gps_position", 0).is_empty() { "vehicle_gps_position" } else { "sensor_gps" };
+    let gps_instance = log.rows.keys().filter(|(t, _)| t == gps_topic).map(|(_, i)| *i).min().unwrap_or(0);
+    let gps_rows = rows_of(gps_topic, gps_instance);
+    let compass = gps_rows.iter().any(|r| r.get(7).is_some_and(|h| h.is_finite()));
+    let mut gps = Series::new([Kind::Linear, Kind::Linear, Kind::Heading360, Kind::Linear, Kind::Heading360]);
+    let mut no_fix = 0;
+    for r in gps_rows {
+        let v = |k: usize| r.get(k).copied().unwrap_or(f64::NAN);
+        if v(8).is_finite() && v(8) < 2.0 {
+            no_fix += 1;
+            continue;
+        }
+        let (lat, lon) = if v(1).is_finite() { (v(1) * 1e-7, v(2) * 1e-7) } else { (v(3), v(4)) };
+        let course = v(6).to_degrees().rem_euclid(360.0);
+        let reference = if compass { v(7).to_degrees().rem_euclid(360.0) } else { rules::course_at_speed_deg(course, v(5), opts.min_course_speed_mps) };
+        gps.push(v(0) * 1e-6, [lat, lon, course, v(5), reference]);
+    }
+    b.skip("gnss_without_fix", no_fix);
+    out_of_order += gps.out_of_order;
+    let fixes: Vec<Option<[f64; 5]>> = t_s.iter().map(|&t| gps.at(t, max_age)).collect();
+    let gpick = |k: usize| fixes.iter().map(|e| e.map_or(f64::NAN, |e| e[k])).collect::<Vec<f64>>();
+    let src = format!("{gps_topic} instance {gps_instance}");
+    b.column(col::LAT_DEG, gpick(0), format!("{src} lat (1e-7 deg) or latitude_deg"), Role::Sensor)?;
+    b.column(col::LON_DEG, gpick(1), format!("{src} lon (1e-7 deg) or longitude_deg"), Role::Sensor)?;
+    b.column(col::COURSE_DEG, gpick(2), format!("{src} cog_rad (rad → deg)"), Role::Sensor)?;
+    b.column(col::GPS_SPEED_MPS, gpick(3), format!("{src} vel_m_s"), Role::Sensor)?;
+    let ref_from = if compass {
+        format!("{src} heading (a GNSS compass's true heading, rad → deg)")
+    } else {
+        format!("{src} cog_rad at vel_m_s ≥ {} m/s (the course over ground, not the heading: they differ by the crab angle in a current)", opts.min_course_speed_mps)
+    };
+    b.column(col::REF_HEADING_DEG, gpick(4), ref_from, Role::Reference)?;
+    b.skip("samples_back_in_time", out_of_order);
+
+    // Counts.
+    for ((topic, instance), n) in &log.counts {
+        *b.report.messages.entry(format!("{topic}/{instance}")).or_default() += n;
+    }
+    for (kind, n) in &log.other {
+        *b.report.messages.entry(kind.to_string()).or_default() += n;
+    }
+    for (kind, n) in &log.skipped {
+        b.skip(kind, *n);
+    }
+    let (dropouts, dropout_ms) = log.dropouts;
+    b.skip("dropouts", dropouts);
+    if dropouts > 0 {
+        b.note(format!("{dropouts} dropouts: {dropout_ms} ms of messages lost by the logger (its buffer overran)"));
+    }
+    if log.appended_sections > 0 {
+        b.note(format!("{} appended data sections read", log.appended_sections));
+    }
+    if log.version > 1 {
+        b.note(format!("ULog format version {} (this reader knows 1): read as version 1", log.version));
+    }
+    let mut info: BTreeMap<&str, String> = BTreeMap::new();
+    for key in ["sys_name", "ver_hw", "ver_sw"] {
+        if let Some(v) = log.info_text.get(key) {
+            info.insert(key, v.clone());
+        }
+    }
+    let info = info.iter().map(|(k, v)| format!("{k} {v}")).collect::<Vec<_>>().join(", ");
+    b.note(format!("PX4 {version_text}{}", if info.is_empty() { String::new() } else { format!(" ({info})") }));
+    b.finish()
 }
