@@ -386,3 +386,134 @@ pub fn import(bytes: &[u8], opts: &ImportOptions) -> Result<Imported, ImportErro
     b.note(format!("PX4 {version_text}{}", if info.is_empty() { String::new() } else { format!(" ({info})") }));
     b.finish()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn msg(kind: u8, payload: &[u8]) -> Vec<u8> {
+        let mut v = (payload.len() as u16).to_le_bytes().to_vec();
+        v.push(kind);
+        v.extend_from_slice(payload);
+        v
+    }
+
+    fn keyed(key: &str, value: &[u8]) -> Vec<u8> {
+        let mut p = vec![key.len() as u8];
+        p.extend_from_slice(key.as_bytes());
+        p.extend_from_slice(value);
+        p
+    }
+
+    /// A ULog of PX4 `release` with one sensor_mag (device 7, samples at
+    /// 1, 2, 3 s of (0.1·k, 0.2, 0.3) gauss), a sensor_gps (its second fix
+    /// without a fix) and the parameters given.
+    fn log(release: Option<u32>, params: &[(&str, f32)]) -> Vec<u8> {
+        let mut b = reader::MAGIC.to_vec();
+        b.push(1);
+        b.extend_from_slice(&0u64.to_le_bytes());
+        b.extend(msg(b'B', &[0; 40]));
+        if let Some(r) = release {
+            b.extend(msg(b'I', &keyed("uint32_t ver_sw_release", &r.to_le_bytes())));
+        }
+        b.extend(msg(b'F', b"sensor_mag:uint64_t timestamp;uint32_t device_id;float x;float y;float z;"));
+        b.extend(msg(b'F', b"sensor_gps:uint64_t timestamp;double latitude_deg;double longitude_deg;float vel_m_s;float cog_rad;float heading;uint8_t fix_type;"));
+        b.extend(msg(b'P', &keyed("int32_t CAL_MAG0_ID", &7i32.to_le_bytes())));
+        for (name, v) in params {
+            b.extend(msg(b'P', &keyed(&format!("float {name}"), &v.to_le_bytes())));
+        }
+        b.extend(msg(b'A', b"\x00\x00\x00sensor_mag"));
+        b.extend(msg(b'A', b"\x01\x01\x00sensor_gps"));
+        for k in 1..=3u64 {
+            let mut d = vec![0, 0];
+            d.extend_from_slice(&(k * 1_000_000).to_le_bytes());
+            d.extend_from_slice(&7u32.to_le_bytes());
+            for v in [0.1 * k as f32, 0.2, 0.3] {
+                d.extend_from_slice(&v.to_le_bytes());
+            }
+            b.extend(msg(b'D', &d));
+            let mut g = vec![1, 0];
+            g.extend_from_slice(&(k * 1_000_000).to_le_bytes());
+            for v in [60.5, 10.25] {
+                g.extend_from_slice(&f64::to_le_bytes(v));
+            }
+            for v in [0.1f32, 1.0, 0.5] {
+                g.extend_from_slice(&v.to_le_bytes());
+            }
+            g.push(if k == 2 { 1 } else { 3 });
+            b.extend(msg(b'D', &g));
+        }
+        b
+    }
+
+    #[test]
+    fn a_gnss_compass_heading_is_the_reference() {
+        let im = import(&log(Some(0x010E_00FF), &[]), &ImportOptions::default()).unwrap();
+        assert_eq!(im.report.rows, 3);
+        let r = im.column(col::REF_HEADING_DEG).unwrap();
+        // 0.5 rad at 1 s and 3 s (the fix at 2 s has none): interpolated.
+        for v in r {
+            assert!((v - 0.5f64.to_degrees()).abs() < 1e-5, "{r:?}");
+        }
+        assert_eq!(im.report.column_sources[col::REF_HEADING_DEG].role, Role::Reference);
+        assert!(im.report.column_sources[col::REF_HEADING_DEG].from.contains("heading (a GNSS compass"));
+        assert_eq!(im.column(col::LAT_DEG).unwrap()[0], 60.5);
+        assert_eq!(im.report.skipped["gnss_without_fix"], 1);
+        assert_eq!(im.report.messages["sensor_gps/1"], 3);
+        // v1.14: sensor_mag is raw, written as read.
+        assert!((im.column("mx").unwrap()[2] - 0.3).abs() < 1e-7);
+    }
+
+    #[test]
+    fn the_drivers_correction_before_1_12_is_undone_or_said() {
+        let cal = [("CAL_MAG0_XOFF", 0.5), ("CAL_MAG0_YOFF", -0.25), ("CAL_MAG0_ZOFF", 0.0), ("CAL_MAG0_XSCALE", 2.0), ("CAL_MAG0_YSCALE", 0.5), ("CAL_MAG0_ZSCALE", 1.0)];
+        let im = import(&log(Some(0x010A_01FF), &cal), &ImportOptions::default()).unwrap();
+        // raw = field / SCALE + OFF.
+        let (mx, my) = (im.column("mx").unwrap(), im.column("my").unwrap());
+        assert!((mx[0] - (0.1 / 2.0 + 0.5)).abs() < 1e-7 && (my[0] - (0.2 / 0.5 - 0.25)).abs() < 1e-7, "{mx:?} {my:?}");
+        assert!(im.report.notes.iter().any(|n| n.contains("v1.10.1") && n.contains("undone with CAL_MAG0")), "{:?}", im.report.notes);
+        // Without the scales: the corrected field, said.
+        let im = import(&log(Some(0x010A_01FF), &cal[..3]), &ImportOptions::default()).unwrap();
+        assert!((im.column("mx").unwrap()[0] - 0.1).abs() < 1e-7);
+        assert!(im.report.notes.iter().any(|n| n.contains("not undone")), "{:?}", im.report.notes);
+        // No version: taken as raw, said.
+        let im = import(&log(None, &cal), &ImportOptions::default()).unwrap();
+        assert!((im.column("mx").unwrap()[0] - 0.1).abs() < 1e-7);
+        assert!(im.report.notes.iter().any(|n| n.contains("no ver_sw_release")), "{:?}", im.report.notes);
+    }
+
+    #[test]
+    fn hostile_bytes_of_a_real_log_never_panic() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/data/px4-ulog/sample_appended_multiple_cut.ulg");
+        let good = std::fs::read(path).unwrap();
+        let opts = ImportOptions::default();
+        for n in (0..good.len()).step_by(251) {
+            let _ = import(&good[..n], &opts);
+        }
+        let mut state = 0x2545_F491_4F6C_DD1Du64;
+        for _ in 0..40 {
+            let mut b = good.clone();
+            for _ in 0..20 {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                let i = 16 + (state as usize) % (b.len() - 16);
+                b[i] = (state >> 32) as u8;
+            }
+            if let Ok(im) = import(&b, &opts) {
+                assert!(im.report.rows > 0);
+            }
+        }
+        // A corrupt stretch in the data: skipped to the next sync and
+        // counted, the rest read.
+        let mut b = good.clone();
+        let mut pos = 16;
+        while b[pos + 2] != b'D' {
+            pos += 3 + usize::from(u16::from_le_bytes([b[pos], b[pos + 1]]));
+        }
+        b[pos + 2] = 0;
+        let im = import(&b, &opts).unwrap();
+        assert!(im.report.skipped["corrupt_bytes"] > 0, "{:?}", im.report.skipped);
+        assert!(im.report.messages["sensor_combined/0"] > 800, "{:?}", im.report.messages);
+    }
+}
