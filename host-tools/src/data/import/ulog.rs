@@ -1,7 +1,7 @@
 //! PX4 ULog (`.ulg`): the magnetometer, the gyro, the attitude, the GNSS and
 //! the `CAL_MAG*` parameters of the log PX4 writes on every vehicle.
 //!
-//! **Read by hand** ([`reader`], from the PX4 documentation's "ULog File
+//! **Read by hand** (the private `reader` module, from the PX4 documentation's "ULog File
 //! Format") rather than with the `px4-ulog` crate (0.6.1, maintained under
 //! the PX4 organisation): that crate panics on a subscription (`A`) or
 //! parameter (`P`) message shorter than its fixed part (it indexes the
@@ -117,70 +117,26 @@ fn wanted() -> HashMap<&'static str, Vec<&'static str>> {
     ])
 }
 
-/// Imports a PX4 ULog held in memory.
-pub fn import(bytes: &[u8], opts: &ImportOptions) -> Result<Imported, ImportError> {
-    let log = reader::read(bytes, &wanted()).map_err(|e| match e {
-        reader::ReadError::NotUlog => UlogError::NotUlog,
-        reader::ReadError::TruncatedHeader(n) => UlogError::TruncatedHeader(n),
-        reader::ReadError::Incompatible { index, value } => UlogError::Incompatible { index, value },
-        reader::ReadError::NoDataSection => UlogError::NoDataSection,
-    })?;
-    let rows_of = |topic: &str, instance: u8| log.rows.get(&(topic.to_string(), instance)).map(Vec::as_slice).unwrap_or_default();
-    // Instances of a magnetometer topic with a finite field.
-    let mag_instances = |topic: &str| -> Vec<u32> {
-        log.rows.iter().filter(|((t, _), rows)| t == topic && rows.iter().any(|r| r.get(1).is_some_and(|v| v.is_finite()))).map(|((_, i), _)| u32::from(*i)).collect()
-    };
-    let present: Vec<&str> = MAG_TOPICS.into_iter().filter(|t| !mag_instances(t).is_empty()).collect();
-    let topic = match &opts.topic {
-        Some(w) => *present.iter().find(|t| *t == w).ok_or_else(|| UlogError::NoTopic { wanted: w.clone(), found: present.iter().map(|t| t.to_string()).collect() })?,
-        None => *present.first().ok_or_else(|| UlogError::NoMagnetometer { topics: log.counts.keys().map(|(t, i)| format!("{t}/{i}")).collect() })?,
-    };
-    let (instance, choice) = rules::choose_instance(topic, &mag_instances(topic), opts.instance)?;
-    let instance = u8::try_from(instance).unwrap_or_default();
+/// The rows of a topic's instance (empty when none).
+fn rows_of<'a>(log: &'a reader::Log, topic: &str, instance: u8) -> &'a [Vec<f64>] {
+    log.rows.get(&(topic.to_string(), instance)).map(Vec::as_slice).unwrap_or_default()
+}
 
-    // The compass's samples: time (s) and field (gauss), temperature.
-    let mut t_s = Vec::new();
-    let mut field = Vec::new();
-    let mut temp_c = Vec::new();
-    let mut repeats = 0usize;
-    for r in rows_of(topic, instance) {
-        let v = |k: usize| r.get(k).copied().unwrap_or(f64::NAN);
-        let (t_us, m, temp) = match topic {
-            "sensor_combined" => {
-                let rel = v(4);
-                if !rel.is_finite() || rel == RELATIVE_INVALID {
-                    continue;
-                }
-                (v(0) + rel, [v(1), v(2), v(3)], f64::NAN)
-            }
-            _ => (v(0), [v(1), v(2), v(3)], if topic == "sensor_mag" { v(5) } else { f64::NAN }),
-        };
-        let t = t_us * 1e-6;
-        if topic == "sensor_combined" && t_s.last() == Some(&t) {
-            repeats += 1;
-            continue;
-        }
-        t_s.push(t);
-        field.push(m);
-        temp_c.push(temp);
-    }
-    let device_id = rows_of(topic, instance).iter().find_map(|r| r.get(4).copied().filter(|d| d.is_finite() && *d > 0.0 && topic != "sensor_combined"));
+/// The instances of a magnetometer topic with a finite field.
+fn mag_instances(log: &reader::Log, topic: &str) -> Vec<u32> {
+    log.rows.iter().filter(|((t, _), rows)| t == topic && rows.iter().any(|r| r.get(1).is_some_and(|v| v.is_finite()))).map(|((_, i), _)| u32::from(*i)).collect()
+}
 
-    let mut b = Builder::new(Format::Ulog, t_s.clone(), "s since PX4's boot (the ULog timestamp, µs)");
-    b.report.field_unit = Some("gauss".into());
-    if let Some(c) = choice {
-        b.note(c);
-    }
-    if repeats > 0 {
-        b.note(format!("{repeats} sensor_combined messages repeat the previous magnetometer sample: one row per sample"));
-    }
-    let params = &log.params;
-    let cal = device_id.and_then(|id| (0..10).find(|k| params.get(&format!("CAL_MAG{k}_ID")) == Some(&id)));
-    // ver_sw_release: major, minor, patch, type (below 64 a development
-    // build, then alpha, beta, release candidate, 255 a release).
-    let release = log.info_num.get("ver_sw_release").map(|&v| v as u32);
-    let version = release.map(|v| ((v >> 24) & 0xff, (v >> 16) & 0xff, (v >> 8) & 0xff));
-    let version_text = match release {
+/// The `CAL_MAGn` whose `ID` is `device_id`.
+fn cal_index(params: &BTreeMap<String, f64>, device_id: f64) -> Option<usize> {
+    (0..10).find(|k| params.get(&format!("CAL_MAG{k}_ID")) == Some(&device_id))
+}
+
+/// PX4's version from `ver_sw_release` (major, minor, patch, type: below 64
+/// a development build, then alpha, beta, release candidate, 255 a
+/// release): (major, minor) and the version for people.
+fn version(log: &reader::Log) -> (Option<(u32, u32)>, String) {
+    match log.info_num.get("ver_sw_release").map(|&v| v as u32) {
         Some(v) => {
             let kind = match v & 0xff {
                 0..64 => " (development build)",
@@ -189,173 +145,232 @@ pub fn import(bytes: &[u8], opts: &ImportOptions) -> Result<Imported, ImportErro
                 192..255 => " (release candidate)",
                 _ => "",
             };
-            format!("v{}.{}.{}{kind}", (v >> 24) & 0xff, (v >> 16) & 0xff, (v >> 8) & 0xff)
+            (Some(((v >> 24) & 0xff, (v >> 16) & 0xff)), format!("v{}.{}.{}{kind}", (v >> 24) & 0xff, (v >> 16) & 0xff, (v >> 8) & 0xff))
         }
-        None => "of unknown version".to_string(),
+        None => (None, "of unknown version".to_string()),
+    }
+}
+
+/// Imports a PX4 ULog held in memory.
+pub fn import(bytes: &[u8], opts: &ImportOptions) -> Result<Imported, ImportError> {
+    let log = reader::read(bytes, &wanted()).map_err(|e| match e {
+        reader::ReadError::NotUlog => UlogError::NotUlog,
+        reader::ReadError::TruncatedHeader(n) => UlogError::TruncatedHeader(n),
+        reader::ReadError::Incompatible { index, value } => UlogError::Incompatible { index, value },
+        reader::ReadError::NoDataSection => UlogError::NoDataSection,
+    })?;
+    let present: Vec<&str> = MAG_TOPICS.into_iter().filter(|t| !mag_instances(&log, t).is_empty()).collect();
+    let topic = match &opts.topic {
+        Some(w) => *present.iter().find(|t| *t == w).ok_or_else(|| UlogError::NoTopic { wanted: w.clone(), found: present.iter().map(|t| t.to_string()).collect() })?,
+        None => *present.first().ok_or_else(|| UlogError::NoMagnetometer { topics: log.counts.keys().map(|(t, i)| format!("{t}/{i}")).collect() })?,
     };
-    let mut from = match topic {
-        "sensor_mag" => format!("sensor_mag instance {instance} x, y, z (gauss{})", device_id.map_or(String::new(), |d| format!(", device id {d}"))),
-        "vehicle_magnetometer" => format!("vehicle_magnetometer instance {instance} magnetometer_ga[0..2] (gauss, PX4's corrected field)"),
-        _ => "sensor_combined magnetometer_ga[0..2] (gauss, PX4's corrected field)".to_string(),
-    };
-    match topic {
-        "sensor_mag" => {
-            let instances = mag_instances(topic);
-            let ids: Vec<String> = instances
-                .iter()
-                .map(|&i| {
-                    let id = rows_of(topic, u8::try_from(i).unwrap_or_default()).iter().find_map(|r| r.get(4).copied().filter(|d| d.is_finite()));
-                    let k = id.and_then(|id| (0..10).find(|k| params.get(&format!("CAL_MAG{k}_ID")) == Some(&id)));
-                    let prime = id.is_some() && params.get("CAL_MAG_PRIME") == id.as_ref();
-                    format!("{i} = device id {}{}{}", id.map_or("?".into(), |d| format!("{d}")), k.map_or(String::new(), |k| format!(" (CAL_MAG{k})")), if prime { " CAL_MAG_PRIME" } else { "" })
-                })
-                .collect();
-            b.note(format!("sensor_mag instances: {}", ids.join("; ")));
-            let before_1_12 = version.is_some_and(|(a, b, _)| (a, b) < (1, 12));
-            if version.is_none() {
-                b.note("PX4's version is not in the log (no ver_sw_release): sensor_mag taken as the raw field, as PX4 v1.12 on writes it (before v1.12 its drivers applied CAL_MAG*)");
-            } else if !before_1_12 {
-                b.note(format!("sensor_mag of PX4 {version_text} is the drivers' field before PX4's calibration (CAL_MAG* applied in the sensors module from v1.12 on): the raw field"));
-            } else {
-                let p = |k: usize, name: &str| params.get(&format!("CAL_MAG{k}_{name}")).copied();
-                let undo = cal.and_then(|k| {
-                    let off = [p(k, "XOFF")?, p(k, "YOFF")?, p(k, "ZOFF")?];
-                    let scale = [p(k, "XSCALE")?, p(k, "YSCALE")?, p(k, "ZSCALE")?];
-                    (off.iter().chain(&scale).all(|v| v.is_finite()) && scale.iter().all(|s| *s != 0.0)).then_some((k, off, scale))
-                });
-                match undo {
-                    Some((k, off, scale)) => {
-                        for m in &mut field {
-                            for a in 0..3 {
-                                m[a] = m[a] / scale[a] + off[a];
-                            }
-                        }
-                        from.push_str(&format!(", CAL_MAG{k}'s correction undone: the raw field"));
-                        b.note(format!(
-                            "sensor_mag of PX4 {version_text} (before v1.12) is corrected by its driver, (raw − OFF)·SCALE: undone with CAL_MAG{k} (OFF {:.6} {:.6} {:.6} gauss, SCALE {:.6} {:.6} {:.6}) as the log starts",
-                            off[0], off[1], off[2], scale[0], scale[1], scale[2]
-                        ));
-                        if log.param_changes.iter().any(|(n, _)| n.starts_with(&format!("CAL_MAG{k}_"))) {
-                            b.note(format!("CAL_MAG{k} changes during the log: the values as it starts are undone throughout"));
-                        }
-                    }
-                    None => {
-                        from.push_str(", corrected by its driver (not undone)");
-                        b.note(format!("sensor_mag of PX4 {version_text} (before v1.12) is corrected by its driver and the log has no complete CAL_MAGn for device id {}: the field is the corrected one, not undone", device_id.map_or("?".into(), |d| format!("{d}"))));
-                    }
-                }
-            }
-            if let Some(k) = cal {
-                let rot = params.get(&format!("CAL_MAG{k}_ROT")).copied().unwrap_or(-1.0);
-                let board = params.get("SENS_BOARD_ROT").copied().unwrap_or(0.0);
-                let turned = if rot < 0.0 { (board != 0.0).then(|| format!("internal: SENS_BOARD_ROT = {board}")) } else { (rot != 0.0).then(|| format!("CAL_MAG{k}_ROT = {rot}")) };
-                if let Some(turned) = turned {
-                    b.note(format!("the field is in the magnetometer's axes, where PX4 applies CAL_MAG{k}'s offsets (as `magcal export --format px4` writes them); its rotation to the vehicle's axes ({turned}, PX4's rotation enumeration) is not applied, so its axes are not the attitude's and the gyro's"));
-                }
-                let comp_type = params.get("CAL_MAG_COMP_TYP").copied().unwrap_or(0.0);
-                let comp = ["XCOMP", "YCOMP", "ZCOMP"].iter().any(|c| params.get(&format!("CAL_MAG{k}_{c}")).is_some_and(|v| *v != 0.0));
-                if comp_type != 0.0 && comp {
-                    b.note(format!("CAL_MAG_COMP_TYP = {comp_type}: PX4's power compensation (CAL_MAG{k}_XCOMP…) is in the log and not undone"));
-                }
-            } else if device_id.is_some() {
-                b.note("no CAL_MAGn_ID is this instance's device id: its rotation to the vehicle's axes is unknown");
-            }
+    let (instance, choice) = rules::choose_instance(topic, &mag_instances(&log, topic), opts.instance)?;
+    let instance = u8::try_from(instance).unwrap_or_default();
+
+    // The compass's samples: time (s), field (gauss), temperature.
+    let mut t_s = Vec::new();
+    let mut field = Vec::new();
+    let mut temp_c = Vec::new();
+    let mut repeats = 0usize;
+    for r in rows_of(&log, topic, instance) {
+        let v = |k: usize| r.get(k).copied().unwrap_or(f64::NAN);
+        let (t_us, temp) = match topic {
+            "sensor_combined" if !v(4).is_finite() || v(4) == RELATIVE_INVALID => continue,
+            "sensor_combined" => (v(0) + v(4), f64::NAN),
+            "sensor_mag" => (v(0), v(5)),
+            _ => (v(0), f64::NAN),
+        };
+        let t = t_us * 1e-6;
+        if topic == "sensor_combined" && t_s.last() == Some(&t) {
+            repeats += 1;
+            continue;
         }
+        t_s.push(t);
+        field.push([v(1), v(2), v(3)]);
+        temp_c.push(temp);
+    }
+
+    let mut b = Builder::new(Format::Ulog, t_s.clone(), "s since PX4's boot (the ULog timestamp, µs)");
+    b.report.field_unit = Some("gauss".into());
+    if let Some(c) = choice {
+        b.note(c);
+    }
+    let from = match topic {
+        "sensor_mag" => sensor_mag(&log, instance, &mut field, &mut b),
         "vehicle_magnetometer" => {
-            b.note("vehicle_magnetometer is PX4's corrected field (CAL_MAG* offsets, scales and rotation applied, the vehicle's axes), not undone: prefer sensor_mag, the raw field, where the log has it (PX4's SDLOG_PROFILE \"sensor comparison\" logs it)");
+            b.note("vehicle_magnetometer is PX4's corrected field (CAL_MAG* offsets, scales and rotation applied, the vehicle's axes), not undone: prefer sensor_mag, the raw field, where the log has it");
+            format!("vehicle_magnetometer instance {instance} magnetometer_ga[0..2] (gauss, PX4's corrected field)")
         }
         _ => {
+            if repeats > 0 {
+                b.note(format!("{repeats} sensor_combined messages repeat the previous magnetometer sample: one row per sample"));
+            }
             b.note("sensor_combined.magnetometer_ga (older PX4) is the corrected field of the primary magnetometer (its driver's offsets and scales, the board rotation applied), not undone: which magnetometer it was is not logged");
+            "sensor_combined magnetometer_ga[0..2] at timestamp + magnetometer_timestamp_relative (gauss, PX4's corrected field)".to_string()
         }
-    }
+    };
     for k in 0..10 {
-        let p = |name: &str| params.get(&format!("CAL_MAG{k}_{name}")).copied();
+        let p = |name: &str| log.params.get(&format!("CAL_MAG{k}_{name}")).copied();
         let Some(id) = p("ID").filter(|id| *id != 0.0) else { continue };
         let v = |names: [&str; 3]| names.map(|n| p(n).map_or("?".into(), |v| format!("{v:.6}"))).join(" ");
-        b.note(format!(
-            "CAL_MAG{k}: ID {id}, EN {}, ROT {}, OFF {} gauss, SCALE {}",
-            p("EN").map_or("?".into(), |v| v.to_string()),
-            p("ROT").map_or("?".into(), |v| v.to_string()),
-            v(["XOFF", "YOFF", "ZOFF"]),
-            v(["XSCALE", "YSCALE", "ZSCALE"])
-        ));
+        let flags: String = ["EN", "ROT"].iter().filter_map(|n| p(n).map(|v| format!(", {n} {v}"))).collect();
+        b.note(format!("CAL_MAG{k}: ID {id}{flags}, OFF {} gauss, SCALE {}", v(["XOFF", "YOFF", "ZOFF"]), v(["XSCALE", "YSCALE", "ZSCALE"])));
     }
     for (k, name) in col::MAG.into_iter().enumerate() {
         b.column(name, field.iter().map(|m| m[k]).collect(), from.clone(), Role::Compass)?;
     }
     b.column(col::TEMP_C, temp_c, format!("{topic} instance {instance} temperature (°C)"), Role::Sensor)?;
+    carried(&log, &t_s, opts, &mut b)?;
+    counts(&log, &mut b);
+    b.finish()
+}
 
-    // Other messages, carried to the compass's times.
-    let max_age = opts.max_age_s;
-    let mut out_of_order = 0;
-    // Attitude.
-    let mut att = Series::new([Kind::Angle180, Kind::Angle180, Kind::Heading360]);
-    for r in rows_of("vehicle_attitude", 0) {
-        let q = [1, 2, 3, 4].map(|k| r.get(k).copied().unwrap_or(f64::NAN));
-        if let Some(e) = rules::quaternion_to_euler_deg(q) {
-            att.push(r.first().copied().unwrap_or(f64::NAN) * 1e-6, e);
+/// sensor_mag: the instances and their calibrations said, the pre-v1.12
+/// driver correction undone in `field`; returns the field's source.
+fn sensor_mag(log: &reader::Log, instance: u8, field: &mut [[f64; 3]], b: &mut Builder) -> String {
+    let params = &log.params;
+    let device_of = |i: u8| rows_of(log, "sensor_mag", i).iter().find_map(|r| r.get(4).copied().filter(|d| d.is_finite() && *d > 0.0));
+    let ids: Vec<String> = mag_instances(log, "sensor_mag")
+        .iter()
+        .map(|&i| {
+            let id = device_of(u8::try_from(i).unwrap_or_default());
+            let k = id.and_then(|id| cal_index(params, id));
+            let prime = id.is_some() && params.get("CAL_MAG_PRIME") == id.as_ref();
+            format!("{i} = device id {}{}{}", id.map_or("?".into(), |d| format!("{d}")), k.map_or(String::new(), |k| format!(" (CAL_MAG{k})")), if prime { " CAL_MAG_PRIME" } else { "" })
+        })
+        .collect();
+    b.note(format!("sensor_mag instances: {}", ids.join("; ")));
+    let corrected = log.rows.iter().filter(|((t, _), _)| t == "vehicle_magnetometer").map(|(_, r)| r.len()).max().unwrap_or(0);
+    if corrected > field.len() {
+        b.note(format!("sensor_mag instance {instance} has {} samples, vehicle_magnetometer {corrected}: --topic vehicle_magnetometer imports those (PX4's corrected field)", field.len()));
+    }
+    let device_id = device_of(instance);
+    let cal = device_id.and_then(|id| cal_index(params, id));
+    let mut from = format!("sensor_mag instance {instance} x, y, z (gauss{})", device_id.map_or(String::new(), |d| format!(", device id {d}")));
+    let (version, version_text) = version(log);
+    match version {
+        None => b.note("PX4's version is not in the log (no ver_sw_release): sensor_mag taken as the raw field, as PX4 v1.12 on writes it (before v1.12 its drivers applied CAL_MAG*)"),
+        Some(v) if v >= (1, 12) => b.note(format!("sensor_mag of PX4 {version_text} is the drivers' field before PX4's calibration (CAL_MAG* applied in the sensors module from v1.12 on): the raw field")),
+        Some(_) => {
+            let p = |k: usize, name: &str| params.get(&format!("CAL_MAG{k}_{name}")).copied();
+            let undo = cal.and_then(|k| {
+                let off = [p(k, "XOFF")?, p(k, "YOFF")?, p(k, "ZOFF")?];
+                let scale = [p(k, "XSCALE")?, p(k, "YSCALE")?, p(k, "ZSCALE")?];
+                (off.iter().chain(&scale).all(|v| v.is_finite()) && scale.iter().all(|s| *s != 0.0)).then_some((k, off, scale))
+            });
+            match undo {
+                Some((k, off, scale)) => {
+                    for m in field.iter_mut() {
+                        for a in 0..3 {
+                            m[a] = m[a] / scale[a] + off[a];
+                        }
+                    }
+                    from.push_str(&format!(", CAL_MAG{k}'s correction undone: the raw field"));
+                    b.note(format!(
+                        "sensor_mag of PX4 {version_text}, before v1.12, is corrected by its driver, (raw − OFF)·SCALE: undone with CAL_MAG{k} (OFF {:.6} {:.6} {:.6} gauss, SCALE {:.6} {:.6} {:.6}) as the log starts",
+                        off[0], off[1], off[2], scale[0], scale[1], scale[2]
+                    ));
+                    if log.param_changes.iter().any(|(n, _)| n.starts_with(&format!("CAL_MAG{k}_"))) {
+                        b.note(format!("CAL_MAG{k} changes during the log: the values as it starts are undone throughout"));
+                    }
+                }
+                None => {
+                    from.push_str(", corrected by its driver (not undone)");
+                    b.note(format!("sensor_mag of PX4 {version_text}, before v1.12, is corrected by its driver and the log has no complete CAL_MAGn for device id {}: the field is the corrected one, not undone", device_id.map_or("?".into(), |d| format!("{d}"))));
+                }
+            }
         }
     }
-    out_of_order += att.out_of_order;
-    let at: Vec<Option<[f64; 3]>> = t_s.iter().map(|&t| att.at(t, max_age)).collect();
-    let pick = |v: &[Option<[f64; 3]>], k: usize| v.iter().map(|e| e.map_or(f64::NAN, |e| e[k])).collect::<Vec<f64>>();
+    if let Some(k) = cal {
+        let rot = params.get(&format!("CAL_MAG{k}_ROT")).copied().unwrap_or(-1.0);
+        let board = params.get("SENS_BOARD_ROT").copied().unwrap_or(0.0);
+        let turned = if rot < 0.0 { (board != 0.0).then(|| format!("internal: SENS_BOARD_ROT = {board}")) } else { (rot != 0.0).then(|| format!("CAL_MAG{k}_ROT = {rot}")) };
+        if let Some(turned) = turned {
+            b.note(format!("the field is in the magnetometer's axes, where PX4 applies CAL_MAG{k}'s offsets (as `magcal export --format px4` writes them); its rotation to the vehicle's axes ({turned}, PX4's rotation enumeration) is not applied, so its axes are not the attitude's and the gyro's"));
+        }
+        let comp_type = params.get("CAL_MAG_COMP_TYP").copied().unwrap_or(0.0);
+        let comp = ["XCOMP", "YCOMP", "ZCOMP"].iter().any(|c| params.get(&format!("CAL_MAG{k}_{c}")).is_some_and(|v| *v != 0.0));
+        if comp_type != 0.0 && comp {
+            b.note(format!("CAL_MAG_COMP_TYP = {comp_type}: PX4's power compensation (CAL_MAG{k}_XCOMP…) is in the log and not undone"));
+        }
+    } else if device_id.is_some() {
+        b.note("no CAL_MAGn_ID is this instance's device id: its rotation to the vehicle's axes is unknown");
+    }
+    from
+}
+
+/// The attitude, the gyro and the GNSS carried to the compass's times.
+fn carried(log: &reader::Log, t_s: &[f64], opts: &ImportOptions, b: &mut Builder) -> Result<(), ImportError> {
+    fn pick<const K: usize>(v: &[Option<[f64; K]>], k: usize) -> Vec<f64> {
+        v.iter().map(|e| e.map_or(f64::NAN, |e| e[k])).collect()
+    }
+    let max_age = opts.max_age_s;
+    let time = |r: &Vec<f64>| r.first().copied().unwrap_or(f64::NAN) * 1e-6;
+
+    let mut att = Series::new([Kind::Angle180, Kind::Angle180, Kind::Heading360]);
+    for r in rows_of(log, "vehicle_attitude", 0) {
+        if let Some(e) = rules::quaternion_to_euler_deg([1, 2, 3, 4].map(|k| r.get(k).copied().unwrap_or(f64::NAN))) {
+            att.push(time(r), e);
+        }
+    }
+    let at: Vec<_> = t_s.iter().map(|&t| att.at(t, max_age)).collect();
     b.column(col::ROLL_DEG, pick(&at, 0), "vehicle_attitude q (roll of body FRD to NED, Z-Y-X)", Role::Sensor)?;
     b.column(col::PITCH_DEG, pick(&at, 1), "vehicle_attitude q (pitch of body FRD to NED, Z-Y-X)", Role::Sensor)?;
     b.column(col::AHRS_YAW_DEG, pick(&at, 2), "vehicle_attitude q (yaw: PX4's own estimate from its compass, not a reference)", Role::OwnEstimate)?;
 
-    // Gyro: sensor_combined (the vehicle's axes) else sensor_gyro 0.
-    let combined = rows_of("sensor_combined", 0);
-    let (gyro_rows, gyro_cols, gyro_from): (&[Vec<f64>], [usize; 3], &str) = if combined.iter().any(|r| r.get(5).is_some_and(|v| v.is_finite())) {
+    // sensor_combined (the vehicle's axes), else sensor_gyro instance 0.
+    let combined = rows_of(log, "sensor_combined", 0);
+    let (rows, cols, from) = if combined.iter().any(|r| r.get(5).is_some_and(|v| v.is_finite())) {
         (combined, [5, 6, 7], "sensor_combined gyro_rad[0..2] (rad/s, the vehicle's axes)")
     } else {
-        (rows_of("sensor_gyro", 0), [1, 2, 3], "sensor_gyro instance 0 x, y, z (rad/s, the gyro's axes)")
+        (rows_of(log, "sensor_gyro", 0), [1, 2, 3], "sensor_gyro instance 0 x, y, z (rad/s, the gyro's axes)")
     };
     let mut gyro = Series::new([Kind::Linear; 3]);
-    for r in gyro_rows {
-        gyro.push(r.first().copied().unwrap_or(f64::NAN) * 1e-6, gyro_cols.map(|k| r.get(k).copied().unwrap_or(f64::NAN)));
+    for r in rows {
+        gyro.push(time(r), cols.map(|k| r.get(k).copied().unwrap_or(f64::NAN)));
     }
-    out_of_order += gyro.out_of_order;
-    let g: Vec<Option<[f64; 3]>> = t_s.iter().map(|&t| gyro.at(t, max_age)).collect();
+    let g: Vec<_> = t_s.iter().map(|&t| gyro.at(t, max_age)).collect();
     for (k, name) in col::GYRO.into_iter().enumerate() {
-        b.column(name, pick(&g, k), gyro_from, Role::Sensor)?;
+        b.column(name, pick(&g, k), from, Role::Sensor)?;
     }
 
-    // GNSS.
-    let gps_topic = if !rows_of("vehicle_gps_position", 0).is_empty() { "vehicle_gps_position" } else { "sensor_gps" };
-    let gps_instance = log.rows.keys().filter(|(t, _)| t == gps_topic).map(|(_, i)| *i).min().unwrap_or(0);
-    let gps_rows = rows_of(gps_topic, gps_instance);
-    let compass = gps_rows.iter().any(|r| r.get(7).is_some_and(|h| h.is_finite()));
+    // vehicle_gps_position, else sensor_gps's first instance.
+    let topic = if rows_of(log, "vehicle_gps_position", 0).is_empty() { "sensor_gps" } else { "vehicle_gps_position" };
+    let instance = log.rows.keys().filter(|(t, _)| t == topic).map(|(_, i)| *i).min().unwrap_or(0);
+    let rows = rows_of(log, topic, instance);
+    let compass = rows.iter().any(|r| r.get(7).is_some_and(|h| h.is_finite()));
     let mut gps = Series::new([Kind::Linear, Kind::Linear, Kind::Heading360, Kind::Linear, Kind::Heading360]);
     let mut no_fix = 0;
-    for r in gps_rows {
+    for r in rows {
         let v = |k: usize| r.get(k).copied().unwrap_or(f64::NAN);
-        if v(8).is_finite() && v(8) < 2.0 {
+        if v(8) < 2.0 {
             no_fix += 1;
             continue;
         }
         let (lat, lon) = if v(1).is_finite() { (v(1) * 1e-7, v(2) * 1e-7) } else { (v(3), v(4)) };
         let course = v(6).to_degrees().rem_euclid(360.0);
         let reference = if compass { v(7).to_degrees().rem_euclid(360.0) } else { rules::course_at_speed_deg(course, v(5), opts.min_course_speed_mps) };
-        gps.push(v(0) * 1e-6, [lat, lon, course, v(5), reference]);
+        gps.push(time(r), [lat, lon, course, v(5), reference]);
     }
     b.skip("gnss_without_fix", no_fix);
-    out_of_order += gps.out_of_order;
-    let fixes: Vec<Option<[f64; 5]>> = t_s.iter().map(|&t| gps.at(t, max_age)).collect();
-    let gpick = |k: usize| fixes.iter().map(|e| e.map_or(f64::NAN, |e| e[k])).collect::<Vec<f64>>();
-    let src = format!("{gps_topic} instance {gps_instance}");
-    b.column(col::LAT_DEG, gpick(0), format!("{src} lat (1e-7 deg) or latitude_deg"), Role::Sensor)?;
-    b.column(col::LON_DEG, gpick(1), format!("{src} lon (1e-7 deg) or longitude_deg"), Role::Sensor)?;
-    b.column(col::COURSE_DEG, gpick(2), format!("{src} cog_rad (rad → deg)"), Role::Sensor)?;
-    b.column(col::GPS_SPEED_MPS, gpick(3), format!("{src} vel_m_s"), Role::Sensor)?;
+    let fixes: Vec<_> = t_s.iter().map(|&t| gps.at(t, max_age)).collect();
+    let src = format!("{topic} instance {instance}");
+    b.column(col::LAT_DEG, pick(&fixes, 0), format!("{src} lat (1e-7 deg) or latitude_deg"), Role::Sensor)?;
+    b.column(col::LON_DEG, pick(&fixes, 1), format!("{src} lon (1e-7 deg) or longitude_deg"), Role::Sensor)?;
+    b.column(col::COURSE_DEG, pick(&fixes, 2), format!("{src} cog_rad (rad → deg)"), Role::Sensor)?;
+    b.column(col::GPS_SPEED_MPS, pick(&fixes, 3), format!("{src} vel_m_s"), Role::Sensor)?;
     let ref_from = if compass {
         format!("{src} heading (a GNSS compass's true heading, rad → deg)")
     } else {
         format!("{src} cog_rad at vel_m_s ≥ {} m/s (the course over ground, not the heading: they differ by the crab angle in a current)", opts.min_course_speed_mps)
     };
-    b.column(col::REF_HEADING_DEG, gpick(4), ref_from, Role::Reference)?;
-    b.skip("samples_back_in_time", out_of_order);
+    b.column(col::REF_HEADING_DEG, pick(&fixes, 4), ref_from, Role::Reference)?;
+    b.skip("samples_back_in_time", att.out_of_order + gyro.out_of_order + gps.out_of_order);
+    Ok(())
+}
 
-    // Counts.
+/// The messages read, the refusals, dropouts, appended sections, version.
+fn counts(log: &reader::Log, b: &mut Builder) {
     for ((topic, instance), n) in &log.counts {
         *b.report.messages.entry(format!("{topic}/{instance}")).or_default() += n;
     }
@@ -376,15 +391,9 @@ pub fn import(bytes: &[u8], opts: &ImportOptions) -> Result<Imported, ImportErro
     if log.version > 1 {
         b.note(format!("ULog format version {} (this reader knows 1): read as version 1", log.version));
     }
-    let mut info: BTreeMap<&str, String> = BTreeMap::new();
-    for key in ["sys_name", "ver_hw", "ver_sw"] {
-        if let Some(v) = log.info_text.get(key) {
-            info.insert(key, v.clone());
-        }
-    }
-    let info = info.iter().map(|(k, v)| format!("{k} {v}")).collect::<Vec<_>>().join(", ");
-    b.note(format!("PX4 {version_text}{}", if info.is_empty() { String::new() } else { format!(" ({info})") }));
-    b.finish()
+    let info: Vec<String> = ["sys_name", "ver_hw", "ver_sw"].iter().filter_map(|k| log.info_text.get(*k).map(|v| format!("{k} {v}"))).collect();
+    let (_, version_text) = version(log);
+    b.note(format!("PX4 {version_text}{}", if info.is_empty() { String::new() } else { format!(" ({})", info.join(", ")) }));
 }
 
 #[cfg(test)]

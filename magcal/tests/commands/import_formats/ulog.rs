@@ -99,6 +99,7 @@ fn ulog_report_says_what_the_field_is() {
     assert!(has("undone with CAL_MAG0"), "{notes:#?}");
     assert!(has("SENS_BOARD_ROT = 4"), "{notes:#?}");
     assert!(has("30 ms of messages lost"), "{notes:#?}");
+    assert!(has("sensor_mag instance 0 has 6 samples, vehicle_magnetometer 319"), "{notes:#?}");
     assert_eq!(report["column_sources"]["ahrs_yaw_deg"]["role"], "own_estimate");
     assert_eq!(report["column_sources"]["mx"]["role"], "compass");
     // On the ground (0.1 m/s): no course at speed, so no reference column.
