@@ -456,6 +456,12 @@ mod tests {
     }
 
     #[test]
+    fn found_by_its_magic() {
+        assert_eq!(Format::detect(&log(None, &[])), Some(Format::Ulog));
+        assert_eq!(Format::detect(b"ULog\x01\x12\x36"), None);
+    }
+
+    #[test]
     fn a_gnss_compass_heading_is_the_reference() {
         let im = import(&log(Some(0x010E_00FF), &[]), &ImportOptions::default()).unwrap();
         assert_eq!(im.report.rows, 3);
