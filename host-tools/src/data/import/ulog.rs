@@ -21,8 +21,12 @@
 //!     `sensor_mag` is raw; before v1.12 the drivers applied the offsets and
 //!     scales (`(raw − OFF)·SCALE`) before publishing, and that correction is
 //!     undone (`field/SCALE + OFF`, with the `CAL_MAGn` whose `ID` is the
-//!     instance's `device_id`). The field stays in the magnetometer's axes,
-//!     where PX4 applies `CAL_MAGn`'s offsets; a rotation
+//!     instance's `device_id`; the v1.11 sample log bears this out: its
+//!     `sensor_mag` equals its `vehicle_magnetometer` sample for sample, and
+//!     as logged its internal magnetometer's horizontal field is near the
+//!     Earth's there, 0.13 gauss against 0.14, where correcting it again
+//!     would give 0.35). The field stays in the magnetometer's axes, where
+//!     PX4 applies `CAL_MAGn`'s offsets; a rotation
 //!     (`CAL_MAGn_ROT`, or `SENS_BOARD_ROT` for an internal one) is not
 //!     applied and is said in a note;
 //!   - `vehicle_magnetometer.magnetometer_ga` (`--topic vehicle_magnetometer`
