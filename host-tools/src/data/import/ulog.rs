@@ -501,6 +501,20 @@ mod tests {
         assert!(im.report.notes.iter().any(|n| n.contains("no ver_sw_release")), "{:?}", im.report.notes);
     }
 
+    proptest::proptest! {
+        /// Any bytes after a valid start, or spliced into it: a result or a
+        /// typed refusal, never a panic.
+        #[test]
+        fn any_bytes_never_panic(tail in proptest::collection::vec(proptest::prelude::any::<u8>(), 0..600), cut in 0usize..1000) {
+            let mut b = log(Some(0x010A_01FF), &[("CAL_MAG0_XSCALE", 0.0)]);
+            let at = cut.min(b.len());
+            b.splice(at..at, tail.iter().copied());
+            let _ = import(&b, &ImportOptions::default());
+            b.truncate(at);
+            let _ = import(&b, &ImportOptions::default());
+        }
+    }
+
     #[test]
     fn hostile_bytes_of_a_real_log_never_panic() {
         let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/data/px4-ulog/sample_appended_multiple_cut.ulg");
