@@ -436,7 +436,7 @@ pub enum ImportError {
 /// Imports a log held in memory, in `format` (see [`Format::detect`]).
 pub fn import(bytes: &[u8], format: Format, opts: &ImportOptions) -> Result<Imported, ImportError> {
     let unsupported = |option| Err(ImportError::Unsupported { format, option });
-    if opts.topic.is_some() && !matches!(format, Format::Mcap | Format::Sqlite3) {
+    if opts.topic.is_some() && !matches!(format, Format::Mcap | Format::Sqlite3 | Format::Ulog) {
         return unsupported("--topic");
     }
     if opts.reference_talker.is_some() && format != Format::Nmea0183 {
