@@ -34,7 +34,8 @@ pub struct Args {
     /// which instances the log holds).
     #[arg(long, alias = "mag-instance", value_parser = clap::value_parser!(u32).range(0..=255))]
     instance: Option<u32>,
-    /// ROS 2: the magnetometer topic, when a bag holds several.
+    /// The magnetometer topic, when a ROS 2 bag or a PX4 ULog holds several
+    /// (ULog: sensor_mag, vehicle_magnetometer, sensor_combined).
     #[arg(long)]
     topic: Option<String>,
     /// The GNSS course is the reference heading only at this ground speed

@@ -17,8 +17,8 @@ use serde_json::json;
 pub const FIXTURES: [(Format, &str); 9] = [
     (Format::Dataflash, "tests/data/ardusub-bluerov2/small.BIN"),
     (Format::Tlog, "tests/data/ardusub-bluerov2/small-cut.tlog"),
-    (Format::Ulog, "tests/data/px4-ulog/sample_log_small-cut.ulg"),
-    (Format::Ulog, "tests/data/px4-ulog/sample_appended_multiple.ulg"),
+    (Format::Ulog, "tests/data/px4-ulog/sample_log_small_cut.ulg"),
+    (Format::Ulog, "tests/data/px4-ulog/sample_appended_multiple_cut.ulg"),
     (Format::Mcap, "tests/data/ros2/swing.mcap"),
     (Format::Sqlite3, "tests/data/ros2/swing_db3/swing_db3_0.db3"),
     (Format::Nmea2000, "tests/data/nmea2000-canboat/triton-engine-setup-cut.all"),

@@ -137,7 +137,7 @@ pub struct ImportOptions {
     /// The magnetometer instance to import (`None`: the first; the report
     /// says when there were several).
     pub instance: Option<u32>,
-    /// ROS 2: the magnetometer topic, when a bag holds several.
+    /// The magnetometer topic, when a ROS 2 bag or a PX4 ULog holds several.
     pub topic: Option<String>,
     /// NMEA 0183: a talker whose `HDT` is an independent true heading.
     pub reference_talker: Option<String>,
