@@ -142,3 +142,51 @@ fn the_import_goes_into_swing_and_card() {
     let after = card["after"]["rms_deg"].as_f64().unwrap();
     assert!(after < 0.3 && card["before"]["rms_deg"].as_f64().unwrap() > 3.0, "{after}");
 }
+
+/// `swing --json` on a recording, mapping the course as the reference: the
+/// swing's terms (degrees), RMS before and after, held-out RMS after.
+fn swing_on_course(rec: &Path) -> ([f64; 3], f64, f64, f64) {
+    let o = magcal(&["swing", "--input", p(rec), "--columns", "ref_heading_deg=course_deg", "--estimate-delay", "--declination-deg", "3", "--json"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let d: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let term = |k: &str| d["swing"][k].as_f64().unwrap().to_degrees();
+    let q = &d["quality"]["swing"];
+    ([term("a"), term("b"), term("c")], q["before_rms_deg"].as_f64().unwrap(), q["after_rms_deg"].as_f64().unwrap(), q["held_out"]["after_rms_deg"].as_f64().unwrap())
+}
+
+/// A heading-only NMEA 2000 log (`cirrus-fast.all`: the yacht Cirrus's real
+/// compass readings and GPS courses, tests/data/cirrus-yacht, MIT, written
+/// as 127250 magnetic / 129026 by `cirrus_to_canboat.py`): every reading
+/// back (to the 0.0001 rad of the PGN), and the heading-only swing on it
+/// finds what the same readings as NMEA 0183 give. Measured: N2K B −6.97°,
+/// C 18.19°, 13.65° → 4.16° RMS, held out 5.41° (1291 pairs: the course
+/// carried to every compass row); NMEA 0183 B −6.98°, C 19.07°, 13.94° →
+/// 3.45°, held out 4.24° (314 pairs: a row per sentence). No speed was
+/// stored, so the course is mapped as the reference (as the NMEA 0183 test
+/// does).
+#[test]
+fn a_heading_only_log_is_swung_like_its_nmea0183_twin() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("cirrus.csv");
+    let (ok, r, err) = import(&fixture("cirrus-fast.all"), &rec, &[]);
+    assert!(ok, "{err}");
+    let compass: Vec<f64> = std::fs::read_to_string(data("cirrus-yacht/Calibration_Cirrus_v3_compass.csv")).unwrap().lines().skip(1).map(|l| l.split(',').nth(1).unwrap().parse().unwrap()).collect();
+    assert_eq!(r["rows"].as_u64(), Some(compass.len() as u64));
+    assert_eq!(r["column_sources"]["compass_heading_deg"]["role"], "compass");
+    assert!(r["column_sources"].get("ref_heading_deg").is_none(), "no speed: no course at speed");
+    let text = std::fs::read_to_string(&rec).unwrap();
+    let mut imported: Vec<f64> = text.lines().skip(1).map(|l| l.split(',').nth(1).unwrap().parse().unwrap()).collect();
+    let mut expected = compass.clone();
+    // The rows are in time order, the CSV's readings not always: compare as sets.
+    imported.sort_by(f64::total_cmp);
+    expected.sort_by(f64::total_cmp);
+    let worst = imported.iter().zip(&expected).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+    // Half of 0.0001 rad: 0.0029°.
+    assert!(worst < 0.003, "{worst}");
+    let nmea = dir.path().join("cirrus-0183.csv");
+    assert!(magcal(&["import", "--nmea", p(&data("nmea/cirrus-hdm-rmc.nmea")), "--out", p(&nmea)]).status.success());
+    let (t2k, before, after, held) = swing_on_course(&rec);
+    let (t183, ..) = swing_on_course(&nmea);
+    assert!(before > 12.0 && after < 5.0 && held < 6.5, "{before} {after} {held}");
+    assert!((t2k[1] - t183[1]).abs() < 0.5 && (t2k[2] - t183[2]).abs() < 1.5 && (t2k[0] - t183[0]).abs() < 1.5, "{t2k:?} {t183:?}");
+}
