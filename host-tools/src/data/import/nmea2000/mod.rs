@@ -2,12 +2,17 @@
 //! ASCII: a boat's compass, its satellite compass or gyro, attitude, rate of
 //! turn, GNSS course and position, as one recording.
 //!
-//! **Hand-written.** The NMEA 2000 crates checked (`nmea2000`, `n2k`) read a
-//! live CAN bus, not canboat's text logs, and decode none of the proprietary
-//! PGN 65350; the text is a comma-separated line and the six PGNs read are
-//! single 8-byte frames with fixed fields, so the reader is small. The
-//! tests check it against an independent decode in Python written from
-//! canboat's published definitions (`tests/data/nmea2000-canboat/reference.py`).
+//! **Hand-written.** canboat's own Rust crate (`canboat`, every version
+//! published: 8.2.1 to 9.1.0) reads these formats, but needs Rust 1.96:
+//! this project's toolchain is 1.95 and its declared minimum 1.85; `canboat-rs` (0.1.2-alpha) decodes a CAN
+//! identifier and frame, not the text logs. Neither would read PGN 65350 as
+//! a field (canboat's database leaves it incomplete, see below). The text
+//! is a comma-separated line and the six PGNs read are single 8-byte frames
+//! with fixed fields, so the reader is small; the tests check it against an
+//! independent decode in Python written from canboat's published
+//! definitions (`tests/data/nmea2000-canboat/reference.py`). When the
+//! project moves to Rust 1.96, the `canboat` crate (feature `decode`) is the
+//! candidate to replace [`text`] and [`pgn`].
 //!
 //! **Lines** ([`text`]). canboat's FAST and PLAIN share a layout,
 //! `timestamp,priority,PGN,source,destination,length,hex bytes…`: FAST has
