@@ -260,7 +260,9 @@ pub fn import(bytes: &[u8], opts: &ImportOptions) -> Result<Imported, ImportErro
         put(col::LON_DEG, at(&pos, t, 1));
     }
     let (clock, zone_note) = clock(log.time, log.base_s + t0);
-    let mut b = Builder::new(Format::Nmea2000, row_t.iter().map(|t| t - t0).collect(), clock);
+    // To the nanosecond: the timestamps' milliseconds without the f64
+    // remainder of a time of day (0.098, not 0.09800000000177533).
+    let mut b = Builder::new(Format::Nmea2000, row_t.iter().map(|t| ((t - t0) * 1e9).round() / 1e9).collect(), clock);
     let fmt = match log.format {
         TextFormat::Fast => "canboat FAST",
         TextFormat::Plain => "canboat PLAIN",
