@@ -330,3 +330,44 @@ fn the_fixtures_are_detected() {
         assert_eq!(Format::detect(&bytes[..4096]), Some(Format::Nmea2000), "{name}");
     }
 }
+
+/// Two magnetic compasses: the one sending the field is the compass, the
+/// other's headings are counted and named; `--instance` picks the other.
+#[test]
+fn of_two_compasses_the_field_sender_is_chosen() {
+    let text = String::from_utf8(fixture("triton-head.all")).unwrap();
+    // Source 52's true headings relabelled as a magnetic compass at 60.
+    let two: String = text
+        .lines()
+        .map(|l| if l.contains(",127250,52,") { format!("{},fd\n", l.replacen(",127250,52,", ",127250,60,", 1).rsplit_once(',').unwrap().0) } else { format!("{l}\n") })
+        .collect();
+    let im = import(two.as_bytes(), &opts()).unwrap();
+    assert_eq!(im.report.skipped.get("another_compass_127250_magnetic"), Some(&106));
+    assert!(im.report.notes.iter().any(|n| n.contains("compass: source 27 of") && n.contains("[27, 60]")), "{:?}", im.report.notes);
+    // No true heading left: the course at speed is the reference.
+    assert!(im.report.column_sources["ref_heading_deg"].from.contains("129026 COG"));
+    let other = import(two.as_bytes(), &ImportOptions { instance: Some(60), ..opts() }).unwrap();
+    assert_eq!(other.report.rows, 106);
+    assert!(other.column("mx").is_none(), "source 60 sends no field: a heading-only log");
+    assert!(other.report.column_sources["compass_heading_deg"].from.contains("source 60"));
+}
+
+/// Timestamps without a zone, and in seconds: the clock says which.
+#[test]
+fn the_clock_says_the_timestamps_form() {
+    let text = String::from_utf8(fixture("triton-head.all")).unwrap();
+    let local = text.replace("Z,", ",");
+    let im = import(local.as_bytes(), &opts()).unwrap();
+    assert_eq!(im.report.clock, "s since 2026-07-02T06:01:33.010 (the logger's timestamps, zone not given)");
+    assert!(im.report.notes.iter().any(|n| n.contains("no zone")));
+    let seconds: String = text
+        .lines()
+        .map(|l| match l.split_once(',') {
+            Some((stamp, rest)) if !l.starts_with('#') => format!("{:.3},{rest}\n", (stamp[17..23].parse::<f64>().unwrap() + 60.0 * stamp[14..16].parse::<f64>().unwrap())),
+            _ => format!("{l}\n"),
+        })
+        .collect();
+    let im = import(seconds.as_bytes(), &opts()).unwrap();
+    assert_eq!(im.report.clock, "s since the logger's time 93.01 s (timestamps in seconds, no date)");
+    assert_eq!(im.report.rows, 106);
+}
