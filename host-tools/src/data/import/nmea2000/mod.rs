@@ -59,7 +59,10 @@
 //! heading of ANOTHER source (a satellite compass, a gyrocompass) is the
 //! reference (`ref_heading_deg`, [`Role::Reference`]); the compass's own true
 //! heading (its magnetic heading plus the variation) is never the reference:
-//! counted `compass_own_true_heading`, not used. Several sources of one PGN:
+//! counted `compass_own_true_heading`, not used; nor is another source's
+//! true heading that follows the compass's magnetic heading to within
+//! [`RELAY_SPREAD_DEG`] (a display or gateway relaying the compass with a
+//! variation: counted `true_heading_relaying_the_compass`). Several sources of one PGN:
 //! one is chosen by role (the compass's own attitude and rate of turn; the
 //! reference's course and position; else the source with most messages),
 //! said in a note, the others counted (`another_source_<PGN>`).
@@ -190,9 +193,26 @@ pub fn import(bytes: &[u8], opts: &ImportOptions) -> Result<Imported, ImportErro
     if own_true > 0 {
         notes.push(format!("{own_true} true headings (127250) of the compass (source {compass}) are its magnetic heading plus the variation: not a reference, not used"));
     }
+    // A true heading that follows the compass's magnetic heading to within
+    // RELAY_SPREAD_DEG is the compass relayed (a display or gateway adding
+    // the variation): never a reference.
+    let mut compass_series = Series::new([Kind::Heading360]);
+    for (t, v) in &magnetic {
+        compass_series.push(*t, [v[0]]);
+    }
+    let relays: Vec<u8> = d.true_heading.iter().filter(|(_, v)| relays_compass(v, &compass_series, opts.max_age_s)).map(|(s, _)| *s).collect();
+    for r in relays {
+        let n = d.true_heading.remove(&r).map_or(0, |v| v.len());
+        add(&mut skipped, "true_heading_relaying_the_compass".into(), n);
+        notes.push(format!("the {n} true headings (127250) of source {r} follow the compass's magnetic heading to within {RELAY_SPREAD_DEG}° (RMS about their mean): the compass relayed with a variation, not a reference, not used"));
+    }
     let reference = most(&d.true_heading);
     let true_heading = reference.and_then(|r| d.true_heading.remove(&r)).unwrap_or_default();
-    add(&mut skipped, "another_source_127250_true".into(), d.true_heading.values().map(Vec::len).sum());
+    let others: usize = d.true_heading.values().map(Vec::len).sum();
+    if others > 0 {
+        add(&mut skipped, "another_source_127250_true".into(), others);
+        notes.push(format!("ref_heading_deg from source {} (the most true headings); the {others} of sources {:?} not used", reference.unwrap_or_default(), d.true_heading.keys().collect::<Vec<_>>()));
+    }
     let mut choose = |map: &mut BySource<[f64; 2]>, pgn: u32, what: &str, prefer: [Option<u8>; 2]| {
         let src = prefer.into_iter().flatten().find(|s| map.contains_key(s)).or_else(|| most(map))?;
         let samples = map.remove(&src)?;
@@ -355,6 +375,24 @@ fn clock(form: TimeForm, t0: f64) -> (String, Option<String>) {
         TimeForm::Seconds => (format!("s since the logger's time {t0} s (timestamps in seconds, no date)"), None),
         TimeForm::TimeOfDay => (format!("s since {} (Actisense time of day, no date)", tod(t0)), None),
     }
+}
+
+/// The spread (RMS about the mean) of a true heading minus the compass's
+/// magnetic heading under which the true heading is the compass relayed, °.
+/// An independent sensor's differs by both sensors' noise (the triton log's
+/// satellite compass: 0.22°).
+pub const RELAY_SPREAD_DEG: f64 = 0.05;
+
+/// Whether true headings follow the compass's heading (carried to their
+/// times) to within [`RELAY_SPREAD_DEG`], over 10 pairs or more.
+fn relays_compass(true_heading: &[(f64, [f64; 2])], compass: &Series<1>, max_age_s: f64) -> bool {
+    let d: Vec<f64> = true_heading.iter().filter_map(|(t, v)| compass.at(*t, max_age_s).map(|c| rules::wrap180(v[0] - c[0]))).filter(|d| d.is_finite()).collect();
+    if d.len() < 10 {
+        return false;
+    }
+    let mean = d.iter().sum::<f64>() / d.len() as f64;
+    let spread = (d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / d.len() as f64).sqrt();
+    spread < RELAY_SPREAD_DEG
 }
 
 /// Counts `n` of `kind` (nothing when 0).

@@ -371,3 +371,27 @@ fn the_clock_says_the_timestamps_form() {
     assert_eq!(im.report.clock, "s since the logger's time 93.01 s (timestamps in seconds, no date)");
     assert_eq!(im.report.rows, 106);
 }
+
+/// A true heading that is the compass relayed (its magnetic heading plus a
+/// variation, from a display's address) is not the reference.
+#[test]
+fn a_relayed_compass_is_not_a_reference() {
+    let text = String::from_utf8(fixture("triton-head.all")).unwrap();
+    let mut relayed = String::new();
+    for l in text.lines().filter(|l| !l.contains(",127250,52,")) {
+        relayed += &format!("{l}\n");
+        // Source 27's magnetic heading + 0.0151 rad as a true heading from 3.
+        if let Some(rest) = l.strip_suffix(",fd").filter(|l| l.contains(",127250,27,")) {
+            let f: Vec<&str> = rest.split(',').collect();
+            let raw = u16::from_str_radix(&format!("{}{}", f[8], f[7]), 16).unwrap() + 151;
+            relayed += &format!("{},2,127250,3,255,8,ff,{:02x},{:02x},ff,7f,97,00,fc\n", f[0], raw & 0xff, raw >> 8);
+        }
+    }
+    let im = import(relayed.as_bytes(), &opts()).unwrap();
+    assert_eq!(im.report.skipped.get("true_heading_relaying_the_compass"), Some(&211));
+    assert!(im.report.column_sources["ref_heading_deg"].from.contains("129026 COG"), "{:?}", im.report.column_sources);
+    assert!(im.report.notes.iter().any(|n| n.contains("source 3 follow the compass")));
+    // The satellite compass is not a relay: measured spread 0.22°.
+    let sat = import(&fixture("triton-head.all"), &opts()).unwrap();
+    assert!(sat.report.skipped.get("true_heading_relaying_the_compass").is_none());
+}
