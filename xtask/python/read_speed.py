@@ -68,7 +68,7 @@ def module(path, name):
 
 def nmea2000(path):
     ref = module(os.path.join(ROOT, "tests/data/nmea2000-canboat/reference.py"), "n2k_reference")
-    return lambda: ref.read_log(path)
+    return lambda: ref.read(path)[0]["messages"]
 
 
 def nmea0183(path):

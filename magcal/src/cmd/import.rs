@@ -31,7 +31,8 @@ pub struct Args {
     #[arg(long)]
     out: PathBuf,
     /// The magnetometer instance to import (0 = the first; the report says
-    /// which instances the log holds).
+    /// which instances the log holds). NMEA 2000: the compass's source
+    /// address.
     #[arg(long, alias = "mag-instance", value_parser = clap::value_parser!(u32).range(0..=255))]
     instance: Option<u32>,
     /// The magnetometer topic, when a ROS 2 bag or a PX4 ULog holds several
