@@ -33,6 +33,16 @@ pub enum Sqlite3Error {
     /// Shorter than SQLite's 100-byte header.
     #[error("SQLite database cut short: {0} bytes, fewer than its 100-byte header")]
     Truncated(usize),
+    /// Shorter than the pages its header counts.
+    #[error("SQLite database cut short: {bytes} bytes where its header counts {pages} pages of {page_size} bytes")]
+    CutShort {
+        /// The bytes given.
+        bytes: usize,
+        /// The pages the header counts.
+        pages: u64,
+        /// Bytes a page.
+        page_size: u64,
+    },
     /// An SQLite database without rosbag2's tables.
     #[error("an SQLite database, not a ROS 2 bag: no `topics` and `messages` tables (tables: {})", if tables.is_empty() { "none".to_string() } else { tables.join(", ") })]
     NotABag {
@@ -73,6 +83,19 @@ fn open(bytes: &[u8]) -> Result<Connection, Sqlite3Error> {
     Ok(conn)
 }
 
+/// The pages and page size the header counts, when its page count is valid
+/// (the change counter at 24 equals the version-valid-for number at 92, as
+/// SQLite requires).
+fn header_pages(bytes: &[u8]) -> Option<(u64, u64)> {
+    let be32 = |at: usize| bytes.get(at..at + 4).and_then(|b| b.try_into().ok()).map(u32::from_be_bytes);
+    let page_size = match bytes.get(16..18)? {
+        [0, 1] => 65_536,
+        [a, b] => u64::from(u16::from_be_bytes([*a, *b])),
+        _ => return None,
+    };
+    (be32(24)? == be32(92)? && page_size >= 512).then_some((u64::from(be32(28)?), page_size))
+}
+
 /// Imports a ROS 2 bag in sqlite3 storage held in memory.
 pub fn import(bytes: &[u8], opts: &ImportOptions) -> Result<Imported, ImportError> {
     read(bytes)?.finish(opts, |e| Sqlite3Error::Bag(e).into())
@@ -85,6 +108,11 @@ fn read(bytes: &[u8]) -> Result<Bag, Sqlite3Error> {
     }
     if bytes.len() < 100 {
         return Err(Sqlite3Error::Truncated(bytes.len()));
+    }
+    if let Some((pages, page_size)) = header_pages(bytes) {
+        if (bytes.len() as u64) < pages.saturating_mul(page_size) {
+            return Err(Sqlite3Error::CutShort { bytes: bytes.len(), pages, page_size });
+        }
     }
     let conn = open(bytes)?;
     let tables: Vec<String> = conn.prepare("SELECT name FROM sqlite_master WHERE type = 'table' ORDER BY name")?.query_map([], |r| r.get(0))?.collect::<Result<_, _>>()?;
@@ -136,4 +164,92 @@ fn read(bytes: &[u8]) -> Result<Bag, Sqlite3Error> {
         }
     }
     Ok(bag)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const BAG: &[u8] = include_bytes!("../../../../tests/data/ros2/swing_db3/swing_db3.db3");
+
+    /// The fixture changed by `sql` (and `edit` on each message's data),
+    /// as bytes.
+    fn edited(sql: &str, edit: impl Fn(&mut Vec<u8>)) -> Vec<u8> {
+        let mut conn = Connection::open_in_memory().unwrap();
+        conn.deserialize_read_exact("main", BAG, BAG.len(), false).unwrap();
+        conn.execute_batch(sql).unwrap();
+        let rows: Vec<(i64, Vec<u8>)> = conn.prepare("SELECT id, data FROM messages").unwrap().query_map([], |r| Ok((r.get(0)?, r.get(1)?))).unwrap().map(Result::unwrap).collect();
+        for (id, mut data) in rows {
+            edit(&mut data);
+            conn.execute("UPDATE messages SET data = ?1 WHERE id = ?2", rusqlite::params![data, id]).unwrap();
+        }
+        conn.serialize("main").unwrap().to_vec()
+    }
+
+    fn import_ok(bytes: &[u8], opts: &ImportOptions) -> Imported {
+        import(bytes, opts).unwrap()
+    }
+
+    #[test]
+    fn the_fixture_imports() {
+        let im = import_ok(BAG, &ImportOptions::default());
+        assert_eq!(im.report.rows, 266);
+        assert_eq!(im.report.messages["/imu/mag"], 268);
+        assert!(Format::detect(BAG) == Some(Format::Sqlite3));
+    }
+
+    #[test]
+    fn an_older_bag_without_definitions_is_read_by_type_names() {
+        let old = edited("DROP TABLE message_definitions;", |_| {});
+        let im = import_ok(&old, &ImportOptions::default());
+        assert_eq!(im.report.rows, 266);
+        assert!(im.report.notes.iter().any(|n| n.contains("/imu/mag: no definition stored")), "{:?}", im.report.notes);
+    }
+
+    #[test]
+    fn a_definition_of_another_layout_is_refused() {
+        let sql = "UPDATE message_definitions SET encoded_message_definition = replace(encoded_message_definition, 'float64 y', 'float32 y') WHERE topic_type = 'sensor_msgs/msg/MagneticField';";
+        let e = import(&edited(sql, |_| {}), &ImportOptions::default()).unwrap_err().to_string();
+        assert!(e.contains("/imu/mag: the bag's definition of sensor_msgs/msg/MagneticField is not the one read here") && e.contains("float32 y"), "{e}");
+        // Another topic's: that topic is not read, the import goes on.
+        let sql = "UPDATE message_definitions SET encoded_message_definition = 'float64 x' WHERE topic_type = 'sensor_msgs/msg/NavSatFix';";
+        let im = import_ok(&edited(sql, |_| {}), &ImportOptions::default());
+        assert!(im.column("lat_deg").is_none());
+        assert_eq!(im.report.skipped["definition_differs: /gnss/fix"], 266);
+    }
+
+    #[test]
+    fn unstamped_messages_fall_back_to_the_receive_time() {
+        let unstamped = edited("", |d| {
+            if d.len() > 12 {
+                d[4..12].fill(0);
+            }
+        });
+        let im = import_ok(&unstamped, &ImportOptions::default());
+        assert!(im.report.clock.contains("receive time"), "{}", im.report.clock);
+        // The receive times are the stamps plus 5 ms: the same t.
+        assert_eq!(im.column("t").unwrap()[1], 5.0);
+        assert!(im.column("roll_deg").is_some());
+    }
+
+    #[test]
+    fn not_a_bag_wal_and_damage() {
+        let mut conn = Connection::open_in_memory().unwrap();
+        conn.execute_batch("CREATE TABLE boats (name TEXT);").unwrap();
+        let other = conn.serialize("main").unwrap().to_vec();
+        assert!(matches!(read(&other), Err(Sqlite3Error::NotABag { tables }) if tables == ["boats"]));
+        // A bag left in WAL mode (bytes 18, 19 = 2) reads the same.
+        let mut wal = BAG.to_vec();
+        wal[18..20].copy_from_slice(&[2, 2]);
+        assert_eq!(import_ok(&wal, &ImportOptions::default()).report.rows, 266);
+        // Cut anywhere or bytes changed: an error or an import, never a panic.
+        for cut in (0..BAG.len()).step_by(1531) {
+            let _ = import(&BAG[..cut], &ImportOptions::default());
+        }
+        for at in (0..BAG.len()).step_by(1009) {
+            let mut b = BAG.to_vec();
+            b[at] ^= 0x5A;
+            let _ = import(&b, &ImportOptions::default());
+        }
+    }
 }
