@@ -93,8 +93,9 @@ pub enum Ros2Error {
         /// The magnetometer topics found.
         found: Vec<String>,
     },
-    /// The magnetometer topic's stored definition is not the layout read.
-    #[error("{topic}: the bag's definition of {type_name} is not the one read here ({detail})")]
+    /// The magnetometer topic cannot be read: its stored definition is not
+    /// the layout read, or it is not serialized as CDR.
+    #[error("{topic} ({type_name}) cannot be read: {detail}")]
     Definition {
         /// The topic.
         topic: String,
@@ -474,12 +475,12 @@ impl Bag {
         let mut refused = None;
         if let Some(t) = msg_type {
             if !serialization.eq_ignore_ascii_case("cdr") {
-                refused = Some(("not_cdr", format!("{name}: serialized as {serialization:?}, not CDR: not read")));
+                refused = Some(("not_cdr", format!("serialized as {serialization:?}, not CDR")));
             } else {
                 match definition {
                     Some(d) if d.encoding == "ros2msg" => {
                         if let Err(e) = check_definition(t.name(), &d.text) {
-                            refused = Some(("definition_differs", e));
+                            refused = Some(("definition_differs", format!("the bag's definition is not the layout read: {e}")));
                         }
                     }
                     Some(d) => self.note(format!("{name}: definition in {:?}, not checked: decoded as {}", d.encoding, t.name())),
@@ -558,8 +559,8 @@ impl Bag {
 
     /// The import: the magnetometer topic's samples as rows, the other
     /// topics' carried to their times ([`rules::Series`]), in this project's
-    /// frames and units. `storage` is said in the clock (e.g. "MCAP");
-    /// `wrap` makes the format's error.
+    /// frames and units; `wrap` makes the format's error from a
+    /// [`Ros2Error`].
     pub fn finish(mut self, opts: &ImportOptions, wrap: impl Fn(Ros2Error) -> ImportError) -> Result<Imported, ImportError> {
         let all_topics: Vec<String> = self.topics.iter().map(|t| format!("{} ({})", t.name, t.type_name)).collect();
         let mags = self.of_type(MsgType::MagneticField, |_| true);
@@ -863,6 +864,88 @@ mod tests {
         assert!(e.contains("Vector3") && e.contains("float32 y"), "{e}");
         let e = check_definition(IMU, "std_msgs/Header header\ngeometry_msgs/Quaternion orientation\n").unwrap_err();
         assert!(e.starts_with("Imu:"), "{e}");
+    }
+
+    /// A message of a header (stamp `ns`) and `f64s` in little-endian CDR.
+    fn stamped(ns: i64, f64s: &[f64]) -> Vec<u8> {
+        let mut b = vec![0, 1, 0, 0];
+        b.extend(((ns / 1_000_000_000) as i32).to_le_bytes());
+        b.extend(((ns % 1_000_000_000) as u32).to_le_bytes());
+        b.extend(2u32.to_le_bytes());
+        b.extend(b"m\0");
+        while (b.len() - 4) % 8 != 0 {
+            b.push(0);
+        }
+        for v in f64s {
+            b.extend(v.to_le_bytes());
+        }
+        b
+    }
+
+    /// An Imu: orientation `q` (x, y, z, w), rate `w`, covariances zero.
+    fn imu(ns: i64, q: [f64; 4], w: [f64; 3]) -> Vec<u8> {
+        let mut v = q.to_vec();
+        v.extend([0.0; 9]);
+        v.extend(w);
+        v.extend([0.0; 9 + 3 + 9]);
+        stamped(ns, &v)
+    }
+
+    #[test]
+    fn a_bag_by_hand_topics_roles_and_frames() {
+        let mut bag = Bag::new(Format::Mcap);
+        let mag = bag.topic("/mag", MAGNETIC_FIELD, "cdr", None);
+        let att = bag.topic("/imu", IMU, "cdr", None);
+        let hdg = bag.topic("/ins/heading", IMU, "cdr", None);
+        let other = bag.topic("/camera", "sensor_msgs/msg/Image", "cdr", None);
+        // Facing north, level, turning right at 0.1 rad/s; the field 20 000 nT
+        // north, 40 000 nT down; a GNSS compass's heading 2° (yaw 88° in ENU).
+        let north = q([0.0, 0.0, 1.0], 90.0);
+        for k in 0..3 {
+            let ns = 1_000_000_000 * (10 + k);
+            bag.message(mag, ns + 7, &stamped(ns, &[2e-5, 0.0, -4e-5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]));
+            bag.message(att, ns + 7, &imu(ns, north, [0.0, 0.0, -0.1]));
+            bag.message(hdg, ns + 7, &imu(ns, q([0.0, 0.0, 1.0], 88.0), [0.0; 3]));
+            bag.message(other, ns, &[1, 2, 3]);
+        }
+        bag.message(mag, 0, &[0, 1, 0, 0, 1]);
+        let im = bag.finish(&ImportOptions::default(), |e| ImportError::Mcap(e.into())).unwrap();
+        assert_eq!(im.column("t").unwrap(), [0.0, 1.0, 2.0]);
+        assert_eq!(im.column("mx").unwrap()[0], 20_000.0);
+        assert_eq!(im.column("mz").unwrap()[0], 40_000.0);
+        assert!(im.column("ahrs_yaw_deg").unwrap()[0].abs() < 1e-9);
+        assert!((im.column("ref_heading_deg").unwrap()[0] - 2.0).abs() < 1e-9);
+        assert!((im.column("gz").unwrap()[0] - 0.1).abs() < 1e-15);
+        assert_eq!(im.report.column_sources["ref_heading_deg"].role, Role::Reference);
+        assert!(im.report.column_sources["ref_heading_deg"].from.contains("/ins/heading"));
+        assert!(im.report.column_sources["roll_deg"].from.contains("/imu:"));
+        assert_eq!(im.report.messages["/camera"], 3);
+        assert_eq!(im.report.messages["/mag"], 4);
+        assert_eq!(im.report.skipped["short_cdr_message: /mag"], 1);
+        assert!(im.report.notes.iter().any(|n| n.contains("/mag: no definition stored")), "{:?}", im.report.notes);
+    }
+
+    #[test]
+    fn a_bag_by_hand_refusals() {
+        let mut bag = Bag::new(Format::Sqlite3);
+        bag.topic("/imu", IMU, "cdr", None);
+        let e = bag.finish(&ImportOptions::default(), |e| ImportError::Mcap(e.into())).unwrap_err().to_string();
+        assert_eq!(e, "no sensor_msgs/msg/MagneticField topic in the bag (topics: /imu (sensor_msgs/msg/Imu))");
+        let mut bag = Bag::new(Format::Sqlite3);
+        let mag = bag.topic("/mag", MAGNETIC_FIELD, "cdr", None);
+        bag.message(mag, 0, &[0, 1, 0, 0]);
+        let e = bag.finish(&ImportOptions::default(), |e| ImportError::Mcap(e.into())).unwrap_err().to_string();
+        assert!(e.starts_with("/mag: none of its 1 messages could be decoded"), "{e}");
+        let mut bag = Bag::new(Format::Sqlite3);
+        let mag = bag.topic("/mag", MAGNETIC_FIELD, "cdr", None);
+        bag.message(mag, 0, &stamped(1, &[0.0; 12]));
+        let opts = ImportOptions { topic: Some("/other".into()), ..ImportOptions::default() };
+        let e = bag.finish(&opts, |e| ImportError::Mcap(e.into())).unwrap_err().to_string();
+        assert_eq!(e, "--topic /other: not a sensor_msgs/msg/MagneticField topic of the bag (magnetometer topics: /mag)");
+        let mut bag = Bag::new(Format::Sqlite3);
+        let mag = bag.topic("/mag", MAGNETIC_FIELD, "json", None);
+        bag.message(mag, 0, b"{}");
+        assert!(bag.finish(&ImportOptions::default(), |e| ImportError::Mcap(e.into())).unwrap_err().to_string().contains("not CDR"));
     }
 
     #[test]

@@ -210,7 +210,7 @@ mod tests {
     fn a_definition_of_another_layout_is_refused() {
         let sql = "UPDATE message_definitions SET encoded_message_definition = replace(encoded_message_definition, 'float64 y', 'float32 y') WHERE topic_type = 'sensor_msgs/msg/MagneticField';";
         let e = import(&edited(sql, |_| {}), &ImportOptions::default()).unwrap_err().to_string();
-        assert!(e.contains("/imu/mag: the bag's definition of sensor_msgs/msg/MagneticField is not the one read here") && e.contains("float32 y"), "{e}");
+        assert!(e.contains("/imu/mag (sensor_msgs/msg/MagneticField) cannot be read: the bag's definition is not the layout read: Vector3: fields") && e.contains("float32 y"), "{e}");
         // Another topic's: that topic is not read, the import goes on.
         let sql = "UPDATE message_definitions SET encoded_message_definition = 'float64 x' WHERE topic_type = 'sensor_msgs/msg/NavSatFix';";
         let im = import_ok(&edited(sql, |_| {}), &ImportOptions::default());
