@@ -37,6 +37,8 @@
 //! (1, 1, 0)/√2 and about x), then the aerospace Z-Y-X angles
 //! ([`rules::quaternion_to_euler_deg`]): the heading is 90° − the ENU yaw,
 //! pitch changes sign (ROS's positive pitch is nose down), roll keeps it.
+//! A `header.frame_id` ending in `_ned` or `_frd` (drivers that publish in
+//! those frames say so there) is converted the same way and a note says so.
 //!
 //! **CDR** is read by hand, a bounded cursor of a few dozen lines for the
 //! fixed layouts of these four types: the serde-based CDR crates (`cdr`, no
@@ -228,25 +230,25 @@ impl<'a> Cdr<'a> {
         self.take::<1>(field).map(|[b]| b)
     }
 
-    /// Skips a `string` (a `uint32` length with its NUL, the bytes, the
-    /// NUL), bounded by the message.
-    pub fn skip_string(&mut self, field: &'static str) -> Result<(), CdrError> {
+    /// A `string` (a `uint32` length with its NUL, the bytes, the NUL),
+    /// bounded by the message: its bytes without the NUL.
+    pub fn string(&mut self, field: &'static str) -> Result<&'a [u8], CdrError> {
         let n = self.u32(field)? as usize;
         let at = self.pos;
         let bytes = self.buf.get(at..at.saturating_add(n)).ok_or(CdrError::Short { field, need: n, at, len: self.buf.len() })?;
-        if bytes.last() != Some(&0) {
-            return Err(CdrError::BadString(field));
-        }
+        let Some((0, text)) = bytes.split_last() else { return Err(CdrError::BadString(field)) };
         self.pos = at + n;
-        Ok(())
+        Ok(text)
     }
 
-    /// A `std_msgs/msg/Header`: its stamp in ns since the epoch.
-    pub fn header(&mut self) -> Result<i64, CdrError> {
+    /// A `std_msgs/msg/Header`: its stamp in ns since the epoch, and whether
+    /// its `frame_id` names an NED or FRD frame (ends in `_ned` or `_frd`).
+    pub fn header(&mut self) -> Result<(i64, bool), CdrError> {
         let sec = self.i32("header.stamp.sec")?;
         let nanosec = self.u32("header.stamp.nanosec")?;
-        self.skip_string("header.frame_id")?;
-        Ok(i64::from(sec) * 1_000_000_000 + i64::from(nanosec))
+        let frame = self.string("header.frame_id")?.to_ascii_lowercase();
+        let ned = frame.ends_with(b"_ned") || frame.ends_with(b"_frd");
+        Ok((i64::from(sec) * 1_000_000_000 + i64::from(nanosec), ned))
     }
 }
 
@@ -262,6 +264,8 @@ pub struct Sample {
     pub receive_ns: i64,
     /// The values.
     pub v: [f64; 7],
+    /// Whether `header.frame_id` names an NED or FRD frame.
+    pub ned_frame_id: bool,
 }
 
 /// The types read.
@@ -299,7 +303,7 @@ impl MsgType {
     /// value, e.g. a NavSatFix without a fix).
     pub fn decode(self, msg: &[u8], receive_ns: i64) -> Result<Option<Sample>, CdrError> {
         let mut c = Cdr::new(msg)?;
-        let stamp_ns = c.header()?;
+        let (stamp_ns, ned_frame_id) = c.header()?;
         let mut v = [f64::NAN; 7];
         match self {
             MsgType::MagneticField => {
@@ -338,7 +342,7 @@ impl MsgType {
                 v[..4].copy_from_slice(&q);
             }
         }
-        Ok(Some(Sample { stamp_ns, receive_ns, v }))
+        Ok(Some(Sample { stamp_ns, receive_ns, v, ned_frame_id }))
     }
 }
 
@@ -709,6 +713,14 @@ impl Bag {
             b.note(n);
         }
         b.note("frames: ROS's FLU body and ENU world (REP 103) converted to FRD and NED: field and rates (x, −y, −z); roll kept, pitch negated, heading = 90° − the ENU yaw".to_string());
+        for i in [Some(mag), imu, heading].into_iter().flatten() {
+            if self.topics[i].samples.iter().any(|s| s.ned_frame_id) {
+                b.note(format!(
+                    "{}: a header.frame_id ends in _ned or _frd: a driver may publish in NED/FRD already; converted from ENU/FLU (REP 103) all the same: check the signs",
+                    self.topics[i].name
+                ));
+            }
+        }
         if heading.is_none() {
             b.note("no heading reference: no QuaternionStamped or Imu topic named *heading* (a GNSS compass's); ahrs_yaw_deg is the vehicle's own estimate, not a reference".to_string());
         }
@@ -868,11 +880,17 @@ mod tests {
 
     /// A message of a header (stamp `ns`) and `f64s` in little-endian CDR.
     fn stamped(ns: i64, f64s: &[f64]) -> Vec<u8> {
+        stamped_in(ns, "m", f64s)
+    }
+
+    /// The same with `frame` for `header.frame_id`.
+    fn stamped_in(ns: i64, frame: &str, f64s: &[f64]) -> Vec<u8> {
         let mut b = vec![0, 1, 0, 0];
         b.extend(((ns / 1_000_000_000) as i32).to_le_bytes());
         b.extend(((ns % 1_000_000_000) as u32).to_le_bytes());
-        b.extend(2u32.to_le_bytes());
-        b.extend(b"m\0");
+        b.extend((frame.len() as u32 + 1).to_le_bytes());
+        b.extend(frame.as_bytes());
+        b.push(0);
         while (b.len() - 4) % 8 != 0 {
             b.push(0);
         }
@@ -923,6 +941,12 @@ mod tests {
         assert_eq!(im.report.messages["/mag"], 4);
         assert_eq!(im.report.skipped["short_cdr_message: /mag"], 1);
         assert!(im.report.notes.iter().any(|n| n.contains("/mag: no definition stored")), "{:?}", im.report.notes);
+        assert!(!im.report.notes.iter().any(|n| n.contains("_ned")), "{:?}", im.report.notes);
+        let mut bag = Bag::new(Format::Mcap);
+        let mag = bag.topic("/mag", MAGNETIC_FIELD, "cdr", None);
+        bag.message(mag, 0, &stamped_in(1, "imu_NED", &[1e-5; 12]));
+        let im = bag.finish(&ImportOptions::default(), |e| ImportError::Mcap(e.into())).unwrap();
+        assert!(im.report.notes.iter().any(|n| n.starts_with("/mag: a header.frame_id ends in _ned or _frd")), "{:?}", im.report.notes);
     }
 
     #[test]
