@@ -496,6 +496,12 @@ impl Bag {
         self.topics.len() - 1
     }
 
+    /// Whether the messages of topic `topic` are decoded (of a type read and
+    /// not refused): a storage may leave the others' data unread.
+    pub fn decodes(&self, topic: usize) -> bool {
+        self.topics.get(topic).is_some_and(|t| t.msg_type.is_some() && t.refused.is_none())
+    }
+
     /// One message of topic `topic` (from [`Bag::topic`]), received at
     /// `receive_ns`; decoded when its type is read, counted always.
     pub fn message(&mut self, topic: usize, receive_ns: i64, data: &[u8]) {

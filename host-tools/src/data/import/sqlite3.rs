@@ -16,6 +16,7 @@
 use std::collections::HashMap;
 use std::io::Read;
 
+use rusqlite::types::ValueRef;
 use rusqlite::{Connection, OpenFlags};
 
 use super::ros2::{Bag, Definition, Ros2Error};
@@ -139,7 +140,12 @@ fn read(bytes: &[u8]) -> Result<Bag, Sqlite3Error> {
             topics.insert(id, index);
         }
     }
-    let mut q = conn.prepare("SELECT topic_id, timestamp, data FROM messages ORDER BY timestamp, id")?;
+    // Only the data of the topics decoded is read (a camera's images are
+    // counted, not loaded). In time order; equal times in the table's order
+    // (rosbag2's timestamp index holds the rowid).
+    let decoded: Vec<String> = topics.iter().filter(|(_, &i)| bag.decodes(i)).map(|(id, _)| id.to_string()).collect();
+    let sql = format!("SELECT topic_id, timestamp, CASE WHEN topic_id IN ({}) THEN data END FROM messages ORDER BY timestamp", decoded.join(", "));
+    let mut q = conn.prepare(&sql)?;
     let mut rows = q.query([])?;
     let mut read = 0usize;
     loop {
@@ -154,10 +160,14 @@ fn read(bytes: &[u8]) -> Result<Bag, Sqlite3Error> {
             }
         };
         read += 1;
-        let fields = (row.get::<_, i64>(0), row.get::<_, i64>(1), row.get_ref(2).map(|v| v.as_blob().map(<[u8]>::to_vec)));
-        match fields {
-            (Ok(topic_id), Ok(receive_ns), Ok(Ok(data))) => match topics.get(&topic_id) {
-                Some(&topic) => bag.message(topic, receive_ns, &data),
+        let data = match row.get_ref(2) {
+            Ok(ValueRef::Blob(b)) => Some(b),
+            Ok(ValueRef::Null) => Some(&[][..]),
+            _ => None,
+        };
+        match (row.get::<_, i64>(0), row.get::<_, i64>(1), data) {
+            (Ok(topic_id), Ok(receive_ns), Some(data)) => match topics.get(&topic_id) {
+                Some(&topic) => bag.message(topic, receive_ns, data),
                 None => bag.skip("message_of_undeclared_topic", 1),
             },
             _ => bag.skip("message_row_of_wrong_types", 1),
