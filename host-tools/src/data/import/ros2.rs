@@ -612,7 +612,8 @@ impl Bag {
         let time = |s: &Sample| if stamped { s.stamp_ns } else { s.receive_ns };
         let mag_name = self.topics[mag].name.clone();
         let t0_ns = self.topics[mag].samples.iter().map(time).min().unwrap_or(0);
-        let t_of = |ns: i64| (ns - t0_ns) as f64 / 1e9;
+        // i128: a hostile receive time may be anywhere on i64.
+        let t_of = |ns: i64| (i128::from(ns) - i128::from(t0_ns)) as f64 / 1e9;
         let clock = if stamped {
             format!("s since the first {mag_name} header.stamp ({}.{:09} s since the UNIX epoch); every topic on its header.stamp", t0_ns.div_euclid(1_000_000_000), t0_ns.rem_euclid(1_000_000_000))
         } else {

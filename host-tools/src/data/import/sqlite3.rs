@@ -240,6 +240,14 @@ mod tests {
         // The receive times are the stamps plus 5 ms: the same t.
         assert_eq!(im.column("t").unwrap()[1], 5.0);
         assert!(im.column("roll_deg").is_some());
+        // Receive times at both ends of i64: no overflow.
+        let sql = "UPDATE messages SET timestamp = -9223372036854775808 WHERE id = 1; UPDATE messages SET timestamp = 9223372036854775807 WHERE id = 5;";
+        let extreme = edited(sql, |d| {
+            if d.len() > 12 {
+                d[4..12].fill(0);
+            }
+        });
+        assert!(import_ok(&extreme, &ImportOptions::default()).report.duration_s > 1e9);
     }
 
     #[test]
