@@ -26,7 +26,8 @@
 //! **Time**: every topic on its messages' `header.stamp` (the sensor's time
 //! of the sample), `t` in s since the chosen magnetometer's first stamp;
 //! when that topic's stamps are all zero (a driver that does not stamp), the
-//! bag's receive time for every topic instead, and the report says so.
+//! bag's receive time for every topic instead; another topic whose stamps are
+//! all zero on its receive time; the report says so.
 //!
 //! **Frames** (REP 103 → this project's): ROS's body frame is FLU
 //! (forward, left, up) and its world ENU (east, north, up); the columns are in
@@ -607,11 +608,15 @@ impl Bag {
         heading_candidates.extend(self.of_type(MsgType::Imu, heading_named));
         let heading = self.pick("heading reference (a topic named *heading*)", heading_candidates);
 
-        // The clock: header stamps, unless the magnetometer's are all zero.
-        let stamped = self.topics[mag].samples.iter().any(|s| s.stamp_ns != 0);
-        let time = |s: &Sample| if stamped { s.stamp_ns } else { s.receive_ns };
+        // The clock: header stamps, unless the magnetometer's are all zero
+        // (then the receive time for every topic); another topic whose
+        // stamps are all zero on its receive time.
+        let has_stamps = |t: &TopicState| t.samples.iter().any(|s| s.stamp_ns != 0);
+        let stamped = has_stamps(&self.topics[mag]);
+        let by_stamp: Vec<bool> = self.topics.iter().map(|t| stamped && has_stamps(t)).collect();
+        let time = |i: usize, s: &Sample| if by_stamp.get(i) == Some(&true) { s.stamp_ns } else { s.receive_ns };
         let mag_name = self.topics[mag].name.clone();
-        let t0_ns = self.topics[mag].samples.iter().map(time).min().unwrap_or(0);
+        let t0_ns = self.topics[mag].samples.iter().map(|s| time(mag, s)).min().unwrap_or(0);
         // i128: a hostile receive time may be anywhere on i64.
         let t_of = |ns: i64| (i128::from(ns) - i128::from(t0_ns)) as f64 / 1e9;
         let clock = if stamped {
@@ -621,6 +626,12 @@ impl Bag {
         };
         if !stamped {
             self.note(format!("{mag_name}: every header.stamp is zero: the bag's receive time is the clock for every topic"));
+        }
+        for i in [imu, fix, heading].into_iter().flatten() {
+            if stamped && !by_stamp[i] && !self.topics[i].samples.is_empty() {
+                let name = self.topics[i].name.clone();
+                self.note(format!("{name}: every header.stamp is zero: its receive time used (later than the sample by the transport's delay)"));
+            }
         }
 
         let mut non_finite = 0;
@@ -632,7 +643,7 @@ impl Bag {
                 non_finite += 1;
                 continue;
             }
-            t_s.push(t_of(time(s)));
+            t_s.push(t_of(time(mag, s)));
             for k in 0..3 {
                 field_nt[k].push(f[k]);
             }
@@ -642,25 +653,25 @@ impl Bag {
         if let Some(i) = imu {
             for s in &self.topics[i].samples {
                 if let Some(e) = enu_flu_to_ned_frd_euler_deg([s.v[0], s.v[1], s.v[2], s.v[3]]) {
-                    att.push(t_of(time(s)), e);
+                    att.push(t_of(time(i, s)), e);
                 }
                 let g = flu_to_frd([s.v[4], s.v[5], s.v[6]]);
                 if g.iter().all(|v| v.is_finite()) {
-                    gyro.push(t_of(time(s)), g);
+                    gyro.push(t_of(time(i, s)), g);
                 }
             }
         }
         let mut pos = Series::new([Kind::Linear; 2]);
         if let Some(i) = fix {
             for s in &self.topics[i].samples {
-                pos.push(t_of(time(s)), [s.v[0], s.v[1]]);
+                pos.push(t_of(time(i, s)), [s.v[0], s.v[1]]);
             }
         }
         let mut hdg = Series::new([Kind::Heading360]);
         if let Some(i) = heading {
             for s in &self.topics[i].samples {
                 if let Some(e) = enu_flu_to_ned_frd_euler_deg([s.v[0], s.v[1], s.v[2], s.v[3]]) {
-                    hdg.push(t_of(time(s)), [e[2]]);
+                    hdg.push(t_of(time(i, s)), [e[2]]);
                 }
             }
         }

@@ -184,13 +184,14 @@ mod tests {
 
     /// The fixture changed by `sql` (and `edit` on each message's data),
     /// as bytes.
-    fn edited(sql: &str, edit: impl Fn(&mut Vec<u8>)) -> Vec<u8> {
+    fn edited(sql: &str, edit: impl Fn(&str, &mut Vec<u8>)) -> Vec<u8> {
         let mut conn = Connection::open_in_memory().unwrap();
         conn.deserialize_read_exact("main", BAG, BAG.len(), false).unwrap();
         conn.execute_batch(sql).unwrap();
-        let rows: Vec<(i64, Vec<u8>)> = conn.prepare("SELECT id, data FROM messages").unwrap().query_map([], |r| Ok((r.get(0)?, r.get(1)?))).unwrap().map(Result::unwrap).collect();
-        for (id, mut data) in rows {
-            edit(&mut data);
+        let sql = "SELECT messages.id, topics.name, data FROM messages JOIN topics ON topics.id = topic_id";
+        let rows: Vec<(i64, String, Vec<u8>)> = conn.prepare(sql).unwrap().query_map([], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?))).unwrap().map(Result::unwrap).collect();
+        for (id, topic, mut data) in rows {
+            edit(&topic, &mut data);
             conn.execute("UPDATE messages SET data = ?1 WHERE id = ?2", rusqlite::params![data, id]).unwrap();
         }
         conn.serialize("main").unwrap().to_vec()
@@ -210,7 +211,7 @@ mod tests {
 
     #[test]
     fn an_older_bag_without_definitions_is_read_by_type_names() {
-        let old = edited("DROP TABLE message_definitions;", |_| {});
+        let old = edited("DROP TABLE message_definitions;", |_, _| {});
         let im = import_ok(&old, &ImportOptions::default());
         assert_eq!(im.report.rows, 266);
         assert!(im.report.notes.iter().any(|n| n.contains("/imu/mag: no definition stored")), "{:?}", im.report.notes);
@@ -219,18 +220,18 @@ mod tests {
     #[test]
     fn a_definition_of_another_layout_is_refused() {
         let sql = "UPDATE message_definitions SET encoded_message_definition = replace(encoded_message_definition, 'float64 y', 'float32 y') WHERE topic_type = 'sensor_msgs/msg/MagneticField';";
-        let e = import(&edited(sql, |_| {}), &ImportOptions::default()).unwrap_err().to_string();
+        let e = import(&edited(sql, |_, _| {}), &ImportOptions::default()).unwrap_err().to_string();
         assert!(e.contains("/imu/mag (sensor_msgs/msg/MagneticField) cannot be read: the bag's definition is not the layout read: Vector3: fields") && e.contains("float32 y"), "{e}");
         // Another topic's: that topic is not read, the import goes on.
         let sql = "UPDATE message_definitions SET encoded_message_definition = 'float64 x' WHERE topic_type = 'sensor_msgs/msg/NavSatFix';";
-        let im = import_ok(&edited(sql, |_| {}), &ImportOptions::default());
+        let im = import_ok(&edited(sql, |_, _| {}), &ImportOptions::default());
         assert!(im.column("lat_deg").is_none());
         assert_eq!(im.report.skipped["definition_differs: /gnss/fix"], 266);
     }
 
     #[test]
     fn unstamped_messages_fall_back_to_the_receive_time() {
-        let unstamped = edited("", |d| {
+        let unstamped = edited("", |_, d| {
             if d.len() > 12 {
                 d[4..12].fill(0);
             }
@@ -242,12 +243,25 @@ mod tests {
         assert!(im.column("roll_deg").is_some());
         // Receive times at both ends of i64: no overflow.
         let sql = "UPDATE messages SET timestamp = -9223372036854775808 WHERE id = 1; UPDATE messages SET timestamp = 9223372036854775807 WHERE id = 5;";
-        let extreme = edited(sql, |d| {
+        let extreme = edited(sql, |_, d| {
             if d.len() > 12 {
                 d[4..12].fill(0);
             }
         });
         assert!(import_ok(&extreme, &ImportOptions::default()).report.duration_s > 1e9);
+        // Only the IMU unstamped: its receive time (5 ms late), said.
+        let imu_unstamped = edited("", |topic, d| {
+            if topic == "/imu/data" {
+                d[4..12].fill(0);
+            }
+        });
+        // (The fixture's rows are 5 s apart: samples carried up to 10 s.)
+        let im = import_ok(&imu_unstamped, &ImportOptions { max_age_s: 10.0, ..ImportOptions::default() });
+        assert!(im.report.clock.contains("header.stamp"), "{}", im.report.clock);
+        assert!(im.report.notes.iter().any(|n| n.starts_with("/imu/data: every header.stamp is zero: its receive time used")), "{:?}", im.report.notes);
+        // The first row is before the first IMU sample (5 ms later); the others have one.
+        let roll = im.column("roll_deg").unwrap();
+        assert!(roll[0].is_nan() && roll[1..].iter().all(|r| r.is_finite()));
     }
 
     #[test]
