@@ -1,8 +1,8 @@
 //! `magcal import` of ROS 2 bags (MCAP and sqlite3 storage) against rosbags,
 //! the independent reader: `tests/data/ros2/reference.json` (written by
 //! `reference.py` from the bags `make_bags.py` wrote from the simulator's
-//! `swing.csv`); the round trip to the simulator's rows and calibration; and
-//! hostile bags.
+//! `swing.csv`); the round trip to the simulator's rows and calibration,
+//! `apply` judging against the bag's GNSS heading; and hostile bags.
 
 use std::path::{Path, PathBuf};
 
@@ -167,6 +167,36 @@ fn fit_on_the_imported_bag_gives_the_simulators_calibration() {
         for (a, b) in got.iter().zip(&want) {
             assert!((a - b).abs() <= 1e-12 * b.abs().max(1e-3), "{name}: {got:?} vs {want:?}");
         }
+    }
+}
+
+/// `magcal apply --json` of `cal` on a recording: the summary.
+fn apply(input: &Path, cal: &Path, out: &Path) -> serde_json::Value {
+    let o = magcal(&["apply", "--input", p(input), "--cal", p(cal), "--out", p(out), "--json"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    serde_json::from_slice(&o.stdout).unwrap()
+}
+
+#[test]
+fn apply_judges_the_imported_bag_against_its_gnss_heading() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let cal = d.join("cal.json");
+    let o = magcal(&["fit", "--input", p(&data("ros2/swing.csv")), "--lat", "36.9", "--lon", "50.6", "--date", "2021.0", "--out", p(&cal)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let on_csv = apply(&data("ros2/swing.csv"), &cal, &d.join("a.csv"));
+    assert_eq!(on_csv["heading_reference"], "true_heading_deg");
+    for (name, bag) in bags() {
+        let rec = d.join(format!("{name}.csv"));
+        import(&bag, &rec, &[]);
+        let s = apply(&rec, &cal, &d.join(format!("{name}.applied.csv")));
+        // The bag's /gnss/heading (a GNSS compass's, here the simulator's
+        // true heading) is the reference: the same heading error as against
+        // the simulator's truth (measured: equal to 2e-15°).
+        assert_eq!(s["heading_reference"], "ref_heading_deg", "{name}");
+        assert_eq!(s["rows"], 266);
+        let (a, b) = (s["heading_rms_deg"].as_f64().unwrap(), on_csv["heading_rms_deg"].as_f64().unwrap());
+        assert!((a - b).abs() < 1e-12, "{name}: {a} vs {b}");
     }
 }
 
