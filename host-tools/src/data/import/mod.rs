@@ -17,6 +17,7 @@
 
 pub mod mcap;
 pub mod nmea2000;
+pub mod ros2;
 pub mod rules;
 pub mod sqlite3;
 pub mod tlog;
