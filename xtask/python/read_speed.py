@@ -48,12 +48,18 @@ def rosbag(path):
     from rosbags.highlevel import AnyReader
     from pathlib import Path
 
+    # A sqlite3 bag is its folder (metadata.yaml beside the .db3).
+    bag = Path(path).parent if path.endswith(".db3") else Path(path)
+
     def read():
         n = 0
-        with AnyReader([Path(path)]) as r:
+        with AnyReader([bag]) as r:
             for conn, _t, raw in r.messages():
-                r.deserialize(raw, conn.msgtype)
-                n += 1
+                try:
+                    r.deserialize(raw, conn.msgtype)
+                    n += 1
+                except Exception:  # a damaged message: counted out, as the import skips it
+                    pass
         return n
 
     return read

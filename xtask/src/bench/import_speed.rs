@@ -20,7 +20,7 @@ pub const FIXTURES: [(Format, &str); 9] = [
     (Format::Ulog, "tests/data/px4-ulog/sample_log_small_cut.ulg"),
     (Format::Ulog, "tests/data/px4-ulog/sample_appended_multiple_cut.ulg"),
     (Format::Mcap, "tests/data/ros2/swing.mcap"),
-    (Format::Sqlite3, "tests/data/ros2/swing_db3/swing_db3_0.db3"),
+    (Format::Sqlite3, "tests/data/ros2/swing_db3/swing_db3.db3"),
     (Format::Nmea2000, "tests/data/nmea2000-canboat/triton-head.all"),
     (Format::Nmea2000, "tests/data/nmea2000-canboat/triton-head-plain.raw"),
     (Format::Nmea0183, "tests/data/nmea/gofree-merrimac-head.nmea"),
