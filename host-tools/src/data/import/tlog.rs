@@ -897,7 +897,6 @@ mod tests {
         assert_eq!(im.report.rows, 5);
         let e = import(&b, &ImportOptions { instance: Some(1), ..Default::default() }).unwrap_err().to_string();
         assert!(e.contains("no instance 1"), "{e}");
-        let _ = GpsFixType::GPS_FIX_TYPE_3D_FIX;
     }
 
     #[test]
@@ -906,4 +905,50 @@ mod tests {
         assert_eq!(utc(1_683_220_541_055_000), "2023-05-04T17:15:41Z");
         assert_eq!(utc(951_782_400_000_000), "2000-02-29T00:00:00Z");
     }
+
+    #[test]
+    fn a_gnss_compass_or_the_course_at_speed_is_the_reference() {
+        use mavlink::dialects::ardupilotmega::{GPS_INPUT_DATA, GPS_RAW_INT_DATA};
+        let gps = |t_ms: u64, vel_cm_s: u16, cog_cdeg: u16, yaw_cdeg: u16| {
+            MavMessage::GPS_RAW_INT(GPS_RAW_INT_DATA {
+                time_usec: t_ms * 1000,
+                lat: 483_861_418,
+                lon: -1_246_305_732,
+                vel: vel_cm_s,
+                cog: cog_cdeg,
+                fix_type: GpsFixType::GPS_FIX_TYPE_3D_FIX,
+                yaw: yaw_cdeg,
+                ..Default::default()
+            })
+        };
+        let mut b = log();
+        let mut t = T0 + 10_000_000;
+        for m in [
+            gps(5_000, 30, 9_000, 0), // slow, no yaw: nothing
+            raw_imu(5_100, [1, 1, 1], [0; 3]),
+            gps(5_200, 150, 9_000, 0), // 1.5 m/s, no yaw: the course
+            raw_imu(5_300, [1, 1, 2], [0; 3]),
+            gps(5_400, 150, 9_000, 36_000), // a GNSS compass: north
+            raw_imu(5_500, [1, 1, 3], [0; 3]),
+        ] {
+            t += 100_000;
+            b.extend(record(t, 1, 1, &m, false));
+        }
+        let im = import(&b, &ImportOptions::default()).unwrap();
+        let reference = im.column("ref_heading_deg").unwrap();
+        let course = im.column("course_deg").unwrap();
+        assert!(reference[5].is_nan() && course[5] == 90.0, "{reference:?}");
+        assert_eq!(reference[6], 90.0);
+        assert_eq!(reference[7], 0.0);
+        assert_eq!(im.column("gps_speed_mps").unwrap()[6], 1.5);
+        assert!((im.column("lat_deg").unwrap()[7] - 48.386_141_8).abs() < 1e-9);
+        assert_eq!(im.report.column_sources["ref_heading_deg"].role, Role::Reference);
+        assert!(im.report.column_sources["ref_heading_deg"].from.contains("GNSS compass"));
+        // A GPS fed over GPS_INPUT: its yaw is not a reference.
+        b.extend(record(t + 1, 1, 220, &MavMessage::GPS_INPUT(GPS_INPUT_DATA::default()), false));
+        let im = import(&b, &ImportOptions::default()).unwrap();
+        assert_eq!(im.column("ref_heading_deg").unwrap()[7], 90.0, "the course at speed instead");
+        assert!(im.report.notes.iter().any(|n| n.contains("GPS_INPUT by sysid/compid 1/220")), "{:?}", im.report.notes);
+    }
+
 }
