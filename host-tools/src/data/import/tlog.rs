@@ -297,43 +297,74 @@ struct MagRow {
     gyro: Option<[f64; 3]>,
 }
 
-/// The kinds of message read for the recording (others are only counted).
+/// What the import keeps of a message of a kind it uses (others are only
+/// counted): times on the autopilot's boot clock, s; fields in mGauss;
+/// rates in rad/s; angles in degrees.
+#[derive(Debug, Clone, PartialEq)]
+enum Kept {
+    /// A HEARTBEAT: the sender's autopilot type.
+    Heartbeat(MavAutopilot),
+    /// RAW_IMU (instance 0, with IMU 0's gyro), SCALED_IMU2 (1), SCALED_IMU3 (2).
+    Mag { instance: u32, t_s: f64, field: [f64; 3], gyro: Option<[f64; 3]>, unix_clock: bool },
+    /// ATTITUDE: roll, pitch, yaw.
+    Attitude { t_s: f64, deg: [f64; 3] },
+    /// GPS_RAW_INT: lat, lon, ground speed (m/s), course, GNSS yaw (NaN when
+    /// not given), fix type.
+    Gps { t_s: f64, v: [f64; 6] },
+    /// SENSOR_OFFSETS: compass 0's offsets and the declination in use.
+    SensorOffsets { ofs: [f64; 3], declination_deg: f64 },
+    /// PARAM_VALUE of a compass parameter.
+    Param { name: String, value: f64 },
+    /// GPS_INPUT (a companion feeding the autopilot's GPS).
+    GpsInput,
+}
+
+/// What the import keeps of a message, `None` for the kinds it only counts.
 #[allow(deprecated)] // SENSOR_OFFSETS: deprecated in MAVLink's definitions (2022), still sent by ArduPilot
-fn used(m: &MavMessage) -> bool {
-    matches!(
-        m,
-        MavMessage::HEARTBEAT(_)
-            | MavMessage::RAW_IMU(_)
-            | MavMessage::SCALED_IMU2(_)
-            | MavMessage::SCALED_IMU3(_)
-            | MavMessage::ATTITUDE(_)
-            | MavMessage::GPS_RAW_INT(_)
-            | MavMessage::SENSOR_OFFSETS(_)
-            | MavMessage::PARAM_VALUE(_)
-            | MavMessage::GPS_INPUT(_)
-    )
+fn keep(m: &MavMessage) -> Option<Kept> {
+    let mag = |x: i16, y: i16, z: i16| [x, y, z].map(f64::from);
+    let finite = |v: f64| if v.is_finite() { v } else { f64::NAN };
+    Some(match m {
+        MavMessage::HEARTBEAT(h) => Kept::Heartbeat(h.autopilot),
+        MavMessage::RAW_IMU(r) => Kept::Mag {
+            instance: 0,
+            t_s: r.time_usec as f64 / 1e6,
+            field: mag(r.xmag, r.ymag, r.zmag),
+            gyro: Some([r.xgyro, r.ygyro, r.zgyro].map(|g| f64::from(g) / 1e3)),
+            unix_clock: r.time_usec >= *UNIX_US.start(),
+        },
+        MavMessage::SCALED_IMU2(r) => Kept::Mag { instance: 1, t_s: f64::from(r.time_boot_ms) / 1e3, field: mag(r.xmag, r.ymag, r.zmag), gyro: None, unix_clock: false },
+        MavMessage::SCALED_IMU3(r) => Kept::Mag { instance: 2, t_s: f64::from(r.time_boot_ms) / 1e3, field: mag(r.xmag, r.ymag, r.zmag), gyro: None, unix_clock: false },
+        MavMessage::ATTITUDE(a) => Kept::Attitude { t_s: f64::from(a.time_boot_ms) / 1e3, deg: [a.roll, a.pitch, a.yaw].map(|v| finite(f64::from(v).to_degrees())) },
+        MavMessage::GPS_RAW_INT(g) => {
+            let known = |v: u16| if v == u16::MAX { f64::NAN } else { f64::from(v) / 100.0 };
+            let yaw = match g.yaw {
+                0 | u16::MAX => f64::NAN,
+                y => (f64::from(y) / 100.0).rem_euclid(360.0),
+            };
+            let v = [f64::from(g.lat) / 1e7, f64::from(g.lon) / 1e7, known(g.vel), known(g.cog), yaw, f64::from(g.fix_type as u8)];
+            Kept::Gps { t_s: g.time_usec as f64 / 1e6, v }
+        }
+        MavMessage::SENSOR_OFFSETS(o) => Kept::SensorOffsets { ofs: mag(o.mag_ofs_x, o.mag_ofs_y, o.mag_ofs_z), declination_deg: f64::from(o.mag_declination).to_degrees() },
+        MavMessage::PARAM_VALUE(p) => {
+            let name = p.param_id.to_str().unwrap_or_default();
+            if !name.starts_with("COMPASS_") {
+                return None;
+            }
+            Kept::Param { name: name.to_string(), value: f64::from(p.param_value) }
+        }
+        MavMessage::GPS_INPUT(_) => Kept::GpsInput,
+        _ => return None,
+    })
 }
 
-/// A magnetometer message's instance, time (s on the boot clock) and field
-/// (mGauss).
-fn mag_sample(m: &MavMessage) -> Option<(u32, f64, [f64; 3])> {
-    let f = |x: i16, y: i16, z: i16| [x, y, z].map(f64::from);
-    match m {
-        MavMessage::RAW_IMU(r) => Some((0, r.time_usec as f64 * 1e-6, f(r.xmag, r.ymag, r.zmag))),
-        MavMessage::SCALED_IMU2(r) => Some((1, r.time_boot_ms as f64 * 1e-3, f(r.xmag, r.ymag, r.zmag))),
-        MavMessage::SCALED_IMU3(r) => Some((2, r.time_boot_ms as f64 * 1e-3, f(r.xmag, r.ymag, r.zmag))),
-        _ => None,
-    }
-}
-
-/// `SENSOR_OFFSETS`: compass 0's offsets (mGauss) and the declination in
-/// use (degrees).
-#[allow(deprecated)] // deprecated in MAVLink's definitions (2022), still sent by ArduPilot
-fn sensor_offsets(m: &MavMessage) -> Option<([f64; 3], f64)> {
-    match m {
-        MavMessage::SENSOR_OFFSETS(o) => Some(([o.mag_ofs_x, o.mag_ofs_y, o.mag_ofs_z].map(f64::from), f64::from(o.mag_declination).to_degrees())),
-        _ => None,
-    }
+/// The compass parameters of an instance the import reads (the correction
+/// and the motor compensation), bounded: other names are not kept.
+fn compass_parameters(instance: u32) -> Vec<String> {
+    let sfx = suffix(instance);
+    let mut names: Vec<String> = ["OFS", "DIA", "ODI", "MOT"].iter().flat_map(|b| ["_X", "_Y", "_Z"].map(|a| format!("COMPASS_{b}{sfx}{a}"))).collect();
+    names.extend([format!("COMPASS_SCALE{sfx}"), "COMPASS_MOTCT".to_string(), "COMPASS_PMOT_EN".to_string()]);
+    names
 }
 
 /// A date and time (UTC) from µs since 1970, for the report.
@@ -359,7 +390,7 @@ fn utc(t_unix_us: u64) -> String {
 pub fn import(bytes: &[u8], opts: &ImportOptions) -> Result<Imported, ImportError> {
     // Every frame: counted by message; the kinds used kept with their sender.
     let mut messages: BTreeMap<String, usize> = BTreeMap::new();
-    let mut kept: Vec<(u8, u8, MavMessage)> = Vec::new();
+    let mut kept: Vec<(u8, u8, Kept)> = Vec::new();
     let (mut frames, mut undecodable, mut first_t_us) = (0usize, 0usize, None);
     let skips = read_frames(bytes, |f| {
         frames += 1;
@@ -367,8 +398,8 @@ pub fn import(bytes: &[u8], opts: &ImportOptions) -> Result<Imported, ImportErro
         match MavMessage::parse(f.version, f.msgid, f.payload) {
             Ok(m) => {
                 *messages.entry(m.message_name().to_string()).or_default() += 1;
-                if used(&m) {
-                    kept.push((f.sysid, f.compid, m));
+                if let Some(k) = keep(&m) {
+                    kept.push((f.sysid, f.compid, k));
                 }
             }
             Err(_) => undecodable += 1,
@@ -381,18 +412,14 @@ pub fn import(bytes: &[u8], opts: &ImportOptions) -> Result<Imported, ImportErro
 
     // The autopilot: the first HEARTBEAT of an autopilot, else the sender of
     // the first magnetometer message.
-    let autopilots: Vec<(u8, u8, MavAutopilot)> = kept
-        .iter()
-        .filter_map(|(s, c, m)| match m {
-            MavMessage::HEARTBEAT(h) if h.autopilot != MavAutopilot::MAV_AUTOPILOT_INVALID => Some((*s, *c, h.autopilot)),
-            _ => None,
-        })
-        .fold(Vec::new(), |mut v, a| {
-            if !v.iter().any(|b: &(u8, u8, MavAutopilot)| (b.0, b.1) == (a.0, a.1)) {
-                v.push(a);
+    let mut autopilots: Vec<(u8, u8, MavAutopilot)> = Vec::new();
+    for (s, c, k) in &kept {
+        if let Kept::Heartbeat(a) = k {
+            if *a != MavAutopilot::MAV_AUTOPILOT_INVALID && !autopilots.iter().any(|b| (b.0, b.1) == (*s, *c)) {
+                autopilots.push((*s, *c, *a));
             }
-            v
-        });
+        }
+    }
     let (sysid, compid, ardupilot) = match autopilots.first() {
         Some(&(s, c, a)) => {
             if autopilots.len() > 1 {
@@ -405,7 +432,7 @@ pub fn import(bytes: &[u8], opts: &ImportOptions) -> Result<Imported, ImportErro
             (s, c, a == MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA)
         }
         None => {
-            let Some(&(s, c, _)) = kept.iter().find(|(_, _, m)| mag_sample(m).is_some()) else {
+            let Some(&(s, c, _)) = kept.iter().find(|(_, _, k)| matches!(k, Kept::Mag { .. })) else {
                 return Err(no_magnetometer("no autopilot (no HEARTBEAT of one)".into(), &messages));
             };
             notes.push(format!("no HEARTBEAT of an autopilot: the sender of the first magnetometer message (sysid {s}, compid {c}) taken as the autopilot, ArduPilot assumed"));
@@ -418,10 +445,10 @@ pub fn import(bytes: &[u8], opts: &ImportOptions) -> Result<Imported, ImportErro
     // The instances with a field (ArduPilot sends a zero field for a compass it does not have).
     let found: Vec<u32> = kept
         .iter()
-        .filter(|(s, c, _)| ours(*s, *c))
-        .filter_map(|(_, _, m)| mag_sample(m))
-        .filter(|(_, _, f)| *f != [0.0; 3])
-        .map(|(i, _, _)| i)
+        .filter_map(|(s, c, k)| match k {
+            Kept::Mag { instance, field, .. } if ours(*s, *c) && *field != [0.0; 3] => Some(*instance),
+            _ => None,
+        })
         .collect::<BTreeSet<_>>()
         .into_iter()
         .collect();
@@ -431,11 +458,13 @@ pub fn import(bytes: &[u8], opts: &ImportOptions) -> Result<Imported, ImportErro
     let (instance, note) = rules::choose_instance("magnetometer (RAW_IMU = 0, SCALED_IMU2 = 1, SCALED_IMU3 = 2)", &found, opts.instance)?;
     notes.extend(note);
 
-    // One pass in log order: the samples, the parameters in force.
+    // One pass in log order: the samples, the compass parameters in force.
+    let names = compass_parameters(instance);
     let mut skipped: BTreeMap<&'static str, usize> = BTreeMap::new();
     let mut skip = |kind: &'static str| *skipped.entry(kind).or_default() += 1;
+    let (mut current, mut first_values): (HashMap<String, f64>, HashMap<String, f64>) = (HashMap::new(), HashMap::new());
+    // The parameters as each row found them: a new version only when they changed.
     let mut versions: Vec<HashMap<String, f64>> = vec![HashMap::new()];
-    let mut first_values: HashMap<String, f64> = HashMap::new();
     let (mut sensor_ofs, mut declination_deg) = (None, f64::NAN);
     let mut rows: Vec<MagRow> = Vec::new();
     let mut att = Series::new([Kind::Angle180, Kind::Linear, Kind::Heading360]);
@@ -443,78 +472,60 @@ pub fn import(bytes: &[u8], opts: &ImportOptions) -> Result<Imported, ImportErro
     let mut gps = Series::new([Kind::Latest; 6]);
     let mut gyro0 = Series::new([Kind::Linear; 3]);
     let mut gps_input_senders = BTreeSet::new();
-    for (s, c, m) in &kept {
-        if let MavMessage::GPS_INPUT(_) = m {
+    for (s, c, k) in &kept {
+        if let Kept::GpsInput = k {
             gps_input_senders.insert((*s, *c));
             continue;
         }
         if !ours(*s, *c) {
-            if !matches!(m, MavMessage::HEARTBEAT(_)) {
+            if !matches!(k, Kept::Heartbeat(_)) {
                 skip("messages_from_other_systems");
             }
             continue;
         }
-        match m {
-            MavMessage::RAW_IMU(r) => {
-                if r.time_usec >= *UNIX_US.start() {
+        match k {
+            Kept::Heartbeat(_) | Kept::GpsInput => {}
+            Kept::Attitude { t_s, deg } => att.push(*t_s, *deg),
+            Kept::Gps { t_s, v } => gps.push(*t_s, *v),
+            Kept::SensorOffsets { ofs, declination_deg: d } => (sensor_ofs, declination_deg) = (Some(*ofs), *d),
+            Kept::Param { name, value } => {
+                if names.contains(name) {
+                    first_values.entry(name.clone()).or_insert(*value);
+                    current.insert(name.clone(), *value);
+                }
+            }
+            Kept::Mag { instance: i, t_s, field, gyro, unix_clock } => {
+                if *unix_clock {
                     skip("raw_imu_not_on_boot_clock");
                     continue;
                 }
-                gyro0.push(r.time_usec as f64 * 1e-6, [r.xgyro, r.ygyro, r.zgyro].map(|g| f64::from(g) * 1e-3));
-            }
-            MavMessage::ATTITUDE(a) => {
-                att.push(a.time_boot_ms as f64 * 1e-3, [a.roll, a.pitch, a.yaw].map(|v| f64::from(v).to_degrees()).map(|v| if v.is_finite() { v } else { f64::NAN }))
-            }
-            MavMessage::GPS_RAW_INT(g) => {
-                let known = |v: u16, scale: f64| if v == u16::MAX { f64::NAN } else { f64::from(v) * scale };
-                let yaw = match g.yaw {
-                    0 | u16::MAX => f64::NAN,
-                    y => (f64::from(y) * 0.01).rem_euclid(360.0),
-                };
-                let fix = g.fix_type as u8 as f64;
-                gps.push(g.time_usec as f64 * 1e-6, [f64::from(g.lat) * 1e-7, f64::from(g.lon) * 1e-7, known(g.vel, 0.01), known(g.cog, 0.01), yaw, fix]);
-            }
-            MavMessage::PARAM_VALUE(p) => {
-                let name = p.param_id.to_str().unwrap_or_default().trim_end_matches('\0').to_string();
-                let value = f64::from(p.param_value);
-                let current = versions.last().and_then(|v| v.get(&name));
-                if name.starts_with("COMPASS_") && current != Some(&value) {
-                    first_values.entry(name.clone()).or_insert(value);
-                    let mut next = versions.last().cloned().unwrap_or_default();
-                    next.insert(name, value);
-                    versions.push(next);
+                if let Some(g) = gyro {
+                    gyro0.push(*t_s, *g);
                 }
-            }
-            _ => {
-                if let Some((ofs, decl)) = sensor_offsets(m) {
-                    (sensor_ofs, declination_deg) = (Some(ofs), decl);
+                if *i != instance {
+                    continue;
                 }
+                if *field == [0.0; 3] {
+                    skip("zero_field_samples");
+                    continue;
+                }
+                if let Some(last) = rows.last() {
+                    if *t_s < last.t_s {
+                        skip("magnetometer_time_backwards");
+                        notes.push(format!("the autopilot's clock went back in the log (a reboot?): magnetometer samples earlier than {:.3} s refused; split the log to import the rest", last.t_s));
+                        continue;
+                    }
+                    if *t_s == last.t_s {
+                        skip("duplicate_magnetometer_samples");
+                        continue;
+                    }
+                }
+                if versions.last() != Some(&current) {
+                    versions.push(current.clone());
+                }
+                rows.push(MagRow { t_s: *t_s, field: *field, params: versions.len() - 1, sensor_ofs, declination_deg, gyro: *gyro });
             }
         }
-        let Some((i, t_s, field)) = mag_sample(m) else { continue };
-        if i != instance {
-            continue;
-        }
-        if field == [0.0; 3] {
-            skip("zero_field_samples");
-            continue;
-        }
-        if let Some(last) = rows.last() {
-            if t_s < last.t_s {
-                skip("magnetometer_time_backwards");
-                notes.push(format!("the autopilot's clock went back in the log (a reboot?): magnetometer samples earlier than {:.3} s refused; split the log to import the rest", last.t_s));
-                continue;
-            }
-            if t_s == last.t_s {
-                skip("duplicate_magnetometer_samples");
-                continue;
-            }
-        }
-        let gyro = match m {
-            MavMessage::RAW_IMU(r) => Some([r.xgyro, r.ygyro, r.zgyro].map(|g| f64::from(g) * 1e-3)),
-            _ => None,
-        };
-        rows.push(MagRow { t_s, field, params: versions.len() - 1, sensor_ofs, declination_deg, gyro });
     }
     if rows.is_empty() {
         return Err(no_magnetometer(autopilot, &messages));
@@ -533,7 +544,7 @@ pub fn import(bytes: &[u8], opts: &ImportOptions) -> Result<Imported, ImportErro
             continue;
         }
         // The parameters in force; those not sent yet, their first values in the log.
-        let mut params = versions[r.params].clone();
+        let mut params = versions.get(r.params).cloned().unwrap_or_default();
         let before = params.len();
         for (name, value) in &first_values {
             params.entry(name.clone()).or_insert(*value);
@@ -554,7 +565,7 @@ pub fn import(bytes: &[u8], opts: &ImportOptions) -> Result<Imported, ImportErro
         let corrected = solve3(&mat, r.field).ok_or(TlogError::Singular { instance })?;
         raw.push([0, 1, 2].map(|k| corrected[k] - ofs[k]));
     }
-    let last = versions.last().cloned().unwrap_or_default();
+    let last = current;
     if ardupilot {
         notes.push(format!(
             "the field ArduPilot sends (RAW_IMU/SCALED_IMU2/3 xmag, compass.get_field: whole mGauss) is its corrected one; the raw field written is (s·Mat)⁻¹·field − Ofs with COMPASS_OFS{sfx}_*, DIA{sfx}_*, ODI{sfx}_*, SCALE{sfx} from the log's PARAM_VALUE in force at each sample (±1 mGauss from the rounding)"
@@ -700,13 +711,13 @@ fn no_magnetometer(autopilot: String, messages: &BTreeMap<String, usize>) -> Imp
 }
 
 /// |GPS_RAW_INT yaw − ATTITUDE yaw| at each GPS sample with a yaw, degrees.
-fn gps_yaw_vs_attitude(kept: &[(u8, u8, MavMessage)], ours: &impl Fn(u8, u8) -> bool, att: &Series<3>) -> Vec<f64> {
+fn gps_yaw_vs_attitude(kept: &[(u8, u8, Kept)], ours: &impl Fn(u8, u8) -> bool, att: &Series<3>) -> Vec<f64> {
     kept.iter()
         .filter(|(s, c, _)| ours(*s, *c))
-        .filter_map(|(_, _, m)| match m {
-            MavMessage::GPS_RAW_INT(g) if g.yaw != 0 && g.yaw != u16::MAX => {
-                let [_, _, yaw] = att.at(g.time_usec as f64 * 1e-6, 1.0)?;
-                Some(rules::wrap180(f64::from(g.yaw) * 0.01 - yaw).abs())
+        .filter_map(|(_, _, k)| match k {
+            Kept::Gps { t_s, v } if v[4].is_finite() => {
+                let [_, _, yaw] = att.at(*t_s, 1.0)?;
+                Some(rules::wrap180(v[4] - yaw).abs())
             }
             _ => None,
         })
