@@ -262,14 +262,27 @@ fn next_good(bytes: &[u8], from: usize) -> Option<usize> {
     (from..bytes.len()).find(|&p| could_start(bytes, p) && matches!(record(bytes, p), Record::Good(..)))
 }
 
-/// Whether a log's first bytes look like a MAVLink telemetry log: a record
-/// whose frame's checksum holds at the start, followed by another (or by
-/// the end of what was given).
+/// Whether a log's first bytes look like a MAVLink telemetry log: from the
+/// start, records one after another (a plausible time, a start byte, the
+/// frame's length), the first of them whose checksum holds at least two (or
+/// all of them, in a shorter head) — a corrupt or unknown frame among them
+/// does not hide the format.
 pub fn looks_like(head: &[u8]) -> bool {
-    match record(head, 0) {
-        Record::Good(_, len) => len == head.len() || matches!(record(head, len), Record::Good(..) | Record::Truncated),
-        _ => false,
+    let (mut o, mut good, mut seen) = (0, 0, 0);
+    while seen < 8 && o < head.len() {
+        let len = match record(head, o) {
+            Record::Good(_, len) => {
+                good += 1;
+                len
+            }
+            Record::BadCrc(len) | Record::UnknownMessage(len) => len,
+            Record::Truncated => break,
+            Record::No => return false,
+        };
+        seen += 1;
+        o += len;
     }
+    good >= 2 || (good == 1 && seen == 1)
 }
 
 /// The compass parameters' suffix of an instance (`COMPASS_OFS_X`,
@@ -812,6 +825,11 @@ mod tests {
     fn a_log_is_read_and_the_correction_undone() {
         let bytes = log();
         assert!(looks_like(&bytes[..bytes.len().min(4096)]));
+        // A first frame with a bad checksum does not hide the format.
+        let mut first_bad = bytes.clone();
+        first_bad[TIME_LEN + 12] ^= 0xFF;
+        assert!(looks_like(&first_bad) && !matches!(super::record(&first_bad, 0), Record::Good(..)));
+        assert!(!looks_like(b"t,mx,my,mz\n0,1,2,3\n") && !looks_like(&[]));
         let im = import(&bytes, &ImportOptions::default()).unwrap();
         assert_eq!(im.report.rows, 5);
         assert_eq!(im.report.messages["RAW_IMU"], 5);
