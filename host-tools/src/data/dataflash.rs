@@ -132,7 +132,7 @@ pub enum Value {
     Num(f64),
     /// `n N Z` text, NULs removed.
     Text(String),
-    /// `a`: int16[32].
+    /// `a`: `int16[32]`.
     Array(Vec<i16>),
 }
 
