@@ -499,6 +499,8 @@ pub fn import(bytes: &[u8], opts: &ImportOptions) -> Result<Imported, ImportErro
         match k {
             Kept::Heartbeat(_) | Kept::GpsInput => {}
             Kept::Attitude { t_s, deg } => att.push(*t_s, *deg),
+            // ArduPilot stamps it with the fix's boot time (last_fix_time_ms × 1000).
+            Kept::Gps { t_s, .. } if *t_s >= *UNIX_US.start() as f64 / 1e6 => skip("gps_not_on_boot_clock"),
             Kept::Gps { t_s, v } => gps.push(*t_s, *v),
             Kept::SensorOffsets { ofs, declination_deg: d } => (sensor_ofs, declination_deg) = (Some(*ofs), *d),
             Kept::Param { name, value } => {
@@ -973,6 +975,10 @@ mod tests {
         assert!((im.column("lat_deg").unwrap()[7] - 48.386_141_8).abs() < 1e-9);
         assert_eq!(im.report.column_sources["ref_heading_deg"].role, Role::Reference);
         assert!(im.report.column_sources["ref_heading_deg"].from.contains("GNSS compass"));
+        // A GPS stamped with Unix time (not the autopilot's boot clock): counted, not used.
+        let mut unix = b.clone();
+        unix.extend(record(t + 1, 1, 1, &gps(1_700_000_000_000, 150, 9_000, 0), false));
+        assert_eq!(import(&unix, &ImportOptions::default()).unwrap().report.skipped["gps_not_on_boot_clock"], 1);
         // A GPS fed over GPS_INPUT: its yaw is not a reference.
         b.extend(record(t + 1, 1, 220, &MavMessage::GPS_INPUT(GPS_INPUT_DATA::default()), false));
         let im = import(&b, &ImportOptions::default()).unwrap();
