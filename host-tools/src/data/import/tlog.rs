@@ -51,15 +51,18 @@
 //!   reference heading ([`rules::course_at_speed_deg`]). Its `yaw` (c°, 0 =
 //!   not given, 36000 = north, 65535 = not available) is a GNSS compass's true
 //!   heading and the reference where set, except when the GPS is fed by a
-//!   companion over `GPS_INPUT` (an underwater positioning system: Water
-//!   Linked's BlueOS extension relays the vehicle's own heading back as the
-//!   yaw, an echo of the compass being calibrated): then it is not used and
-//!   the note says how close it runs to `ATTITUDE`'s yaw. `SENSOR_OFFSETS`
+//!   companion over `GPS_INPUT` (an underwater positioning system; in a
+//!   BlueROV2 log with a Water Linked underwater GPS its yaw ran within 0.5°
+//!   of the vehicle's own `ATTITUDE` yaw, whole degrees: the compass being
+//!   calibrated, sent back): then it is not used and the note says how close
+//!   it runs to `ATTITUDE`'s yaw. `SENSOR_OFFSETS`
 //!   gives the declination in use (`variation_deg`). `VFR_HUD` is counted,
 //!   not written: its ground speed is the autopilot's estimate, not the GNSS.
 //!
 //! **Clock.** `t` is the autopilot's boot clock, s: each message's own
-//! `time_usec`/`time_boot_ms`, the times the autopilot stamped its samples
+//! `time_usec`/`time_boot_ms` (`GPS_RAW_INT.time_usec`: the fix's boot time,
+//! `last_fix_time_ms × 1000` in `AP_GPS`; a message stamped with Unix time
+//! instead is counted and not used), the times the autopilot stamped its samples
 //! with (the tlog's times are when the topside received them, after the
 //! link's delays and in bursts). Attitude and GNSS are carried to each
 //! compass sample through [`rules::Series`].
