@@ -22,12 +22,21 @@
 //! at that message); with the default `DIA` = 1, `ODI` = 0 this is
 //! `raw = Mag − MO − Ofs`. Units: milligauss, body frame (after the board
 //! orientation), and the logged field is truncated to whole mGauss.
+//!
+//! The gyro: `IMU` of the first IMU (`I` = 0; older logs: `IMU`, with
+//! `IMU2`/`IMU3` for the others), `GyrX/Y/Z` in rad/s, body frame — the
+//! rates the autopilot uses — interpolated linearly to each `MAG` time; the
+//! high-rate `GYR` samples of the first IMU only when the log has no `IMU`.
+//! The IMU and compass instances are not paired: the first IMU serves
+//! every compass. Attitude, GPS, battery and gyro are carried to the
+//! compass's times by the importers' shared [`rules::Series`].
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use super::import::rules::{self, Kind, Series};
 use super::recording::Recording;
 use super::table::col;
 
@@ -123,7 +132,7 @@ pub enum Value {
     Num(f64),
     /// `n N Z` text, NULs removed.
     Text(String),
-    /// `a`: int16[32].
+    /// `a`: `int16[32]`.
     Array(Vec<i16>),
 }
 
@@ -244,9 +253,14 @@ pub struct SkipCounts {
     pub unknown_type_messages: usize,
     /// A truncated message at the end of the file.
     pub truncated_tail_bytes: usize,
+    /// ATT, GPS, BAT/CURR and IMU samples dropped because their time went
+    /// back (a reboot inside the log?).
+    #[serde(default)]
+    pub out_of_order_samples: usize,
 }
 
-/// Reads every message of a log, calling `each` in file order.
+/// Reads every message of a log (`FMT` included), calling `each` in file
+/// order.
 pub fn read_messages(bytes: &[u8], mut each: impl FnMut(&Message)) -> Result<SkipCounts, DataFlashError> {
     let mut formats: HashMap<u8, Format> = HashMap::new();
     let fmt_fmt = Format {
@@ -298,6 +312,9 @@ pub fn read_messages(bytes: &[u8], mut each: impl FnMut(&Message)) -> Result<Ski
             if type_id != FMT_TYPE {
                 formats.insert(type_id, Format { type_id, name, length, format, labels });
             }
+            if let Some(fmt) = formats.get(&FMT_TYPE) {
+                each(&Message { format: fmt, offset: o, values });
+            }
         } else {
             each(&Message { format: f, offset: o, values });
         }
@@ -332,7 +349,8 @@ impl Default for ImportOptions {
 pub struct Imported {
     /// `t, mx, my, mz` (raw, mGauss), `roll_deg, pitch_deg`, `ref_heading_deg`
     /// (GPS course at speed), `lat_deg, lon_deg`, `motor_current_a` (BAT
-    /// `Curr` of the first battery monitor, A).
+    /// `Curr` of the first battery monitor, A), `gx, gy, gz` (the first
+    /// IMU's gyro, rad/s, body frame).
     pub recording: Recording,
     /// ATT `Yaw`, degrees (the autopilot's own heading, from this compass).
     pub ahrs_yaw_deg: Vec<f64>,
@@ -357,6 +375,9 @@ pub struct ImportReport {
     pub rows_with_course: usize,
     /// Rows with a battery current.
     pub rows_with_current: usize,
+    /// Rows with the first IMU's gyro.
+    #[serde(default)]
+    pub rows_with_gyro: usize,
     /// Each column written, with the message, field and instance it comes
     /// from; `ref_heading_deg` is the GPS course, independent of the
     /// compass; `ahrs_yaw_deg`, the autopilot's heading from its own
@@ -367,31 +388,13 @@ pub struct ImportReport {
     pub notes: Vec<String>,
 }
 
-#[derive(Default)]
-struct Series {
-    t: Vec<f64>,
-    v: Vec<Vec<f64>>,
-}
-
-impl Series {
-    fn push(&mut self, t: f64, v: Vec<f64>) {
-        self.t.push(t);
-        self.v.push(v);
-    }
-    /// Index of the last sample at or before `t`, not older than `max_age`.
-    fn latest(&self, t: f64, max_age: f64) -> Option<usize> {
-        let i = self.t.partition_point(|&x| x <= t);
-        (i > 0 && t - self.t[i - 1] <= max_age).then(|| i - 1)
-    }
-}
-
-fn lerp_angle_deg(a: f64, b: f64, w: f64) -> f64 {
-    a + w * super::pairing::wrap180(b - a)
-}
-
-/// The compass parameters of one instance (names per `AP_Compass`: the first
-/// compass `COMPASS_DIA_X`, the second `COMPASS_DIA2_X`, …).
-fn compass_matrix(params: &HashMap<String, f64>, instance: u8, notes: &mut Vec<String>) -> [[f64; 3]; 3] {
+/// The correction matrix `s·Mat` of one compass instance from its
+/// parameters (names per `AP_Compass`: the first compass `COMPASS_DIA_X`,
+/// the second `COMPASS_DIA2_X`, …), as `AP_Compass_Backend::correct_field`
+/// applies it: zero diagonals taken as 1, `COMPASS_SCALE` only within
+/// 1/1.5…1.5. Also the parameters missing (ArduPilot's defaults taken: DIA
+/// 1, ODI 0, SCALE 1). Shared with the MAVLink telemetry log's import.
+pub(crate) fn compass_matrix(params: &HashMap<String, f64>, instance: u8) -> ([[f64; 3]; 3], Vec<String>) {
     let suffix = if instance == 0 { String::new() } else { (instance + 1).to_string() };
     let mut missing = Vec::new();
     let mut get = |base: &str, axis: &str, default: f64| {
@@ -404,36 +407,65 @@ fn compass_matrix(params: &HashMap<String, f64>, instance: u8, notes: &mut Vec<S
     let mut dia = [get("DIA", "_X", 1.0), get("DIA", "_Y", 1.0), get("DIA", "_Z", 1.0)];
     let odi = [get("ODI", "_X", 0.0), get("ODI", "_Y", 0.0), get("ODI", "_Z", 0.0)];
     let scale = get("SCALE", "", 1.0);
+    if dia == [0.0; 3] {
+        dia = [1.0; 3]; // correct_field sets zero diagonals to 1
+    }
+    // have_scale_factor: applied only within COMPASS_MIN/MAX_SCALE_FACTOR.
+    let s = if (1.0 / 1.5..=1.5).contains(&scale) { scale } else { 1.0 };
+    ([[dia[0], odi[0], odi[1]], [odi[0], dia[1], odi[2]], [odi[1], odi[2], dia[2]]].map(|r| r.map(|v| v * s)), missing)
+}
+
+/// The DataFlash import's matrix: [`compass_matrix`], the parameters
+/// missing said once.
+fn compass_matrix_noted(params: &HashMap<String, f64>, instance: u8, notes: &mut Vec<String>) -> [[f64; 3]; 3] {
+    let (m, missing) = compass_matrix(params, instance);
     if !missing.is_empty() {
         let note = format!("no PARM {} in the log before the first MAG: taken as ArduPilot's defaults (DIA 1, ODI 0, SCALE 1)", missing.join(", "));
         if !notes.contains(&note) {
             notes.push(note);
         }
     }
-    if dia == [0.0; 3] {
-        dia = [1.0; 3]; // correct_field sets zero diagonals to 1
-    }
-    // have_scale_factor: applied only within COMPASS_MIN/MAX_SCALE_FACTOR.
-    let s = if (1.0 / 1.5..=1.5).contains(&scale) { scale } else { 1.0 };
-    [[dia[0], odi[0], odi[1]], [odi[0], dia[1], odi[2]], [odi[1], odi[2], dia[2]]].map(|r| r.map(|v| v * s))
+    m
 }
 
-fn solve3(m: &[[f64; 3]; 3], v: [f64; 3]) -> Option<[f64; 3]> {
+/// `m⁻¹·v`, `None` when `m` is singular.
+pub(crate) fn solve3(m: &[[f64; 3]; 3], v: [f64; 3]) -> Option<[f64; 3]> {
     let inv = calib_core::linalg::inverse3(m)?;
     Some([0, 1, 2].map(|i| inv[i][0] * v[0] + inv[i][1] * v[1] + inv[i][2] * v[2]))
 }
 
 /// What the messages of a log hold, in time order per kind.
-#[derive(Default)]
 struct Collected {
     params: HashMap<String, f64>,
-    att: Series,
-    gps: Series,
-    bat: Series,
+    /// ATT Roll, Pitch, Yaw.
+    att: Series<3>,
+    /// GPS instance 0: Status, Lat, Lng, Spd, GCrs.
+    gps: Series<5>,
+    /// BAT/CURR instance 0: Curr.
+    bat: Series<1>,
+    /// The first IMU's gyro (IMU with I = 0, or IMU of older logs), rad/s.
+    imu: Series<3>,
+    /// GYR of the first IMU (high-rate samples), rad/s: used without IMU.
+    gyr: Series<3>,
     /// The chosen compass's raw field: (time, raw).
     mag: Vec<(f64, [f64; 3])>,
     /// Every compass instance seen.
     instances: Vec<u8>,
+}
+
+impl Default for Collected {
+    fn default() -> Self {
+        Self {
+            params: HashMap::new(),
+            att: Series::new([Kind::Linear, Kind::Linear, Kind::Heading360]),
+            gps: Series::new([Kind::Latest; 5]),
+            bat: Series::new([Kind::Latest]),
+            imu: Series::new([Kind::Linear; 3]),
+            gyr: Series::new([Kind::Linear; 3]),
+            mag: Vec::new(),
+            instances: Vec::new(),
+        }
+    }
 }
 
 impl Collected {
@@ -456,7 +488,7 @@ impl Collected {
         let field = [m.need("MagX")?, m.need("MagY")?, m.need("MagZ")?];
         let ofs = [m.need("OfsX")?, m.need("OfsY")?, m.need("OfsZ")?];
         let mo = [m.num("MOX").unwrap_or(0.0), m.num("MOY").unwrap_or(0.0), m.num("MOZ").unwrap_or(0.0)];
-        let mat = compass_matrix(&self.params, inst, &mut report.notes);
+        let mat = compass_matrix_noted(&self.params, inst, &mut report.notes);
         let corrected = solve3(&mat, [0, 1, 2].map(|k| field[k] - mo[k])).ok_or(DataFlashError::Singular { instance: inst, t_s: t })?;
         let raw = [0, 1, 2].map(|k| corrected[k] - ofs[k]);
         if let Some((prev, _)) = self.mag.last() {
@@ -477,11 +509,14 @@ impl Collected {
                 }
             }
             name @ ("MAG" | "MAG2" | "MAG3") => self.mag(m, name, opts, report)?,
-            "ATT" => self.att.push(m.need("TimeUS")? * 1e-6, vec![m.need("Roll")?, m.need("Pitch")?, m.need("Yaw")?]),
+            "ATT" => self.att.push(m.need("TimeUS")? * 1e-6, [m.need("Roll")?, m.need("Pitch")?, m.need("Yaw")?]),
             "GPS" if m.num("I").unwrap_or(0.0) == 0.0 => {
-                self.gps.push(m.need("TimeUS")? * 1e-6, vec![m.need("Status")?, m.need("Lat")?, m.need("Lng")?, m.need("Spd")?, m.need("GCrs")?])
+                self.gps.push(m.need("TimeUS")? * 1e-6, [m.need("Status")?, m.need("Lat")?, m.need("Lng")?, m.need("Spd")?, m.need("GCrs")?])
             }
-            "BAT" | "CURR" if m.num("Inst").or(m.num("I")).unwrap_or(0.0) == 0.0 => self.bat.push(m.need("TimeUS")? * 1e-6, vec![m.need("Curr")?]),
+            "BAT" | "CURR" if m.num("Inst").or(m.num("I")).unwrap_or(0.0) == 0.0 => self.bat.push(m.need("TimeUS")? * 1e-6, [m.need("Curr")?]),
+            // The first IMU: `IMU` with I = 0 (older logs: `IMU`, with `IMU2`, `IMU3` for the others).
+            "IMU" if m.num("I").unwrap_or(0.0) == 0.0 => self.imu.push(m.need("TimeUS")? * 1e-6, [m.need("GyrX")?, m.need("GyrY")?, m.need("GyrZ")?]),
+            "GYR" if m.num("I").unwrap_or(0.0) == 0.0 => self.gyr.push(m.num("SampleUS").map_or_else(|| m.need("TimeUS"), Ok)? * 1e-6, [m.need("GyrX")?, m.need("GyrY")?, m.need("GyrZ")?]),
             _ => {}
         }
         Ok(())
@@ -508,42 +543,45 @@ fn collect(bytes: &[u8], opts: &ImportOptions, report: &mut ImportReport) -> Res
     Ok(c)
 }
 
-/// The recording: one row per compass sample, the attitude interpolated to
-/// it, the latest GPS fix and battery current.
+/// The recording: one row per compass sample, the attitude and the first
+/// IMU's gyro interpolated to it, the latest GPS fix and battery current
+/// ([`rules::Series`]).
 fn rows(c: &Collected, opts: &ImportOptions, report: &mut ImportReport) -> Imported {
     let (att, gps, bat, mag) = (&c.att, &c.gps, &c.bat, &c.mag);
+    // The gyro: IMU (the rates the autopilot uses); GYR (high-rate samples) only without IMU.
+    let (gyro, gyro_from) = if !c.imu.is_empty() { (&c.imu, "IMU instance 0 (IMU with I = 0, or IMU of older logs) GyrX/Y/Z, rad/s") } else { (&c.gyr, "GYR instance 0 GyrX/Y/Z (high-rate samples; the log has no IMU), rad/s") };
     let n = mag.len();
     let (mut roll, mut pitch, mut course, mut lat, mut lon) = (vec![f64::NAN; n], vec![f64::NAN; n], vec![f64::NAN; n], vec![f64::NAN; n], vec![f64::NAN; n]);
     let (mut yaw, mut speed, mut current) = (vec![f64::NAN; n], vec![f64::NAN; n], vec![f64::NAN; n]);
+    let mut g = [vec![f64::NAN; n], vec![f64::NAN; n], vec![f64::NAN; n]];
     for (i, &(t, _)) in mag.iter().enumerate() {
         // Attitude: linear between the ATT samples around t (yaw across ±180°).
-        if let Some(a) = att.latest(t, opts.max_age_s) {
-            let v = if a + 1 < att.t.len() && att.t[a + 1] - att.t[a] <= opts.max_age_s && att.t[a + 1] > att.t[a] {
-                let w = (t - att.t[a]) / (att.t[a + 1] - att.t[a]);
-                let (p, q) = (&att.v[a], &att.v[a + 1]);
-                [p[0] + w * (q[0] - p[0]), p[1] + w * (q[1] - p[1]), lerp_angle_deg(p[2], q[2], w).rem_euclid(360.0)]
-            } else {
-                [att.v[a][0], att.v[a][1], att.v[a][2]]
-            };
+        if let Some(v) = att.at(t, opts.max_age_s) {
             (roll[i], pitch[i], yaw[i]) = (v[0], v[1], v[2]);
             report.rows_with_attitude += 1;
         }
         // GPS: the latest fix (Status ≥ 3: 3D); the course only at speed.
-        if let Some(g) = gps.latest(t, opts.max_age_s) {
-            let v = &gps.v[g];
+        if let Some(v) = gps.at(t, opts.max_age_s) {
             if v[0] >= 3.0 {
                 (lat[i], lon[i], speed[i]) = (v[1], v[2], v[3]);
-                if v[3] >= opts.min_course_speed_mps {
-                    course[i] = v[4];
+                course[i] = rules::course_at_speed_deg(v[4], v[3], opts.min_course_speed_mps);
+                if course[i].is_finite() {
                     report.rows_with_course += 1;
                 }
             }
         }
-        if let Some(b) = bat.latest(t, opts.max_age_s) {
-            current[i] = bat.v[b][0];
+        if let Some(v) = bat.at(t, opts.max_age_s) {
+            current[i] = v[0];
             report.rows_with_current += 1;
         }
+        if let Some(v) = gyro.at(t, opts.max_age_s) {
+            for k in 0..3 {
+                g[k][i] = v[k];
+            }
+            report.rows_with_gyro += 1;
+        }
     }
+    report.skipped.out_of_order_samples = att.out_of_order + gps.out_of_order + bat.out_of_order + gyro.out_of_order;
     report.rows = n;
     let k = opts.mag_instance;
     for (column, source) in [
@@ -556,9 +594,11 @@ fn rows(c: &Collected, opts: &ImportOptions, report: &mut ImportReport) -> Impor
         (col::LAT_DEG, "GPS instance 0 Lat".to_string()),
         (col::LON_DEG, "GPS instance 0 Lng".to_string()),
         (col::MOTOR_CURRENT_A, "BAT/CURR instance 0 Curr".to_string()),
+        ("gx, gy, gz", format!("{gyro_from}, linear between the samples around each MAG time")),
     ] {
         report.column_sources.insert(column.to_string(), source);
     }
+    let [gx, gy, gz] = g;
     let recording = Recording {
         t_s: Some(mag.iter().map(|m| m.0).collect()),
         mag: mag.iter().map(|m| m.1).collect(),
@@ -568,6 +608,9 @@ fn rows(c: &Collected, opts: &ImportOptions, report: &mut ImportReport) -> Impor
         lat_deg: Some(lat),
         lon_deg: Some(lon),
         motor_current_a: Some(current),
+        gx_rad_s: Some(gx),
+        gy_rad_s: Some(gy),
+        gz_rad_s: Some(gz),
         ..Recording::default()
     };
     Imported { recording, ahrs_yaw_deg: yaw, gps_speed_mps: speed, report: std::mem::take(report) }
@@ -635,4 +678,52 @@ mod tests {
         assert!(ok.report.column_sources["mx, my, mz"].starts_with("MAG instance 1"));
         assert!(ok.report.column_sources[col::REF_HEADING_DEG].starts_with("GPS instance 0 GCrs"));
     }
+
+    #[test]
+    fn the_first_imus_gyro_at_each_mag_time() {
+        let msg = |t: u8, body: Vec<u8>| [vec![0xA3, 0x95, t], body].concat();
+        let mag = |t_us: u64| {
+            let mut b = t_us.to_le_bytes().to_vec();
+            b.push(0);
+            for v in [1i16, 2, 3, 0, 0, 0] {
+                b.extend(v.to_le_bytes());
+            }
+            msg(201, b)
+        };
+        let gyro = |t: u8, t_us: u64, i: u8, sample_us: Option<u64>, g: [f32; 3]| {
+            let mut b = t_us.to_le_bytes().to_vec();
+            b.push(i);
+            if let Some(s) = sample_us {
+                b.extend(s.to_le_bytes());
+            }
+            for v in g {
+                b.extend(v.to_le_bytes());
+            }
+            msg(t, b)
+        };
+        let mut log = fmt(201, "MAG", "QBhhhhhh", "TimeUS,I,MagX,MagY,MagZ,OfsX,OfsY,OfsZ");
+        log.extend(fmt(202, "IMU", "QBfff", "TimeUS,I,GyrX,GyrY,GyrZ"));
+        log.extend(fmt(203, "GYR", "QBQfff", "TimeUS,I,SampleUS,GyrX,GyrY,GyrZ"));
+        let mut with_imu = log.clone();
+        with_imu.extend(gyro(202, 900_000, 0, None, [0.1, 0.0, -1.0]));
+        with_imu.extend(gyro(202, 1_000_000, 1, None, [9.0, 9.0, 9.0])); // the second IMU: not used
+        with_imu.extend(gyro(203, 1_000_000, 0, Some(1_000_000), [5.0, 5.0, 5.0])); // GYR: only without IMU
+        with_imu.extend(gyro(202, 1_100_000, 0, None, [0.3, 0.5, -1.0]));
+        with_imu.extend(mag(1_000_000));
+        let im = import(&with_imu, &ImportOptions::default()).unwrap();
+        let g = [&im.recording.gx_rad_s, &im.recording.gy_rad_s, &im.recording.gz_rad_s].map(|c| c.as_ref().unwrap()[0]);
+        for (got, want) in g.iter().zip([0.2, 0.25, -1.0]) {
+            assert!((got - want).abs() < 1e-6, "{g:?}");
+        }
+        assert!(im.report.column_sources["gx, gy, gz"].starts_with("IMU instance 0"));
+        assert_eq!(im.report.rows_with_gyro, 1);
+        // GYR alone: its sample times.
+        log.extend(gyro(203, 2_000_000, 0, Some(950_000), [0.4, 0.0, 0.0]));
+        log.extend(gyro(203, 2_000_000, 0, Some(1_050_000), [0.6, 0.0, 0.0]));
+        log.extend(mag(1_000_000));
+        let im = import(&log, &ImportOptions::default()).unwrap();
+        assert!((im.recording.gx_rad_s.as_ref().unwrap()[0] - 0.5).abs() < 1e-6);
+        assert!(im.report.column_sources["gx, gy, gz"].starts_with("GYR instance 0"));
+    }
+
 }

@@ -504,6 +504,11 @@ fn from_dataflash(bytes: &[u8], opts: &ImportOptions) -> Result<Imported, Import
     if let Some(v) = &rec.ref_heading_deg {
         b.column(col::REF_HEADING_DEG, v.clone(), src(col::REF_HEADING_DEG), Role::Reference)?;
     }
+    for (name, values) in col::GYRO.into_iter().zip([&rec.gx_rad_s, &rec.gy_rad_s, &rec.gz_rad_s]) {
+        if let Some(v) = values {
+            b.column(name, v.clone(), src("gx, gy, gz"), Role::Sensor)?;
+        }
+    }
     b.column(col::AHRS_YAW_DEG, im.ahrs_yaw_deg.clone(), src(col::AHRS_YAW_DEG), Role::OwnEstimate)?;
     b.column(col::GPS_SPEED_MPS, im.gps_speed_mps.clone(), src(col::GPS_SPEED_MPS), Role::Sensor)?;
     b.report.messages = im.report.messages.clone();
@@ -511,6 +516,7 @@ fn from_dataflash(bytes: &[u8], opts: &ImportOptions) -> Result<Imported, Import
     b.skip("corrupt_bytes", s.garbage_bytes);
     b.skip("messages_of_undescribed_types", s.unknown_type_messages);
     b.skip("truncated_tail_bytes", s.truncated_tail_bytes);
+    b.skip("samples_out_of_time_order", s.out_of_order_samples);
     for n in &im.report.notes {
         b.note(n.clone());
     }
