@@ -235,7 +235,8 @@ fn a_5_hz_swing_test_is_merged_within_20_ms_with_an_honest_sigma() -> Vec<f64> {
     let worst = es.iter().map(|(e, _)| e.abs()).fold(0.0, f64::max);
     let ratio = error_over_sigma(&es);
     eprintln!("5 Hz swing: worst offset error {:.1} ms, RMS error / RMS σ {ratio:.2}", worst * 1e3);
-    assert!(worst < 0.02, "worst offset error {worst} s");
+    // Measured worst 1.2 ms: held to 5 ms, well inside the 20 ms.
+    assert!(worst < 0.005, "worst offset error {worst} s");
     assert!((0.5..=2.0).contains(&ratio), "error / σ {ratio}");
     z_scores(&es)
 }
