@@ -47,13 +47,19 @@ const DT_S: f64 = 0.04;
 
 /// `(samples, true magnetic headings)`.
 fn record(v: &Vehicle, seconds: f64, seed: u64, phase: f64) -> (Vec<GyroSample<f64>>, Vec<f64>) {
+    record_lagged(v, seconds, seed, phase, 0.0)
+}
+
+/// [`record`] with the magnetometer (and the attitude paired with it)
+/// sampling the motion `mag_lag_s` later than the gyro: the sample at `t`
+/// holds the gyro's rate at `t` and the field, attitude and heading at
+/// `t − mag_lag_s`.
+fn record_lagged(v: &Vehicle, seconds: f64, seed: u64, phase: f64, mag_lag_s: f64) -> (Vec<GyroSample<f64>>, Vec<f64>) {
     let mut rng = SplitMix64::new(seed);
     let ned = ned_field(F_NT, INCLINATION_DEG.to_radians(), 0.0);
     let n = (seconds / DT_S) as usize;
-    let (mut out, mut headings) = (Vec::new(), Vec::new());
-    for i in 0..n {
-        let t = i as f64 * DT_S;
-        // Euler angles and their rates.
+    // Euler angles (roll, pitch, yaw) and the body rates at time t.
+    let motion = |t: f64| {
         let (wy, wr, wp) = (core::f64::consts::TAU / 40.0, core::f64::consts::TAU / 6.3, core::f64::consts::TAU / 9.1);
         let yaw = phase + wy * t + 0.6 * (0.21 * t).sin();
         let yaw_dot = wy + 0.6 * 0.21 * (0.21 * t).cos();
@@ -63,6 +69,13 @@ fn record(v: &Vehicle, seconds: f64, seed: u64, phase: f64) -> (Vec<GyroSample<f
         let pitch_dot = v.pitch_amp_rad * wp * (wp * t + 1.0).cos();
         let (sr, cr, sp, cp) = (roll.sin(), roll.cos(), pitch.sin(), pitch.cos());
         let omega = [roll_dot - yaw_dot * sp, pitch_dot * cr + yaw_dot * sr * cp, -pitch_dot * sr + yaw_dot * cr * cp];
+        ([roll, pitch, yaw], omega)
+    };
+    let (mut out, mut headings) = (Vec::new(), Vec::new());
+    for i in 0..n {
+        let t = i as f64 * DT_S;
+        let ([roll, pitch, yaw], _) = motion(t - mag_lag_s);
+        let (_, omega) = motion(t);
         let h = ned_to_body(ned, roll, pitch, yaw);
         let raw: [f64; 3] = core::array::from_fn(|k| {
             (0..3).map(|j| D[k][j] * h[j] / 10.0).sum::<f64>() + B_RAW[k] + v.mag_noise_raw * rng.gauss()
@@ -233,10 +246,10 @@ fn the_predicted_heading_error_is_calibrated_over_seeds() {
         observed += o * o;
         predicted += p * p;
     }
-    // Measured: 1.6.
+    // Measured: 1.16 (single seeds 0.55–2.2).
     let ratio = (observed / predicted).sqrt();
     eprintln!("observed / predicted over {seeds} seeds: {ratio:.2}");
-    assert!((0.5..2.0).contains(&ratio), "{ratio}");
+    assert!((0.7..=1.4).contains(&ratio), "{ratio}");
 }
 
 /// Every window, also those across the ring's wrap, integrates the rotation
@@ -269,4 +282,26 @@ fn windows_across_the_ring_wrap_integrate_their_own_steps() {
         }
     }
     assert_eq!(checked, 200 - k);
+}
+
+/// The magnetometer sampling the motion 0.3 sample after the gyro, or
+/// 0.3 sample before it (simulated from the kinematics above, not from the
+/// fit's step formula): the batch fit recovers the lag with its sign, and
+/// the calibration as well as with no lag.
+#[test]
+fn a_sub_sample_magnetometer_lag_of_either_sign_is_recovered() {
+    let v = limited(15.0, 5.0);
+    for (lag_samples, seed) in [(0.3, 11u64), (-0.3, 12)] {
+        let lag_s = lag_samples * DT_S;
+        let (data, _) = record_lagged(&v, 240.0, seed, 0.0, lag_s);
+        let (val, _) = record(&Vehicle { mag_noise_raw: 0.0, ..v }, 60.0, seed + 100, 0.5);
+        let batch = fit_gyro_batch(&data, &GyroConfig::new(0.1), F_NT).unwrap();
+        let cal_err = calibration_error_rms_deg(&batch.estimate.cal, &true_cal(), &val);
+        eprintln!("lag {lag_s:+.4} s: recovered {:+.5} s, calibration error {cal_err:.4}°", batch.gyro_lag_s);
+        // Measured: +0.01198 s and −0.01213 s recovered (errors 0.02 and
+        // 0.13 ms, a 300th of a sample at most); calibration errors 0.018°
+        // and 0.023°, as without a lag (0.010–0.042° over the seeds below).
+        assert!((batch.gyro_lag_s - lag_s).abs() < 5e-4, "lag {lag_s} s: recovered {} s", batch.gyro_lag_s);
+        assert!(cal_err < 0.06, "{cal_err}");
+    }
 }

@@ -420,8 +420,10 @@ fn hard_iron_case(every: u8) {
         );
     }
     // The headings called ok with it: small and within their σ (measured
-    // 1 767 rows, 0.80° RMS against 0.80° predicted: the noise's 0.79°
-    // across H_h and the estimate's).
+    // every sample: 1 723 rows, 0.804° RMS against 0.799° predicted; every
+    // other: 1 932 rows, 0.794° against 0.806°; the noise's 0.79° across
+    // H_h and the estimate's). One run, but its ratio pools over rows
+    // whose noise is drawn afresh (1.01 and 0.99 measured): held to 0.7–1.4.
     let n = ok_errors.len() as f64;
     assert!(n > 1000.0, "{n}");
     let rms = (ok_errors.iter().map(|(e, _)| e * e).sum::<f64>() / n).sqrt();
@@ -429,7 +431,7 @@ fn hard_iron_case(every: u8) {
     std::println!("every {every}: applied at {at} s, estimate {:?} σ {:?}, ok rows {n}, RMS {:.3}° predicted {:.3}°", e.offset_nt, e.sigma_nt, rms.to_degrees(), pred.to_degrees());
     assert!(rms.to_degrees() < 2.0, "{}", rms.to_degrees());
     assert!(
-        rms / pred > 0.5 && rms / pred < 2.0,
+        rms / pred > 0.7 && rms / pred < 1.4,
         "observed {} predicted {}",
         rms.to_degrees(),
         pred.to_degrees()

@@ -70,6 +70,45 @@ fn boot_without_a_stored_set_uses_defaults_and_says_so() {
     assert_eq!((d.bank.source(), d.bank.seq()), (CoefficientSource::Stored, 7));
 }
 
+/// A set made for a sensor of another gain: every matrix entry 0.1× or
+/// 10× the chain's (1 / COUNTS_PER_NT per nT). Uniform, so the columns keep
+/// their ratios (no anisotropy), the determinant stays positive and the
+/// bias in range: only the check of the gain against the chain's refuses
+/// it — on write, on commit's re-check and at boot. Sets 0.25× and 4×
+/// (inside its 0.2–5 band) still pass.
+#[test]
+fn a_uniformly_mis_scaled_set_is_refused_by_the_gain_check_alone() {
+    let scaled = |k: f32| {
+        let mut c = good();
+        for row in c.matrix.iter_mut() {
+            for v in row.iter_mut() {
+                *v *= k;
+            }
+        }
+        c
+    };
+    for k in [0.1f32, 10.0] {
+        let c = scaled(k);
+        // What the other checks see: a valid field calibration.
+        let field = calib_core::cal::FieldCal { bias: c.bias, matrix: c.matrix };
+        assert_eq!(field.validate(crate::adc::FULL_SCALE_COUNTS as f32), Ok(()), "{k}×");
+        assert_eq!(validate(&c).err(), Some(DeviceError::InvalidCoefficients), "{k}×");
+        let mut d = device();
+        let mut s = store();
+        assert_eq!(req(&mut d, RequestBody::Unlock { key: CHALLENGE ^ UNLOCK_XOR }, 10, &mut s), ResponseBody::Ack);
+        assert_eq!(req(&mut d, RequestBody::WriteCoefficients(c), 11, &mut s), ResponseBody::Error(DeviceError::InvalidCoefficients), "{k}×");
+        // Stored by an older firmware: not used at boot either.
+        let booted = Device::new(Boot { stored: Some((c, 3)), challenge: 1 });
+        assert_eq!(booted.bank.source(), CoefficientSource::Default, "{k}×");
+        let mut bytes = [0u8; Coefficients::MAX_ENCODED_LEN];
+        let n = encode_coefficients(&c, &mut bytes).unwrap();
+        assert!(decode_coefficients(&bytes[..n], crate::store::VERSION).is_none(), "{k}×");
+    }
+    for k in [0.25f32, 4.0] {
+        assert!(validate(&scaled(k)).is_ok(), "{k}×");
+    }
+}
+
 #[test]
 fn the_write_path_needs_unlock_validation_and_a_matching_commit() {
     let mut d = device();

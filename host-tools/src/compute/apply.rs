@@ -684,3 +684,6 @@ pub fn gate_curve(rec: &Recording, doc: &CalDoc, opts: &ApplyOptions, reference_
         })
         .collect()
 }
+
+#[cfg(test)]
+mod tests;

@@ -170,6 +170,7 @@ fn no_magnet_stays_ok_with_an_honest_sigma() {
     // 1.34, 1.12, 1.06. Trial 06 ("A", its field 5–6 % off the
     // calibration's for 4 s at 156–160 s, its headings 3° off there):
     // 81.2 % ok.
+    let mut ratios = Vec::new();
     for (csv, truth, min_ok) in [
         (
             "broad-25-28-34/broad_25.csv",
@@ -196,5 +197,13 @@ fn no_magnet_stays_ok_with_an_honest_sigma() {
                 good_ok: min_ok,
             },
         );
+        ratios.push(s.sigma_ratio());
     }
+    // One trial's ratio is one draw (each check above accepts 0.5–2); the
+    // pool over the six is held to 0.7–1.4, as the joint back-stepping's
+    // prediction is. Measured: 0.95, 0.86, 1.34, 1.12, 1.12, 1.06; pooled
+    // (RMS of the ratios) 1.09.
+    let pooled = (ratios.iter().map(|r| r * r).sum::<f64>() / ratios.len() as f64).sqrt();
+    println!("observed / predicted σ: {ratios:?}, pooled {pooled:.3}");
+    assert!((0.7..=1.4).contains(&pooled), "{pooled}: {ratios:?}");
 }

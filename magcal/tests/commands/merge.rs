@@ -210,9 +210,8 @@ fn error_over_sigma(es: &[(f64, f64)]) -> f64 {
 /// surface, one turnaround), board and navigation both at 1 Hz, clocks up
 /// to ±60 s and ±100 ppm apart (and the issue's −12.6 s / −45 ppm): merged,
 /// not refused, the offset within 50 ms, the stated σ within 0.5–2× of the
-/// error over the cases.
-#[test]
-fn a_1_hz_run_is_merged_within_50_ms_with_an_honest_sigma() {
+/// error over the cases. Returns each case's error over its σ.
+fn a_1_hz_run_is_merged_within_50_ms_with_an_honest_sigma() -> Vec<f64> {
     let (sensor, site) = (SensorModel::paper_like(), paper_site());
     let sim = |seed| field_test::run(&sensor, &site, &RunParams::paper_like(), seed, 1.0, RunKind::Run).unwrap();
     let cases = [(31u64, 60.0, 100.0), (32, -60.0, -100.0), (33, -12.6, -45.0), (34, 59.3, -100.0), (35, -58.1, 100.0), (36, 23.77, 10.0)];
@@ -222,13 +221,13 @@ fn a_1_hz_run_is_merged_within_50_ms_with_an_honest_sigma() {
     eprintln!("1 Hz run: worst offset error {:.1} ms, RMS error / RMS σ {ratio:.2}", worst * 1e3);
     assert!(worst < 0.05, "worst offset error {worst} s");
     assert!((0.5..=2.0).contains(&ratio), "error / σ {ratio}");
+    z_scores(&es)
 }
 
 /// Issue 22's numbers at 5 Hz: the swing test, board and navigation both at
 /// 5 Hz (the issue's +37.25 s / 80 ppm among them): the offset within
 /// 20 ms, the stated σ within 0.5–2× of the error over the cases.
-#[test]
-fn a_5_hz_swing_test_is_merged_within_20_ms_with_an_honest_sigma() {
+fn a_5_hz_swing_test_is_merged_within_20_ms_with_an_honest_sigma() -> Vec<f64> {
     let (sensor, site) = (SensorModel::paper_like(), paper_site());
     let sim = |seed| field_test::swing(&sensor, &site, seed, 5.0).unwrap();
     let cases = [(41u64, 37.25, 80.0), (42, -60.0, -100.0), (43, 60.0, 100.0), (44, -12.6, -45.0), (45, 4.013, 60.0), (46, -33.3, -20.0)];
@@ -236,8 +235,10 @@ fn a_5_hz_swing_test_is_merged_within_20_ms_with_an_honest_sigma() {
     let worst = es.iter().map(|(e, _)| e.abs()).fold(0.0, f64::max);
     let ratio = error_over_sigma(&es);
     eprintln!("5 Hz swing: worst offset error {:.1} ms, RMS error / RMS σ {ratio:.2}", worst * 1e3);
-    assert!(worst < 0.02, "worst offset error {worst} s");
+    // Measured worst 1.2 ms: held to 5 ms, well inside the issue's 20 ms.
+    assert!(worst < 0.005, "worst offset error {worst} s");
     assert!((0.5..=2.0).contains(&ratio), "error / σ {ratio}");
+    z_scores(&es)
 }
 
 
@@ -283,8 +284,7 @@ fn a_navigation_log_under_its_own_names_and_units_merges_with_nav_columns() {
 /// rates of turn alone: up to 49 ms off. Now the tilt times the windows:
 /// measured worst 1.1 ms, RMS error / RMS σ 0.69, each peak 3.4–7.6σ
 /// clear of the runner-up.
-#[test]
-fn a_5_hz_swing_without_a_heading_is_merged_within_20_ms() {
+fn a_5_hz_swing_without_a_heading_is_merged_within_20_ms() -> Vec<f64> {
     let (sensor, site) = (SensorModel::paper_like(), paper_site());
     let sim = |seed| field_test::swing(&sensor, &site, seed, 5.0).unwrap();
     let cases = [(51u64, 37.25, 80.0), (52, -60.0, -100.0), (53, 59.1, 100.0), (54, -12.6, -45.0)];
@@ -292,8 +292,9 @@ fn a_5_hz_swing_without_a_heading_is_merged_within_20_ms() {
     let worst = es.iter().map(|(e, _)| e.abs()).fold(0.0, f64::max);
     eprintln!("5 Hz swing, no heading: worst offset error {:.2} ms, RMS error / RMS σ {:.2}", worst * 1e3, error_over_sigma(&es));
     assert!(worst < 0.005, "worst offset error {worst} s");
-    // Four cases tell the σ's honesty only roughly; the bench's more cases do better.
+    // Four cases tell the σ's honesty only roughly: held in the pool.
     assert!((0.25..=4.0).contains(&error_over_sigma(&es)), "error / σ {}", error_over_sigma(&es));
+    z_scores(&es)
 }
 
 /// Issue 29's second shape: a 1 Hz run of 400 s of circles at the surface
@@ -303,8 +304,7 @@ fn a_5_hz_swing_without_a_heading_is_merged_within_20_ms() {
 /// refused: "the best correlation of the two logs' rates of turn is 0.27
 /// (at −12.7 s), below 0.3". Now merged: measured worst 10 ms, RMS error
 /// / RMS σ 0.55, each peak 12–21σ clear of the runner-up.
-#[test]
-fn a_1_hz_run_with_only_the_surface_course_is_merged_within_50_ms() {
+fn a_1_hz_run_with_only_the_surface_course_is_merged_within_50_ms() -> Vec<f64> {
     let (sensor, site) = (SensorModel::paper_like(), paper_site());
     let sim = |seed| field_test::run(&sensor, &site, &RunParams::circles_then_legs(400.0), seed, 1.0, RunKind::Run).unwrap();
     let cases = [(61u64, -12.6, -45.0), (62, 60.0, 100.0), (63, -58.3, -100.0)];
@@ -312,5 +312,31 @@ fn a_1_hz_run_with_only_the_surface_course_is_merged_within_50_ms() {
     let worst = es.iter().map(|(e, _)| e.abs()).fold(0.0, f64::max);
     eprintln!("1 Hz run, surface course only: worst offset error {:.1} ms, RMS error / RMS σ {:.2}", worst * 1e3, error_over_sigma(&es));
     assert!(worst < 0.04, "worst offset error {worst} s");
+    // Three cases tell the σ's honesty only roughly: held in the pool.
     assert!((0.25..=4.0).contains(&error_over_sigma(&es)), "error / σ {}", error_over_sigma(&es));
+    z_scores(&es)
+}
+
+/// Each case's offset error over its stated σ.
+fn z_scores(es: &[(f64, f64)]) -> Vec<f64> {
+    es.iter().map(|(e, s)| e / s).collect()
+}
+
+/// The four shapes above, each held to its offset bound, and the stated σ
+/// pooled over their 19 cases: one shape's three to six cases tell its σ's
+/// honesty only roughly (RMS error over RMS σ measured per shape: 1.21 at
+/// 1 Hz, 0.88 at 5 Hz, 0.69 without a heading, 0.55 with only the surface
+/// course, whose σ is the most cautious), so the pool is what is held to
+/// 0.7–1.4, as the joint back-stepping's prediction is. Measured: the RMS
+/// of the 19 errors over their σ 1.06.
+#[test]
+fn every_shape_merges_within_its_bound_and_the_sigma_is_honest_pooled() {
+    let mut z = a_1_hz_run_is_merged_within_50_ms_with_an_honest_sigma();
+    z.extend(a_5_hz_swing_test_is_merged_within_20_ms_with_an_honest_sigma());
+    z.extend(a_5_hz_swing_without_a_heading_is_merged_within_20_ms());
+    z.extend(a_1_hz_run_with_only_the_surface_course_is_merged_within_50_ms());
+    let pooled = (z.iter().map(|z| z * z).sum::<f64>() / z.len() as f64).sqrt();
+    eprintln!("{} cases: RMS of error / σ {pooled:.3}", z.len());
+    assert_eq!(z.len(), 19);
+    assert!((0.7..=1.4).contains(&pooled), "{pooled}: {z:?}");
 }

@@ -174,30 +174,52 @@ fn a_fit_that_disagrees_with_the_world_model_is_refused_with_the_numbers_or_kept
     ok(&o);
 }
 
-#[test]
-fn fit_without_a_model_chooses_on_held_out_blocks_and_predicts_what_the_validation_shows() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("cal.json");
-    let o = magcal(&["fit", "--input", p(&data("broad-05/05_calib.csv")), "--field-nt", "44204", "--out", p(&out)]);
+/// `fit` without `--model` on a BROAD trial's calibration part, `apply` on
+/// its validation part: the heading RMS with the constant offset removed
+/// (the trials' truth heading has its own zero), and the document's
+/// `expected_heading_rms_deg`.
+fn broad_expected_and_observed(dir: &Path, trial: &str, field_nt: &str) -> (std::process::Output, f64, f64) {
+    let out = dir.join("cal.json");
+    let o = magcal(&["fit", "--input", p(&data(&format!("broad-{trial}_calib.csv"))), "--field-nt", field_nt, "--out", p(&out)]);
     ok(&o);
-    let stderr = String::from_utf8_lossy(&o.stderr);
-    assert!(stderr.contains("held-out") && stderr.contains("attitude") && stderr.contains("gyro") && stderr.contains("sphere"), "{stderr}");
-    let doc = read_doc(&out);
-    let predicted = doc.quality["expected_heading_rms_deg"].as_f64().unwrap();
-    let applied = dir.path().join("applied.csv");
-    let o = magcal(&["apply", "--input", p(&data("broad-05/05_validate.csv")), "--cal", p(&out), "--out", p(&applied), "--json"]);
-    ok(&o);
+    let expected = read_doc(&out).quality["expected_heading_rms_deg"].as_f64().unwrap();
+    let applied = dir.join("applied.csv");
+    let a = magcal(&["apply", "--input", p(&data(&format!("broad-{trial}_validate.csv"))), "--cal", p(&out), "--out", p(&applied), "--json"]);
+    ok(&a);
     #[derive(serde::Deserialize)]
     struct Summary {
         heading_rms_deg: f64,
         constant_offset_deg: f64,
     }
-    let s: Summary = serde_json::from_slice(&o.stdout).unwrap();
+    let s: Summary = serde_json::from_slice(&a.stdout).unwrap();
     let observed = (s.heading_rms_deg.powi(2) - s.constant_offset_deg.powi(2)).max(0.0).sqrt();
+    (o, expected, observed)
+}
+
+#[test]
+fn fit_without_a_model_chooses_on_held_out_blocks_and_predicts_what_the_validation_shows() {
+    let dir = tempfile::tempdir().unwrap();
+    let (o, predicted, observed) = broad_expected_and_observed(dir.path(), "05/05", "44204");
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(stderr.contains("held-out") && stderr.contains("attitude") && stderr.contains("gyro") && stderr.contains("sphere"), "{stderr}");
     // The floor (the true calibration) is 2.22° (the data's README);
     // measured: gyro kept, 1.69° observed against 1.81° expected.
     assert!(observed < 2.22 + 0.5, "{observed}");
-    assert!((0.5..=2.0).contains(&(observed / predicted)), "observed {observed} predicted {predicted}");
+    // Pooled over the five BROAD trials with a calibration and a
+    // validation part (field: each truth's `field_nt`): one trial's RMS is
+    // one draw, so single ratios scatter; the pool is held tightly.
+    // Measured: 0.87 (02), 0.95 (03), 0.93 (05), 1.07 (06), 1.03 (09);
+    // pooled 0.97.
+    let mut ratios = vec![observed / predicted];
+    for (trial, field_nt) in [("02-limited/02", "44591"), ("03/03", "45014"), ("06/06", "44152"), ("09/09", "44497")] {
+        let (_, expected, observed) = broad_expected_and_observed(dir.path(), trial, field_nt);
+        eprintln!("broad-{trial}: observed {observed:.3}° expected {expected:.3}°");
+        ratios.push(observed / expected);
+    }
+    let pooled = (ratios.iter().map(|r| r * r).sum::<f64>() / ratios.len() as f64).sqrt();
+    eprintln!("observed / expected: {ratios:?}, pooled {pooled:.3}");
+    assert!(ratios.iter().all(|r| (0.5..=2.0).contains(r)), "{ratios:?}");
+    assert!((0.7..=1.4).contains(&pooled), "{pooled}");
 }
 
 #[derive(Debug, serde::Deserialize)]
@@ -263,15 +285,19 @@ fn apply_with_a_wrong_calibration_is_not_ok_against_the_documents_reference() {
         let not_ok = after.iter().filter(|s| s.as_str() != "ok").count() as f64 / after.len() as f64;
         (s, not_ok)
     };
-    // The right one: measured 20 441 of 20 450 ok at 0.22°.
+    // The right one: measured 20 441 of 20 450 ok at 0.224°; after the
+    // first 10 s a share of 0.0001 not ok (2 rows).
     let (s, not_ok) = run(&cal3, false);
     assert_eq!(s.inclination_source, "document");
-    assert!(not_ok < 0.01 && s.heading_rms_ok_deg.unwrap() < 0.4, "{:?} {:?}", s.rows_per_state, s.heading_rms_ok_deg);
+    eprintln!("right calibration: {not_ok:.5} not ok after 10 s, {:?} on ok rows", s.heading_rms_ok_deg);
+    assert!(not_ok < 0.001 && s.heading_rms_ok_deg.unwrap() < 0.4, "{:?} {:?}", s.rows_per_state, s.heading_rms_ok_deg);
     // Every document of the chain carries IGRF-14's reference, and the one
     // that goes to the board expects what the validation shows: measured
     // 0.196° expected (the covariance alone predicts 0.046°) against 0.224°.
     let doc = read_doc(&cal3);
     assert_eq!(doc.reference.as_ref().map(|r| r.source.as_str()), Some("igrf14"));
+    // One run of several: the pool is held in
+    // `the_expected_heading_rms_is_what_validation_shows_pooled_over_seeds`.
     let expected = doc.quality["expected_heading_rms_deg"].as_f64().unwrap();
     let observed = s.heading_rms_ok_deg.unwrap();
     assert!((0.5..=2.0).contains(&(observed / expected)), "observed {observed} expected {expected}");
@@ -349,4 +375,55 @@ fn apply_with_a_wrong_calibration_on_a_real_trial_is_never_ok() {
             assert!(text.lines().filter(|l| l.ends_with(",unjudged")).count() > 900, "{name}");
         }
     }
+}
+
+/// The README's chain on simulated recordings (swing, out-and-back run,
+/// validation from `seed`, `seed + 1`, `seed + 2`): `fit --model axis` at
+/// the site, `backstep`, `swing --estimate-delay`; then `apply` on the
+/// validation run against its true heading. Returns the document's
+/// `expected_heading_rms_deg` and the RMS on the rows judged ok.
+fn chain_expected_and_observed(dir: &Path, seed: u64) -> (f64, f64) {
+    let d = |f: &str| dir.join(format!("{seed}-{f}"));
+    let site = ["--lat", "36.9", "--lon", "50.6", "--date", "2021-01-01"];
+    let (swing, run_csv, validation) = (d("swing.csv"), d("run.csv"), d("validation.csv"));
+    let (cal1, cal2, cal3, applied) = (d("cal1.json"), d("cal2.json"), d("cal3.json"), d("applied.csv"));
+    let seeds = [seed, seed + 1, seed + 2].map(|s| s.to_string());
+    ok(&magcal(&["simulate", "swing", "--seed", &seeds[0], "--out", p(&swing)]));
+    ok(&magcal(&["simulate", "run", "--seed", &seeds[1], "--out", p(&run_csv)]));
+    ok(&magcal(&["simulate", "validation", "--seed", &seeds[2], "--out", p(&validation)]));
+    let mut a = vec!["fit", "--input", p(&swing), "--model", "axis", "--out", p(&cal1)];
+    a.extend(site);
+    ok(&magcal(&a));
+    let mut a = vec!["backstep", "--input", p(&run_csv), "--cal", p(&cal1), "--out", p(&cal2)];
+    a.extend(site);
+    ok(&magcal(&a));
+    ok(&magcal(&["swing", "--input", p(&run_csv), "--cal", p(&cal2), "--estimate-delay", "--out", p(&cal3)]));
+    let o = magcal(&["apply", "--input", p(&validation), "--cal", p(&cal3), "--out", p(&applied), "--json", "--columns", "ref_heading_deg=true_heading_deg"]);
+    ok(&o);
+    let s: ApplySummary = serde_json::from_slice(&o.stdout).unwrap();
+    let expected = read_doc(&cal3).quality["expected_heading_rms_deg"].as_f64().unwrap();
+    (expected, s.heading_rms_ok_deg.unwrap())
+}
+
+/// What a document expects (`expected_heading_rms_deg`) is what the
+/// validation shows, pooled over three simulated chains (the first is the
+/// one above): one run's RMS is one draw (the calibration's error is one
+/// per chain), so only the pool is held tightly, as the joint
+/// back-stepping's prediction is.
+#[test]
+fn the_expected_heading_rms_is_what_validation_shows_pooled_over_seeds() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut ratios = Vec::new();
+    for seed in [1u64, 11, 21] {
+        let (expected, observed) = chain_expected_and_observed(dir.path(), seed);
+        eprintln!("seeds {seed}…: observed {observed:.4}° expected {expected:.4}°, ratio {:.3}", observed / expected);
+        ratios.push(observed / expected);
+    }
+    let pooled = (ratios.iter().map(|r| r * r).sum::<f64>() / ratios.len() as f64).sqrt();
+    eprintln!("observed / expected: {ratios:?}, pooled {pooled:.3}");
+    // Measured: 1.143, 1.156, 1.144 (seeds 31 and 41: 1.149, 1.140);
+    // pooled 1.148. The expectation is low by a steady 15 %, inside the
+    // band; a σ scaled ×1.8 or ×0.6 is not.
+    assert!(ratios.iter().all(|r| (0.5..=2.0).contains(r)), "{ratios:?}");
+    assert!((0.7..=1.4).contains(&pooled), "{pooled}");
 }

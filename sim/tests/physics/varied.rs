@@ -51,13 +51,21 @@ fn the_varied_sites_reach_the_heading_target_with_honest_predictions() {
     // Measured (release): low-latitude seeds 1, 2: 0.064°, 0.061° (white
     // noise 0.053°), observed/predicted 1.07, 1.02; southern seeds 1, 2:
     // 0.137°, 0.131° (white noise 0.124°, 0.127°), 1.05, 1.01.
+    let mut ratios = Vec::new();
     for (site, seed) in [("low-latitude", 1), ("low-latitude", 2), ("southern", 1), ("southern", 2)] {
         let d = data(site, seed);
         let o = evaluate_options(&d, &Variant::Full.options()).expect("chain");
         assert!(o.heading_rms_deg <= TARGET_DEG, "{site} seed {seed}: {o:?}");
         let ratio = o.observed_over_predicted.expect("a prediction");
         assert!((0.5..=2.0).contains(&ratio), "{site} seed {seed}: observed/predicted {ratio}");
+        ratios.push(ratio);
     }
+    // One run's ratio is one draw; the pool over the four is held to
+    // 0.7–1.4, as the joint back-stepping's prediction is (measured: RMS of
+    // the ratios 1.035).
+    let pooled = (ratios.iter().map(|r| r * r).sum::<f64>() / ratios.len() as f64).sqrt();
+    eprintln!("observed / predicted: {ratios:?}, pooled {pooled:.3}");
+    assert!((0.7..=1.4).contains(&pooled), "{pooled}: {ratios:?}");
 }
 
 #[test]
