@@ -16,7 +16,7 @@ use serde_json::json;
 /// The fixtures timed: one or two a format, in the repository.
 pub const FIXTURES: [(Format, &str); 9] = [
     (Format::Dataflash, "tests/data/ardusub-bluerov2/small.BIN"),
-    (Format::Tlog, "tests/data/ardusub-bluerov2/small-cut.tlog"),
+    (Format::Tlog, "tests/data/ardusub-bluerov2/small.tlog"),
     (Format::Ulog, "tests/data/px4-ulog/sample_log_small_cut.ulg"),
     (Format::Ulog, "tests/data/px4-ulog/sample_appended_multiple_cut.ulg"),
     (Format::Mcap, "tests/data/ros2/swing.mcap"),
