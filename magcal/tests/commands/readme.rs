@@ -9,9 +9,6 @@
 //!   the firmware in QEMU: `cargo xtask demo` and tests/e2e run those);
 //! * `merge`: its inputs are the board's and the navigation computer's logs
 //!   from `log` on a vehicle (`magcal/tests/commands/merge.rs` covers it);
-//! * `import --dataflash LOG.bin`: a vehicle's own DataFlash log, which the
-//!   repository has none of (`magcal/tests/commands/import.rs` writes one; `import
-//!   --nmea` runs, on the repository's real NMEA log);
 //! * `report --session session/`: the folder `session` writes.
 
 use std::path::Path;
@@ -41,7 +38,6 @@ fn skipped(words: &[&str]) -> Option<&'static str> {
         [first, ..] if *first != "magcal" => Some("not a magcal command (cargo: build, QEMU, probe)"),
         [_, "identify" | "session" | "log" | "stream", ..] => Some("talks to a board (serial port or QEMU)"),
         [_, "merge", ..] => Some("its inputs come from `log` on a vehicle"),
-        [_, "import", "--dataflash", ..] => Some("needs a vehicle's DataFlash log"),
         [_, "report", "--session", ..] => Some("needs the folder `session` writes"),
         _ => None,
     }
@@ -71,7 +67,7 @@ fn the_readmes_commands_run_as_written() {
     // export chains and apply (18 commands as of this writing): a README whose blocks
     // stopped being found would otherwise pass with nothing run.
     assert!(ran.len() >= 15, "only {} README commands found to run: {ran:?}", ran.len());
-    for sub in ["simulate", "igrf", "fit", "backstep", "swing", "ortho", "report", "card", "export", "apply"] {
+    for sub in ["simulate", "igrf", "fit", "backstep", "swing", "ortho", "report", "card", "export", "apply", "import"] {
         assert!(ran.iter().any(|l| l.starts_with(&format!("magcal {sub} "))), "no `magcal {sub}` run from the README");
     }
     // What they wrote is there.
