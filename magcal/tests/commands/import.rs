@@ -12,7 +12,7 @@
 
 use std::path::Path;
 use std::process::{Command, Output};
-use super::{magcal};
+use super::{magcal, read_csv};
 
 fn size(c: char) -> usize {
     match c {
@@ -177,14 +177,6 @@ struct Dump {
 
 fn f(m: &serde_json::Map<String, serde_json::Value>, k: &str) -> f64 {
     m[k].as_f64().unwrap_or_else(|| panic!("{k} in {m:?}"))
-}
-
-fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
-    let text = std::fs::read_to_string(path).unwrap();
-    let mut lines = text.lines();
-    let header: Vec<String> = lines.next().unwrap().split(',').map(String::from).collect();
-    let rows = lines.map(|l| l.split(',').map(|c| if c.is_empty() { f64::NAN } else { c.parse().unwrap() }).collect()).collect();
-    (header, rows)
 }
 
 #[test]

@@ -16,6 +16,15 @@ pub fn p(path: &Path) -> &str {
     path.to_str().unwrap()
 }
 
+/// A CSV's header and rows, every cell a number (an empty cell NaN).
+pub fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap().split(',').map(String::from).collect();
+    let rows = lines.map(|l| l.split(',').map(|c| if c.is_empty() { f64::NAN } else { c.parse().unwrap() }).collect()).collect();
+    (header, rows)
+}
+
 /// A file of the repository's `tests/data`.
 pub fn data(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data").join(rel)

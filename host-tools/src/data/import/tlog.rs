@@ -383,21 +383,13 @@ fn compass_parameters(instance: u32) -> Vec<String> {
     names
 }
 
-/// A date and time (UTC) from µs since 1970, for the report.
+/// A date and time (UTC) from µs since 1970, for the report (the civil
+/// date by the project's one calendar, [`crate::data::nmea::Date`]).
 fn utc(t_unix_us: u64) -> String {
     let s = t_unix_us / 1_000_000;
     let (days, sod) = ((s / 86_400) as i64, s % 86_400);
-    // Days to a civil date (the proleptic Gregorian calendar).
-    let z = days + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z - era * 146_097;
-    let yoe = (doe - doe / 1_460 + doe / 36_524 - doe / 146_096) / 365;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let d = doy - (153 * mp + 2) / 5 + 1;
-    let m = if mp < 10 { mp + 3 } else { mp - 9 };
-    let y = yoe + era * 400 + i64::from(m <= 2);
-    format!("{y:04}-{m:02}-{d:02}T{:02}:{:02}:{:02}Z", sod / 3600, sod / 60 % 60, sod % 60)
+    let d = crate::data::nmea::Date::from_days_since_epoch(days);
+    format!("{:04}-{:02}-{:02}T{:02}:{:02}:{:02}Z", d.year, d.month, d.day, sod / 3600, sod / 60 % 60, sod % 60)
 }
 
 /// Imports a MAVLink telemetry log held in memory: one row per sample of the

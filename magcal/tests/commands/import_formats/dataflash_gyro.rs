@@ -8,15 +8,7 @@ use std::path::Path;
 
 use serde_json::Value;
 
-use crate::{data, magcal, p};
-
-fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
-    let text = std::fs::read_to_string(path).unwrap();
-    let mut lines = text.lines();
-    let header = lines.next().unwrap().split(',').map(String::from).collect();
-    let rows = lines.map(|l| l.split(',').map(|c| if c.is_empty() { f64::NAN } else { c.parse().unwrap() }).collect()).collect();
-    (header, rows)
-}
+use crate::{data, magcal, p, read_csv};
 
 #[test]
 fn dataflash_gyro_agrees_with_pymavlink() {

@@ -6,7 +6,7 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::{data, magcal, p};
+use crate::{data, magcal, p, read_csv};
 
 /// The bags: the name in reference.json and the file.
 fn bags() -> [(&'static str, PathBuf); 2] {
@@ -15,14 +15,6 @@ fn bags() -> [(&'static str, PathBuf); 2] {
 
 fn reference() -> serde_json::Value {
     serde_json::from_slice(&std::fs::read(data("ros2/reference.json")).unwrap()).unwrap()
-}
-
-fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
-    let text = std::fs::read_to_string(path).unwrap();
-    let mut lines = text.lines();
-    let header: Vec<String> = lines.next().unwrap().split(',').map(String::from).collect();
-    let rows = lines.map(|l| l.split(',').map(|c| if c.is_empty() { f64::NAN } else { c.parse().unwrap() }).collect()).collect();
-    (header, rows)
 }
 
 /// A column of a CSV read by [`read_csv`].

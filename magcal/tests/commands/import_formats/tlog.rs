@@ -9,20 +9,11 @@ use std::path::Path;
 
 use serde_json::Value;
 
-use crate::{data, magcal, p};
+use crate::{data, magcal, p, read_csv};
 
 fn reference() -> Value {
     let text = std::fs::read_to_string(data("ardusub-bluerov2/reference.json")).unwrap();
     serde_json::from_str::<Value>(&text).unwrap()["tlog"].clone()
-}
-
-/// A CSV's header and rows (empty cells NaN).
-fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
-    let text = std::fs::read_to_string(path).unwrap();
-    let mut lines = text.lines();
-    let header = lines.next().unwrap().split(',').map(String::from).collect();
-    let rows = lines.map(|l| l.split(',').map(|c| if c.is_empty() { f64::NAN } else { c.parse().unwrap() }).collect()).collect();
-    (header, rows)
 }
 
 /// Imports `log` (format from the content unless `args` names it) and
