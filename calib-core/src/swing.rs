@@ -540,7 +540,7 @@ mod tests {
             mt.push(t);
             mh.push(distorted(truth(t), &PAPER));
             // Reference only at the "surface" (every other 30 s), delayed.
-            if (t / 30.0) as u32 % 2 == 0 {
+            if ((t / 30.0) as u32).is_multiple_of(2) {
                 rt.push(t);
                 rh.push(truth(t - delay));
             } else {

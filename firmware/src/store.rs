@@ -100,8 +100,8 @@ impl<F: NorFlash> Store<F> {
     pub fn new(flash: F, a: u32, b: u32, sector_size: u32) -> Result<Self, StoreError> {
         let erase = F::ERASE_SIZE as u32;
         let need = round_up(HEADER + MAX_PAYLOAD + 4, F::WRITE_SIZE.max(8)) as u32;
-        let aligned = |o: u32| erase != 0 && o % erase == 0;
-        if !aligned(a) || !aligned(b) || sector_size % erase.max(1) != 0 || sector_size < need || a.abs_diff(b) < sector_size {
+        let aligned = |o: u32| erase != 0 && o.is_multiple_of(erase);
+        if !aligned(a) || !aligned(b) || !sector_size.is_multiple_of(erase.max(1)) || sector_size < need || a.abs_diff(b) < sector_size {
             return Err(StoreError::Layout);
         }
         if (a.max(b) as usize) + sector_size as usize > flash.capacity() {

@@ -37,7 +37,7 @@ impl Noise {
 /// turns.
 fn attitude(i: usize, n: usize) -> (f64, f64, f64) {
     let t = i as f64;
-    let pitch = if (i / 150) % 2 == 0 { -25.0 } else { 22.0 } + 3.0 * (t / 7.0).sin();
+    let pitch = if (i / 150).is_multiple_of(2) { -25.0 } else { 22.0 } + 3.0 * (t / 7.0).sin();
     let roll = 15.0 * (t / 23.0).sin();
     let yaw = 3.0 * core::f64::consts::TAU * t / n as f64;
     (roll.to_radians(), pitch.to_radians(), yaw)

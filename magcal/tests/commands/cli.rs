@@ -83,7 +83,7 @@ fn swing_estimates_the_gps_delay_and_the_fourier_terms() {
         rec.t_s.as_mut().unwrap().push(t);
         rec.roll_deg.as_mut().unwrap().push(roll.to_degrees());
         rec.pitch_deg.as_mut().unwrap().push(pitch.to_degrees());
-        let surface = (t / 120.0) as u32 % 2 == 0 && t >= 2.0;
+        let surface = ((t / 120.0) as u32).is_multiple_of(2) && t >= 2.0;
         rec.ref_heading_deg.as_mut().unwrap().push(if surface { truth(t - 2.0).to_degrees() } else { f64::NAN });
     }
     let dir = tempfile::tempdir().unwrap();

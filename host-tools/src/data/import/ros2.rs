@@ -820,7 +820,7 @@ mod tests {
     fn magnetic_field(little: bool, frame: &str, f: [f64; 3]) -> Vec<u8> {
         let mut b = vec![0, u8::from(little), 0, 0];
         let put = |b: &mut Vec<u8>, bytes: &[u8], align: usize| {
-            while (b.len() - 4) % align != 0 {
+            while !(b.len() - 4).is_multiple_of(align) {
                 b.push(0);
             }
             if little {

@@ -800,7 +800,7 @@ mod tests {
         let mut t = T0;
         let mut push = |m: MavMessage, b: &mut Vec<u8>| {
             t += 1000;
-            let v1 = t % 2000 == 0;
+            let v1 = t.is_multiple_of(2000);
             b.extend(record(t, 1, 1, &m, v1));
         };
         push(heartbeat(), &mut b);
