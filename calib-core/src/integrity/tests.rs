@@ -4,6 +4,7 @@
 //! Euler-angle rates, then a disturbance or a new hard iron added.
 
 use super::*;
+use crate::heading::Tilt;
 use crate::cal::{Calibration, EnvTerms, FieldCal, Swing};
 use crate::hardiron::HardIronEstimator;
 use crate::heading::{heading_of_levelled, ned_field, ned_to_body, wrap_pi, wrap_two_pi};
@@ -300,9 +301,10 @@ fn the_state_is_small_and_f32_judges_as_f64() {
         "Monitor<f32> {monitor} B, OnlineIntegrity<f32> {online} B, HardIronEstimator<f32> {} B",
         core::mem::size_of::<HardIronEstimator<f32>>()
     );
-    // Measured: 148 B and 348 B (the reference's dip bounds, the second
-    // gate, the on-line estimate's gyro confirmation).
-    assert!(monitor <= 160 && online <= 400, "{monitor} {online}");
+    // Measured: 164 B and 364 B (the reference's dip bounds, the second
+    // gate, the on-line estimate's gyro confirmation; the inclination
+    // learner's block count padded in its own struct).
+    assert!(monitor <= 168 && online <= 400, "{monitor} {online}");
     // The same sequence in f32: the same states.
     let mut m32 = Monitor::<f32>::new(
         Reference {
