@@ -70,7 +70,8 @@ pub use tuning::{
     Reference, Tuning, DEFAULT_FIELD_SIGMA_REL, INCLINATION_ALLOWANCE_DEG, MAX_MISFIT_STEP,
     REANCHOR_TURN_DEG,
 };
-pub use verdict::{IntegrityState, Verdict};
+pub(crate) use monitor::Judgement;
+pub use verdict::{decide, Evidence, HardIronEvidence, IntegrityState, Verdict};
 
 #[cfg(test)]
 mod tests;

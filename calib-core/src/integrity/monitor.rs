@@ -5,7 +5,7 @@
 use super::gyro_heading::{wrap_near, GyroHeading};
 use super::inclination::{cos_of_sin, Inclination};
 use super::tuning::{Reference, Tuning, MAX_MISFIT_STEP};
-use super::verdict::{IntegrityState, Verdict};
+use super::verdict::{decide, Evidence, HardIronEvidence, Verdict};
 use crate::heading::{Tilt, Vec3};
 use crate::Real;
 
@@ -29,6 +29,33 @@ pub(crate) fn positive_dt<T: Real>(dt_s: T) -> T {
         dt_s
     } else {
         T::ZERO
+    }
+}
+
+/// What the monitor found of one sample: its evidence and numbers, the
+/// state not yet decided (the on-line path adds the hard iron's part).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Judgement<T> {
+    /// What the state is decided from.
+    pub(crate) evidence: Evidence,
+    /// The heading's 1σ, radians (NaN without attitude).
+    pub(crate) heading_sigma_rad: T,
+    /// Normalised magnitude residual `z_F`.
+    pub(crate) field_z: T,
+    /// Normalised dip residual `z_I`.
+    pub(crate) dip_z: T,
+}
+
+impl<T: Copy> Judgement<T> {
+    /// The verdict: the state [`decide`]d from the evidence.
+    #[inline(always)]
+    pub(crate) fn verdict(&self) -> Verdict<T> {
+        Verdict {
+            state: decide(&self.evidence),
+            heading_sigma_rad: self.heading_sigma_rad,
+            field_z: self.field_z,
+            dip_z: self.dip_z,
+        }
     }
 }
 
@@ -151,7 +178,7 @@ impl<T: Real> Monitor<T> {
         self.disturbed = true;
     }
 
-    /// The misfit fraction (0…1) behind [`IntegrityState::CalInvalid`]
+    /// The misfit fraction (0…1) behind `cal_invalid`
     /// (0 before any sample).
     pub fn misfit_fraction(&self) -> T {
         if self.misfit_weight > T::ZERO {
@@ -199,20 +226,36 @@ impl<T: Real> Monitor<T> {
             }
             None => self.judge_without_attitude(field_nt, dt),
         }
+        .verdict()
+    }
+
+    /// The evidence of a sample judged with the field and attitude it
+    /// carries (the on-line hard iron's part not yet known).
+    #[inline(always)]
+    fn evidence(&self, attitude: bool, disturbed: bool) -> Evidence {
+        Evidence {
+            field: true,
+            attitude,
+            judged: true,
+            cal_invalid: self.cal_invalid,
+            disturbed,
+            hard_iron: HardIronEvidence::NotApplied,
+            independent_inclination: self.reference.inclination_rad.is_some(),
+        }
     }
 
     /// Judges a sample without attitude (`dt` already checked,
     /// [`positive_dt`]): only its magnitude counts towards the misfit; the
-    /// state is [`IntegrityState::NoAttitude`].
-    pub(crate) fn judge_without_attitude(&mut self, field_nt: Vec3<T>, dt: T) -> Verdict<T> {
+    /// state is `no_attitude`.
+    pub(crate) fn judge_without_attitude(&mut self, field_nt: Vec3<T>, dt: T) -> Judgement<T> {
         let mag =
             (field_nt[0] * field_nt[0] + field_nt[1] * field_nt[1] + field_nt[2] * field_nt[2])
                 .sqrt();
         let field_z = (mag - self.reference.field_nt) / self.reference.field_sigma_nt;
         self.track_misfit(!(field_z.abs() < self.tuning.no_gyro_gate_sigma), dt);
         self.gyro.anchored = false;
-        Verdict {
-            state: IntegrityState::NoAttitude,
+        Judgement {
+            evidence: self.evidence(false, false),
             heading_sigma_rad: T::NAN,
             field_z,
             dip_z: T::ZERO,
@@ -234,7 +277,7 @@ impl<T: Real> Monitor<T> {
         tilt: &Tilt<T>,
         rate_rad_s: Option<Vec3<T>>,
         dt: T,
-    ) -> Verdict<T> {
+    ) -> Judgement<T> {
         let g = self.tuning.field_gate(rate_rad_s.is_some());
         let (f, sigma_f) = (self.reference.field_nt, self.reference.field_sigma_nt);
         let (l, hh) = (levelled_nt, horizontal_nt);
@@ -288,20 +331,17 @@ impl<T: Real> Monitor<T> {
             self.pass_s = T::ZERO;
             self.disturbed = true;
         }
-        let state = if self.cal_invalid {
-            IntegrityState::CalInvalid
-        } else if self.disturbed || !(fraction <= self.tuning.misfit_enter) {
-            IntegrityState::Disturbed
-        } else {
-            IntegrityState::Ok
-        };
-        let heading_sigma_rad = if state == IntegrityState::Ok {
+        let evidence = self.evidence(
+            true,
+            self.disturbed || !(fraction <= self.tuning.misfit_enter),
+        );
+        let heading_sigma_rad = if evidence.fits() {
             var_m.sqrt()
         } else {
             self.misfit_sigma(var_m, innovation, mag, dip_z, hh)
         };
-        Verdict {
-            state,
+        Judgement {
+            evidence,
             heading_sigma_rad,
             field_z,
             dip_z,

@@ -130,9 +130,10 @@ fn a_clean_sequence_is_ok_throughout_with_the_noise_sigma() {
             s.to_degrees()
         );
     }
-    // Learned inclination, from the same clean sequence: also all ok.
+    // Learned inclination, from the same clean sequence: every test passes,
+    // but against a dip the stream taught itself: all unjudged, none ok.
     let learned = run(600, None, |_, _| [0.0; 3]);
-    assert!(learned.iter().all(|(s, _)| *s == IntegrityState::Ok));
+    assert!(learned.iter().all(|(s, _)| *s == IntegrityState::Unjudged));
 }
 
 /// A field perpendicular to the magnetic meridian (east in NED), which
@@ -285,9 +286,9 @@ fn no_attitude_is_its_own_state_and_bad_references_are_refused() {
         Some(IntegrityError::BadTuning)
     );
     for s in IntegrityState::ALL {
-        assert_eq!(IntegrityState::from_u8(s as u8), Some(s));
+        assert_eq!(IntegrityState::from_code(s as u8), Some(s));
     }
-    assert_eq!(IntegrityState::from_u8(5), None);
+    assert_eq!(IntegrityState::from_code(5), None);
 }
 
 #[test]
@@ -630,3 +631,5 @@ fn without_a_reference_inclination_nothing_is_ok() {
         }
     }
 }
+
+mod registry;
