@@ -37,6 +37,7 @@ pub(super) struct GyroHeading<T> {
 
 impl<T: Real> GyroHeading<T> {
     /// Not anchored yet, the bias's variance `bias_var_rad2_s2` (rad²/s²).
+    #[inline(always)]
     pub(super) fn unanchored(bias_var_rad2_s2: T) -> Self {
         Self {
             heading_rad: T::ZERO,

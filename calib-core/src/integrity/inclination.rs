@@ -41,6 +41,7 @@ pub(super) struct Inclination<T> {
 impl<T: Real> Inclination<T> {
     /// The reference's inclination (full weight), or none yet (no dip
     /// test: a zero gain, until one is learned).
+    #[inline(always)]
     pub(super) fn new(r: &Reference<T>, t: &Tuning<T>) -> Self {
         let (sin_incl, cos_incl, weight) = match r.inclination_rad {
             Some(i) => (i.sin(), i.cos(), t.inclination_memory),
@@ -72,6 +73,7 @@ impl<T: Real> Inclination<T> {
     }
 
     /// sin of the inclination in use (`None` before one is learned).
+    #[inline(always)]
     pub(super) fn sin_inclination(&self) -> Option<T> {
         (self.weight > T::ZERO).then_some(self.sin_incl)
     }

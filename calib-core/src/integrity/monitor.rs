@@ -65,8 +65,6 @@ impl<T: Copy> Judgement<T> {
 pub struct Monitor<T> {
     reference: Reference<T>,
     tuning: Tuning<T>,
-    /// The inclination in use, and its learner.
-    incl: Inclination<T>,
     gyro: GyroHeading<T>,
     /// Exponentially weighted fraction of samples whose field misfits, and
     /// the same average of 1 (their ratio is the bias-corrected fraction:
@@ -80,6 +78,8 @@ pub struct Monitor<T> {
     pass_s: T,
     disturbed: bool,
     cal_invalid: bool,
+    /// The inclination in use, and its learner.
+    incl: Inclination<T>,
 }
 
 impl<T: Real> Monitor<T> {

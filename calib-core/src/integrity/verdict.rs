@@ -95,6 +95,7 @@ impl IntegrityState {
 /// (`crate::online::OnlineIntegrity`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[repr(u8)]
 pub enum HardIronEvidence {
     /// No on-line hard iron applied to the sample: the stored calibration's
     /// field.
@@ -170,16 +171,17 @@ impl Evidence {
 /// against itself (`unjudged`); otherwise `ok`.
 #[inline(always)]
 pub const fn decide(e: &Evidence) -> IntegrityState {
-    if !(e.field && e.attitude) {
+    // Non-short-circuit `&` and `|`: fewer branches on the board's
+    // per-sample path, the same rule.
+    let refuted = matches!(e.hard_iron, HardIronEvidence::Refuted);
+    let unconfirmed = matches!(e.hard_iron, HardIronEvidence::Unconfirmed);
+    if !(e.field & e.attitude) {
         IntegrityState::NoAttitude
-    } else if !e.judged
-        || e.cal_invalid
-        || matches!(e.hard_iron, HardIronEvidence::Refuted)
-    {
+    } else if !e.judged | e.cal_invalid | refuted {
         IntegrityState::CalInvalid
     } else if e.disturbed {
         IntegrityState::Disturbed
-    } else if matches!(e.hard_iron, HardIronEvidence::Unconfirmed) {
+    } else if unconfirmed {
         IntegrityState::CalInvalid
     } else if !e.independent_inclination {
         IntegrityState::Unjudged
