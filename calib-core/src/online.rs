@@ -35,7 +35,8 @@ use crate::cal::Calibration;
 use crate::hardiron::{HardIron, HardIronEstimator};
 use crate::heading::{Tilt, Vec3};
 use crate::integrity::{
-    cos_of_sin, positive_dt, IntegrityError, IntegrityState, Monitor, Reference, Tuning, Verdict,
+    cos_of_sin, positive_dt, HardIronEvidence, IntegrityError, IntegrityState, Judgement, Monitor,
+    Reference, Tuning, Verdict,
 };
 use crate::Real;
 
@@ -55,8 +56,8 @@ pub const MAX_OFFSET_REL: f64 = 0.25;
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Health<T> {
-    /// Samples judged in each state, indexed by `IntegrityState as usize`.
-    pub samples_per_state: [u32; 5],
+    /// Samples judged in each state, indexed by [`IntegrityState::index`].
+    pub samples_per_state: [u32; IntegrityState::COUNT],
     /// Longest run of samples not `ok` (disturbed or calibration invalid), s.
     pub longest_disturbance_s: T,
     /// The run in progress, s.
@@ -194,7 +195,7 @@ impl<T: Real> OnlineIntegrity<T> {
             alt_dt_s: T::ZERO,
             confirm: Confirmation::opened_at(T::ZERO, false).closed(),
             health: Health {
-                samples_per_state: [0; 5],
+                samples_per_state: [0; IntegrityState::COUNT],
                 longest_disturbance_s: T::ZERO,
                 current_disturbance_s: T::ZERO,
                 hard_iron_applied: 0,
@@ -285,7 +286,7 @@ impl<T: Real> OnlineIntegrity<T> {
         };
         let was_invalid = self.monitor.cal_invalid();
         let dt = positive_dt(dt_s);
-        let (heading_rad, hh, mut verdict) = match tilt {
+        let (heading_rad, hh, mut judgement): (_, _, Judgement<T>) = match tilt {
             Some(t) => {
                 let l = t.level(field_nt);
                 let hh = (l[0] * l[0] + l[1] * l[1]).sqrt();
@@ -305,26 +306,29 @@ impl<T: Real> OnlineIntegrity<T> {
         };
         let applied_here = self.applied;
         if self.applied {
-            verdict.heading_sigma_rad = (verdict.heading_sigma_rad * verdict.heading_sigma_rad
-                + self.applied_sigma_rad * self.applied_sigma_rad)
-                .sqrt();
+            let sigma = judgement.heading_sigma_rad;
+            judgement.heading_sigma_rad =
+                (sigma * sigma + self.applied_sigma_rad * self.applied_sigma_rad).sqrt();
             let check = self.confirm_step(heading_rad, hh, tilt, rate_rad_s, dt);
             if check == Check::Disagrees {
                 // The gyro says the estimate's headings are wrong.
                 self.withdraw();
-                verdict.state = IntegrityState::CalInvalid;
-            } else if self.monitor.cal_invalid() {
-                self.withdraw();
-            } else if verdict.state == IntegrityState::Ok {
-                // Only samples the corrected field passes on teach it: a
-                // structure passed must not pull the offset in use.
-                self.refine_applied(stored_nt, tilt, rate_rad_s, dt);
-                if !self.confirm.confirmed {
-                    // Not yet confirmed by the gyro (or no gyro): the
-                    // stored calibration is invalid and the estimate
-                    // unproven.
-                    verdict.state = IntegrityState::CalInvalid;
+                judgement.evidence.hard_iron = HardIronEvidence::Refuted;
+            } else {
+                if self.monitor.cal_invalid() {
+                    self.withdraw();
+                } else if judgement.evidence.fits() {
+                    // Only samples the corrected field passes on teach it: a
+                    // structure passed must not pull the offset in use.
+                    self.refine_applied(stored_nt, tilt, rate_rad_s, dt);
                 }
+                // Until the gyro confirms it (never without a gyro) the
+                // estimate is unproven.
+                judgement.evidence.hard_iron = if self.confirm.confirmed {
+                    HardIronEvidence::Confirmed
+                } else {
+                    HardIronEvidence::Unconfirmed
+                };
             }
         } else if self.monitor.cal_invalid() {
             if !was_invalid {
@@ -334,11 +338,7 @@ impl<T: Real> OnlineIntegrity<T> {
             }
             self.track_estimate(stored_nt, tilt, rate_rad_s, dt);
         }
-        // Ok only against a reference the stream did not teach itself.
-        if verdict.state == IntegrityState::Ok && self.monitor.reference().inclination_rad.is_none()
-        {
-            verdict.state = IntegrityState::Unjudged;
-        }
+        let verdict = judgement.verdict();
         self.count(verdict.state, dt);
         Judged {
             field_nt,
@@ -565,16 +565,14 @@ impl<T: Real> OnlineIntegrity<T> {
     #[inline(always)]
     fn count(&mut self, state: IntegrityState, dt: T) {
         let h = &mut self.health;
-        let i = state as usize;
-        if let Some(c) = h.samples_per_state.get_mut(i) {
+        if let Some(c) = h.samples_per_state.get_mut(state.index()) {
             *c = c.saturating_add(1);
         }
-        match state {
-            IntegrityState::Disturbed | IntegrityState::CalInvalid => {
-                h.current_disturbance_s += dt;
-                h.longest_disturbance_s = h.longest_disturbance_s.max(h.current_disturbance_s);
-            }
-            _ => h.current_disturbance_s = T::ZERO,
+        if state.is_disturbance() {
+            h.current_disturbance_s += dt;
+            h.longest_disturbance_s = h.longest_disturbance_s.max(h.current_disturbance_s);
+        } else {
+            h.current_disturbance_s = T::ZERO;
         }
     }
 }

@@ -15,6 +15,7 @@
 //! * a heading whose integrity is not `ok` (or no heading) is sent with an
 //!   empty heading field in `HDG` and `HDT`, so a receiver rejects it;
 //!   `$PMAGI` says why: `ok`, `disturbed`, `cal_invalid`, `no_attitude`,
+//!   `unjudged` (`IntegrityState::name`),
 //!   with the σ to 0.01° (empty without a heading);
 //! * the checksum is the XOR of the bytes between `$` and `*`, two
 //!   upper-case hex digits.

@@ -21,52 +21,62 @@ use crate::data::results::RecalibrateEvidence;
 /// is no passing object.
 pub const RECALIBRATE_CAL_INVALID_FRACTION: f64 = 0.10;
 
-/// Samples in each integrity state.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+/// Samples in each integrity state, one count per state of
+/// [`IntegrityState::ALL`]; in JSON an object keyed by the states' names,
+/// in that order (`{"ok": …, "disturbed": …, …}`; a state missing reads
+/// as 0, an unknown name is ignored).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct StateCounts {
-    /// `ok`.
-    pub ok: u64,
-    /// `disturbed`.
-    pub disturbed: u64,
-    /// `cal_invalid`.
-    pub cal_invalid: u64,
-    /// `no_attitude`.
-    pub no_attitude: u64,
-    /// `unjudged` (no reference inclination independent of the stream).
-    #[serde(default)]
-    pub unjudged: u64,
+    per_state: [u64; IntegrityState::COUNT],
 }
 
 impl StateCounts {
     /// One more sample in `state`.
     pub fn add(&mut self, state: IntegrityState) {
-        *self.of_mut(state) += 1;
+        self.per_state[state.index()] += 1;
     }
 
     /// The samples in `state`.
     pub fn of(&self, state: IntegrityState) -> u64 {
-        match state {
-            IntegrityState::Ok => self.ok,
-            IntegrityState::Disturbed => self.disturbed,
-            IntegrityState::CalInvalid => self.cal_invalid,
-            IntegrityState::NoAttitude => self.no_attitude,
-            IntegrityState::Unjudged => self.unjudged,
-        }
-    }
-
-    fn of_mut(&mut self, state: IntegrityState) -> &mut u64 {
-        match state {
-            IntegrityState::Ok => &mut self.ok,
-            IntegrityState::Disturbed => &mut self.disturbed,
-            IntegrityState::CalInvalid => &mut self.cal_invalid,
-            IntegrityState::NoAttitude => &mut self.no_attitude,
-            IntegrityState::Unjudged => &mut self.unjudged,
-        }
+        self.per_state[state.index()]
     }
 
     /// All samples.
     pub fn total(&self) -> u64 {
-        self.ok + self.disturbed + self.cal_invalid + self.no_attitude + self.unjudged
+        self.per_state.iter().sum()
+    }
+
+    /// The counts of `(state, samples)` pairs (the states not given: 0).
+    pub fn from_pairs(pairs: &[(IntegrityState, u64)]) -> Self {
+        let mut c = Self::default();
+        for &(s, n) in pairs {
+            c.per_state[s.index()] = n;
+        }
+        c
+    }
+}
+
+impl Serialize for StateCounts {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeMap;
+        let mut m = serializer.serialize_map(Some(IntegrityState::COUNT))?;
+        for s in IntegrityState::ALL {
+            m.serialize_entry(s.name(), &self.of(s))?;
+        }
+        m.end()
+    }
+}
+
+impl<'de> Deserialize<'de> for StateCounts {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        let by_name = std::collections::BTreeMap::<String, u64>::deserialize(deserializer)?;
+        let mut c = Self::default();
+        for (name, n) in by_name {
+            if let Some(s) = IntegrityState::from_name(&name) {
+                c.per_state[s.index()] = n;
+            }
+        }
+        Ok(c)
     }
 }
 
@@ -109,12 +119,11 @@ impl IntegrityTally {
         self.last_t_s = Some(t_s);
         self.counts.states.add(state);
         let c = &mut self.counts;
-        match state {
-            IntegrityState::Disturbed | IntegrityState::CalInvalid => {
-                self.disturbance_s += dt_s;
-                c.longest_disturbance_s = c.longest_disturbance_s.max(self.disturbance_s);
-            }
-            _ => self.disturbance_s = 0.0,
+        if state.is_disturbance() {
+            self.disturbance_s += dt_s;
+            c.longest_disturbance_s = c.longest_disturbance_s.max(self.disturbance_s);
+        } else {
+            self.disturbance_s = 0.0;
         }
         if state == IntegrityState::CalInvalid {
             self.cal_invalid_s += dt_s;
@@ -143,7 +152,7 @@ impl IntegrityTally {
 /// passing object) are not evidence.
 pub fn recalibrate_evidence(c: &IntegrityCounts, max_cal_invalid_fraction: f64) -> Option<RecalibrateEvidence> {
     let rows = usize::try_from(c.states.total()).unwrap_or(usize::MAX);
-    let cal_invalid_rows = usize::try_from(c.states.cal_invalid).unwrap_or(usize::MAX);
+    let cal_invalid_rows = usize::try_from(c.states.of(IntegrityState::CalInvalid)).unwrap_or(usize::MAX);
     let cal_invalid_fraction = if rows > 0 { cal_invalid_rows as f64 / rows as f64 } else { 0.0 };
     let hard_iron_applied = c.hard_iron_applied == Some(true);
     (rows > 0 && (cal_invalid_fraction > max_cal_invalid_fraction || hard_iron_applied)).then_some(RecalibrateEvidence {
@@ -176,8 +185,9 @@ pub fn recalibrate_text(e: &RecalibrateEvidence, rows_are: &str) -> String {
 
 /// The counts in words: samples per state, the longest stretches, the
 /// on-line hard iron ("1520 ok, 0 disturbed, 100 cal_invalid, 0
-/// no_attitude; longest disturbance 1.0 s, longest cal_invalid 1.0 s; no
-/// on-line hard-iron estimate").
+/// no_attitude, 0 unjudged; longest disturbance 1.0 s, longest cal_invalid
+/// 1.0 s; no on-line hard-iron estimate"), the states in
+/// [`IntegrityState::ALL`]'s order.
 pub fn integrity_text(c: &IntegrityCounts) -> String {
     let n = &c.states;
     let cal_invalid = c.longest_cal_invalid_s.map_or(String::new(), |t| format!(", longest cal_invalid {t:.1} s"));
@@ -187,10 +197,8 @@ pub fn integrity_text(c: &IntegrityCounts) -> String {
         (Some(true), None) => "the on-line hard iron applied".to_string(),
         (Some(false), None) => "no on-line hard-iron estimate".to_string(),
     };
-    format!(
-        "{} ok, {} disturbed, {} cal_invalid, {} no_attitude, {} unjudged; longest disturbance {:.1} s{cal_invalid}; {hard_iron}",
-        n.ok, n.disturbed, n.cal_invalid, n.no_attitude, n.unjudged, c.longest_disturbance_s
-    )
+    let states: Vec<String> = IntegrityState::ALL.iter().map(|&s| format!("{} {}", n.of(s), s.name())).collect();
+    format!("{}; longest disturbance {:.1} s{cal_invalid}; {hard_iron}", states.join(", "), c.longest_disturbance_s)
 }
 
 #[cfg(test)]
@@ -210,7 +218,7 @@ mod tests {
             t.push(*s, i as f64 * 0.1);
         }
         let c = t.counts();
-        assert_eq!(c.states, StateCounts { ok: 10, disturbed: 5, cal_invalid: 13, no_attitude: 1, unjudged: 0 });
+        assert_eq!(c.states, StateCounts::from_pairs(&[(Ok, 10), (Disturbed, 5), (CalInvalid, 13), (NoAttitude, 1)]));
         assert_eq!(c.states.total(), 29);
         assert!((c.longest_disturbance_s - 1.5).abs() < 1e-9, "{c:?}");
         assert!((c.longest_cal_invalid_s.unwrap() - 1.0).abs() < 1e-9, "{c:?}");
@@ -220,6 +228,19 @@ mod tests {
         assert_eq!((e.rows, e.cal_invalid_rows, e.hard_iron_applied), (29, 13, false));
         let text = recalibrate_text(&e, "logged samples");
         assert!(text.contains("13 of 29 logged samples (44.8 %) cal_invalid; longest cal_invalid stretch 1.0 s") && !text.contains("hard iron"), "{text}");
+    }
+
+    /// The counts' JSON is the object the documents have always carried
+    /// (`docs/INTERFACES.md`: the states' names in order), both ways; a
+    /// document from before `unjudged` reads it as 0.
+    #[test]
+    fn the_counts_are_written_and_read_by_the_states_names() {
+        let c = StateCounts::from_pairs(&[(Ok, 10), (Disturbed, 5), (CalInvalid, 13), (NoAttitude, 1), (IntegrityState::Unjudged, 2)]);
+        let text = serde_json::to_string(&c).unwrap();
+        assert_eq!(text, r#"{"ok":10,"disturbed":5,"cal_invalid":13,"no_attitude":1,"unjudged":2}"#);
+        assert_eq!(serde_json::from_str::<StateCounts>(&text).unwrap(), c);
+        let old: StateCounts = serde_json::from_str(r#"{"ok":3,"disturbed":0,"cal_invalid":1,"no_attitude":0}"#).unwrap();
+        assert_eq!((old.of(Ok), old.of(CalInvalid), old.of(IntegrityState::Unjudged), old.total()), (3, 1, 0, 4));
     }
 
     /// A hard iron applied is evidence when known to be; unknown is not.

@@ -145,57 +145,15 @@ pub enum StreamMode {
     Nmea,
 }
 
-/// The integrity of a sample's heading (calib-core's
-/// [`calib_core::integrity::IntegrityState`], in the same order: the wire
-/// tag is the state's `u8`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum Integrity {
-    /// The field fits the calibration's reference and the gyro: the heading
-    /// may be used with its σ.
-    Ok,
-    /// This sample's field does not fit (a nearby magnetic object).
-    Disturbed,
-    /// The stored calibration no longer fits this vehicle (sustained misfit).
-    CalInvalid,
-    /// No fresh attitude (or a needed current is stale): no heading.
-    NoAttitude,
-    /// Every check passed, but against an inclination learned from the
-    /// stream itself: the stored set has no reference inclination (protocol 5).
-    Unjudged,
-}
-
-impl Integrity {
-    /// The wire state from calib-core's.
-    pub fn from_state(s: calib_core::integrity::IntegrityState) -> Self {
-        use calib_core::integrity::IntegrityState as S;
-        match s {
-            S::Ok => Integrity::Ok,
-            S::Disturbed => Integrity::Disturbed,
-            S::CalInvalid => Integrity::CalInvalid,
-            S::NoAttitude => Integrity::NoAttitude,
-            S::Unjudged => Integrity::Unjudged,
-        }
-    }
-
-    /// calib-core's state.
-    pub fn state(self) -> calib_core::integrity::IntegrityState {
-        use calib_core::integrity::IntegrityState as S;
-        match self {
-            Integrity::Ok => S::Ok,
-            Integrity::Disturbed => S::Disturbed,
-            Integrity::CalInvalid => S::CalInvalid,
-            Integrity::NoAttitude => S::NoAttitude,
-            Integrity::Unjudged => S::Unjudged,
-        }
-    }
-
-    /// The word used in CSV, JSON and the `$PMAGI` sentence (`ok`,
-    /// `disturbed`, `cal_invalid`, `no_attitude`, `unjudged`).
-    pub fn name(self) -> &'static str {
-        self.state().name()
-    }
-}
+/// The integrity of a sample's heading: calib-core's
+/// [`calib_core::integrity::IntegrityState`] itself, so the wire carries
+/// every state there is. Its wire tag is the state's code
+/// ([`IntegrityState::code`](calib_core::integrity::IntegrityState::code):
+/// postcard writes a unit variant as its index, in
+/// [`IntegrityState::ALL`](calib_core::integrity::IntegrityState::ALL)'s
+/// order); its word in CSV, JSON and the `$PMAGI` sentence is
+/// [`IntegrityState::name`](calib_core::integrity::IntegrityState::name).
+pub use calib_core::integrity::IntegrityState as Integrity;
 
 pub use calib_core::cal::ModelKind;
 
@@ -449,8 +407,8 @@ pub struct Health {
     pub env_degraded: bool,
     /// Output samples judged in each [`Integrity`] state since boot (or
     /// since the coefficients in use were set), indexed by the state's wire
-    /// tag (`ok`, `disturbed`, `cal_invalid`, `no_attitude`, `unjudged`).
-    pub integrity_samples: [u32; 5],
+    /// tag ([`Integrity::index`], in [`Integrity::ALL`]'s order).
+    pub integrity_samples: [u32; Integrity::COUNT],
     /// Longest run of samples not `ok` (disturbed or calibration invalid), ms.
     pub longest_disturbance_ms: u32,
     /// The on-line hard-iron estimate, nT in the body frame (`None` before

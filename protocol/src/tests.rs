@@ -208,7 +208,7 @@ fn the_largest_messages_fit_in_a_frame() {
                 unlock_challenge: u32::MAX, coefficient_source: CoefficientSource::Default, coefficient_seq: u32::MAX,
                 last_error: Some(DeviceError::Frame(FrameError::UnsupportedVersion { got: 255 })), output_rate_hz: 100, stream: StreamMode::Both,
                 temp_c: Some(f32::MIN), env_degraded: true,
-                integrity_samples: [u32::MAX; 5], longest_disturbance_ms: u32::MAX, hard_iron_nt: Some([f32::MIN; 3]), hard_iron_applied: true, hard_iron_applications: u32::MAX,
+                integrity_samples: [u32::MAX; Integrity::COUNT], longest_disturbance_ms: u32::MAX, hard_iron_nt: Some([f32::MIN; 3]), hard_iron_applied: true, hard_iron_applications: u32::MAX,
             }),
         },
         Response { seq: None, body: ResponseBody::Sample(Sample { t_ms: u32::MAX, raw: Some([1.0; 3]), field_nt: Some([2.0; 3]), heading_rad: Some(3.0), saturated: true, feed_seq: Some(u32::MAX), temp_c: Some(f32::MIN), heading_sigma_deg: Some(f32::MAX), integrity: Integrity::NoAttitude }) },
@@ -331,19 +331,28 @@ proptest! {
     }
 }
 
-/// Version 4: the integrity state's wire tag is calib-core's `u8` (postcard
-/// writes a unit variant as its index, a varint), both ways, and `Nmea` was
-/// appended to `StreamMode` (tag 4) so the earlier modes keep theirs.
+/// Version 4: the integrity state's wire tag is calib-core's code (postcard
+/// writes a unit variant as its index, a varint), both ways, for every state
+/// in `IntegrityState::ALL`; the codes published since version 4 and 5 stay
+/// (a new state is appended); and `Nmea` was appended to `StreamMode` (tag
+/// 4) so the earlier modes keep theirs.
 #[test]
 fn integrity_tags_are_calib_cores_and_nmea_is_appended() {
-    use calib_core::integrity::IntegrityState;
-    for s in IntegrityState::ALL {
-        let w = Integrity::from_state(s);
+    for (i, s) in Integrity::ALL.into_iter().enumerate() {
         let mut buf = [0u8; 4];
-        assert_eq!(postcard::to_slice(&w, &mut buf).unwrap(), &[s as u8]);
-        assert_eq!(w.state(), s);
-        assert_eq!(w.name(), s.name());
+        let bytes = postcard::to_slice(&s, &mut buf).unwrap();
+        assert_eq!(bytes, &[s.code()]);
+        assert_eq!(usize::from(s.code()), i);
+        assert_eq!(postcard::from_bytes::<Integrity>(bytes).unwrap(), s);
+        assert_eq!(Integrity::from_code(s.code()), Some(s));
     }
+    // The tags as published (`docs/INTERFACES.md`, protocol versions 4–5).
+    for (name, tag) in [("ok", 0u8), ("disturbed", 1), ("cal_invalid", 2), ("no_attitude", 3), ("unjudged", 4)] {
+        assert_eq!(Integrity::from_name(name).map(Integrity::code), Some(tag), "{name}");
+    }
+    let past_the_end = u8::try_from(Integrity::COUNT).unwrap();
+    assert!(postcard::from_bytes::<Integrity>(&[past_the_end]).is_err());
+    assert_eq!(Integrity::from_code(past_the_end), None);
     let mut buf = [0u8; 4];
     assert_eq!(postcard::to_slice(&StreamMode::Both, &mut buf).unwrap(), &[3]);
     assert_eq!(postcard::to_slice(&StreamMode::Nmea, &mut buf).unwrap(), &[4]);

@@ -4,6 +4,7 @@
 //! Euler-angle rates, then a disturbance or a new hard iron added.
 
 use super::*;
+use crate::heading::Tilt;
 use crate::cal::{Calibration, EnvTerms, FieldCal, Swing};
 use crate::hardiron::HardIronEstimator;
 use crate::heading::{heading_of_levelled, ned_field, ned_to_body, wrap_pi, wrap_two_pi};
@@ -129,9 +130,10 @@ fn a_clean_sequence_is_ok_throughout_with_the_noise_sigma() {
             s.to_degrees()
         );
     }
-    // Learned inclination, from the same clean sequence: also all ok.
+    // Learned inclination, from the same clean sequence: every test passes,
+    // but against a dip the stream taught itself: all unjudged, none ok.
     let learned = run(600, None, |_, _| [0.0; 3]);
-    assert!(learned.iter().all(|(s, _)| *s == IntegrityState::Ok));
+    assert!(learned.iter().all(|(s, _)| *s == IntegrityState::Unjudged));
 }
 
 /// A field perpendicular to the magnetic meridian (east in NED), which
@@ -284,9 +286,9 @@ fn no_attitude_is_its_own_state_and_bad_references_are_refused() {
         Some(IntegrityError::BadTuning)
     );
     for s in IntegrityState::ALL {
-        assert_eq!(IntegrityState::from_u8(s as u8), Some(s));
+        assert_eq!(IntegrityState::from_code(s as u8), Some(s));
     }
-    assert_eq!(IntegrityState::from_u8(5), None);
+    assert_eq!(IntegrityState::from_code(5), None);
 }
 
 #[test]
@@ -300,9 +302,10 @@ fn the_state_is_small_and_f32_judges_as_f64() {
         "Monitor<f32> {monitor} B, OnlineIntegrity<f32> {online} B, HardIronEstimator<f32> {} B",
         core::mem::size_of::<HardIronEstimator<f32>>()
     );
-    // Measured: 148 B and 348 B (the reference's dip bounds, the second
-    // gate, the on-line estimate's gyro confirmation).
-    assert!(monitor <= 160 && online <= 400, "{monitor} {online}");
+    // Measured: 164 B and 364 B (the reference's dip bounds, the second
+    // gate, the on-line estimate's gyro confirmation; the inclination
+    // learner's block count padded in its own struct).
+    assert!(monitor <= 168 && online <= 400, "{monitor} {online}");
     // The same sequence in f32: the same states.
     let mut m32 = Monitor::<f32>::new(
         Reference {
@@ -630,3 +633,5 @@ fn without_a_reference_inclination_nothing_is_ok() {
         }
     }
 }
+
+mod registry;

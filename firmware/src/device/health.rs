@@ -25,7 +25,7 @@ impl Device {
             stream: p.stream,
             temp_c: p.last_temp_c,
             env_degraded: p.env_degraded,
-            integrity_samples: ih.map_or([0; 5], |h| h.samples_per_state),
+            integrity_samples: ih.map_or([0; magcal_protocol::Integrity::COUNT], |h| h.samples_per_state),
             // Saturating: `as` clamps to the `u32` range (NaN to 0).
             longest_disturbance_ms: ih.map_or(0, |h| (h.longest_disturbance_s * 1000.0) as u32),
             hard_iron_nt: p.integrity.as_ref().and_then(|o| o.hard_iron()).map(|e| e.offset_nt),

@@ -17,6 +17,7 @@
 //! a new set starts a new judgement ([`Pipeline::restart_integrity`]).
 
 use calib_core::cal::{Calibration, Environment};
+use calib_core::integrity::{decide, Evidence};
 use calib_core::online::OnlineIntegrity;
 use magcal_protocol::{DeviceError, Integrity, Sample, StreamMode};
 
@@ -135,16 +136,19 @@ impl Pipeline {
             Some(online) => {
                 let j = online.process(cal, corrected, tilt.as_ref(), rate_rad_s, dt_s);
                 let sigma_deg = j.heading_rad.map(|_| j.verdict.heading_sigma_rad.to_degrees());
-                Judged { field_nt: j.field_nt, heading_rad: j.heading_rad, heading_sigma_deg: sigma_deg, integrity: Integrity::from_state(j.verdict.state) }
+                Judged { field_nt: j.field_nt, heading_rad: j.heading_rad, heading_sigma_deg: sigma_deg, integrity: j.verdict.state }
             }
             // No reference to judge against: the heading cannot be trusted.
-            None => match tilt {
-                Some(t) => {
-                    let out = cal.apply_tilt(corrected, &t);
-                    Judged { field_nt: out.field_nt, heading_rad: Some(out.true_heading_rad), heading_sigma_deg: None, integrity: Integrity::CalInvalid }
+            None => {
+                let integrity = decide(&Evidence::without_monitor(true, tilt.is_some()));
+                match tilt {
+                    Some(t) => {
+                        let out = cal.apply_tilt(corrected, &t);
+                        Judged { field_nt: out.field_nt, heading_rad: Some(out.true_heading_rad), heading_sigma_deg: None, integrity }
+                    }
+                    None => Judged { field_nt: cal.field.apply(corrected), heading_rad: None, heading_sigma_deg: None, integrity },
                 }
-                None => Judged { field_nt: cal.field.apply(corrected), heading_rad: None, heading_sigma_deg: None, integrity: Integrity::NoAttitude },
-            },
+            }
         };
         if let Some(f) = fit {
             if f.running() && !raw.saturated {

@@ -585,7 +585,7 @@ fn a_disturbed_stream_is_flagged_with_calib_cores_bits() {
         assert_eq!(out.field_nt.unwrap().map(f32::to_bits), j.field_nt.map(f32::to_bits), "sample {k}");
         assert_eq!(out.heading_rad.map(f32::to_bits), j.heading_rad.map(f32::to_bits), "sample {k}");
         assert_eq!(out.heading_sigma_deg.map(f32::to_bits), Some(j.verdict.heading_sigma_rad.to_degrees().to_bits()), "sample {k}");
-        assert_eq!(out.integrity.state(), j.verdict.state, "sample {k}");
+        assert_eq!(out.integrity, j.verdict.state, "sample {k}");
         if out.integrity == Integrity::Ok {
             // σ honest: the error within 4σ (measured: worst ratio below 2.5).
             let err_deg = wrap_pi(f64::from(out.heading_rad.unwrap()) - yaw).to_degrees().abs();
@@ -640,7 +640,7 @@ fn the_stored_reference_inclination_judges_the_dip() {
             let dt = if k == 0 { f32::NAN } else { 0.1f32 };
             let corrected = cal.env.correct_raw(raw.field_counts, &calib_core::cal::Environment { current_a: 0.0, temp_c: sensor.t0_c as f32 });
             let j = reference.process(&cal, corrected, Some(&calib_core::heading::Tilt::new(roll_rad, pitch_rad)), Some(rate_rad_s), dt);
-            assert_eq!(out.integrity.state(), j.verdict.state, "{inclination:?}: sample {k}");
+            assert_eq!(out.integrity, j.verdict.state, "{inclination:?}: sample {k}");
             if k >= 20 && out.integrity == Integrity::Ok {
                 ok += 1;
             }

@@ -562,7 +562,7 @@ impl<W: Write> Logger<W> {
         let cells = [Cell::Fixed(t_s, 3), field(0), field(1), field(2), Cell::opt(temp), Cell::Count(u64::from(flags)), Cell::opt(sigma), Cell::Text(sample.integrity.name())];
         self.out.row(&cells).map_err(|e| self.io_err(e))?;
         self.s.samples += 1;
-        self.tally.push(sample.integrity.state(), t_s);
+        self.tally.push(sample.integrity, t_s);
         self.s.saturated_samples += u64::from(sample.saturated);
         self.s.samples_with_temp += u64::from(temp.is_some());
         self.s.first_t_s.get_or_insert(t_s);

@@ -11,7 +11,7 @@ use std::path::Path;
 use calib_core::cal::Environment;
 use calib_core::hardiron::HardIron;
 use calib_core::heading::{wrap_pi, Tilt};
-use calib_core::integrity::{IntegrityError, IntegrityState, Reference, Tuning};
+use calib_core::integrity::{decide, Evidence, IntegrityError, IntegrityState, Reference, Tuning};
 use calib_core::online::{Health, OnlineIntegrity};
 use serde::Serialize;
 
@@ -321,11 +321,13 @@ pub fn apply_recording(
             prev_t = t;
         }
         if !raw.iter().all(|v| v.is_finite()) {
+            // No field: no heading, whatever the attitude.
+            let attitude = col(&rec.roll_deg, i).is_some() && col(&rec.pitch_deg, i).is_some();
             rows.push(AppliedRow {
                 field_nt: [f64::NAN; 3],
                 heading_deg: None,
                 heading_sigma_deg: None,
-                integrity: IntegrityState::NoAttitude,
+                integrity: decide(&Evidence::without_monitor(false, attitude)),
             });
             continue;
         }

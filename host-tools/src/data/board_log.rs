@@ -22,7 +22,8 @@ pub const HEALTH: &str = col::HEALTH;
 /// (written by `magcal log`; empty when the board had no heading).
 pub const HEADING_SIGMA_DEG: &str = "heading_sigma_deg";
 /// `integrity`: the board's judgement of the sample, a word (`ok`,
-/// `disturbed`, `cal_invalid`, `no_attitude`; written by `magcal log`, not
+/// `disturbed`, `cal_invalid`, `no_attitude`, `unjudged`: every
+/// `IntegrityState::name`; written by `magcal log`, not
 /// read back by [`BoardLog::read`]).
 pub const INTEGRITY: &str = "integrity";
 /// Every column in the order the board writes them.

@@ -461,9 +461,9 @@ pub(crate) fn coefficients(page: &mut Page, cx: &Context<'_>) {
 }
 
 /// The colour of each integrity state in the figure (ok green, disturbed
-/// orange, calibration invalid red, no attitude grey, unjudged blue), in
+/// orange, calibration invalid red, no attitude grey, unjudged purple), in
 /// [`IntegrityState::ALL`]'s order.
-fn state_colour(state: IntegrityState) -> plotters::style::RGBColor {
+pub(crate) fn state_colour(state: IntegrityState) -> plotters::style::RGBColor {
     match state {
         IntegrityState::Ok => plot::color(2),
         IntegrityState::Disturbed => plot::color(3),

@@ -301,3 +301,28 @@ fn validation_only<'a>(val: &'a Recording, truth_deg: &'a [f64], column: &'a str
         settings: None,
     }
 }
+
+/// Every integrity state has its own colour in the report's figure: the
+/// states of `IntegrityState::ALL`, none sharing one; ok green, calibration
+/// invalid red, no attitude grey (the legend's words).
+#[test]
+fn every_integrity_state_has_its_own_colour() {
+    use calib_core::integrity::IntegrityState;
+    let colours: Vec<(u8, u8, u8)> = IntegrityState::ALL
+        .iter()
+        .map(|&s| {
+            let c = sections::state_colour(s);
+            (c.0, c.1, c.2)
+        })
+        .collect();
+    for (i, c) in colours.iter().enumerate() {
+        assert!(!colours[..i].contains(c), "{:?} shares {c:?}", IntegrityState::ALL[i]);
+    }
+    let of = |s: IntegrityState| colours[s.index()];
+    let (r, g, b) = of(IntegrityState::Ok);
+    assert!(g > r && g > b, "ok {:?}", (r, g, b));
+    let (r, g, b) = of(IntegrityState::CalInvalid);
+    assert!(r > g && r > b, "cal_invalid {:?}", (r, g, b));
+    let (r, g, b) = of(IntegrityState::NoAttitude);
+    assert!(r == g && g == b, "no_attitude {:?}", (r, g, b));
+}

@@ -407,11 +407,15 @@ fn glider(data: &Path) -> Option<serde_json::Value> {
         .filter(|&i| g.depth_m.get(i).is_some_and(|d| *d > GLIDER_JUDGE_DEPTH_M))
         .collect();
     let count = |rows: &mut dyn Iterator<Item = usize>| {
-        let mut c = [0usize; 5];
+        let mut c = [0usize; IntegrityState::COUNT];
         for i in rows {
-            c[applied.rows[i].integrity as usize] += 1;
+            c[applied.rows[i].integrity.index()] += 1;
         }
-        json!({"ok": c[0], "disturbed": c[1], "cal_invalid": c[2], "no_attitude": c[3], "unjudged": c[4]})
+        let by_name: serde_json::Map<String, serde_json::Value> = IntegrityState::ALL
+            .iter()
+            .map(|s| (s.name().to_string(), json!(c[s.index()])))
+            .collect();
+        serde_json::Value::Object(by_name)
     };
     let (ok, not_ok): (Vec<usize>, Vec<usize>) = below
         .iter()

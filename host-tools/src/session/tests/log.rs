@@ -170,8 +170,8 @@ fn the_logged_integrity_states_are_counted_and_judged_by_the_sessions_rule() {
     // The counts against the file's own integrity column.
     let column = |word: &str| text.lines().skip(1).filter(|l| l.ends_with(&format!(",{word}"))).count() as u64;
     let c = &s.integrity;
-    assert_eq!((c.states.ok, c.states.cal_invalid, c.states.disturbed, c.states.no_attitude), (column("ok"), column("cal_invalid"), 0, 0));
-    assert_eq!((c.states.cal_invalid, c.states.total()), (100, s.samples));
+    assert_eq!([IntegrityState::Ok, IntegrityState::CalInvalid, IntegrityState::Disturbed, IntegrityState::NoAttitude].map(|st| c.states.of(st)), [column("ok"), column("cal_invalid"), 0, 0]);
+    assert_eq!((c.states.of(IntegrityState::CalInvalid), c.states.total()), (100, s.samples));
     // 100 steps of 10 ms on the board's clock, both stretches.
     assert!((c.longest_cal_invalid_s.unwrap() - 1.0).abs() < 1e-6 && (c.longest_disturbance_s - 1.0).abs() < 1e-6, "{c:?}");
     // The mock board has no calibration: no on-line hard iron, read from
@@ -192,11 +192,11 @@ fn the_logged_integrity_states_are_counted_and_judged_by_the_sessions_rule() {
     let clean = board();
     clean.borrow_mut().integrity_at = |_| magcal_protocol::Integrity::Ok;
     let (s, _, _) = log_until(400, &mut connector(&clean, vec![]), |_| {});
-    assert_eq!((s.integrity.states.ok, s.recalibrate), (s.samples, None));
+    assert_eq!((s.integrity.states.of(IntegrityState::Ok), s.recalibrate), (s.samples, None));
     assert!(serde_json::to_value(&s).unwrap().get("recalibrate").is_none());
     // All disturbed (a passing object, the mock board's default): not evidence.
     let (s, _, _) = log_until(200, &mut connector(&board(), vec![]), |_| {});
-    assert_eq!((s.integrity.states.disturbed, s.recalibrate), (s.samples, None));
+    assert_eq!((s.integrity.states.of(IntegrityState::Disturbed), s.recalibrate), (s.samples, None));
 }
 
 /// The on-line hard iron over a log, from the board's `Health` at its two
