@@ -44,6 +44,9 @@
 //!   feed) is the datasheet table's, interpolated as `ln R` linear in `1/T`
 //!   (the B-law between neighbouring rows). An open thermistor (NaN
 //!   temperature) puts the whole reference on the input: the code clips.
+//!
+//! The host's frames that set the bridges arrive on USART2 and are decoded
+//! by [`FeedReceiver`] (module `feed`).
 
 // Indexing below is into the fixed 18-byte frame at const offsets; the
 // bytes from the bus are only ever values.
@@ -56,6 +59,9 @@ use critical_section::Mutex;
 use embedded_hal::delay::DelayNs;
 use embedded_hal::digital::{ErrorType as PinErrorType, InputPin, OutputPin};
 use embedded_hal::spi::{ErrorType, Operation, SpiDevice};
+
+mod feed;
+pub use feed::FeedReceiver;
 
 /// HMC1001/1002 sensitivity, V per V of bridge supply per gauss (datasheet typ).
 const HMC_SENSITIVITY_V_PER_V_PER_GAUSS: f64 = 3.2e-3;
@@ -697,42 +703,6 @@ impl SpiDevice for Ads131m04Model {
             }
         });
         Ok(())
-    }
-}
-
-/// The QEMU board's sensor feed (USART2): frames from the host that set what
-/// the modelled bridges see. The body of the firmware's `feed` task.
-pub struct FeedReceiver {
-    decoder: magcal_protocol::FrameDecoder,
-    offsets: [f32; 3],
-}
-
-impl Default for FeedReceiver {
-    fn default() -> Self {
-        Self::new()
-    }
-}
-
-impl FeedReceiver {
-    /// A receiver with no frame yet (bridge offsets zero).
-    pub const fn new() -> Self {
-        Self { decoder: magcal_protocol::FrameDecoder::new(), offsets: [0.0; 3] }
-    }
-
-    /// One byte from USART2. A complete, valid [`magcal_protocol::SensorFeed`]
-    /// frame sets `bridges` (offsets kept when the frame leaves them out) and
-    /// returns its sequence number; damaged frames are ignored.
-    pub fn on_byte(&mut self, byte: u8, bridges: &BridgeModel) -> Option<u32> {
-        let Some(Ok(body)) = self.decoder.push(byte) else { return None };
-        let f = magcal_protocol::decode_body::<magcal_protocol::SensorFeed>(body).ok()?;
-        if let Some(o) = f.offset_counts {
-            self.offsets = o;
-        }
-        if let Some(t) = f.temp_c {
-            bridges.set_temp_c(t);
-        }
-        bridges.set_truth_seq(f.field_nt, self.offsets, f.seq);
-        Some(f.seq)
     }
 }
 

@@ -1,6 +1,5 @@
 #![allow(clippy::unwrap_used, clippy::indexing_slicing)]
 use super::*;
-use magcal_protocol::{encode, SensorFeed, MAX_FRAME_LEN};
 
 /// A NULL frame, and the channel-0 code and STATUS the model answers.
 fn null_frame(adc: &mut Ads131m04Model) -> (u16, i32) {
@@ -109,31 +108,6 @@ fn unread_conversions_are_buffered_two_deep() {
     let (_, third) = null_frame(&mut adc);
     let (status4, _) = null_frame(&mut adc);
     assert_eq!((third, status4 & 0x000F), (second, 0));
-}
-
-fn frame(f: &SensorFeed) -> ([u8; MAX_FRAME_LEN], usize) {
-    let mut buf = [0u8; MAX_FRAME_LEN];
-    let n = encode(f, &mut buf).unwrap();
-    (buf, n)
-}
-
-#[test]
-fn feed_frames_set_the_bridges_and_damage_is_ignored() {
-    static BRIDGES: BridgeModel = BridgeModel::new();
-    let mut rx = FeedReceiver::new();
-    let (a, n) = frame(&SensorFeed { seq: 5, field_nt: [1000.0, -2000.0, 500.0], offset_counts: Some([10.0, 20.0, 30.0]), temp_c: None });
-    let got: Vec<Option<u32>> = a[..n].iter().map(|&b| rx.on_byte(b, &BRIDGES)).collect();
-    assert_eq!(got.iter().flatten().copied().collect::<Vec<_>>(), vec![5]);
-    assert_eq!((BRIDGES.seq(), BRIDGES.updates()), (5, 1));
-    // A damaged frame changes nothing; the next good one, without
-    // offsets, keeps the previous offsets.
-    let (mut b, n) = frame(&SensorFeed { seq: 6, field_nt: [0.0; 3], offset_counts: None, temp_c: None });
-    b[3] ^= 0x40;
-    assert!(b[..n].iter().all(|&x| rx.on_byte(x, &BRIDGES).is_none()));
-    assert_eq!((BRIDGES.seq(), BRIDGES.updates()), (5, 1));
-    let (c, n) = frame(&SensorFeed { seq: 7, field_nt: [0.0; 3], offset_counts: None, temp_c: None });
-    assert_eq!(c[..n].iter().filter_map(|&x| rx.on_byte(x, &BRIDGES)).last(), Some(7));
-    assert_eq!(rx.offsets, [10.0, 20.0, 30.0]);
 }
 
 #[test]

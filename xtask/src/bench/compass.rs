@@ -73,6 +73,11 @@ pub fn section(root: &Path) -> (serde_json::Value, String) {
     (json!({"log": "tests/data/cirrus-yacht/compass_log.csv", "declination_deg": reference.declination_deg, "fits": rows, "reference": {"delay_s": reference.best_delay_s, "pairs": reference.pairs, "before_rms_deg": reference.before_rms_deg, "after_rms_deg": reference.residual_rms_deg, "held_out_before_rms_deg": reference.held_out_before_rms_deg, "held_out_after_rms_deg": reference.held_out_after_rms_deg}}), md)
 }
 
+/// The `results.md` section "A heading-only compass's swing".
+pub fn markdown(compass_md: &str) -> String {
+    format!("\n## A heading-only compass's swing (issue 29)\n\nThe yacht Cirrus's real calibration circles: compass − GNSS course before and after the swing, in-sample and on held-out halves (each half corrected by the swing fitted on the other), against numpy's plain least squares.\n{compass_md}")
+}
+
 #[cfg(test)]
 mod tests {
     /// Only this section: `cargo test -p xtask bench::compass::tests::compass_section -- --ignored --nocapture`.

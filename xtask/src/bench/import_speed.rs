@@ -86,3 +86,8 @@ pub fn section(root: &Path) -> (serde_json::Value, String) {
     }
     (json!(rows), md)
 }
+
+/// The `results.md` section "Import speed per format".
+pub fn markdown(import_md: &str) -> String {
+    format!("\n## Import speed per format\n\n`magcal import`'s one importer in process (best of five) beside the independent reader each format's tests compare against (`xtask/python/read_speed.py`, the read only, best of three), on the committed fixtures: `cargo test --release -p xtask bench::tests::import_speed_section -- --ignored --nocapture`.\n{import_md}")
+}

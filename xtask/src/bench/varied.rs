@@ -180,3 +180,8 @@ pub fn varied_sites_section() -> (serde_json::Value, String) {
     let _ = writeln!(md);
     (json!({"rows": rows, "summary": summary, "leave_one_site_out": loo}), md)
 }
+
+/// The `results.md` section "The five effects on varied sites".
+pub fn markdown(varied_md: &str) -> String {
+    format!("\n## The five effects on varied sites (issue 29, item 4)\n\nThe five effects at three sites unlike paper 000's — high latitude (Trondheimsfjord, inclination 75°), low latitude (off Goa, 19.5°), southern (off Fiji, −40°, declination 13°) — with every effect's magnitudes drawn by seed from the ranges of `magcal_sim::varied::MagnitudeRanges` (thruster places and moments, thermocline, sensor lag and gains, the crustal bodies' strength, depth and place, magnetised by the site's field, the AHRS misalignment, the current's speed and direction). Our chain with the local field's gradient along the track in the joint back-stepping, and without it (the chain before). `cargo test --release -p xtask bench::tests::varied_sites_section -- --ignored --nocapture`.\n\n{varied_md}\n")
+}
