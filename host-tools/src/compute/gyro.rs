@@ -166,28 +166,24 @@ pub fn fit_gyro_recording(rec: &Recording, field_nt: f64, gyro_lag: GyroLag) -> 
 mod tests {
     use super::*;
 
-    /// A simulated swing test at ±15° / ±5° whose gyro is read 0.2 s late
-    /// (rates shifted by one sample at 5 Hz): the estimate finds the lag
-    /// and the heading comes back.
-    #[test]
-    fn a_gyro_lag_is_estimated_from_the_data() {
-        // The rates of a steady turn with rolling: built here from the
-        // kinematics, as the simulator does.
-        let (dt, n) = (0.2, 3000);
+    /// A swing test at ±15° / ±5°, turning at 1/12 rad/s, built from the
+    /// kinematics as the simulator does: `n` rows `dt` apart whose
+    /// magnetometer (and attitude) sample the motion at `t − mag_late_s`
+    /// and whose gyro samples it at `t − gyro_late_s`; the raw field is the
+    /// truth's through bias (300, −200, 100) and per-axis scale.
+    fn swing_recording(dt: f64, n: usize, mag_late_s: f64, gyro_late_s: f64) -> Recording {
         let ned = calib_core::heading::ned_field(48_000.0, 1.05, 0.0);
-        let mut rec = Recording { t_s: Some(vec![]), roll_deg: Some(vec![]), pitch_deg: Some(vec![]), gx_rad_s: Some(vec![]), gy_rad_s: Some(vec![]), gz_rad_s: Some(vec![]), ..Recording::default() };
-        let lag_samples = 1;
         let motion = |t: f64| {
             let (roll, pitch, yaw) = (0.26 * (t / 6.0).sin(), 0.09 * (t / 9.0).sin(), t / 12.0);
             let (rd, pd, yd) = (0.26 / 6.0 * (t / 6.0).cos(), 0.09 / 9.0 * (t / 9.0).cos(), 1.0 / 12.0);
             let rate = [rd - yd * pitch.sin(), pd * roll.cos() + yd * roll.sin() * pitch.cos(), -pd * roll.sin() + yd * roll.cos() * pitch.cos()];
             (roll, pitch, yaw, rate)
         };
+        let mut rec = Recording { t_s: Some(vec![]), roll_deg: Some(vec![]), pitch_deg: Some(vec![]), gx_rad_s: Some(vec![]), gy_rad_s: Some(vec![]), gz_rad_s: Some(vec![]), ..Recording::default() };
         for i in 0..n {
             let t = i as f64 * dt;
-            let (roll, pitch, yaw, _) = motion(t);
-            // The gyro row at t holds the rate of t − lag.
-            let (_, _, _, rate) = motion(t - lag_samples as f64 * dt);
+            let (roll, pitch, yaw, _) = motion(t - mag_late_s);
+            let (_, _, _, rate) = motion(t - gyro_late_s);
             let h = calib_core::heading::ned_to_body(ned, roll, pitch, yaw);
             rec.mag.push([h[0] * 0.011 + 300.0, h[1] * 0.009 - 200.0, h[2] * 0.010 + 100.0]);
             rec.t_s.as_mut().unwrap().push(t);
@@ -197,6 +193,17 @@ mod tests {
             rec.gy_rad_s.as_mut().unwrap().push(rate[1]);
             rec.gz_rad_s.as_mut().unwrap().push(rate[2]);
         }
+        rec
+    }
+
+    /// A simulated swing test at ±15° / ±5° whose gyro is read 0.2 s late
+    /// (rates shifted by one sample at 5 Hz): the estimate finds the lag
+    /// and the heading comes back.
+    #[test]
+    fn a_gyro_lag_is_estimated_from_the_data() {
+        // The rates of a steady turn with rolling; the gyro row at t holds
+        // the rate of t − one sample.
+        let rec = swing_recording(0.2, 3000, 0.0, 0.2);
         let (lag, _) = estimate_gyro_lag_s(&rec, 48_000.0).unwrap();
         // The magnetometer leads the rows' gyro by one sample: reading the
         // rates 0.2 s *later* (lag −0.2 s) lines them up.
@@ -214,30 +221,10 @@ mod tests {
     /// sub-sample lag is the one put in, sign included.
     #[test]
     fn a_sub_sample_lag_of_either_sign_is_reported_with_its_sign() {
-        let (dt, n) = (0.2, 3000);
-        let ned = calib_core::heading::ned_field(48_000.0, 1.05, 0.0);
-        let motion = |t: f64| {
-            let (roll, pitch, yaw) = (0.26 * (t / 6.0).sin(), 0.09 * (t / 9.0).sin(), t / 12.0);
-            let (rd, pd, yd) = (0.26 / 6.0 * (t / 6.0).cos(), 0.09 / 9.0 * (t / 9.0).cos(), 1.0 / 12.0);
-            let rate = [rd - yd * pitch.sin(), pd * roll.cos() + yd * roll.sin() * pitch.cos(), -pd * roll.sin() + yd * roll.cos() * pitch.cos()];
-            (roll, pitch, yaw, rate)
-        };
+        let dt = 0.2;
         for lag_samples in [0.3, -0.3] {
             let lag_s = lag_samples * dt;
-            let mut rec = Recording { t_s: Some(vec![]), roll_deg: Some(vec![]), pitch_deg: Some(vec![]), gx_rad_s: Some(vec![]), gy_rad_s: Some(vec![]), gz_rad_s: Some(vec![]), ..Recording::default() };
-            for i in 0..n {
-                let t = i as f64 * dt;
-                let (roll, pitch, yaw, _) = motion(t - lag_s);
-                let (_, _, _, rate) = motion(t);
-                let h = calib_core::heading::ned_to_body(ned, roll, pitch, yaw);
-                rec.mag.push([h[0] * 0.011 + 300.0, h[1] * 0.009 - 200.0, h[2] * 0.010 + 100.0]);
-                rec.t_s.as_mut().unwrap().push(t);
-                rec.roll_deg.as_mut().unwrap().push(roll.to_degrees());
-                rec.pitch_deg.as_mut().unwrap().push(pitch.to_degrees());
-                rec.gx_rad_s.as_mut().unwrap().push(rate[0]);
-                rec.gy_rad_s.as_mut().unwrap().push(rate[1]);
-                rec.gz_rad_s.as_mut().unwrap().push(rate[2]);
-            }
+            let rec = swing_recording(dt, 3000, lag_s, 0.0);
             let (cal, q) = fit_gyro_recording(&rec, 48_000.0, GyroLag::Given(0.0)).unwrap();
             let err = (cal.bias[0] - 300.0).abs().max((cal.bias[1] + 200.0).abs()).max((cal.bias[2] - 100.0).abs());
             eprintln!("lag {lag_s:+.3} s: reported {:+.5} s, bias error {err:.3} raw", q.gyro_lag_s);
