@@ -1,13 +1,15 @@
-//! `cargo xtask bench`: accuracy benchmarks whose numbers go into the README.
-//! Writes `target/bench/results.json` and `target/bench/results.md`.
+//! `cargo xtask bench [--section NAME]...`: accuracy benchmarks. Writes
+//! `target/bench/results.json` and `target/bench/results.md`, and
+//! `docs/results.json` with `docs/RESULTS.md` rendered from it
+//! (`crate::results_doc`).
 //!
 //! One module per section; [`run`] runs them in turn and joins their
 //! Markdown in the order of `results.md`.
 
 use std::path::Path;
 
-use anyhow::Result;
-use serde_json::json;
+use anyhow::{bail, Result};
+use serde_json::{json, Value};
 
 mod compass;
 mod effects;
@@ -32,117 +34,173 @@ use paper000::paper000;
 use paper001::{f32_vs_f64, figures, paper001, SEEDS};
 use real_recordings::real_recordings;
 
-/// Runs the benchmarks and writes the results.
-pub fn run(out_dir: &Path) -> Result<()> {
+/// Runs the benchmarks (every section, or those named in `only`: the names
+/// of [`crate::results_doc::SECTIONS`]) and writes the results:
+/// `target/bench/results.{json,md}`, `docs/results.json` and `docs/RESULTS.md`.
+/// With `only`, the other sections are kept from the previous
+/// `target/bench/results.json`, each with its own date and commit.
+pub fn run(out_dir: &Path, only: &[String]) -> Result<()> {
+    let known: Vec<&str> = crate::results_doc::SECTIONS.iter().map(|s| s.0).collect();
+    if let Some(bad) = only.iter().find(|s| !known.contains(&s.as_str())) {
+        bail!("no bench section `{bad}` (the sections: {})", known.join(", "));
+    }
+    let want = |name: &str| only.is_empty() || only.iter().any(|s| s == name);
     std::fs::create_dir_all(out_dir)?;
     let root = out_dir.join("../..");
-    eprintln!("== MCU cost (instructions under QEMU -icount)");
-    let mut mcu = mcu_costs(&root)?;
-    let usage = crate::size::measure(&root.join("target/thumbv7em-none-eabihf/release/firmware")).ok();
-    if let Some(u) = usage {
-        mcu["flash_bytes"] = json!(u.flash_bytes);
-        mcu["ram_bytes"] = json!(u.ram_bytes);
-    }
-    let budget = cpu_budget(&mcu);
-    if let (Some(obj), Some(b)) = (mcu.as_object_mut(), budget.as_object()) {
-        for (k, v) in b {
-            obj.insert(k.clone(), v.clone());
-        }
-    }
-    eprintln!("{}", serde_json::to_string_pretty(&mcu)?);
-    eprintln!("== paper 001: J vs N and σ ({SEEDS} seeds each)");
-    let (p1, p1_md) = paper001();
-    eprintln!("{p1_md}");
-    let f32_check = f32_vs_f64();
-    eprintln!("== paper 000: simulated field tests (5 seeds × 2 vehicles)");
-    let (p0, p0_md) = paper000();
-    eprintln!("{p0_md}");
-    eprintln!("== f32 recursive full fit vs f64 batch (2400-sample tumble, 50 000 nT, 0.4 nT noise): {f32_check}");
-    eprintln!("== host throughput (10⁶ samples)");
-    let host = host_throughput(&root);
-    eprintln!("{}", serde_json::to_string_pretty(&host)?);
-    let figs = figures(out_dir, &p1)?;
-    let real = real_recordings(&root);
-    eprintln!("== real recordings: {real}");
-    eprintln!("== limited tilt: simulated swing tests with and without a gyro, broad-05 against the peers");
-    let (limited, limited_md) = limited_tilt(&root);
-    eprintln!("{limited_md}");
-    // The report of a full session (`cargo xtask demo`) in headless Chromium:
-    // browser start to screenshot, s (target ≤ 2 s).
-    let report_page = root.join("target/demo/session/report/index.html");
-    let report_render_s = match crate::browser::check_report(&report_page) {
-        Ok(r) => {
-            // The browser's own start, for scale: an empty page the same way.
-            let empty = out_dir.join("empty.html");
-            let start_s = std::fs::write(&empty, "<!doctype html><title>empty</title><link rel=\"icon\" href=\"data:,\">")
-                .map_err(anyhow::Error::from)
-                .and_then(|()| crate::browser::render(&empty, &out_dir.join("empty.png"), crate::browser::WINDOW))
-                .map_or(f64::NAN, |e| e.render_s);
-            eprintln!("== report render (headless Chromium, {}): {:.2} s (an empty page: {start_s:.2} s)", report_page.display(), r.render_s);
-            json!(r.render_s)
-        }
-        Err(e) => {
-            eprintln!("== report render: not measured ({e:#}; run `cargo xtask demo` first)");
-            json!(null)
-        }
+    let root = root.canonicalize().unwrap_or(root);
+    let previous = std::fs::read_to_string(out_dir.join("results.json")).ok().and_then(|t| serde_json::from_str::<Value>(&t).ok());
+    let mut results = match previous {
+        Some(p) if !only.is_empty() && p.is_object() => p,
+        _ => json!({}),
     };
-    let (real_data, real_data_md) = real_data::real_data(&root);
-    eprintln!("== real recordings, every model (issue 22){real_data_md}");
-    eprintln!("== merge: clocks ±60 s and ±100 ppm apart at 50, 5 and 1 Hz, with and without a heading, {} seeds", MERGE_SHAPE_SEEDS.len());
-    let (merge_numbers, merge_md) = merge_clocks();
-    eprintln!("{merge_md}");
-    eprintln!("== effects (issue 12): five real-vehicle effects, {} seeds", EFFECTS_SEEDS.len());
-    let (effects_numbers, effects_md) = effects();
-    eprintln!("{effects_md}");
-    let mut results = json!({
-        "command": "cargo xtask bench",
-        "report_render_s": report_render_s,
-        "host_throughput": host,
-        "real_recordings": real,
-        "figures": figs,
-        "paper001_j": p1,
-        "paper000_scenarios": p0,
-        "f32_rls_vs_f64_batch": f32_check,
-        "limited_tilt": limited,
-        "merge": merge_numbers,
-        "real_data": real_data,
-        "effects": effects_numbers,
-    });
-    results["integrity"] = integrity::section(&root);
-    eprintln!("== a heading-only compass's swing on the yacht Cirrus's circles (issue 29)");
-    let (compass_numbers, compass_md) = compass::section(&root);
-    eprintln!("{compass_md}");
-    results["compass_swing"] = compass_numbers;
-    eprintln!("== the five effects on varied sites with drawn magnitudes (issue 29, item 4), {} seeds", varied::VARIED_SEEDS.len());
-    let (varied_numbers, varied_md) = varied::varied_sites_section();
-    eprintln!("{varied_md}");
-    results["effects_varied_sites"] = varied_numbers;
-    eprintln!("== import speed per format beside the independent readers");
-    let (import_numbers, import_md) = import_speed::section(&root);
-    eprintln!("{import_md}");
-    results["import_speed"] = import_numbers;
-    if let Some(obj) = mcu.as_object() {
-        for (k, v) in obj {
-            results[k] = v.clone();
+    results["command"] = json!("cargo xtask bench");
+    let stamp = crate::results_doc::stamp(&root);
+    let piece = |results: &mut Value, name: &str, md: String| {
+        results["markdown"][name] = json!(md);
+        results["generated"][name] = stamp.clone();
+    };
+    if want("mcu") {
+        eprintln!("== MCU cost (instructions under QEMU -icount)");
+        let mut mcu = mcu_costs(&root)?;
+        let usage = crate::size::measure(&root.join("target/thumbv7em-none-eabihf/release/firmware")).ok();
+        if let Some(u) = usage {
+            mcu["flash_bytes"] = json!(u.flash_bytes);
+            mcu["ram_bytes"] = json!(u.ram_bytes);
+        }
+        let budget = cpu_budget(&mcu);
+        if let (Some(obj), Some(b)) = (mcu.as_object_mut(), budget.as_object()) {
+            for (k, v) in b {
+                obj.insert(k.clone(), v.clone());
+            }
+        }
+        eprintln!("{}", serde_json::to_string_pretty(&mcu)?);
+        piece(&mut results, "mcu", mcu::markdown(&mcu)?);
+        if let Some(obj) = mcu.as_object() {
+            for (k, v) in obj {
+                results[k] = v.clone();
+            }
         }
     }
-    std::fs::write(out_dir.join("results.json"), serde_json::to_string_pretty(&results)?)?;
-    let md = [
-        "# Benchmarks (`cargo xtask bench`)\n\n".to_string(),
-        mcu::markdown(&mcu)?,
-        paper000::markdown(&p0_md),
-        paper001::markdown(&p1_md),
-        limited_tilt::markdown(&limited_md),
-        merge::markdown(&merge_md),
-        effects::markdown(&effects_md),
-        paper001::f32_markdown(&f32_check),
-        host_throughput::markdown(&results["host_throughput"])?,
-    ]
-    .concat();
-    let md = md + &varied::markdown(&varied_md) + &import_speed::markdown(&import_md) + &compass::markdown(&compass_md);
-    std::fs::write(out_dir.join("results.md"), md)?;
+    if want("paper001") {
+        eprintln!("== paper 001: J vs N and σ ({SEEDS} seeds each)");
+        let (p1, p1_md) = paper001();
+        eprintln!("{p1_md}");
+        results["figures"] = json!(figures(out_dir, &p1)?);
+        results["paper001_j"] = p1;
+        piece(&mut results, "paper001", paper001::markdown(&p1_md));
+    }
+    if want("f32") {
+        let f32_check = f32_vs_f64();
+        eprintln!("== f32 recursive full fit vs f64 batch (2400-sample tumble, 50 000 nT, 0.4 nT noise): {f32_check}");
+        piece(&mut results, "f32", paper001::f32_markdown(&f32_check));
+        results["f32_rls_vs_f64_batch"] = f32_check;
+    }
+    if want("paper000") {
+        eprintln!("== paper 000: simulated field tests (5 seeds × 2 vehicles)");
+        let (p0, p0_md) = paper000();
+        eprintln!("{p0_md}");
+        results["paper000_scenarios"] = p0;
+        piece(&mut results, "paper000", paper000::markdown(&p0_md));
+    }
+    if want("host-throughput") {
+        eprintln!("== host throughput (10⁶ samples)");
+        let host = host_throughput(&root);
+        eprintln!("{}", serde_json::to_string_pretty(&host)?);
+        piece(&mut results, "host-throughput", host_throughput::markdown(&host)?);
+        results["host_throughput"] = host;
+    }
+    if want("real-recordings") {
+        let real = real_recordings(&root);
+        eprintln!("== real recordings: {real}");
+        piece(&mut results, "real-recordings", real_recordings::markdown(&real));
+        results["real_recordings"] = real;
+    }
+    if want("limited-tilt") {
+        eprintln!("== limited tilt: simulated swing tests with and without a gyro, broad-05 against the peers");
+        let (limited, limited_md) = limited_tilt(&root);
+        eprintln!("{limited_md}");
+        results["limited_tilt"] = limited;
+        piece(&mut results, "limited-tilt", limited_tilt::markdown(&limited_md));
+    }
+    if want("report-render") {
+        // The report of a full session (`cargo xtask demo`) in headless Chromium:
+        // browser start to screenshot, s (target ≤ 2 s).
+        let report_page = root.join("target/demo/session/report/index.html");
+        let (render_s, md) = match crate::browser::check_report(&report_page) {
+            Ok(r) => {
+                // The browser's own start, for scale: an empty page the same way.
+                let empty = out_dir.join("empty.html");
+                let start_s = std::fs::write(&empty, "<!doctype html><title>empty</title><link rel=\"icon\" href=\"data:,\">")
+                    .map_err(anyhow::Error::from)
+                    .and_then(|()| crate::browser::render(&empty, &out_dir.join("empty.png"), crate::browser::WINDOW))
+                    .map_or(f64::NAN, |e| e.render_s);
+                let line = format!("The demo's report page (`target/demo/session/report/index.html`) in headless Chromium, browser start to screenshot: {:.2} s (target ≤ 2 s; an empty page the same way: {start_s:.2} s).", r.render_s);
+                eprintln!("== report render: {line}");
+                (json!(r.render_s), line)
+            }
+            Err(e) => {
+                eprintln!("== report render: not measured ({e:#}; run `cargo xtask demo` first)");
+                (json!(null), format!("Not measured: {e:#} (run `cargo xtask demo` first)."))
+            }
+        };
+        results["report_render_s"] = render_s;
+        piece(&mut results, "report-render", md);
+    }
+    if want("real-data") {
+        let (real_data, real_data_md) = real_data::real_data(&root);
+        eprintln!("== real recordings, every model{real_data_md}");
+        results["real_data"] = real_data;
+        piece(&mut results, "real-data", real_data_md);
+    }
+    if want("merge") {
+        eprintln!("== merge: clocks ±60 s and ±100 ppm apart at 50, 5 and 1 Hz, with and without a heading, {} seeds", MERGE_SHAPE_SEEDS.len());
+        let (merge_numbers, merge_md) = merge_clocks();
+        eprintln!("{merge_md}");
+        results["merge"] = merge_numbers;
+        piece(&mut results, "merge", merge::markdown(&merge_md));
+    }
+    if want("effects") {
+        eprintln!("== effects: five real-vehicle effects, {} seeds", EFFECTS_SEEDS.len());
+        let (effects_numbers, effects_md) = effects();
+        eprintln!("{effects_md}");
+        results["effects"] = effects_numbers;
+        piece(&mut results, "effects", effects::markdown(&effects_md));
+    }
+    if want("integrity") {
+        let integrity = integrity::section(&root);
+        piece(&mut results, "integrity", format!("```json\n{}\n```", serde_json::to_string_pretty(&integrity)?));
+        results["integrity"] = integrity;
+    }
+    if want("compass") {
+        eprintln!("== a heading-only compass's swing on the yacht Cirrus's circles");
+        let (compass_numbers, compass_md) = compass::section(&root);
+        eprintln!("{compass_md}");
+        results["compass_swing"] = compass_numbers;
+        piece(&mut results, "compass", compass::markdown(&compass_md));
+    }
+    if want("varied") {
+        eprintln!("== the five effects on varied sites with drawn magnitudes, {} seeds", varied::VARIED_SEEDS.len());
+        let (varied_numbers, varied_md) = varied::varied_sites_section();
+        eprintln!("{varied_md}");
+        results["effects_varied_sites"] = varied_numbers;
+        piece(&mut results, "varied", varied::markdown(&varied_md));
+    }
+    if want("import-speed") {
+        eprintln!("== import speed per format beside the independent readers");
+        let (import_numbers, import_md) = import_speed::section(&root);
+        eprintln!("{import_md}");
+        results["import_speed"] = import_numbers;
+        piece(&mut results, "import-speed", import_speed::markdown(&import_md));
+    }
+    crate::results_doc::write_atomic(&out_dir.join("results.json"), &serde_json::to_string_pretty(&results)?)?;
+    // `results.md`: the pieces it always had, in its order.
+    let md = ["mcu", "paper000", "paper001", "limited-tilt", "merge", "effects", "f32", "host-throughput", "varied", "import-speed", "compass"]
+        .iter()
+        .filter_map(|name| results["markdown"][*name].as_str())
+        .fold("# Benchmarks (`cargo xtask bench`)\n\n".to_string(), |md, piece| md + piece);
+    crate::results_doc::write_atomic(&out_dir.join("results.md"), &md)?;
     eprintln!("wrote {}", out_dir.join("results.json").display());
-    Ok(())
+    crate::results_doc::write_docs(&root, &results)
 }
 
 #[cfg(test)]

@@ -7,6 +7,9 @@
 //! * `demo` — the main job: boots the firmware in QEMU and runs a session
 //!   against it through magcal's serial code.
 //! * `size` — the board build's flash and RAM use.
+//! * `bench [--section NAME]...` — the benchmarks; writes `docs/RESULTS.md`
+//!   from their `results.json`; `results [--check]` renders it again (or
+//!   checks that the committed one is what the renderer makes).
 //!
 //! * `qemu-test ELF` — the on-target suite's runner (tests/thumb-runner
 //!   calls it for each embedded-test binary).
@@ -26,6 +29,7 @@ mod browser;
 mod demo;
 mod fuzz;
 mod qemu_test;
+mod results_doc;
 mod size;
 mod suite;
 mod test;
@@ -38,7 +42,8 @@ fn main() -> ExitCode {
         Some("test") => test::cmd_test(),
         Some("demo") => cmd_demo(),
         Some("size") => cmd_size().map(|_| ()),
-        Some("bench") => bench::run(&root().join("target").join("bench")),
+        Some("bench") => bench_sections(&args[1..]).and_then(|only| bench::run(&root().join("target").join("bench"), &only)),
+        Some("results") => results_doc::cmd_results(&root(), args.get(1).map(String::as_str) == Some("--check")),
         Some("check-report") => cmd_check_report(args.get(1).map(PathBuf::from)),
         Some("qemu-test") => return qemu_test::main(&args[1..]),
         _ => {
@@ -46,7 +51,8 @@ fn main() -> ExitCode {
             eprintln!("  test   run every suite (host, on-target in QEMU, end-to-end)");
             eprintln!("  demo   boot the firmware in QEMU and run a session against it");
             eprintln!("  size   flash/RAM of the board release build");
-            eprintln!("  bench  accuracy benchmarks (target/bench/results.{{json,md}})");
+            eprintln!("  bench [--section NAME]...  accuracy benchmarks (target/bench/results.{{json,md}}, docs/results.json, docs/RESULTS.md)");
+            eprintln!("  results [--check]  render docs/RESULTS.md from docs/results.json (or check that it is)");
             eprintln!("  check-report [PAGE]  render a report in headless Chromium and check it (default: target/demo/session/report/index.html)");
             return ExitCode::from(2);
         }
@@ -58,6 +64,22 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// The sections `cargo xtask bench --section NAME` (repeated, or
+/// comma-separated) names; empty: every section.
+fn bench_sections(args: &[String]) -> Result<Vec<String>> {
+    let mut only = Vec::new();
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        let names = match a.strip_prefix("--section=") {
+            Some(v) => v.to_string(),
+            None if a == "--section" => it.next().cloned().context("--section needs a section name")?,
+            None => bail!("unknown bench argument `{a}` (usage: cargo xtask bench [--section NAME]...)"),
+        };
+        only.extend(names.split(',').filter(|n| !n.is_empty()).map(str::to_string));
+    }
+    Ok(only)
 }
 
 fn root() -> PathBuf {

@@ -46,3 +46,13 @@ pub fn real_recordings(root: &Path) -> serde_json::Value {
     }
     json!(out)
 }
+
+/// The section's Markdown: one row a recording, from its numbers.
+pub fn markdown(real: &serde_json::Value) -> String {
+    let mut md = String::from("## Real recordings: magnitude spread before and after the full fit\n\nThe 1σ spread of |F| over each recording in `tests/data`, raw and through the full-ellipsoid fit of the same samples (its agreement with an independent Li & Griffiths fit: `cargo test -p host-tools --test real real_data`).\n\n| recording | samples | spread before (%) | after (%) |\n|---|---|---|---|\n");
+    for r in real.as_array().into_iter().flatten() {
+        let pct = |v: &serde_json::Value| v.as_f64().map_or("—".to_string(), |p| format!("{p:.2}"));
+        md += &format!("| {} | {} | {} | {} |\n", r["recording"].as_str().unwrap_or("?"), r["samples"], pct(&r["spread_before_pct"]), pct(&r["spread_after_pct"]));
+    }
+    md
+}
