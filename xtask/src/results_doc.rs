@@ -53,7 +53,10 @@ pub fn stamp(root: &Path) -> Value {
     };
     let date = out(Command::new("date").args(["-u", "+%Y-%m-%d %H:%M UTC"])).unwrap_or_else(|| "unknown".into());
     let commit = out(Command::new("git").current_dir(root).args(["rev-parse", "--short=10", "HEAD"])).unwrap_or_else(|| "unknown".into());
-    let dirty = out(Command::new("git").current_dir(root).args(["status", "--porcelain", "--untracked-files=no"])).is_some_and(|s| !s.is_empty());
+    // Uncommitted changes to what is measured (the bench's own outputs and
+    // the prose do not count).
+    let dirty = out(Command::new("git").current_dir(root).args(["status", "--porcelain", "--untracked-files=no", "--", ".", ":!docs", ":!*.md"]))
+        .is_some_and(|s| !s.is_empty());
     let build = if cfg!(debug_assertions) { "debug" } else { "release" };
     json!({"date": date, "commit": if dirty { format!("{commit} + changes") } else { commit }, "build": build})
 }
