@@ -1,7 +1,8 @@
-//! The README's newcomer path: every `magcal` command of its ```sh blocks,
-//! run as written, in order, in one empty folder (so each command has only
-//! what the commands before it wrote, and the repository's `tests/data`,
-//! which the README names from the repository's root). Skipped, and why:
+//! The README's newcomer path and the guide's walks: every `magcal` command
+//! of the ```sh blocks of `README.md`, then of `docs/GUIDE.md`, run as
+//! written, in order, in one empty folder (so each command has only what the
+//! commands before it wrote, and the repository's `tests/data`, which both
+//! name from the repository's root). Skipped, and why:
 //!
 //! * lines that are not `magcal` (`cargo xtask …`, building and flashing the
 //!   firmware): the build, QEMU and a probe, not the CLI;
@@ -14,7 +15,10 @@
 use std::path::Path;
 use std::process::Command;
 
-/// The README's ```sh blocks, line by line, trailing `# comments` removed.
+/// The markdown files whose ```sh blocks are run, in this order.
+const WALKS: [&str; 2] = ["README.md", "docs/GUIDE.md"];
+
+/// A markdown file's ```sh blocks, line by line, trailing `# comments` removed.
 fn sh_lines(readme: &str) -> Vec<String> {
     let mut lines = Vec::new();
     let mut in_sh = false;
@@ -46,32 +50,33 @@ fn skipped(words: &[&str]) -> Option<&'static str> {
 #[test]
 fn the_readmes_commands_run_as_written() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-    let readme = std::fs::read_to_string(root.join("README.md")).unwrap();
     let dir = tempfile::tempdir().unwrap();
     // Commands on the repository's own data name it from the root
     // (`tests/data/...`): the folder sees it there, read-only by intent.
     std::os::unix::fs::symlink(root.join("tests").canonicalize().unwrap(), dir.path().join("tests")).unwrap();
     let (mut ran, mut skips) = (Vec::new(), Vec::new());
-    for line in sh_lines(&readme) {
+    let lines = WALKS.iter().flat_map(|f| sh_lines(&std::fs::read_to_string(root.join(f)).unwrap_or_else(|e| panic!("{f}: {e}"))));
+    for line in lines {
         let words: Vec<&str> = line.split_whitespace().collect();
         if let Some(why) = skipped(&words) {
             skips.push(format!("{line}: {why}"));
             continue;
         }
         let out = Command::new(env!("CARGO_BIN_EXE_magcal")).args(&words[1..]).current_dir(dir.path()).output().unwrap();
-        assert!(out.status.success(), "README command failed: {line}\n{}", String::from_utf8_lossy(&out.stderr));
+        assert!(out.status.success(), "walk command failed: {line}\n{}", String::from_utf8_lossy(&out.stderr));
         ran.push(line);
     }
     eprintln!("ran {} README commands; skipped:\n  {}", ran.len(), skips.join("\n  "));
-    // The two blocks' simulate → fit → backstep → swing → report → card →
-    // export chains and apply (18 commands as of this writing): a README whose blocks
-    // stopped being found would otherwise pass with nothing run.
-    assert!(ran.len() >= 15, "only {} README commands found to run: {ran:?}", ran.len());
+    // The walk on real data (glider, BROAD, yacht), the guide's simulate →
+    // fit → backstep → swing → report → card → export chains, the importer
+    // of every format and apply (about 35 commands as of this writing): files
+    // whose blocks stopped being found would otherwise pass with nothing run.
+    assert!(ran.len() >= 30, "only {} walk commands found to run: {ran:?}", ran.len());
     for sub in ["simulate", "igrf", "fit", "backstep", "swing", "ortho", "report", "card", "export", "apply", "import"] {
         assert!(ran.iter().any(|l| l.starts_with(&format!("magcal {sub} "))), "no `magcal {sub}` run from the README");
     }
     // What they wrote is there.
-    for f in ["cal1.json", "cal3.json", "report/index.html", "compass.parm", "cal_final.json"] {
+    for f in ["glider.json", "broad05.json", "compass.json", "cal1.json", "cal3.json", "report/index.html", "compass.parm", "cal_final.json"] {
         assert!(dir.path().join(f).exists(), "{f} not written");
     }
 }
