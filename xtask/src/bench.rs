@@ -16,6 +16,7 @@ mod effects;
 mod host_throughput;
 mod import_speed;
 mod integrity;
+mod integrity_table;
 mod limited_tilt;
 mod mcu;
 mod merge;
@@ -168,7 +169,7 @@ pub fn run(out_dir: &Path, only: &[String]) -> Result<()> {
     }
     if want("integrity") {
         let integrity = integrity::section(&root);
-        piece(&mut results, "integrity", format!("```json\n{}\n```", serde_json::to_string_pretty(&integrity)?));
+        piece(&mut results, "integrity", integrity_table::markdown(&integrity));
         results["integrity"] = integrity;
     }
     if want("compass") {
