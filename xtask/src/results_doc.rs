@@ -21,22 +21,22 @@ use serde_json::{json, Value};
 
 /// The bench's sections in the order of `docs/RESULTS.md`: the name
 /// `cargo xtask bench --section` takes, the title, and how long the section
-/// takes (debug build, two cores, measured or read from the code).
+/// took here (`cargo xtask bench`'s debug build, two shared cores).
 pub const SECTIONS: [(&str, &str, &str); 15] = [
-    ("mcu", "MCU cost (Cortex-M4F instructions under QEMU -icount) and the CPU budget", "a firmware release build, then seconds under QEMU"),
-    ("paper000", "Paper 000: simulated field tests", "minutes"),
-    ("paper001", "Paper 001: J (eq 16) vs N pairs and noise σ", "minutes"),
-    ("limited-tilt", "A vehicle that cannot tumble", "minutes; the magyc peers need Python"),
-    ("merge", "Logs on two clocks: `magcal merge`", "tens of minutes"),
-    ("effects", "Real-vehicle effects", "tens of minutes"),
-    ("f32", "f32 recursive full fit vs f64 batch", "seconds"),
-    ("host-throughput", "Host throughput", "under a minute; numpy's part needs Python"),
-    ("varied", "The five effects on varied sites", "about 8 min in release"),
-    ("import-speed", "Import speed per format", "a minute; the independent readers need Python"),
-    ("compass", "A heading-only compass's swing", "seconds"),
-    ("real-recordings", "Real recordings: magnitude spread before and after the full fit", "seconds"),
-    ("real-data", "Real recordings it never saw, every model", "minutes"),
-    ("integrity", "Integrity per sample on the BROAD trials", "tens of minutes (1 620 grid points × ten trials)"),
+    ("mcu", "MCU cost (Cortex-M4F instructions under QEMU -icount) and the CPU budget", "a firmware release build (under the shared build lock: minutes), then seconds under QEMU"),
+    ("paper000", "Paper 000: simulated field tests", "23 s"),
+    ("paper001", "Paper 001: J (eq 16) vs N pairs and noise σ", "under 1 s"),
+    ("limited-tilt", "A vehicle that cannot tumble", "23 s; the magyc peers need Python"),
+    ("merge", "Logs on two clocks: `magcal merge`", "9 min"),
+    ("effects", "Real-vehicle effects", "2 min"),
+    ("f32", "f32 recursive full fit vs f64 batch", "under 1 s"),
+    ("host-throughput", "Host throughput", "1 s; numpy's part needs Python"),
+    ("varied", "The five effects on varied sites", "4 min"),
+    ("import-speed", "Import speed per format", "4 s; the independent readers need Python"),
+    ("compass", "A heading-only compass's swing", "under 1 s"),
+    ("real-recordings", "Real recordings: magnitude spread before and after the full fit", "1 s"),
+    ("real-data", "Real recordings it never saw, every model", "14 s"),
+    ("integrity", "Integrity per sample on the BROAD trials", "5 s"),
     ("report-render", "The report in headless Chromium", "seconds, after `cargo xtask demo`"),
 ];
 
