@@ -89,7 +89,7 @@ pub const TUMBLE_BIAS: [f64; 3] = [1200.0, -800.0, 350.0];
 /// Soft iron of [`tumble_sample`] (raw per nT).
 pub const TUMBLE_DISTORTION: [[f64; 3]; 3] = [[1.05, 0.03, -0.01], [0.03, 0.96, 0.02], [-0.01, 0.02, 1.08]];
 
-/// The full-tumble workload of issue 3: a field of [`TUMBLE_FIELD_NT`] in a
+/// The full-tumble workload (the board's f32 fit against the host's f64): a field of [`TUMBLE_FIELD_NT`] in a
 /// uniformly random direction, distorted by [`TUMBLE_DISTORTION`], offset by
 /// [`TUMBLE_BIAS`], plus Gaussian noise. Computed in `f64` with `libm`, so the
 /// MCU and the host generate the same samples.

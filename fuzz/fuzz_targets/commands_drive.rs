@@ -1,4 +1,4 @@
-//! The command-level fuzz driver (issue 37), shared by the `commands` fuzz
+//! The command-level fuzz driver (hostile input to every command), shared by the `commands` fuzz
 //! target and the test that replays its seeds and crashes
 //! (`magcal/tests/commands/hostile/references.rs`), so both run the same
 //! calls.

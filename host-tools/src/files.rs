@@ -478,7 +478,7 @@ mod tests {
     #[test]
     fn writers_to_the_same_output_never_share_a_temporary() {
         // Three writers at once, many times: each write lands whole (one of
-        // the three texts), none fails (issue 30: a shared `.tmp` name made
+        // the three texts), none fails (a shared `.tmp` name once made
         // one in fifteen fail).
         let dir = tempfile::tempdir().unwrap();
         let out = dir.path().join("doc.json");
@@ -525,7 +525,7 @@ mod tests {
         use std::os::unix::fs::PermissionsExt;
         let dir = tempfile::tempdir().unwrap();
         let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o7777;
-        // Shared with a team: 0644 stays 0644 (it became 0600, issue 37).
+        // Shared with a team: 0644 stays 0644 (it once became 0600).
         let shared = dir.path().join("shared.csv");
         std::fs::write(&shared, "old").unwrap();
         std::fs::set_permissions(&shared, std::fs::Permissions::from_mode(0o644)).unwrap();

@@ -1,4 +1,4 @@
-//! What issue 23's disturbances do to a good calibration's heading: the
+//! What the integrity disturbances (pier, payload) do to a good calibration's heading: the
 //! chain (ours, every model) calibrated on the bench's five-effects data,
 //! then the validation run again with the pier and the payload added
 //! (`all,structure,payload`, the same seed): true-heading error where the

@@ -1,6 +1,6 @@
 //! Today's chain on the effects scenarios: the validation true-heading RMS
 //! with no effect, each of the five alone and all together (the baseline
-//! the estimators of issue 12 must beat).
+//! the estimators of the effects must beat).
 //!
 //! `cargo run --release -p magcal-sim --example effects_baseline [seeds…]`
 

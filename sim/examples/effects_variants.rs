@@ -1,4 +1,4 @@
-//! Issue 12's comparison on the effects scenarios: each chain variant
+//! The comparison on the effects scenarios: each chain variant
 //! ([`magcal_sim::scenario::Variant`]) on the given scenario (`all`,
 //! `none` or one effect's name) and seeds; heading RMS, |F| error against
 //! the true local field, current-vector and gain errors, predicted heading

@@ -1,5 +1,4 @@
-//! The five effects at other sites and with drawn magnitudes (issue 29,
-//! item 4): the chain's validation heading RMS per site and seed, with the
+//! The five effects at other sites and with drawn magnitudes: the chain's validation heading RMS per site and seed, with the
 //! white-noise part, the prediction and |F| against the true local field.
 //!
 //! `cargo run --release -p magcal-sim --example varied_sites [site|all] [seeds…]`

@@ -1,6 +1,6 @@
 //! Five effects of a real vehicle that the fit's model (`D·h + b`, a constant
 //! running bias, IGRF as the field, perfect attitude) does not have, each
-//! written from its physics and each switchable (issue 12):
+//! written from its physics and each switchable:
 //!
 //! * [`ThrusterModel`]: every thruster a magnetic dipole at its place in the
 //!   hull whose moment scales with its own current; currents from a
@@ -17,7 +17,7 @@
 //!   integrated from velocity through water plus current, GPS fixes and
 //!   course over ground from the ground velocity.
 //!
-//! And two disturbances for integrity checks (issue 23), off in `all`:
+//! And two disturbances for integrity checks, off in `all`:
 //!
 //! * [`SteelStructure`]: a steel pier beside the validation run's track,
 //!   its piles magnetised by the Earth's field (induced, from their volume,
@@ -572,10 +572,10 @@ pub enum Effect {
 }
 
 impl Effect {
-    /// The five calibration effects of issue 12, in its order (`all`).
+    /// The five calibration effects, in their order (`all`).
     pub const ALL: [Effect; 5] = [Effect::Thrusters, Effect::Temperature, Effect::Anomaly, Effect::Ahrs, Effect::Current];
 
-    /// The disturbances of issue 23, for integrity checks (not in `all`).
+    /// The disturbances for integrity checks (not in `all`).
     pub const DISTURBANCES: [Effect; 2] = [Effect::Structure, Effect::Payload];
 
     /// The name used by `--effects`.

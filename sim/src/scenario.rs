@@ -235,7 +235,7 @@ pub enum Variant {
     /// GPS course used as heading (the water current not removed).
     NoWaterCurrent,
     /// The local field's gradient along the track held at zero (the chain
-    /// before issue 29's gradient term).
+    /// before the gradient term).
     NoFieldGradient,
     /// The paper's back-stepping (and the swing fit against raw course, as
     /// the paper does).

@@ -1,5 +1,5 @@
 //! The five effects at other sites and with other magnitudes than
-//! [`Effects::all`]'s (issue 29, item 4): a site (latitude, longitude, date:
+//! [`Effects::all`]'s: a site (latitude, longitude, date:
 //! another IGRF field, inclination and declination) and every effect's
 //! physical parameters drawn by seed from stated ranges
 //! ([`MagnitudeRanges`]), so that tests and the bench do not pass on the

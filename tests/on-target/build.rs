@@ -10,7 +10,7 @@ fn main() {
     println!("cargo:rerun-if-changed={}", memory_x.display());
     println!("cargo::rustc-check-cfg=cfg(rust_analyzer)");
     // What the host computes, for the target to reproduce (bit for bit, or
-    // within the accuracy the issue asks of f32 against the f64 reference).
+    // within the accuracy asked of f32 against the f64 reference).
     fs::write(out.join("host_digests.rs"), host_reference()).expect("write host_digests.rs");
     if env::var("CARGO_CFG_TARGET_OS").as_deref() == Ok("none") {
         for script in ["-Tlink.x", "-Tdefmt.x", "-Tembedded-test.x"] {

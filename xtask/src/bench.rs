@@ -247,7 +247,7 @@ mod tests {
         assert!(budget["cpu_busy_pct_at_pair_rate"].as_f64().is_some_and(|p| p > 0.0 && p < 100.0), "{budget}");
     }
 
-    /// Only the varied-sites section (issue 29, item 4):
+    /// Only the varied-sites section:
     /// `cargo test --release -p xtask bench::tests::varied_sites_section -- --ignored --nocapture`.
     /// Prints the tables; asserts only that every site and seed ran.
     #[test]
@@ -278,7 +278,7 @@ mod tests {
         }
     }
 
-    /// Only the effects section (issue 12): `cargo test -p xtask bench::tests::effects_section -- --ignored --nocapture`.
+    /// Only the effects section: `cargo test -p xtask bench::tests::effects_section -- --ignored --nocapture`.
     /// Prints the table; asserts only that every seed of the full chain ran
     /// (the targets are reported, met or not, in the summary line).
     #[test]

@@ -5,9 +5,9 @@ use std::path::Path;
 use anyhow::{bail, Context, Result};
 use object::{Object, ObjectSection, SectionFlags};
 
-/// The firmware's flash budget on the STM32F405: 72 KiB (issue 23, with
+/// The firmware's flash budget on the STM32F405: 72 KiB (with
 /// the integrity monitor and NMEA; the application sectors hold 128 KiB
-/// beside the coefficient store's, issue 5). The size gate fails above it.
+/// beside the coefficient store's). The size gate fails above it.
 pub const FLASH_BUDGET_BYTES: u64 = 72 * 1024;
 /// RAM budget (statics; the stack takes what is left of the 128 KiB SRAM).
 pub const RAM_BUDGET_BYTES: u64 = 64 * 1024;

@@ -105,7 +105,7 @@ fn recursive_fits_agree_with_batch() {
 
 #[test]
 fn f32_recursive_full_fit_matches_f64_batch_at_the_issue_tolerance() {
-    // 50 000 nT, 0.4 nT noise, 2000 samples of a full tumble (issue 3).
+    // 50 000 nT, 0.4 nT noise, 2000 samples of a full tumble.
     let d = crate::linalg::identity3::<f64>();
     let b = [1200.0, -800.0, 350.0];
     let data = tumble(&d, b, F, 0.4, 2000, 6);

@@ -444,7 +444,7 @@ fn hard_iron_case(every: u8) {
     assert!(h.samples_per_state[IntegrityState::CalInvalid as usize] > 0);
 }
 
-/// Issue 31's guard: a heading from the on-line hard iron is `ok` only once
+/// The guard: a heading from the on-line hard iron is `ok` only once
 /// the gyro agrees with it. The same payload, but from the payload on the
 /// gyro turns 30 % slower than the vehicle, which sweeps back and forth
 /// (their headings disagree by 6° a second, either way): the estimate is
@@ -595,7 +595,7 @@ fn at_a_slow_sampling_rate_one_misfit_is_a_disturbance_not_an_invalid_calibratio
 }
 
 /// A sample is `ok` only against an inclination the stream did not teach
-/// itself (issue 28): the same undisturbed turning stream is `ok` with the
+/// itself: the same undisturbed turning stream is `ok` with the
 /// reference's inclination and `unjudged` — never `ok` — with none, the
 /// dip learned all the same (the σ and the field checks are the same).
 #[test]

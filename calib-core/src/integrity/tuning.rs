@@ -101,7 +101,7 @@ pub struct Tuning<T> {
 impl<T: Real> Tuning<T> {
     /// The constants used on the board and by `magcal apply`, chosen
     /// leave-one-trial-out on every real trial with an optical heading
-    /// (`xtask/src/bench/integrity.rs`, issue 31) — except three safety
+    /// (`xtask/src/bench/integrity.rs`) — except three safety
     /// floors: the misfit exit and time constant (a looser one lets a wrong
     /// calibration re-validate itself where it happens to fit) and the
     /// re-anchoring turn (without it a lasting disturbance across the

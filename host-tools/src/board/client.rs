@@ -167,7 +167,7 @@ impl<P: Read + Write> BoardClient<P> {
     /// as it takes, and only when the receiver has taken nothing for
     /// [`BoardClient::send_stall`] more than the bytes' own line time at [`BAUD_RATE`] is
     /// the last `TimedOut` returned. (`write_all` gave up at the first
-    /// 20 ms wait: issue 30's end-to-end test that failed once under load.)
+    /// 20 ms wait: an end-to-end test failed once that way under load.)
     pub fn send_raw(&mut self, bytes: &[u8]) -> Result<(), ClientError> {
         let line_time = Duration::from_secs_f64(bytes.len() as f64 * 10.0 / f64::from(BAUD_RATE));
         let mut rest = bytes;
@@ -480,7 +480,7 @@ mod tests {
         }
     }
 
-    /// Issue 30: a flood sent to a receiver that keeps timing out (a full
+    /// A flood sent to a receiver that keeps timing out (a full
     /// pty while QEMU is descheduled) arrives whole, in order; `write_all`
     /// gave up at the first timeout. A receiver that takes nothing at all is
     /// given up on after the stall allowance.

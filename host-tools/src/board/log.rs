@@ -666,7 +666,7 @@ mod tests {
         assert!(matches!(&e, LogError::Exists(p) if p == &dir.path().join("board.csv")) && e.to_string().contains("exists"), "{e}");
         assert_eq!(std::fs::read_to_string(&p).unwrap(), "keep me");
         // Forced, nothing written (the port did not open): the old log kept
-        // (it was truncated to nothing, issue 37).
+        // (it was once truncated to nothing).
         create_log_file(&p, true).unwrap().finish(false).unwrap();
         assert_eq!(std::fs::read_to_string(&p).unwrap(), "keep me");
     }

@@ -390,7 +390,7 @@ pub fn constant_offset_deg(errors_deg: &[f64]) -> f64 {
 
 /// The constant offset of a set of heading errors that rows off by a
 /// disturbance do not move: the median of the errors about their circular
-/// mean, degrees. The integrity score's offset (issue 31): on a trial
+/// mean, degrees. The integrity score's offset, taken robustly: on a trial
 /// passing a magnet (`broad-28`), the circular mean is pulled 2.6° by the
 /// rows 40–150° off, and a third of the undisturbed rows then count as
 /// "bad"; the median stays within 0.2° of the undisturbed rows' mean.
@@ -603,7 +603,7 @@ impl IntegrityScore {
 }
 
 /// A row within this of the reference (after the constant offset) is
-/// "good" (issue 31's rule: the share of good rows kept `ok` is the
+/// "good" (the scoring rule: the share of good rows kept `ok` is the
 /// monitor's false-alarm side), degrees.
 pub const GOOD_DEG: f64 = 2.0;
 

@@ -389,7 +389,7 @@ mod tests {
         assert_eq!(card.by_point[0].label, "N");
         assert_eq!(deviation_card(&level_recording(&h, [0.0; 3]), &identity_doc(), 15.0, 8).unwrap().by_point[1].label, "NE");
         // The card names its reference and says what a GPS course holds
-        // (issue 24: errors against GPS course printed as the calibration's).
+        // (errors against GPS course were once printed as the calibration's).
         let mut card = deviation_card(&level_recording(&h, [0.0; 3]), &identity_doc(), 15.0, 16).unwrap();
         let text = card.to_text();
         assert!(text.contains("reference: `ref_heading_deg`, a reference heading, not the truth") && text.contains("crab angle"), "{text}");
@@ -404,7 +404,7 @@ mod tests {
         let doc = identity_doc();
         assert!(matches!(deviation_card(&rec, &doc, 7.0, 16), Err(CardError::BadStep(_))));
         // 1e-300° divides 360 (3.6e302 sectors, a whole number in f64):
-        // refused, not allocated (a capacity overflow, issue 37); 0.05°
+        // refused, not allocated (a capacity overflow once); 0.05°
         // (7 200 sectors) is below the range.
         for step in [1e-300, 1e-7, 0.05, 360.0, f64::NAN] {
             assert!(matches!(deviation_card(&rec, &doc, step, 16), Err(CardError::BadStep(_))), "{step}");

@@ -169,7 +169,7 @@ mod tests {
 
     #[test]
     fn impossible_attitudes_and_glitches_are_refused_by_row() {
-        // Issue 24: one roll of 999° (or 1e300) in a run silently worsened
+        // One roll of 999° (or 1e300) in a run once silently worsened
         // the heading from 0.23° to 0.74° (2.2°).
         let e = read("mx,my,mz,roll_deg,pitch_deg\n1,2,3,10,5\n1,2,3,999,5\n").unwrap_err();
         assert_eq!(e.to_string(), "rec.csv:3: column `roll_deg`: 999 is outside ±180°");

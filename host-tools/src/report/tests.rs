@@ -93,7 +93,7 @@ fn a_full_report_has_every_section_the_card_and_the_physics_numbers() {
     assert!(!html.contains("<img") && !html.contains("src=") && !html.contains("<script"));
     assert_eq!(html.matches("http").count(), html.matches("http://www.w3.org/2000/svg").count());
     assert!(html.contains("@media print"));
-    // 9 since the integrity section's figure (issue 23) joined.
+    // 9 since the integrity section's figure joined.
     assert_eq!(out.figures, 9, "card, 2 coverage, field, run heading, validation heading, integrity, 2 histograms");
     assert_eq!(html.matches("<svg").count(), 9);
     // The headline: the final calibration removes the bias exactly (0°);
@@ -231,7 +231,7 @@ fn the_integrity_section_shows_a_disturbance_on_the_validation_run() {
     // The disturbed rows' dots are orange (the state's colour) in the figure.
     assert!(section.contains("#FF7F0E") || section.contains("#D62728"));
     assert!(section.contains("Longest disturbance"));
-    // The curve over the gates (issue 31), the board's point marked.
+    // The curve over the gates, the board's point marked.
     let board = section.split("(board)</b></td>").nth(1).expect("the board's row").split("</tr>").next().unwrap();
     let cells: Vec<&str> = board.split("<td>").skip(1).map(|c| c.split('<').next().unwrap()).collect();
     // Measured: 35 rows off by more than 5°, all flagged; 98.6 % of the
@@ -263,7 +263,7 @@ fn the_integrity_section_without_its_inputs_says_so() {
     assert!(html.contains("<td class=\"l\">ok</td><td>100</td>"));
 }
 
-/// Issue 24's leftover: a validation heading from a GPS course
+/// A validation heading from a GPS course
 /// (`--truth-column ref_heading_deg`) is not the truth, and the headline
 /// says so; a truth column keeps the "true-heading" label.
 #[test]

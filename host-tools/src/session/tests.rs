@@ -389,7 +389,7 @@ fn a_payload_switched_on_during_validation_says_recalibrate_with_the_evidence() 
     // monitor calls the misfit cal_invalid within seconds, then the on-line
     // estimate (from the attitude and the turning) recovers the new hard
     // iron and is applied — but this recording has no gyro, so nothing
-    // independent confirms the estimate's headings (issue 31's guard) and
+    // independent confirms the estimate's headings (the on-line hard iron's guard) and
     // every row after the step stays not ok. Measured: 768 rows
     // cal_invalid, the estimate (8002, 99, −36) nT.
     let rec = turning_recording(1200, 400, [8000.0, 0.0, 0.0]);

@@ -73,7 +73,7 @@ fn the_attitude_fit_calibrates_a_glider_from_its_dives() {
     // calibration: 0.78° and 1.72 %.
     assert!((peer_dip - 0.78).abs() < 0.01 && (peer_mag - 1.72).abs() < 0.01, "{peer_dip} {peer_mag}");
     // Measured: dip 0.609°, magnitude 1.669 % (the peer: 0.784°, 1.722 %;
-    // issue 22's target: dip ≤ the peer's with the magnitude ≤ 1.1 × its
+    // the target: dip ≤ the peer's with the magnitude ≤ 1.1 × its
     // 1.72 % = 1.89 %). The bounds sit between what the fit gives and the
     // target.
     assert!(dip < 0.70, "dip scatter {dip}°");

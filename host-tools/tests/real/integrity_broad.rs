@@ -9,7 +9,7 @@
 //! undisturbed calibration (`*.truth.json`: what the board had stored), the
 //! lab's inclination as its reference (the dip learned within the
 //! reference's allowance), the default scatter (1.2 % of F),
-//! `Tuning::standard()`. The rule (issues 23, 31): heading error against
+//! `Tuning::standard()`. The rule: heading error against
 //! `truth_heading_deg` with one constant offset removed (robustly:
 //! `robust_offset_deg`), rows off by more than 5° "bad", within 2° "good".
 
@@ -33,7 +33,7 @@ struct Truth {
 /// The BROAD lab's inclination, degrees: the mean of `lab_inclination_deg`
 /// over the four undisturbed B/C trials' READMEs (02 69.361, 03 68.050,
 /// 05 69.513, 09 68.947), measured with the optical reference — the
-/// independent reference the monitor judges the dip against (issue 28).
+/// independent reference the monitor judges the dip against (not one learned from the stream judged).
 const LAB_INCLINATION_DEG: f64 = 68.968;
 
 /// The stored calibration as a document: bias, matrix, field_nt, and the
@@ -86,7 +86,7 @@ fn check(s: &IntegrityScore, want: Want) {
         assert!(s.gross_not_ok_fraction >= want.gross_flagged, "{s:?}");
     }
     assert!(s.good_ok_fraction >= want.good_ok, "{s:?}");
-    // The rows called ok: within 3° RMS (issue 31) and an honest σ.
+    // The rows called ok: within 3° RMS (the target) and an honest σ.
     if s.ok_fraction > 0.0 {
         assert!(s.ok_rms_deg <= 3.05, "{s:?}");
         assert!((0.5..=2.0).contains(&s.sigma_ratio()), "{s:?}");

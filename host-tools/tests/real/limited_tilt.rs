@@ -89,8 +89,8 @@ fn the_gyro_aided_fit_reaches_the_floor_from_the_calibration_part_alone() {
     );
     // Measured 2026-11-22: 1.67° (below the floor: the fit also absorbs some
     // of the real sensor's own residual errors); hard iron error (−9.9,
-    // 4.8, −35) counts of (275, −110, 201); matrix 4.1 %. Issue 15 asks
-    // for within 0.5° of 2.22°.
+    // 4.8, −35) counts of (275, −110, 201); matrix 4.1 %. The target:
+    // within 0.5° of the floor, 2.22°.
     assert!(hdg < 2.22 + 0.5, "{hdg}");
     assert!(hdg > 1.0, "better than the optical reference allows? {hdg}");
     for (k, e) in bias_err.iter().enumerate() {
@@ -118,7 +118,7 @@ fn a_cap_of_directions_is_refused_by_the_sphere_and_ellipsoid_fits() {
     let warnings: Vec<&str> = doc.quality.warnings().collect();
     assert!(warnings.iter().any(|w| w.contains("of field directions were visited")), "{warnings:?}");
     let hdg = validation_heading_rms_deg(&doc.field_cal());
-    // Measured: 7.5°, as issue 15 reports.
+    // Measured: 7.5°.
     assert!(hdg > 5.0, "{hdg}");
 }
 

@@ -195,7 +195,7 @@ struct YachtReference {
     held_out_after_rms_deg: f64,
 }
 
-/// Issue 29: the heading-only swing on a real yacht's compass circles is
+/// The heading-only swing on a real yacht's compass circles is
 /// no worse than a 5-term least squares with the best course delay, and on
 /// held-out halves it lowers the compass − course scatter (which the plain
 /// 5-term fit does not: each half holds part of the circle).

@@ -56,7 +56,7 @@ fn trial(name: &str, id: &str) -> (f64, f64) {
     (rms, floor)
 }
 
-/// The goal of issue 22: within 0.5° of the floor on every trial.
+/// The goal: within 0.5° of the floor on every trial.
 const MARGIN_DEG: f64 = 0.5;
 
 /// Runs one trial: its floor must be the one its true calibration gives
@@ -70,14 +70,14 @@ fn check(name: &str, id: &str, floor_deg: f64) {
 
 #[test]
 fn broad_02_limited() {
-    // Floor 1.70°; measured 1.67° (issue 22, before the ring fix and the
+    // Floor 1.70°; measured 1.67° (before the ring fix and the
     // leave-one-out defaults: 2.07°).
     check("broad-02-limited", "02", 1.699);
 }
 
 #[test]
 fn broad_03() {
-    // Floor 2.46°; measured 1.59° (issue 22, before: 1.67°).
+    // Floor 2.46°; measured 1.59° (before the ring fix: 1.67°).
     check("broad-03", "03", 2.457);
 }
 
@@ -89,7 +89,7 @@ fn broad_05() {
 
 #[test]
 fn broad_09_fast_rotation_with_breaks() {
-    // Floor 2.05°; measured 1.60° (issue 22, before: 2.8°; windows across
+    // Floor 2.05°; measured 1.60° (before the ring fix: 2.8°; windows across
     // the chain's ring wrap used one gyro step twice).
     check("broad-09", "09", 2.050);
 }

@@ -46,7 +46,7 @@ pub struct Args {
 
 /// Runs `magcal card`.
 pub fn run(a: Args) -> Result<()> {
-    // `mx` is counts, not a heading (it was taken as one, issue 37).
+    // `mx` is counts, not a heading (it was once taken as one).
     check_reference_column(&a.reference_column).map_err(|e| hinted(e, |_| Some("name a heading column with --reference-column")))?;
     if let Some(csv) = &a.csv {
         super::check_out("--csv", csv, &[&a.input, &a.cal])?;

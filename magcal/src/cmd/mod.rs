@@ -278,7 +278,7 @@ pub fn hinted<E: std::error::Error + Send + Sync + 'static>(e: E, hint_for: impl
 
 /// A clap value parser for an `f64` option within `range` (both ends
 /// included), in `unit`: a number outside it, NaN or an infinity is
-/// refused as the command line is parsed, saying the range (issue 37: every
+/// refused as the command line is parsed, saying the range (every
 /// numeric option has a stated range in its parser).
 pub fn number_in(range: std::ops::RangeInclusive<f64>, unit: &'static str) -> impl Fn(&str) -> Result<f64, String> + Clone + Send + Sync + 'static {
     move |text: &str| {

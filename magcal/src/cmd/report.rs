@@ -107,7 +107,7 @@ pub fn run(a: Args) -> Result<()> {
     let (summary_path, settings_path) = (in_session(dir, "summary.json"), in_session(dir, "settings.json"));
     // Every file the report writes, against every file it reads, before
     // any work (a recording in the report's folder under a card's name was
-    // replaced by the card, issue 37).
+    // replaced by the card).
     let read: Vec<&Path> = [&run_path, &swing_path, &validation_path, &before_path, &summary_path, &settings_path].into_iter().flatten().map(PathBuf::as_path).chain(cal_paths.iter().map(PathBuf::as_path)).collect();
     check_outputs(&out, &read).map_err(|e| anyhow::anyhow!("--out {e}"))?;
 

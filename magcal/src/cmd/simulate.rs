@@ -117,7 +117,7 @@ pub struct Args {
 pub fn run(a: Args) -> Result<()> {
     // Both targets checked before the work; both written, then both
     // renamed: a truth that cannot be written leaves the old recording (it
-    // was replaced, then the truth failed, issue 37).
+    // was replaced, then the truth failed).
     let truth = truth_path(&a.out);
     super::check_out("--out", &a.out, &[])?;
     super::check_out("--out's truth", &truth, &[&a.out])?;

@@ -63,7 +63,7 @@ fn apply_writes_the_contract_columns_and_summarises_against_the_optical_heading(
     // document's formula h = M·(raw − b), headings in [0, 360), the words.
     let text = std::fs::read_to_string(&out).unwrap();
     let mut lines = text.lines();
-    // No declination in the document, no site: the heading is magnetic and named so (issue 37).
+    // No declination in the document, no site: the heading is magnetic and named so.
     assert_eq!(lines.next(), Some("t,field_x_nt,field_y_nt,field_z_nt,magnetic_heading_deg,heading_sigma_deg,integrity"));
     let input_text = std::fs::read_to_string(&input).unwrap();
     let first_input: Vec<f64> = input_text.lines().nth(1).unwrap().split(',').map(|v| v.parse().unwrap()).collect();

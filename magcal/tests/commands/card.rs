@@ -168,7 +168,7 @@ fn empty_cells_are_empty_and_bad_inputs_are_refused() {
     assert!((before - (2.0f64).atan2(20_001.0).to_degrees()).abs() < 1e-6, "before is the raw heading: {before}°");
 }
 
-/// Issue 29: a heading-only compass through the command line, on the real
+/// A heading-only compass through the command line, on the real
 /// yacht's circles (`tests/data/cirrus-yacht/compass_log.csv`): `swing`
 /// without `--cal` writes the heading-only document, `card` and `apply`
 /// use it, and the commands that need a field calibration refuse it by name.

@@ -369,7 +369,7 @@ mod arbitrary_bytes {
     }
 }
 
-/// Issue 15's "done when": `magcal fit --model gyro` on broad-05's
+/// The gyro-aided fit's acceptance: `magcal fit --model gyro` on broad-05's
 /// calibration part prints coefficients whose heading on the validation
 /// part (against the optical reference, one offset removed) is within 0.5°
 /// of the true calibration's 2.22°; `fit --help` lists the model.

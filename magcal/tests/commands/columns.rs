@@ -1,4 +1,4 @@
-//! Recordings from other tools (issue 24): cells separated by semicolon,
+//! Recordings from other tools: cells separated by semicolon,
 //! tab or spaces, and columns with other names and units mapped with
 //! `--columns`, fit as the project's own CSV does.
 

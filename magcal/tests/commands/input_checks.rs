@@ -1,4 +1,4 @@
-//! Issue 24's findings against the CLI: bad input is refused where it
+//! Findings against the CLI: bad input is refused where it
 //! enters, with the input named; an input is never overwritten; what a
 //! result is measured against is said.
 
@@ -111,7 +111,7 @@ fn an_input_is_never_overwritten_and_outputs_are_checked_before_the_work() {
     let tmp: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).filter(|n| n.to_string_lossy().ends_with("tmp")).collect();
     assert!(tmp.is_empty(), "left behind: {tmp:?}");
 
-    // Issue 30: the same file through a hard or a symbolic link, the
+    // The same file through a hard or a symbolic link, the
     // calibration as apply's output, a device node: each refused before
     // the work, nothing touched.
     let hard = dir.path().join("hard.csv");
@@ -158,7 +158,7 @@ fn a_refusal_caused_by_the_input_names_the_input() {
     sphere(400, [2e7, 0.0, 0.0], 500.0, 2.0, 3).write(&input).unwrap();
     let out = dir.path().join("o.json");
     let e = refused(&magcal(&["fit", "--input", p(&input), "--model", "sphere", "--field-nt", "48730", "--out", p(&out)]));
-    // Refused before any document is made (issue 28: fitted coefficients no
+    // Refused before any document is made (fitted coefficients no
     // sensor has are the fit's failure, not the writer's).
     assert!(e.contains("biased.csv") && e.contains("coefficients are unusable") && e.contains("bias is beyond") && !e.contains("o.json"), "{e}");
     assert!(!out.exists());
@@ -245,7 +245,7 @@ fn positions_far_from_the_site_are_refused_and_near_ones_warned() {
     let out = magcal(&[&["fit", "--input", p(&input), "--model", "axis"][..], &site[..]].concat());
     assert!(out.status.success(), "{}", stderr(&out));
     assert!(stderr(&out).contains("warning: ") && stderr(&out).contains(" 33 km from the site"), "{}", stderr(&out));
-    // The report checks the same (issue 24's leftover): the antipode
+    // The report checks the same (as the other commands): the antipode
     // refused before any page is written.
     rec.lat_deg = Some(vec![-36.9; n]);
     rec.lon_deg = Some(vec![-129.4; n]);

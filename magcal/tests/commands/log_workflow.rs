@@ -56,7 +56,7 @@ fn log_merge_fit_backstep_swing_card_export() {
         let out = magcal(&["merge", "--board", &p(&format!("{name}_board.csv")), "--nav", &p(&format!("{name}_nav.csv")), "--out", &p(&format!("{name}.csv")), "--json"]);
         let r: MergeReport = serde_json::from_slice(&out.stdout).unwrap();
         eprintln!("{name}: offset {:.4} s (put in {offset_s}), drift {:.1} ppm", r.offset_s, r.drift_ppm);
-        // Issue 14 asks for 20 ms; the run (few turns, 5 Hz navigation)
+        // The target is 20 ms; the run (few turns, 5 Hz navigation)
         // is the harder one (magcal/tests/commands/merge.rs measured 64 ms there).
         assert!((r.offset_s - offset_s).abs() < if name == "swing" { 0.02 } else { 0.2 }, "{name}: {r:?}");
     }
@@ -82,7 +82,7 @@ fn log_merge_fit_backstep_swing_card_export() {
     assert!(rms[2] < 0.5, "{rms:?}");
 
     // The same three steps on the single-clock recordings the logs were
-    // cut from: issue 14 asks for the same validation RMS within 0.02°.
+    // cut from: the target is the same validation RMS within 0.02°.
     swing_sim.recording.write(Path::new(&p("swing_single.csv"))).unwrap();
     run_sim.recording.write(Path::new(&p("run_single.csv"))).unwrap();
     magcal(&["fit", "--input", &p("swing_single.csv"), "--model", "axis", "--lat", lat, "--lon", lon, "--date", date, "--out", &p("s1.json")]);

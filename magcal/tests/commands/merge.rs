@@ -24,7 +24,7 @@ fn estimate() -> Clock {
     Clock::Estimate { center_s: 0.0, max_offset_s: 120.0 }
 }
 
-/// Issue 14's number: clocks up to ±60 s and 100 ppm apart, a 50 Hz board
+/// The target: clocks up to ±60 s and 100 ppm apart, a 50 Hz board
 /// and a 10 Hz navigation log of the swing test: the offset is recovered
 /// within 20 ms on several seeds. With the AHRS heading the fine stage
 /// fits the raw field to the attitude (any lag but the true one leaves a
@@ -59,8 +59,8 @@ fn the_clock_offset_and_drift_are_recovered_from_the_turns() {
         assert_eq!(r.rows_in_nav_gaps, 0);
     }
     eprintln!("worst offset error {:.1} ms, worst drift error {:.1} ppm", worst_offset * 1e3, worst_drift);
-    // Measured: worst 0.9 ms and 0.8 ppm over these five seeds (issue 14
-    // asks for 20 ms).
+    // Measured: worst 0.9 ms and 0.8 ppm over these five seeds (the target
+    // is 20 ms).
     assert!(worst_offset < 0.004, "offset error {worst_offset} s");
     assert!(worst_drift < 4.0, "drift error {worst_drift} ppm");
 }
@@ -72,7 +72,7 @@ fn write_logs(dir: &Path, board: &BoardLog, nav: &NavLog) {
 
 
 
-/// Issue 14's number: the calibration computed from merged logs gives the
+/// The target: the calibration computed from merged logs gives the
 /// validation heading RMS of the single-clock recordings within 0.02°.
 /// Swing test: 50 Hz board, 10 Hz navigation; run: 25 Hz board, 5 Hz
 /// navigation (to keep the test short); clocks 41.3 s / 80 ppm and −23.9 s /
@@ -153,7 +153,7 @@ fn the_merge_command_prints_its_report_and_refuses_in_one_line() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && err.contains("missing column `roll_deg`"), "{err}");
     assert!(!dir.path().join("rec3.csv").exists());
-    // Issue 24: `--out` naming an input overwrote the raw log; now refused
+    // `--out` naming an input once overwrote the raw log; now refused
     // before any work, the input untouched.
     let before = std::fs::read(p("board.csv")).unwrap();
     for name in ["board.csv", "nav.csv"] {
@@ -205,10 +205,10 @@ fn error_over_sigma(es: &[(f64, f64)]) -> f64 {
     (es.iter().map(|(e, _)| e * e).sum::<f64>() / n).sqrt() / (es.iter().map(|(_, s)| s * s).sum::<f64>() / n).sqrt()
 }
 
-/// Issue 22's numbers at 1 Hz: the simulator's out-and-back run (long
+/// The targets at 1 Hz: the simulator's out-and-back run (long
 /// straight legs with small wiggles, dives and climbs, rolling at the
 /// surface, one turnaround), board and navigation both at 1 Hz, clocks up
-/// to ±60 s and ±100 ppm apart (and the issue's −12.6 s / −45 ppm): merged,
+/// to ±60 s and ±100 ppm apart (and −12.6 s / −45 ppm): merged,
 /// not refused, the offset within 50 ms, the stated σ within 0.5–2× of the
 /// error over the cases. Returns each case's error over its σ.
 fn a_1_hz_run_is_merged_within_50_ms_with_an_honest_sigma() -> Vec<f64> {
@@ -224,8 +224,8 @@ fn a_1_hz_run_is_merged_within_50_ms_with_an_honest_sigma() -> Vec<f64> {
     z_scores(&es)
 }
 
-/// Issue 22's numbers at 5 Hz: the swing test, board and navigation both at
-/// 5 Hz (the issue's +37.25 s / 80 ppm among them): the offset within
+/// The targets at 5 Hz: the swing test, board and navigation both at
+/// 5 Hz (+37.25 s / 80 ppm among them): the offset within
 /// 20 ms, the stated σ within 0.5–2× of the error over the cases.
 fn a_5_hz_swing_test_is_merged_within_20_ms_with_an_honest_sigma() -> Vec<f64> {
     let (sensor, site) = (SensorModel::paper_like(), paper_site());
@@ -235,14 +235,14 @@ fn a_5_hz_swing_test_is_merged_within_20_ms_with_an_honest_sigma() -> Vec<f64> {
     let worst = es.iter().map(|(e, _)| e.abs()).fold(0.0, f64::max);
     let ratio = error_over_sigma(&es);
     eprintln!("5 Hz swing: worst offset error {:.1} ms, RMS error / RMS σ {ratio:.2}", worst * 1e3);
-    // Measured worst 1.2 ms: held to 5 ms, well inside the issue's 20 ms.
+    // Measured worst 1.2 ms: held to 5 ms, well inside the 20 ms target.
     assert!(worst < 0.005, "worst offset error {worst} s");
     assert!((0.5..=2.0).contains(&ratio), "error / σ {ratio}");
     z_scores(&es)
 }
 
 
-/// A navigation computer's own export (issue 24's leftover): semicolons,
+/// A navigation computer's own export: semicolons,
 /// its own column names, attitude in radians — merged with `--nav-columns`
 /// as the project's log is; without the mapping, the refusal says to give
 /// one.
@@ -278,9 +278,9 @@ fn a_navigation_log_under_its_own_names_and_units_merges_with_nav_columns() {
     assert!(!dir.path().join("rec2.csv").exists());
 }
 
-/// Issue 29's first shape: a 5 Hz swing test whose navigation log has no
+/// A log shape without an AHRS heading: a 5 Hz swing test whose navigation log has no
 /// heading column (roll, pitch and position only), clocks up to ±60 s and
-/// ±100 ppm apart (the issue's +37.25 s / 80 ppm among them). Before, the
+/// ±100 ppm apart (+37.25 s / 80 ppm among them). Before, the
 /// rates of turn alone: up to 49 ms off. Now the tilt times the windows:
 /// measured worst 1.1 ms, RMS error / RMS σ 0.69, each peak 3.4–7.6σ
 /// clear of the runner-up.
@@ -297,10 +297,10 @@ fn a_5_hz_swing_without_a_heading_is_merged_within_20_ms() -> Vec<f64> {
     z_scores(&es)
 }
 
-/// Issue 29's second shape: a 1 Hz run of 400 s of circles at the surface
+/// A second log shape: a 1 Hz run of 400 s of circles at the surface
 /// then the legs with their dives in a calm sea, whose only heading is the
 /// GPS course at the surface (empty while diving), clocks up to ±60 s and
-/// ±100 ppm apart (the issue's −12.6 s / −45 ppm among them). Before,
+/// ±100 ppm apart (−12.6 s / −45 ppm among them). Before,
 /// refused: "the best correlation of the two logs' rates of turn is 0.27
 /// (at −12.7 s), below 0.3". Now merged: measured worst 10 ms, RMS error
 /// / RMS σ 0.55, each peak 12–21σ clear of the runner-up.

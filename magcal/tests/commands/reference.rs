@@ -1,4 +1,4 @@
-//! An independent reference behind every answer (issue 28), from the
+//! An independent reference behind every answer, from the
 //! command line: the world model at the site judges `fit`, `fit` without
 //! `--model` chooses on held-out data, and `apply` judges a recording
 //! against the document's reference, not only against what the stream
@@ -320,7 +320,7 @@ fn apply_with_a_wrong_calibration_is_not_ok_against_the_documents_reference() {
     // 300 counts off (about 1 500 nT): found invalid, and the on-line hard
     // iron, checked against the document's dip, is applied; but the
     // simulator's validation run logs no gyro, so nothing independent of
-    // the field confirms its headings (issue 31's guard) and no row is ok
+    // the field confirms its headings (the on-line hard iron's guard) and no row is ok
     // with it (measured: every row after 10 s not ok; before the guard,
     // 0.23° on the rows it called ok, and with the first step's stale
     // 378 nT scatter 1.93°).

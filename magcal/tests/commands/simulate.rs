@@ -162,7 +162,7 @@ fn the_report_shows_the_integrity_along_a_validation_run_past_the_pier() {
     // rounded ones is within their rounding (±0.005 each) of it.
     let rounding = 0.005 / predicted + 0.005 * observed / (predicted * predicted) + 0.005;
     assert!((ratio - observed / predicted).abs() <= rounding, "{ratio} vs {observed}/{predicted}");
-    // Honest: the 0.5–2.
+    // Honest: the 0.5–2 asked.
     assert!(ratio > 0.5 && ratio < 2.0, "observed ÷ predicted {ratio}");
     // Where: the rows not ok are the pier's passage. `magcal apply` judges
     // the rows as the report did; every one not ok lies within 5 s of a row

@@ -1,4 +1,4 @@
-//! Issue 23's disturbances for integrity checks — a steel structure passed
+//! The disturbances for integrity checks — a steel structure passed
 //! at a few metres and a payload switched on mid-run — checked against
 //! physics written here independently of the simulator's code.
 

@@ -1,4 +1,4 @@
-//! Issue 12's five real-vehicle effects, each checked against physics
+//! The five real-vehicle effects, each checked against physics
 //! written here independently of the simulator's code.
 
 use magcal_sim::effects::{dipole_field_nt, AhrsMisalignment, AnomalyModel, CrustalBody, Effect, Effects, ThermalModel, ThrusterModel};
@@ -172,7 +172,7 @@ fn a_buried_body_gives_the_on_axis_dipole_field() {
 }
 
 /// Along the effects runs the crustal bodies make IGRF wrong by the
-/// 100–300 nT the issue names, and the recording's truth columns hold the
+/// 100–300 nT asked for, and the recording's truth columns hold the
 /// true field: |true| − |IGRF| spans at least 150 nT and at most 600 nT.
 #[test]
 fn the_local_field_departs_from_igrf_by_hundreds_of_nt() {
@@ -273,7 +273,7 @@ fn gps_and_crab_are_kinematically_consistent() {
         // Measured 2026-11-23 (seed 3): 7.376° vs 7.369°, −9.641° vs −9.623°.
         eprintln!("leg {leg_course}°: mean course − heading {mean:.3}°, asin(c⊥/v) {want:.3}°");
         assert!((mean - want).abs() < 0.1, "leg {leg_course}°: {mean}° vs {want}°");
-        assert!(want.abs() > 4.0, "a crab of 4–30° as in the issue: {want}");
+        assert!(want.abs() > 4.0, "a crab of 4–30° as asked: {want}");
     }
 }
 
@@ -294,7 +294,7 @@ fn effects_are_parsed_by_name() {
 fn no_effect_leaves_the_recording_as_it_was() {
     let p = RunParams { leg_m: 1000.0, ..RunParams::paper_like() };
     let a = field_test::run(&SensorModel::paper_like(), &paper_site(), &p, 9, 1.0, RunKind::Run).unwrap();
-    // Printed by the simulator at commit 84ec09c (before issue 12), the same
+    // Printed by the simulator at commit 84ec09c (before the effects), the same
     // run and seed: rows and raw counts.
     const BEFORE: [(usize, [f64; 3]); 6] = [
         (0, [1326.0, -656.0, 5698.0]),

@@ -1,8 +1,8 @@
-//! Issue 4's acceptance on simulated field tests (see `magcal_sim::scenario`).
+//! Acceptance on simulated field tests (see `magcal_sim::scenario`).
 
 use magcal_sim::{evaluate, SensorModel};
 
-/// Issue 4's acceptance on the paper-like scenario (thrusters add a mostly
+/// Acceptance on the paper-like scenario (thrusters add a mostly
 /// horizontal running bias): the paper's back-stepping removes the step as
 /// in its Table 6; ours removes it further and gives the better heading.
 #[test]
@@ -37,7 +37,7 @@ fn hull_coupled_scenario_defeats_the_papers_sz_search_but_not_ours() {
     }
 }
 
-/// Issue 15: a swing test of ±15° roll / ±5° pitch with a gyro gives the
+/// A vehicle that cannot tumble: a swing test of ±15° roll / ±5° pitch with a gyro gives the
 /// heading of the full ±55° / ±10° swing test; without a gyro the axis fit
 /// refuses it rather than guessing.
 #[test]
@@ -53,7 +53,7 @@ fn a_limited_swing_with_a_gyro_calibrates_as_well_as_the_full_one() {
     assert!(no_gyro.refused.as_deref().is_some_and(|r| r.contains("of field directions were visited")), "{no_gyro:?}");
 }
 
-/// Issue 12: the chain on the effects runs, with its models of the
+/// The chain on the effects runs, with its models of the
 /// thrusters, temperature, local field, misalignment and water current.
 /// Before them (2026-11-23, seed 1): current 2.95°, temperature 1.02°
 /// (field error 483 nT), all five 3.76° (530 nT); with no effect 0.22°.

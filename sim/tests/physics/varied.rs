@@ -1,5 +1,5 @@
 //! The five effects on sites unlike paper 000's and with magnitudes drawn
-//! by seed (issue 29, item 4): the chain reaches the issue's heading target
+//! by seed: the chain reaches its heading target
 //! against the simulator's true heading, its prediction stays honest, and
 //! the joint back-stepping's field gradient along the track is the one the
 //! simulator's true field has. Fixed seeds; about 20 s in release
@@ -11,7 +11,7 @@ use magcal_sim::scenario::{evaluate_options, varied_effects_data, EffectsData, V
 use magcal_sim::varied::varied_sites;
 use magcal_sim::SensorModel;
 
-/// The issue's target for the validation true-heading RMS, °.
+/// The target for the validation true-heading RMS, °.
 const TARGET_DEG: f64 = 0.25;
 
 fn data(site: &str, seed: u64) -> EffectsData {

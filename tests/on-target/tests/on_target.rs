@@ -98,7 +98,7 @@ mod tests {
         assert_eq!(server.counters().bad_frames, 1);
     }
 
-    /// Issue 3: the f32 recursive full-ellipsoid fit, run sample by sample on
+    /// The f32 recursive full-ellipsoid fit, run sample by sample on
     /// the M4F, against the host's f64 batch fit of the same 2400 samples
     /// (50 000 nT, 0.4 nT noise, full tumble).
     #[test]

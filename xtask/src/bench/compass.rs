@@ -1,4 +1,4 @@
-//! Issue 29: the heading-only swing on a real yacht's compass circles
+//! The heading-only swing on a real yacht's compass circles
 //! (`tests/data/cirrus-yacht`), against the independent reference there
 //! (`reference.json`: numpy's plain 5-term least squares at its best course
 //! delay, `reference.py`), in-sample and on held-out halves.
@@ -75,7 +75,7 @@ pub fn section(root: &Path) -> (serde_json::Value, String) {
 
 /// The `results.md` section "A heading-only compass's swing".
 pub fn markdown(compass_md: &str) -> String {
-    format!("\n## A heading-only compass's swing (issue 29)\n\nThe yacht Cirrus's real calibration circles: compass − GNSS course before and after the swing, in-sample and on held-out halves (each half corrected by the swing fitted on the other), against numpy's plain least squares.\n{compass_md}")
+    format!("\n## A heading-only compass's swing\n\nThe yacht Cirrus's real calibration circles: compass − GNSS course before and after the swing, in-sample and on held-out halves (each half corrected by the swing fitted on the other), against numpy's plain least squares.\n{compass_md}")
 }
 
 #[cfg(test)]

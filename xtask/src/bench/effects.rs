@@ -4,10 +4,10 @@ use std::fmt::Write as _;
 
 use serde_json::json;
 
-/// Seeds of the effects section (issue 12 asks for at least 5).
+/// Seeds of the effects section (at least five, so a range is reported, not a lucky seed).
 pub const EFFECTS_SEEDS: [u64; 5] = [1, 2, 3, 4, 5];
 
-/// Issue 12: the simulator with the five real-vehicle effects. With all
+/// The simulator with the five real-vehicle effects. With all
 /// five on, over [`EFFECTS_SEEDS`]: our chain with every new model, the
 /// same chain with each effect's model switched off in turn, and the
 /// paper's method; then each effect alone with the full chain. Scored
@@ -67,7 +67,7 @@ pub fn effects() -> (serde_json::Value, String) {
             }
         }
     }
-    // The issue's targets against the worst seed of the full chain, all five on.
+    // The targets against the worst seed of the full chain, all five on.
     let worst = |f: &dyn Fn(&EffectsOutcome) -> Option<f64>| full_all.iter().map(|o| f(o).unwrap_or(f64::NAN)).fold(f64::NEG_INFINITY, |a, b| if b.is_nan() || a.is_nan() { f64::NAN } else { a.max(b) });
     let ratios: Vec<f64> = full_all.iter().map(|o| o.observed_over_predicted.unwrap_or(f64::NAN)).collect();
     let ratio_lo = ratios.iter().copied().fold(f64::INFINITY, |a, b| if b.is_nan() { f64::NAN } else { a.min(b) });
@@ -101,5 +101,5 @@ pub fn effects() -> (serde_json::Value, String) {
 
 /// The `results.md` section "Real-vehicle effects".
 pub fn markdown(effects_md: &str) -> String {
-    format!("## Real-vehicle effects (issue 12)\n\nThe simulator with thruster interference, temperature drift, a crustal anomaly, an AHRS misalignment and a water current (`magcal_sim::effects`); a survey AUV at 0.9–1.3 m/s. With all five on: our chain with every model, the same chain with each effect's model switched off in turn, and the paper's method (its back-stepping, the swing fit against raw GPS course); then each effect alone with the full chain. True-heading RMS and \\|F\\| errors on a separate validation run; the per-ampere vector and the temperature gains against the simulator's truth; the predicted heading RMS is the joint back-stepping's covariance and the calibration run's white heading noise (second differences) in quadrature; the white-noise column is the validation error's own (from truth), for scale (GPS delay truth: 2 s).\n\n{effects_md}\n")
+    format!("## Real-vehicle effects\n\nThe simulator with thruster interference, temperature drift, a crustal anomaly, an AHRS misalignment and a water current (`magcal_sim::effects`); a survey AUV at 0.9–1.3 m/s. With all five on: our chain with every model, the same chain with each effect's model switched off in turn, and the paper's method (its back-stepping, the swing fit against raw GPS course); then each effect alone with the full chain. True-heading RMS and \\|F\\| errors on a separate validation run; the per-ampere vector and the temperature gains against the simulator's truth; the predicted heading RMS is the joint back-stepping's covariance and the calibration run's white heading noise (second differences) in quadrature; the white-noise column is the validation error's own (from truth), for scale (GPS delay truth: 2 s).\n\n{effects_md}\n")
 }

@@ -1,7 +1,7 @@
-//! Issue 23: the heading's integrity on real data (BROAD trials 30 and 33,
+//! The heading's integrity on real data (BROAD trials 30 and 33,
 //! disturbed; 02, 03, 05, 09, undisturbed), by `magcal apply`'s code (the
 //! board's per-sample path), with each trial's undisturbed calibration and
-//! the rule of the issue (heading error against `truth_heading_deg` with one
+//! the scoring rule (heading error against `truth_heading_deg` with one
 //! constant offset removed; rows off by more than 5° are bad).
 //!
 //! The constants are chosen leave-one-dataset-out: for each trial, among a
@@ -35,10 +35,11 @@ use serde_json::json;
 /// The BROAD lab's inclination, degrees: the mean of `lab_inclination_deg`
 /// over the four undisturbed B/C trials' READMEs (02 69.361, 03 68.050,
 /// 05 69.513, 09 68.947), measured with the optical reference: the
-/// reference each stored calibration is judged against (issue 28).
+/// reference each stored calibration is judged against (an independent
+/// inclination, not one learned from the stream judged).
 const LAB_INCLINATION_DEG: f64 = 68.968;
 
-/// What a trial holds, and so what the monitor should do on it (issue 31's numbers).
+/// What a trial holds, and so what the monitor should do on it (the targets each kind is held to).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Kind {
     /// A magnet fixed in the room, passed now and then: ≥ 60 % of the bad
@@ -89,7 +90,7 @@ impl Kind {
     }
 }
 
-/// The heading RMS on rows called ok the issue allows on every trial, degrees.
+/// The heading RMS allowed on rows called ok on every trial, degrees.
 const OK_RMS_MAX_DEG: f64 = 3.0;
 
 /// The trials: name, recording, undisturbed calibration, kind. Every real
@@ -302,10 +303,10 @@ pub fn grid() -> Vec<Knobs> {
 }
 
 /// The leave-one-out objective on a set of trials: the sum of how far
-/// each falls short of its kind's numbers ([`Kind::shortfall`]). (Issue 23
-/// maximised the mean fraction of good rows kept plus bad rows caught, on
+/// each falls short of its kind's numbers ([`Kind::shortfall`]). (An earlier
+/// objective maximised the mean fraction of good rows kept plus bad rows caught, on
 /// two disturbed trials: the operating point it chose on trial 30 did not
-/// carry to trials it never saw — issue 31.)
+/// carry to trials it never saw.)
 fn objective(scores: &[(Kind, &IntegrityScore)]) -> f64 {
     scores.iter().map(|(k, s)| k.shortfall(s)).sum::<f64>()
 }

@@ -37,7 +37,7 @@ pub fn limited_tilt_simulated() -> (Vec<serde_json::Value>, String) {
     (sim_rows, md)
 }
 
-/// Issue 15: a vehicle that cannot tumble. The simulated swing test at the
+/// A vehicle that cannot tumble. The simulated swing test at the
 /// paper's ±55° / ±10° and at ±15° / ±5°, with and without a gyro (our
 /// chain each time); and the real BROAD trial 05 data: magcal's gyro-aided
 /// fit against the true calibration, the sphere fit and the peers shipped
@@ -117,5 +117,5 @@ pub fn limited_tilt(root: &Path) -> (serde_json::Value, String) {
 
 /// The `results.md` section "A vehicle that cannot tumble".
 pub fn markdown(limited_md: &str) -> String {
-    format!("## A vehicle that cannot tumble (issue 15)\n\n{limited_md}\n")
+    format!("## A vehicle that cannot tumble\n\n{limited_md}\n")
 }

@@ -68,7 +68,7 @@ pub const MERGE_SHAPE_SEEDS: [u64; 6] = [11, 12, 13, 14, 15, 16];
 /// heading and without a heading column (roll, pitch, position only);
 /// out-and-back runs with both logs at 1 Hz; and runs of 400 s of circles
 /// at the surface then the legs with their dives, both logs at 1 Hz, whose
-/// only heading is the GPS course at the surface (issue 29's two shapes).
+/// only heading is the GPS course at the surface (the two shapes without an AHRS heading).
 pub fn merge_shapes() -> (Vec<serde_json::Value>, String) {
     use magcal_sim::field_test::{self, paper_site, RunKind, RunParams, SensorModel};
     use magcal_sim::logs::NavHeading;
@@ -98,7 +98,7 @@ pub fn merge_shapes() -> (Vec<serde_json::Value>, String) {
     (rates, md)
 }
 
-/// Issue 14's, 22's and 29's `merge` numbers: the clock tables
+/// The `merge` numbers: the clock tables
 /// ([`merge_shapes`]); then, per seed, the validation heading RMS of the
 /// chain (axis fit → back-stepping → swing fit) on merged 50 Hz logs
 /// against the single-clock recordings they were cut from.
@@ -149,5 +149,5 @@ pub fn merge_clocks() -> (serde_json::Value, String) {
 
 /// The `results.md` section "Logs on two clocks: `magcal merge`".
 pub fn markdown(merge_md: &str) -> String {
-    format!("## Logs on two clocks: `magcal merge` (issue 14)\n\nSwing tests at 50 Hz (board) and 10 Hz (navigation), swing tests with both logs at 5 Hz (with the AHRS heading, and without a heading column), out-and-back runs with both at 1 Hz, and runs of surface circles then legs with dives at 1 Hz whose only heading is the GPS course at the surface, cut into two logs whose clocks differ by ±60 s and ±100 ppm; the offset searched within ±120 s; the stated σ against the error over the cases. Then the chain on merged logs vs on the single-clock recordings, heading RMS on a separate validation run.\n\n{merge_md}\n")
+    format!("## Logs on two clocks: `magcal merge`\n\nSwing tests at 50 Hz (board) and 10 Hz (navigation), swing tests with both logs at 5 Hz (with the AHRS heading, and without a heading column), out-and-back runs with both at 1 Hz, and runs of surface circles then legs with dives at 1 Hz whose only heading is the GPS course at the surface, cut into two logs whose clocks differ by ±60 s and ±100 ppm; the offset searched within ±120 s; the stated σ against the error over the cases. Then the chain on merged logs vs on the single-clock recordings, heading RMS on a separate validation run.\n\n{merge_md}\n")
 }

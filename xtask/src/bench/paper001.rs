@@ -87,7 +87,7 @@ pub fn same_data(rows: &mut Vec<serde_json::Value>, md: &mut String) {
     }
 }
 
-/// Issue 3's f32 check, measured: the recursive full fit in f32 (bit-identical
+/// The f32 check (the board's fit must match the host's), measured: the recursive full fit in f32 (bit-identical
 /// to the MCU's) against the f64 batch fit of the same tumble.
 pub fn f32_vs_f64() -> serde_json::Value {
     let mut rng = SplitMix64::new(2024);

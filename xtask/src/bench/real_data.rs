@@ -1,4 +1,4 @@
-//! Real recordings, every `fit --model` (issue 22): one row per dataset and
+//! Real recordings, every `fit --model`: one row per dataset and
 //! model, accepted or refused (and why), the heading RMS against the optical
 //! reference (BROAD trials) or the dip and magnitude scatter (the glider's
 //! validation dives, below 3 m), beside the floor (the true calibration; the
@@ -163,7 +163,7 @@ fn attitude_leave_one_out(sets: &[Dataset], md: &mut String) -> serde_json::Valu
     json!(rows)
 }
 
-/// `apply` with wrong calibrations (issue 28): on every BROAD trial's
+/// `apply` with wrong calibrations (a judge must refuse them): on every BROAD trial's
 /// validation part, the true calibration, its bias zeroed, an identity
 /// matrix on raw counts (bias zeroed too) and the matrix ×10, each judged
 /// against the lab's inclination (the trial's README); the share of rows

@@ -1,4 +1,4 @@
-//! The five effects on varied sites (issue 29, item 4): the chain with the
+//! The five effects on varied sites: the chain with the
 //! local field's gradient along the track against the chain without it, at
 //! three sites unlike paper 000's and with every effect's magnitudes drawn
 //! by seed ([`magcal_sim::varied`]); and the gradient prior chosen
@@ -16,7 +16,7 @@ use serde_json::json;
 /// Seeds of the varied-sites section.
 pub const VARIED_SEEDS: [u64; 5] = [1, 2, 3, 4, 5];
 
-/// The issue's target for the validation heading RMS, °.
+/// The target for the validation heading RMS, °.
 pub const TARGET_HEADING_RMS_DEG: f64 = 0.25;
 
 /// Gradient priors (nT/m) the leave-one-site-out choice picks from.
@@ -183,5 +183,5 @@ pub fn varied_sites_section() -> (serde_json::Value, String) {
 
 /// The `results.md` section "The five effects on varied sites".
 pub fn markdown(varied_md: &str) -> String {
-    format!("\n## The five effects on varied sites (issue 29, item 4)\n\nThe five effects at three sites unlike paper 000's — high latitude (Trondheimsfjord, inclination 75°), low latitude (off Goa, 19.5°), southern (off Fiji, −40°, declination 13°) — with every effect's magnitudes drawn by seed from the ranges of `magcal_sim::varied::MagnitudeRanges` (thruster places and moments, thermocline, sensor lag and gains, the crustal bodies' strength, depth and place, magnetised by the site's field, the AHRS misalignment, the current's speed and direction). Our chain with the local field's gradient along the track in the joint back-stepping, and without it (the chain before). `cargo test --release -p xtask bench::tests::varied_sites_section -- --ignored --nocapture`.\n\n{varied_md}\n")
+    format!("\n## The five effects on varied sites\n\nThe five effects at three sites unlike paper 000's — high latitude (Trondheimsfjord, inclination 75°), low latitude (off Goa, 19.5°), southern (off Fiji, −40°, declination 13°) — with every effect's magnitudes drawn by seed from the ranges of `magcal_sim::varied::MagnitudeRanges` (thruster places and moments, thermocline, sensor lag and gains, the crustal bodies' strength, depth and place, magnetised by the site's field, the AHRS misalignment, the current's speed and direction). Our chain with the local field's gradient along the track in the joint back-stepping, and without it (the chain before). `cargo test --release -p xtask bench::tests::varied_sites_section -- --ignored --nocapture`.\n\n{varied_md}\n")
 }

@@ -743,7 +743,7 @@ mod tests {
         assert_eq!(m.recording.roll_deg.as_ref().unwrap()[0], 1.0);
     }
 
-    /// Issue 37: a given offset with the wrong sign was used unchecked. The
+    /// A given offset with the wrong sign was once used unchecked. The
     /// data show −47.3 s: +47.3 s is refused naming both, kept when weak
     /// results are allowed (and said); the right one passes unsaid.
     #[test]
@@ -799,7 +799,7 @@ mod tests {
         assert!(e.to_string().contains("give the clock offset"), "{e}");
     }
 
-    /// Issue 24: a search window of ± 0 s with the true offset 37.25 s
+    /// A search window of ± 0 s with the true offset 37.25 s
     /// wrote a recording 37 s out of line; now a window too narrow to tell
     /// where the logs agree best is refused.
     #[test]
@@ -809,7 +809,7 @@ mod tests {
         assert!(matches!(e, MergeError::SearchWindowTooNarrow { .. }) && e.to_string().contains("too narrow"), "{e}");
     }
 
-    /// Issue 24: `--max-offset-s 1e300` panicked (capacity overflow) and
+    /// `--max-offset-s 1e300` once panicked (capacity overflow) and
     /// 1e5 ran for minutes; the search now stops where the logs stop
     /// overlapping, so any window finishes as fast as the logs' spans allow.
     #[test]
@@ -827,7 +827,7 @@ mod tests {
         }
     }
 
-    /// Issue 24: a true offset beyond the search window said "turn the
+    /// A true offset beyond the search window once said "turn the
     /// vehicle"; now the refusal names the window and how to move it.
     #[test]
     fn an_offset_beyond_the_window_names_the_window() {

@@ -154,7 +154,7 @@ fn bad_mappings_are_refused_by_name() {
     assert!(matches!(parse("mx=a,MX=b"), ColumnMapError::Duplicate(_)));
 }
 
-/// Issue 37: a column read twice from the header, or two columns read
+/// A column read twice from the header, or two columns read
 /// from one cell, is refused (the first `mx` was read silently); a
 /// column twice that is not read stays harmless.
 #[test]
@@ -170,7 +170,7 @@ fn a_column_read_twice_or_two_from_one_cell_are_refused() {
     assert_eq!(t.take("mx"), Some(vec![1.0]));
 }
 
-/// Issue 24: "missing column `mx`" alone left other tools' users stuck.
+/// "missing column `mx`" alone once left other tools' users stuck.
 #[test]
 fn a_missing_field_column_suggests_the_mapping() {
     let e = mapped("time,mag_x_gauss,mag_y_gauss,mag_z_gauss\n0,1,2,3\n", "").unwrap_err();

@@ -1,4 +1,4 @@
-//! Hostile cases: files (issue 37, "one way out" and the output side of
+//! Hostile cases: files ("one way out" and the output side of
 //! "bounded by construction"). Every file a command writes goes through
 //! `host_tools::files`: checked against every input before the work,
 //! written to a temporary and renamed, keeping the old file's mode; an old

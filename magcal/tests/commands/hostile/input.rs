@@ -1,4 +1,4 @@
-//! Hostile cases: input. One way in (issue 37, mechanism 1): a recording is
+//! Hostile cases: input. One way in (mechanism 1): a recording is
 //! read and judged the same way by every command; and `merge`'s part of
 //! mechanisms 4, 6 and 7 (bounded by the logs, a given offset checked
 //! against the data, a search stopping at its window's edge said).
@@ -51,7 +51,7 @@ fn broad05_cal(dir: &Path) -> PathBuf {
     cal
 }
 
-/// Issue 37: `apply` on BROAD-05's validation part with roll and pitch in
+/// `apply` on BROAD-05's validation part with roll and pitch in
 /// radians said 141 rows `ok` at 9.9° against σ 1.9° (`fit` refused the
 /// same columns, `apply` read them as degrees). Through the one way in,
 /// every command refuses them, saying how to give their unit; given as
@@ -85,7 +85,7 @@ fn roll_and_pitch_in_radians_are_refused_by_every_command() {
     assert!((a - b).abs() < 1e-6, "{a} {b}");
 }
 
-/// Issue 37: a header with `mx` twice was read silently (the first one);
+/// A header with `mx` twice was read silently (the first one);
 /// two columns mapped to one header name too.
 #[test]
 fn duplicated_columns_are_refused() {
@@ -121,7 +121,7 @@ fn swing(dir: &Path, name: &str, edit: impl Fn(&mut host_tools::data::Recording)
 
 const SITE: [&str; 6] = ["--lat", "36.9", "--lon", "50.6", "--date", "2021-01-01"];
 
-/// Issue 37: three GPS placeholder rows at lat/lon (0, 0) refused a whole
+/// Three GPS placeholder rows at lat/lon (0, 0) refused a whole
 /// recording ("6616 km from the site"). They are no positions: dropped,
 /// counted and said; the fit is the one without them.
 #[test]
@@ -150,7 +150,7 @@ fn placeholder_fixes_at_zero_zero_are_dropped_and_counted() {
     assert_eq!(doc, fit(&without).1);
 }
 
-/// Issue 37 mechanism 1: the recording's positions against the site, by
+/// Mechanism 1: the recording's positions against the site, by
 /// distance and by declination. A run drifting 2° of latitude north of
 /// the site (222 km, within the 500 km refused by distance): IGRF-14's
 /// declination there is 0.64° from the site's (`magcal igrf`: 5.26° at
@@ -205,7 +205,7 @@ fn merge_report(o: &std::process::Output) -> MergeReport {
     serde_json::from_slice(&o.stdout).expect("the report")
 }
 
-/// Issue 37: both logs' `t` in microseconds (ArduPilot's `TimeUS`) aborted
+/// Both logs' `t` in microseconds (ArduPilot's `TimeUS`) aborted
 /// allocating 319 GB; in milliseconds with `--max-offset-s 1e8` it took
 /// over 120 s and 1.5 GB. Each log's unit is found from its step (50 Hz
 /// board: 20 000 µs or 20 ms; 10 Hz navigation: 100 000 µs or 100 ms),
@@ -241,7 +241,7 @@ fn merge_finds_the_logs_time_unit_or_refuses_it() {
     assert!((r.offset_s + 33.3).abs() < 0.05, "{r:?}");
 }
 
-/// Issue 37 mechanism 4: every allocation bounded by the input's size. A
+/// Mechanism 4: every allocation bounded by the input's size. A
 /// board log whose clock jumps by 10⁹ s (the search's grids would need
 /// 5·10¹⁰ points) is refused before any grid is made, naming the log, its
 /// span and the step.
@@ -256,7 +256,7 @@ fn merge_refuses_a_log_whose_span_its_rows_cannot_fill() {
     assert!(e.contains("the board log spans 1.0") && e.contains(&format!("after data row {half}")) && e.contains("does its clock jump"), "{e}");
 }
 
-/// Issue 37: `merge` interpolated a 0.1 Hz navigation log across its 10 s
+/// `merge` interpolated a 0.1 Hz navigation log across its 10 s
 /// steps without a word (roll 9.6° RMS off). Now only gaps up to 2 s are
 /// interpolated (`--max-nav-gap-s`): the rows between are written without
 /// navigation, counted and said.
@@ -279,7 +279,7 @@ fn a_slow_navigation_log_is_not_interpolated_across_long_gaps() {
     assert_eq!(r.rows_in_nav_gaps, 0, "{r:?}");
 }
 
-/// Issue 37: `merge --offset-s` with the wrong sign was used unchecked.
+/// `merge --offset-s` with the wrong sign was used unchecked.
 /// The data show −33.3 s; +33.3 s given is refused naming both, kept with
 /// `--allow-weak` and said; the right one is taken without a word.
 #[test]
@@ -300,7 +300,7 @@ fn a_given_offset_the_data_disagree_with_is_refused_unless_allowed() {
     assert!(r.warnings.is_empty() && !stderr(&o).contains("warning"), "{r:?}");
 }
 
-/// Issue 37 mechanism 7: an offset found at its search window's edge is
+/// Mechanism 7: an offset found at its search window's edge is
 /// said, and refused with `--strict`: the true −33.3 s searched within
 /// 0 ± 33.7 s is found 0.4 s inside the window's end.
 #[test]
@@ -320,7 +320,7 @@ fn an_offset_at_the_window_edge_is_said_and_refused_when_strict() {
     assert!(r.warnings.is_empty(), "{r:?}");
 }
 
-/// Issue 37: a clock jump was reported as "offset outside the window".
+/// A clock jump was reported as "offset outside the window".
 /// The navigation clock steps 100 s forward halfway: the two halves agree
 /// at offsets 100 s apart, and the refusal names the jump, where and how
 /// large. Stepping 3 600 s (a GPS time fix), the first half merges alone:

@@ -1,4 +1,4 @@
-//! The hostile tour of issue 37, one module per mechanism: each test is a
+//! The hostile tour, one module per mechanism: each test is a
 //! case a hostile user reproduced (files lost, a panic, a silently wrong
 //! answer, an unclear error) and failed before its fix.
 

@@ -1,5 +1,5 @@
 //! Hostile cases: references. A reference is independent of the compass it
-//! judges or it is not a reference (issue 37, mechanism 5), and the
+//! judges or it is not a reference (mechanism 5 of `hostile`), and the
 //! importer's, `igrf`'s and `export`'s unclear errors and labels.
 
 use std::path::Path;
@@ -85,7 +85,7 @@ fn stderr(o: &std::process::Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
-/// Issue 37: `$HCHDG` and `$HCHDT` from the same compass with the GPS
+/// `$HCHDG` and `$HCHDT` from the same compass with the GPS
 /// course at 5 kn. The compass's HDT is its own heading plus the variation:
 /// taken as the reference, the swing fitted nothing and `apply` said
 /// 0.0003° after, 6° RMS off the course. The reference must be the course;
@@ -189,7 +189,7 @@ fn compass_csv(path: &Path, compass: impl Fn(f64) -> f64, reference: impl Fn(f64
     std::fs::write(path, text).unwrap();
 }
 
-/// Issue 37: a reference that is the compass's heading plus a constant (its
+/// A reference that is the compass's heading plus a constant (its
 /// own HDT, whatever its talker) judges nothing. `swing` fitted A = the
 /// constant and called the compass perfect; `apply` said 0.0° after. Both
 /// refuse, saying the reference is the compass's own heading.
@@ -219,7 +219,7 @@ fn stdout_of(o: &std::process::Output) -> String {
     String::from_utf8_lossy(&o.stdout).into_owned()
 }
 
-/// Issue 37: a compass recorded in radians was refused as "the heading
+/// A compass recorded in radians was refused as "the heading
 /// hardly changes"; it is named as radians.
 #[test]
 fn a_compass_in_radians_is_named_as_radians() {
@@ -232,7 +232,7 @@ fn a_compass_in_radians_is_named_as_radians() {
     assert!(e.contains("compass_heading_deg looks like radians") && !e.contains("hardly changes"), "{e}");
 }
 
-/// Issue 37: one RMC dated a year ahead made every later sentence "earlier
+/// One RMC dated a year ahead made every later sentence "earlier
 /// than the one before": the rest of the log was dropped. It is refused
 /// alone, counted, and the log timed without it.
 #[test]
@@ -258,7 +258,7 @@ fn one_rmc_dated_a_year_ahead_is_refused_alone() {
     assert!(stderr(&o).contains("1 RMC/ZDA dated more than"), "{}", stderr(&o));
 }
 
-/// Issue 37: `igrf --model wmm2025 --date 2021` answered with the WMM2020
+/// `igrf --model wmm2025 --date 2021` answered with the WMM2020
 /// field the crate holds for 2021 and labelled it WMM2025. A date outside
 /// the model's validity is refused with the range; inside it, answered.
 #[test]
@@ -274,7 +274,7 @@ fn a_model_is_not_used_outside_its_years() {
     assert!(o.status.success(), "{}", stderr(&o));
 }
 
-/// Issue 37: PX4's export refused a gain naming ArduPilot's
+/// PX4's export refused a gain naming ArduPilot's
 /// `COMPASS_SCALE`. Each stack's message names its own parameters.
 #[test]
 fn each_export_names_its_own_parameters() {
@@ -294,7 +294,7 @@ fn each_export_names_its_own_parameters() {
 #[path = "../../../../fuzz/fuzz_targets/commands_drive.rs"]
 mod commands_drive;
 
-/// Issue 37: no command ends with a panic on any input the command-level
+/// No command ends with a panic on any input the command-level
 /// fuzzer has (its seeds, small real inputs, and any crash committed
 /// beside them or left in `fuzz/artifacts/commands/`): each replayed
 /// through the same entry points as the fuzz target.
