@@ -25,7 +25,7 @@ use host_tools::compute::card::{compass_card, deviation_card};
 use host_tools::compute::compass::{apply_compass, swing_compass};
 use host_tools::compute::{swing_recording_with, Delay, WaterCurrentMode};
 use host_tools::data::compass::CompassLog;
-use host_tools::doc::compass::CompassDoc;
+use host_tools::doc::CompassDoc;
 use host_tools::data::nmea;
 use host_tools::data::table::{col, ColumnMap};
 use host_tools::data::Recording;

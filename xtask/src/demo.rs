@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
 use anyhow::{bail, Context, Result};
-use host_tools::doc::results::SessionSummary;
+use host_tools::doc::SessionSummary;
 use host_tools::doc::CalDoc;
 
 use super::{browser, root, run, say};

@@ -17,8 +17,8 @@
 use calib_core::cal::{FieldCal, ModelKind};
 use host_tools::compute::apply::{apply_recording, score, ApplyOptions, IntegrityScore};
 use host_tools::compute::card::read_reference_column;
-use host_tools::doc::reference::Reference;
-use host_tools::doc::results::Quality;
+use host_tools::doc::Reference;
+use host_tools::doc::Quality;
 use host_tools::data::Recording;
 use host_tools::doc::CalDoc;
 

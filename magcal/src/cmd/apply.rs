@@ -11,7 +11,7 @@ use host_tools::compute::card::read_reference_column;
 use host_tools::compute::compass::{apply_compass, write_compass_applied};
 use host_tools::compute::reference::{given_disagreement, shown, world_field_for};
 use host_tools::doc::reference::world_allowance;
-use host_tools::doc::compass::{CompassDoc, Document};
+use host_tools::doc::{CompassDoc, Document};
 use host_tools::data::Recording;
 use host_tools::doc::CalDoc;
 use host_tools::geomag::Site;

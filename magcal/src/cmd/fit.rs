@@ -11,8 +11,8 @@ use host_tools::data::Recording;
 
 use super::{check_out, check_positions, emit, hinted, reference_field, warn_all, SiteArgs};
 use host_tools::compute::{ComputeError, GyroError};
-use host_tools::doc::auto::HeldOutBasis;
-use host_tools::doc::reference::Reference;
+use host_tools::doc::HeldOutBasis;
+use host_tools::doc::Reference;
 
 /// `--model`: `auto` or one model.
 #[derive(Debug, Clone, Copy)]

@@ -156,9 +156,9 @@ pub fn reference_field(field_nt: Option<f64>, site: &SiteArgs) -> Result<Field> 
 
 /// Refuses a field intensity that is not one at the Earth's surface in nT,
 /// saying which unit it looks like (`what` names where it came from): the
-/// one rule of the document check ([`host_tools::doc::caldoc::field_nt_problem`]).
+/// one rule of the document check ([`host_tools::doc::field_nt_problem`]).
 pub fn check_field_nt(field_nt: f64, what: &str) -> Result<()> {
-    match host_tools::doc::caldoc::field_nt_problem(field_nt) {
+    match host_tools::doc::field_nt_problem(field_nt) {
         None => Ok(()),
         Some(why) => bail!("{what} {why}"),
     }
@@ -327,7 +327,7 @@ pub fn load_field_doc(path: &Path, allow_weak: bool) -> Result<CalDoc> {
 
 /// Either form of document (field or heading-only) through the one
 /// document check, as [`load_field_doc`].
-pub fn load_document(path: &Path, allow_weak: bool) -> Result<host_tools::doc::compass::Document> {
+pub fn load_document(path: &Path, allow_weak: bool) -> Result<host_tools::doc::Document> {
     let (doc, said) = host_tools::doc::compass::Document::load_with(path, allow_weak).map_err(|e| hinted(e, weak_hint))?;
     for w in said {
         eprintln!("warning: {w}");

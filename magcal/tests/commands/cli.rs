@@ -8,7 +8,7 @@ use calib_core::cal::{FieldCal, ModelKind, Swing};
 use calib_core::conformance::SplitMix64;
 use calib_core::heading::{ned_field, ned_to_body, wrap_two_pi};
 use calib_core::ortho::{gamma, OrthoAngles};
-use host_tools::doc::caldoc::CalDoc;
+use host_tools::doc::CalDoc;
 use host_tools::data::recording::Recording;
 use super::{magcal};
 
@@ -342,7 +342,7 @@ fn bad_data_catalogue() {
 }
 
 mod arbitrary_bytes {
-    use host_tools::doc::caldoc::CalDoc;
+    use host_tools::doc::CalDoc;
     use host_tools::data::recording::Recording;
     use proptest::prelude::*;
     use std::path::Path;
