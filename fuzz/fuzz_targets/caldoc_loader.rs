@@ -1,7 +1,7 @@
 //! Arbitrary bytes as a calibration document: parsed and validated, or
 //! refused with a reason.
 #![no_main]
-use host_tools::data::caldoc::CalDoc;
+use host_tools::doc::CalDoc;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

@@ -24,10 +24,12 @@ use host_tools::compute::apply::{apply_recording, ApplyOptions};
 use host_tools::compute::card::{compass_card, deviation_card};
 use host_tools::compute::compass::{apply_compass, swing_compass};
 use host_tools::compute::{swing_recording_with, Delay, WaterCurrentMode};
-use host_tools::data::compass::{CompassDoc, CompassLog};
+use host_tools::data::compass::CompassLog;
+use host_tools::doc::CompassDoc;
 use host_tools::data::nmea;
 use host_tools::data::table::{col, ColumnMap};
-use host_tools::data::{CalDoc, Recording};
+use host_tools::data::Recording;
+use host_tools::doc::CalDoc;
 
 /// The byte between an input's parts.
 pub const SEPARATOR: u8 = 0x1E;

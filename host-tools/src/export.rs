@@ -51,7 +51,7 @@ use calib_core::linalg::Mat3;
 use nalgebra::Matrix3;
 use serde::{Deserialize, Serialize};
 
-use crate::data::CalDoc;
+use crate::doc::CalDoc;
 
 /// The stack a calibration is exported to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

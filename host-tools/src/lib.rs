@@ -3,8 +3,11 @@
 //! * [`board`]: the board client — the serial link ([`board::BoardClient`]),
 //!   the QEMU board's sensor feed, the QEMU launcher, document ↔ board
 //!   coefficients;
-//! * [`data`]: recordings (CSV), the calibration document (JSON) and the
-//!   typed results inside them;
+//! * [`doc`]: the documents and their typed parts — the calibration
+//!   document ([`doc::CalDoc`]), its quality and results, the reference and
+//!   its check, the integrity counts — and every limit a document is
+//!   checked against: the floor every other module stands on;
+//! * [`data`]: tables (CSV), recordings, logs and their importers;
 //! * [`compute`]: the fits on recordings and the one calibration chain that
 //!   the session, the simulator's scenario harness, the bench and the CLI call;
 //! * [`export`]: a calibration in ArduPilot's or PX4's parameters;
@@ -13,8 +16,10 @@
 //! * [`report`]: figures and an HTML page;
 //! * [`procedure`]: the field procedure's limits (the session's gates, the
 //!   report's marks), a leaf both import;
-//! * [`integrity_evidence`]: the "recalibrate" rule on a run's per-sample
-//!   integrity, a leaf the session and `magcal log` both call.
+//!
+//! The layers, lowest first (each uses only its own and those below it;
+//! `tests/layering.rs` holds them): `files`, `geomag`, `procedure` < `doc`
+//! < `data` < `compute` < `board`, `export`, `report` < `session`.
 //!
 //! The `magcal` binary (crate `magcal`) is a thin clap front end over this
 //! library, and the field-test simulator is a crate of its own
@@ -27,10 +32,10 @@
 pub mod board;
 pub mod compute;
 pub mod data;
+pub mod doc;
 pub mod export;
 pub mod files;
 pub mod geomag;
-pub mod integrity_evidence;
 pub mod procedure;
 pub mod report;
 pub mod session;

@@ -6,8 +6,9 @@
 //! are [`host_tools::compute::truth`]'s. Used by the acceptance tests and by
 //! `cargo xtask bench`.
 
-use host_tools::compute::{self, truth, BackstepMethod, ChainOptions, ComputeError, WaterCurrentMode, Delay, FirstStep};
-use host_tools::data::CalDoc;
+use host_tools::compute::{self, truth, ChainOptions, ComputeError, WaterCurrentMode, Delay, FirstStep};
+use host_tools::doc::results::BackstepMethod;
+use host_tools::doc::CalDoc;
 use host_tools::geomag::Site;
 
 use crate::effects::{Effect, Effects};

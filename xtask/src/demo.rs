@@ -7,8 +7,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
 use anyhow::{bail, Context, Result};
-use host_tools::data::results::SessionSummary;
-use host_tools::data::CalDoc;
+use host_tools::doc::SessionSummary;
+use host_tools::doc::CalDoc;
 
 use super::{browser, root, run, say};
 use crate::suite::{note, Suite};

@@ -4,12 +4,12 @@
 use calib_core::cal::{FieldCal, ModelKind};
 use magcal_protocol::Coefficients;
 
-use crate::data::results::Quality;
+use crate::doc::results::Quality;
 use calib_core::cal::Swing;
 
-use crate::data::caldoc::{CurrentBlock, TemperatureBlock};
-use crate::compute::reference::{Reference, ReferenceSource};
-use crate::data::CalDoc;
+use crate::doc::caldoc::{CurrentBlock, TemperatureBlock};
+use crate::doc::reference::{Reference, ReferenceSource};
+use crate::doc::CalDoc;
 
 /// The board's coefficients for a calibration document, with its current and
 /// temperature blocks (absent blocks: no terms, [`CalDoc::env_terms`]) and
@@ -56,7 +56,7 @@ pub fn doc_from_coefficients(c: &Coefficients) -> CalDoc {
             source: ReferenceSource::Board,
             site: None,
             field_nt: f,
-            field_sigma_nt: crate::compute::reference::LOCAL_INTENSITY_SIGMA_REL * f,
+            field_sigma_nt: crate::doc::reference::LOCAL_INTENSITY_SIGMA_REL * f,
             inclination_deg: Some(f64::from(i).to_degrees()),
             inclination_sigma_deg: None,
             check: None,

@@ -15,7 +15,7 @@
 //! * the board's integrity state of every sample is counted
 //!   ([`IntegrityTally`]), with the on-line hard iron from its `Health` at
 //!   the end, and the session's "recalibrate" rule
-//!   ([`crate::integrity_evidence::recalibrate_evidence`]) judges them.
+//!   ([`crate::doc::integrity::recalibrate_evidence`]) judges them.
 
 use std::io::{self, Read, Write};
 use std::path::PathBuf;
@@ -29,8 +29,8 @@ use super::client::{BoardClient, ClientError};
 use super::reconnect::{reconnect_at, Resume};
 use crate::data::board_log::{self, HEALTH_AFTER_GAP, HEALTH_SATURATED};
 use crate::data::table::{Cell, TableWriter};
-use crate::data::results::RecalibrateEvidence;
-use crate::integrity_evidence::{recalibrate_evidence, IntegrityCounts, IntegrityTally, RECALIBRATE_CAL_INVALID_FRACTION};
+use crate::doc::results::RecalibrateEvidence;
+use crate::doc::integrity::{recalibrate_evidence, IntegrityCounts, IntegrityTally, RECALIBRATE_CAL_INVALID_FRACTION};
 
 /// Samples written between flushes and progress updates, at most.
 const BATCH: usize = 64;
@@ -173,7 +173,7 @@ pub struct LogSummary {
     #[serde(default)]
     pub integrity: IntegrityCounts,
     /// "Recalibrate" with the evidence, by the session's rule
-    /// ([`crate::integrity_evidence::recalibrate_evidence`]); absent when
+    /// ([`crate::doc::integrity::recalibrate_evidence`]); absent when
     /// the calibration fits.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub recalibrate: Option<RecalibrateEvidence>,

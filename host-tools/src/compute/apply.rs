@@ -16,8 +16,9 @@ use calib_core::online::{Health, OnlineIntegrity};
 use serde::Serialize;
 
 use crate::data::table::{col, write_cells, Cell};
-use crate::data::{CalDoc, Recording};
-use crate::integrity_evidence::{IntegrityCounts, StateCounts};
+use crate::data::Recording;
+use crate::doc::CalDoc;
+use crate::doc::integrity::{IntegrityCounts, StateCounts};
 
 /// The field's scatter about `F` taken when the document reports none, as a
 /// fraction of `F` (the board's: calib-core's
@@ -88,7 +89,7 @@ pub struct Applied {
 
 impl Applied {
     /// What the "recalibrate" rule reads of this run
-    /// ([`crate::integrity_evidence::recalibrate_evidence`]): the rows per
+    /// ([`crate::doc::integrity::recalibrate_evidence`]): the rows per
     /// state, the monitor's longest disturbance, whether the on-line hard
     /// iron was applied (ever, or at the end) and its estimate. The longest
     /// `cal_invalid` stretch is left out (the rows carry no clock).

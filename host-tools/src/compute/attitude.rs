@@ -3,9 +3,9 @@
 //! Reads `roll_deg, pitch_deg`; says which parameters the data leave weak.
 
 use calib_core::attitude_fit::{fit_attitude, AttitudeConfig, AttitudeEstimate, AttitudeSample};
-use calib_core::heading::Tilt;
 
 use super::error::ComputeError;
+use crate::data::intake::levelled_samples;
 use crate::data::Recording;
 
 /// A hard-iron 1σ above this fraction of the field (in raw units) is
@@ -26,42 +26,6 @@ pub fn attitude_samples(rec: &Recording) -> Result<Vec<AttitudeSample<f64>>, Com
     }
     Ok(levelled_samples(rec, roll, pitch, 1.0))
 }
-
-/// The samples with the attitude columns read as `k` × degrees.
-fn levelled_samples(rec: &Recording, roll: &[f64], pitch: &[f64], k: f64) -> Vec<AttitudeSample<f64>> {
-    rec.mag.iter().zip(roll).zip(pitch).map(|((&raw, r), p)| AttitudeSample { raw, tilt: Tilt::new((k * r).to_radians(), (k * p).to_radians()) }).collect()
-}
-
-/// A recording's roll and pitch that look like radians under degree names:
-/// every angle within ±π, and levelled as radians the field is far more
-/// consistent (the attitude-aided fit's robust residual under
-/// [`RADIANS_RESIDUAL_RATIO`] of the one read as degrees). A vehicle that
-/// really stays within ±3° is not refused: read as radians its angles
-/// reach ±170° and level nothing.
-pub fn check_attitude_units(rec: &Recording, field_nt: f64) -> Result<(), ComputeError> {
-    let (Some(roll), Some(pitch)) = (rec.roll_deg.as_ref(), rec.pitch_deg.as_ref()) else { return Ok(()) };
-    let max_abs = roll.iter().chain(pitch).filter(|v| v.is_finite()).fold(0.0f64, |m, v| m.max(v.abs()));
-    if !(max_abs <= std::f64::consts::PI && max_abs >= MIN_RADIANS_SPAN) {
-        return Ok(());
-    }
-    let fit = |k: f64| {
-        // A fit that fails, or whose matrix no sensor has, is no fit.
-        fit_attitude(&levelled_samples(rec, roll, pitch, k), field_nt, &AttitudeConfig::new()).ok().filter(|e| e.cal.validate(crate::data::caldoc::MAX_BIAS_ABS).is_ok()).map(|e| e.residual_sigma_nt)
-    };
-    let Some(as_radians) = fit(180.0 / std::f64::consts::PI) else { return Ok(()) };
-    let as_degrees = fit(1.0);
-    if as_degrees.is_none_or(|d| as_radians < RADIANS_RESIDUAL_RATIO * d) {
-        return Err(ComputeError::AnglesLookLikeRadians { max_abs, as_degrees_nt: as_degrees.unwrap_or(f64::INFINITY), as_radians_nt: as_radians });
-    }
-    Ok(())
-}
-
-/// Below this largest |angle| (0.57° read as degrees) the columns say
-/// nothing about their unit.
-const MIN_RADIANS_SPAN: f64 = 0.01;
-/// Radians are refused when levelling with them leaves less than this
-/// fraction of the residual that degrees leave.
-pub const RADIANS_RESIDUAL_RATIO: f64 = 0.5;
 
 /// What the fit leaves weakly determined, in words.
 pub fn weakly_determined(est: &AttitudeEstimate<f64>, field_nt: f64) -> Vec<String> {

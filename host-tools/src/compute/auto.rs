@@ -21,73 +21,29 @@
 //! The held-out RMS (degrees) ranks the candidates and is the expected
 //! heading error written into the document when it exceeds the one from the
 //! covariance and the heading noise
-//! ([`crate::data::results::Quality::expected_heading_rms_deg`]). A model
+//! ([`crate::doc::results::Quality::expected_heading_rms_deg`]). A model
 //! whose full fit is refused keeps its reason in the table; when no
 //! candidate's held-out error is below [`MAX_HELD_OUT_DEG`] the fit is
 //! refused.
 
 use calib_core::cal::{FieldCal, ModelKind};
 use calib_core::heading::{level, magnetic_heading_rad};
-use serde::{Deserialize, Serialize};
 
 use super::error::ComputeError;
 use super::fit::{fit_with, Checks, FitOptions};
 use super::truth::heading_rms_after_offset_deg;
-use crate::data::{CalDoc, Recording};
+use crate::data::Recording;
+use crate::doc::auto::{AutoChoice, CandidateRow, HeldOutBasis, MAX_HELD_OUT_DEG};
+use crate::doc::CalDoc;
 
 /// Contiguous blocks of the held-out judgement.
 pub const FOLDS: usize = 5;
-/// No candidate with a held-out error above this is kept, degrees.
-pub const MAX_HELD_OUT_DEG: f64 = 5.0;
 
 /// The models `auto` tries, in the order of its table: the registry's
 /// candidates, richest first (the triangular form is the full model
 /// re-expressed, so it is not tried apart).
 pub fn candidates() -> impl Iterator<Item = ModelKind> {
     super::models::MODELS.iter().rev().filter(|e| e.auto_candidate).map(|e| e.kind)
-}
-
-/// One candidate's row of the table.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct CandidateRow {
-    /// The model's document name.
-    pub model: String,
-    /// Held-out RMS, degrees (heading, or the field's consistency), when the full fit was accepted.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub held_out_deg: Option<f64>,
-    /// The covariance's own prediction, degrees.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub predicted_deg: Option<f64>,
-    /// Why the model was not fitted or not judged.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub refused: Option<String>,
-    /// What was waived for it (the in-sample magnitude gate of the gyro-
-    /// and attitude-aided fits).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub note: Option<String>,
-}
-
-/// What the held-out judgement compares with.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum HeldOutBasis {
-    /// The recording's `ref_heading_deg`.
-    ReferenceHeading,
-    /// The dip and horizontal intensity against the reference field.
-    FieldAndDip,
-    /// The intensity alone (no roll and pitch).
-    Intensity,
-}
-
-/// The choice and its table (the document's `quality.auto`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct AutoChoice {
-    /// The model kept.
-    pub chosen: String,
-    /// What the held-out errors are measured against.
-    pub basis: HeldOutBasis,
-    /// Every candidate.
-    pub candidates: Vec<CandidateRow>,
 }
 
 fn basis_of(rec: &Recording) -> HeldOutBasis {
@@ -197,7 +153,7 @@ pub fn fit_auto(rec: &Recording, opts: &FitOptions) -> Result<(CalDoc, AutoChoic
     let basis = basis_of(rec);
     // Roll and pitch in radians refuse every levelling candidate: checked
     // once here, not in each candidate's and fold's fit.
-    let units = super::attitude::check_attitude_units(rec, opts.field_nt).map_err(|e| e.to_string());
+    let units = crate::data::intake::check_attitude_units(rec, opts.field_nt).map_err(|e| e.to_string());
     let mut rows = Vec::new();
     let mut best: Option<(f64, CalDoc)> = None;
     for model in candidates() {
@@ -227,10 +183,10 @@ pub fn fit_auto(rec: &Recording, opts: &FitOptions) -> Result<(CalDoc, AutoChoic
         rows.push(row);
     }
     let Some((held_out, mut doc)) = best else {
-        return Err(ComputeError::NoModel { table: table_text(&rows) });
+        return Err(ComputeError::NoModel { limit_deg: MAX_HELD_OUT_DEG, table: table_text(&rows) });
     };
     if !(held_out <= MAX_HELD_OUT_DEG) && !opts.allow_weak {
-        return Err(ComputeError::NoModel { table: table_text(&rows) });
+        return Err(ComputeError::NoModel { limit_deg: MAX_HELD_OUT_DEG, table: table_text(&rows) });
     }
     let expected = doc.quality.expected_heading_rms_deg.map_or(held_out, |p| p.max(held_out));
     doc.quality.expected_heading_rms_deg = Some(expected);

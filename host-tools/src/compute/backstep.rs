@@ -9,9 +9,10 @@ use super::units::check_units;
 use super::error::ComputeError;
 use calib_core::backstep::{JointConfig, JointSolution, Leg, RunSample, SwingSample};
 
-use crate::data::caldoc::{CurrentBlock, TemperatureBlock};
-use crate::data::results::{BackstepMethod, BackstepQuality, Correction, Estimate3, JointDetails, JointEstimates, RunStatsDoc, TraceEntry};
-use crate::data::{CalDoc, Recording};
+use crate::doc::caldoc::{CurrentBlock, TemperatureBlock};
+use crate::doc::results::{BackstepMethod, BackstepQuality, Correction, Estimate3, JointDetails, JointEstimates, RunStatsDoc, TraceEntry};
+use crate::data::Recording;
+use crate::doc::CalDoc;
 use crate::geomag::Site;
 
 /// The reference field for the run.

@@ -23,8 +23,10 @@ use super::truth::true_headings_rad;
 use super::units::check_units;
 use super::error::ComputeError;
 use crate::data::table::{column_spec, read_column, write_cells, Cell as TableCell, Quantity, TableError};
-use crate::data::compass::{CompassDoc, CompassLog};
-use crate::data::{CalDoc, Recording};
+use crate::data::compass::CompassLog;
+use crate::doc::compass::CompassDoc;
+use crate::data::Recording;
+use crate::doc::CalDoc;
 use super::compass::compass_pairs;
 
 /// The 16 compass points from north, clockwise.

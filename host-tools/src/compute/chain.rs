@@ -12,8 +12,9 @@ use super::fit::{fit_recording, FitOptions};
 use super::gyro::GyroLag;
 use super::swing::{swing_recording_with, WaterCurrentMode, Delay};
 use super::error::ComputeError;
-use crate::data::results::BackstepMethod;
-use crate::data::{CalDoc, Recording};
+use crate::doc::results::BackstepMethod;
+use crate::data::Recording;
+use crate::doc::CalDoc;
 use crate::geomag::Site;
 
 /// Which fit of the swing test starts the chain.

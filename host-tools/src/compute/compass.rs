@@ -17,8 +17,10 @@ use serde::{Deserialize, Serialize};
 
 use super::error::ComputeError;
 use super::swing::{fit_swing_inputs, interpolation_gap_s, Delay, SwingInputs, WaterCurrentMode};
-use crate::data::compass::{CompassDoc, CompassLog, DocForm};
-use crate::data::results::Quality;
+use crate::data::compass::CompassLog;
+use crate::doc::compass::CompassDoc;
+use crate::doc::caldoc::DocForm;
+use crate::doc::results::Quality;
 use crate::data::table::col;
 
 /// Where the declination between the compass and a true reference came from.
@@ -114,7 +116,7 @@ pub fn swing_compass(log: &CompassLog, declination_deg: Option<f64>, delay: Dela
             "no declination given and none in the log: A holds the declination, so the corrected heading is true, not magnetic; give the declination (or the site) to keep them apart".into(),
         ),
     }
-    let doc = CompassDoc { format_version: crate::data::caldoc::FORMAT_VERSION, form: DocForm::HeadingOnly, swing: fit.swing, declination_deg: declination, quality: Quality { swing: Some(quality), ..Quality::default() } };
+    let doc = CompassDoc { format_version: crate::doc::caldoc::FORMAT_VERSION, form: DocForm::HeadingOnly, swing: fit.swing, declination_deg: declination, quality: Quality { swing: Some(quality), ..Quality::default() } };
     Ok((doc, fit, delay_s, source))
 }
 

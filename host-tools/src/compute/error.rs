@@ -79,8 +79,10 @@ pub enum ComputeError {
     },
     /// `fit --model auto`: no candidate was accepted with a held-out error
     /// below the limit.
-    #[error("no model fits this recording with a held-out error below {limit}° ({table})", limit = super::auto::MAX_HELD_OUT_DEG)]
+    #[error("no model fits this recording with a held-out error below {limit_deg}° ({table})")]
     NoModel {
+        /// The limit no candidate's held-out error was below, degrees.
+        limit_deg: f64,
         /// Every candidate and why it was not kept.
         table: String,
     },
@@ -91,17 +93,8 @@ pub enum ComputeError {
     #[error("the fitted coefficients are unusable: {0}")]
     Unusable(&'static str),
     /// `roll_deg`, `pitch_deg` hold radians.
-    #[error(
-        "roll_deg and pitch_deg look like radians: every angle is within ±{max_abs:.2}, and levelled with them read as radians the field is consistent to {as_radians_nt:.0} nT where read as degrees it is {as_degrees_nt:.0} nT (inf: no plausible calibration)"
-    )]
-    AnglesLookLikeRadians {
-        /// Largest |angle| in the columns.
-        max_abs: f64,
-        /// The attitude fit's robust residual with the angles as degrees, nT.
-        as_degrees_nt: f64,
-        /// The same as radians, nT.
-        as_radians_nt: f64,
-    },
+    #[error(transparent)]
+    AnglesLookLikeRadians(#[from] crate::data::intake::AnglesLookLikeRadians),
     /// A compass log's reference is the compass's own heading (plus a
     /// constant): it cannot judge the compass.
     #[error(

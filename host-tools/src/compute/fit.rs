@@ -11,9 +11,10 @@ use calib_core::quality::{assess, Gates, Quality};
 use super::gyro::GyroLag;
 use super::units::units_guess;
 use super::error::ComputeError;
-use crate::data::results::{FitQuality, Quality as ResultsQuality};
-use crate::data::{CalDoc, Recording};
-use super::reference::{Reference, ReferenceSource};
+use crate::doc::results::{FitQuality, Quality as ResultsQuality};
+use crate::data::Recording;
+use crate::doc::CalDoc;
+use crate::doc::reference::{Reference, ReferenceSource};
 
 /// Options of a field fit.
 #[derive(Debug, Clone)]
@@ -83,7 +84,7 @@ pub(crate) fn fit_with(rec: &Recording, opts: &FitOptions, checks: Checks) -> Re
     }
     calib_core::fit::check_samples(&samples, 1, opts.saturation)?;
     if checks.attitude_units && matches!(opts.model, ModelKind::Attitude | ModelKind::Gyro) {
-        super::attitude::check_attitude_units(rec, opts.field_nt)?;
+        crate::data::intake::check_attitude_units(rec, opts.field_nt)?;
     }
     let mut warnings = Vec::new();
     let mut gyro_quality = None;
@@ -125,7 +126,7 @@ pub(crate) fn fit_with(rec: &Recording, opts: &FitOptions, checks: Checks) -> Re
         }
         warnings.push(format!("quality gate failed, kept because weak results were allowed: {e}"));
     }
-    cal.validate(crate::data::caldoc::MAX_BIAS_ABS).map_err(|e| ComputeError::Unusable(crate::data::caldoc::cal_error_text(e)))?;
+    cal.validate(crate::doc::caldoc::MAX_BIAS_ABS).map_err(|e| ComputeError::Unusable(crate::doc::caldoc::cal_error_text(e)))?;
     let reference = judge_against_reference(&cal, rec, opts, fit_dip, &mut warnings)?;
     let skipped = rec.len() - samples.len();
     if skipped > 0 {

@@ -6,7 +6,7 @@ use calib_core::cal::FieldCal;
 use calib_core::gyro::{fit_gyro_batch, GyroConfig, GyroSample, MAX_WINDOW_STEPS};
 
 use super::error::{ComputeError, GyroError};
-use crate::data::results::GyroQuality;
+use crate::doc::results::GyroQuality;
 use crate::data::Recording;
 
 /// Integration window: 1.05 s (30 steps at BROAD's 28.6 Hz). Chosen

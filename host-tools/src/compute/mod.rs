@@ -40,4 +40,3 @@ pub use gyro::GyroLag;
 pub use ortho::{ortho_recording, OrthoSolver};
 pub use swing::{magnetic_headings, swing_recording, swing_recording_with, WaterCurrentMode, Delay};
 pub use units::{check_units, units_guess};
-pub use crate::data::results::BackstepMethod;

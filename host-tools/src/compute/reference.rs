@@ -1,143 +1,17 @@
-//! The independent reference a calibration is judged against: the world
-//! model's field at the site (IGRF-14) with its uncertainty, and what the
-//! calibrated data show beside it.
-//!
-//! A fit is never judged only by its own residual: where the site is known,
-//! the calibrated field's dip (levelled with the recording's roll and pitch)
-//! and its intensity are compared with IGRF-14's, within an allowance made of
-//!
-//! * the world model's own error: about 0.2° in inclination and 150 nT in
-//!   intensity (1σ; the WMM technical reports' global error model, which
-//!   counts the crustal field at sea level; IGRF-14 and WMM2025 agree within
-//!   it — see `geomag` tests against both official check values);
-//! * local anomalies and the vehicle's unmodelled field: 1.0° in inclination
-//!   and 3 % in intensity (1σ). Marine crustal anomalies over continental
-//!   shelves reach a few hundred nT (under 1 % of the field, a few tenths of
-//!   a degree of dip); the 1° is wider, for steel structures near a
-//!   calibration site. Measured: the BROAD lab inside a steel-framed
-//!   building at TU Berlin is 1.6° and 11 % off IGRF-14 (its README), the
-//!   two real Seagliders' own calibrations 0.1° (SG236) and 0.2° (SG180)
-//!   off in dip. The 3 % also holds the sensor's scale: a calibration scaled
-//!   to a user's `--field-nt` reproduces that intensity, not the world's.
-//!
-//! A dip or intensity beyond [`REFUSE_SIGMAS`] of the allowance (combined
-//! with the fit's own uncertainty) is a disagreement: the fit is refused
-//! with the numbers, or kept with `--allow-weak` and the disagreement
-//! written into the document ([`ReferenceCheck`]).
-
-use serde::{Deserialize, Serialize};
+//! The reference check on a recording: what a calibration shows against
+//! the independent reference ([`crate::doc::reference`]: the world model's
+//! field at the site with its allowance), the world model's field where a
+//! recording was made, and a field the user gives held to physics, the world
+//! model and the data.
 
 use calib_core::cal::FieldCal;
 use calib_core::heading::level;
 
 use crate::data::Recording;
+use crate::doc::reference::{world_allowance, Reference, ReferenceCheck, ReferenceSource, REFUSE_SIGMAS};
 use crate::geomag::{Field, Site};
 
-/// The world model's 1σ error in inclination, degrees (WMM error model).
-pub const MODEL_INCLINATION_SIGMA_DEG: f64 = 0.2;
-/// The world model's 1σ error in intensity, nT (WMM error model).
-pub const MODEL_INTENSITY_SIGMA_NT: f64 = 150.0;
-/// Local anomalies and the vehicle's unmodelled field, 1σ, degrees of dip.
-pub const LOCAL_INCLINATION_SIGMA_DEG: f64 = 1.0;
-/// Local anomalies and the sensor's scale, 1σ, fraction of the intensity.
-pub const LOCAL_INTENSITY_SIGMA_REL: f64 = 0.03;
-/// A disagreement beyond this many σ of the allowance refuses the fit.
-pub const REFUSE_SIGMAS: f64 = 3.0;
-
-/// Where a document's reference came from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum ReferenceSource {
-    /// IGRF-14 at the site and date (`site` says where).
-    Igrf14,
-    /// Given by the user (`--field-nt`, `--inclination-deg`).
-    User,
-    /// Read from a board's stored coefficients (their inclination).
-    Board,
-    /// Estimated by the fit from the calibration recording (no site given):
-    /// independent of any later recording judged against it, not of the
-    /// calibration's own data.
-    CalibrationData,
-}
-
-/// The reference field a calibration is judged against (the document's
-/// `reference` block).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Reference {
-    /// Where it came from.
-    pub source: ReferenceSource,
-    /// Where and when, for [`ReferenceSource::Igrf14`].
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub site: Option<Site>,
-    /// Intensity, nT.
-    pub field_nt: f64,
-    /// Its 1σ, nT.
-    pub field_sigma_nt: f64,
-    /// Inclination (dip, positive down), degrees.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub inclination_deg: Option<f64>,
-    /// Its 1σ, degrees.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub inclination_sigma_deg: Option<f64>,
-    /// What the calibrated recording showed beside this reference.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub check: Option<ReferenceCheck>,
-}
-
-/// The calibrated recording against the reference.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ReferenceCheck {
-    /// Median dip of the calibrated field levelled with roll and pitch, degrees.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub inclination_deg: Option<f64>,
-    /// Its 1σ about the reference's, degrees (the allowance with the fit's own).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub inclination_allowance_deg: Option<f64>,
-    /// Median calibrated intensity, nT.
-    pub field_nt: f64,
-    /// Whether both are within [`REFUSE_SIGMAS`] of the allowance.
-    pub agrees: bool,
-    /// The disagreement in words (empty when it agrees).
-    #[serde(default, skip_serializing_if = "String::is_empty")]
-    pub disagreement: String,
-}
-
 impl Reference {
-    /// IGRF-14 at a site, with the allowance above.
-    pub fn world_model(site: Site, field: &Field) -> Self {
-        let f = field.total_nt();
-        Self {
-            source: ReferenceSource::Igrf14,
-            site: Some(site),
-            field_nt: f,
-            field_sigma_nt: MODEL_INTENSITY_SIGMA_NT.hypot(LOCAL_INTENSITY_SIGMA_REL * f),
-            inclination_deg: Some(field.inclination_deg()),
-            inclination_sigma_deg: Some(MODEL_INCLINATION_SIGMA_DEG.hypot(LOCAL_INCLINATION_SIGMA_DEG)),
-            check: None,
-        }
-    }
-
-    /// A reference the user gave (`--field-nt`, no site): the intensity only,
-    /// its 1σ the sensor-scale allowance.
-    pub fn user_intensity(field_nt: f64) -> Self {
-        Self {
-            source: ReferenceSource::User,
-            site: None,
-            field_nt,
-            field_sigma_nt: LOCAL_INTENSITY_SIGMA_REL * field_nt,
-            inclination_deg: None,
-            inclination_sigma_deg: None,
-            check: None,
-        }
-    }
-
-    /// Whether the inclination is independent of the calibration's own data.
-    pub fn independent_inclination(&self) -> bool {
-        self.inclination_deg.is_some() && self.source != ReferenceSource::CalibrationData
-    }
-
     /// Checks what a calibration shows on `rec` against this reference:
     /// `fit_dip` is the fit's own dip estimate with its 1σ (degrees), used
     /// when the recording has no attitude to level with. Returns the check,
@@ -169,17 +43,6 @@ impl Reference {
         let check = ReferenceCheck { inclination_deg: shown_dip.map(|d| d.0), inclination_allowance_deg: allowance, field_nt: mag, agrees: words.is_empty(), disagreement: words.join("; ") };
         self.check = Some(check.clone());
         check
-    }
-
-    /// Where the reference came from, in words.
-    pub fn describe(&self) -> String {
-        match (self.source, self.site) {
-            (ReferenceSource::Igrf14, Some(s)) => format!("IGRF-14 at {:.3}°, {:.3}°, {:.2}", s.lat_deg, s.lon_deg, s.decimal_year),
-            (ReferenceSource::Igrf14, None) => "IGRF-14".into(),
-            (ReferenceSource::User, _) => "given by the user".into(),
-            (ReferenceSource::Board, _) => "the board's stored coefficients".into(),
-            (ReferenceSource::CalibrationData, _) => "estimated from the calibration recording".into(),
-        }
     }
 }
 
@@ -226,13 +89,6 @@ pub fn world_field_for(rec: &Recording, site: Option<Site>) -> Option<(Site, Fie
     at.field().ok().map(|f| (at, f))
 }
 
-/// The world model's 1σ allowance at a field of intensity `field_nt`: the
-/// model's error and local anomalies in quadrature, (inclination degrees,
-/// intensity nT) — what [`Reference::world_model`] holds.
-pub fn world_allowance(field_nt: f64) -> (f64, f64) {
-    (MODEL_INCLINATION_SIGMA_DEG.hypot(LOCAL_INCLINATION_SIGMA_DEG), MODEL_INTENSITY_SIGMA_NT.hypot(LOCAL_INTENSITY_SIGMA_REL * field_nt))
-}
-
 /// A value given by the user against what a source gives: words when they
 /// differ by more than [`REFUSE_SIGMAS`] × `sigma` (`None`: they agree).
 /// `what` names the value, `unit` its unit as written after a number
@@ -247,7 +103,7 @@ pub fn given_disagreement(what: &str, given: f64, expected: f64, sigma: f64, uni
 /// Checks a reference field given as its horizontal and down components
 /// (nT): refused outright (`Err`) when it cannot be a geomagnetic field —
 /// the horizontal intensity not positive, or the intensity outside
-/// [`crate::data::caldoc::FIELD_NT_RANGE`]; otherwise the disagreements
+/// [`crate::doc::caldoc::FIELD_NT_RANGE`]; otherwise the disagreements
 /// (empty: none) with the world model where it is known (`world`) and with
 /// the dip the recording itself shows (`data_dip_deg`, levelled through
 /// the calibration it will refine; allowance [`DATA_DIP_ALLOWANCE_DEG`]).
@@ -258,7 +114,7 @@ pub fn check_given_field(h_nt: f64, z_nt: f64, world: Option<&(Site, Field)>, da
         ));
     }
     let f = h_nt.hypot(z_nt);
-    if let Some(why) = crate::data::caldoc::field_nt_problem(f) {
+    if let Some(why) = crate::doc::caldoc::field_nt_problem(f) {
         return Err(format!("the horizontal and down components give an intensity of {why}"));
     }
     let dip = z_nt.atan2(h_nt).to_degrees();

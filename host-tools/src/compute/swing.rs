@@ -7,8 +7,9 @@ use calib_core::swing::{aligned_pairs, estimate_delay, fit_swing, SwingFit, Swin
 
 use super::units::check_units;
 use super::error::ComputeError;
-use crate::data::results::{DelaySearch, HeldOutSwing, SwingCurrent, SwingQuality};
-use crate::data::{CalDoc, Recording};
+use crate::doc::results::{DelaySearch, HeldOutSwing, SwingCurrent, SwingQuality};
+use crate::data::Recording;
+use crate::doc::CalDoc;
 
 /// How to treat the reference's delay.
 #[derive(Debug, Clone, Copy)]

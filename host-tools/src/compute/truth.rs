@@ -6,7 +6,8 @@
 use calib_core::cal::Environment;
 use calib_core::heading::{wrap_pi, Tilt};
 
-use crate::data::{CalDoc, Recording};
+use crate::data::Recording;
+use crate::doc::CalDoc;
 use crate::geomag::Site;
 
 /// An RMS error and the samples behind it.

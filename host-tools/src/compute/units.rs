@@ -3,7 +3,8 @@
 //! counts are refused, not fitted).
 
 use super::error::ComputeError;
-use crate::data::{CalDoc, Recording};
+use crate::data::Recording;
+use crate::doc::CalDoc;
 
 /// What units raw magnitudes of radius `radius_raw` suggest for a field of
 /// `field_nt` (a hint recorded in the quality report).

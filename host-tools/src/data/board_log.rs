@@ -1,6 +1,6 @@
 //! The board's log (`docs/INTERFACES.md`, "Board log"): raw field samples
 //! on the board's clock, as `magcal log` writes them
-//! ([`crate::board::log`]) and `magcal merge` reads them. The one home of
+//! (`board::log`) and `magcal merge` reads them. The one home of
 //! its columns: the writer's header, the reader's column names, the
 //! simulator's split and the session tests' fake board all take them from
 //! here.

@@ -10,7 +10,7 @@
 //!   does not give it; converted with a note, or refused when two units
 //!   are plausible;
 //! - **roll and pitch in radians** under degree names: refused (the
-//!   attitude-aided fit's test, [`crate::compute::attitude::check_attitude_units`],
+//!   attitude-aided fit's test, [`check_attitude_units`],
 //!   at a nominal intensity: the test compares two residuals, the scale
 //!   does not matter), unless the mapping gives their unit;
 //! - **placeholder fixes** ([`drop_placeholder_fixes`]): positions at
@@ -25,7 +25,10 @@ use std::path::{Path, PathBuf};
 
 use super::table::{col, ColumnMap, ColumnUnit, TableError};
 use super::Recording;
-use crate::compute::error::ComputeError;
+use calib_core::attitude_fit::{fit_attitude, AttitudeConfig, AttitudeSample};
+use calib_core::heading::Tilt;
+
+use crate::doc::caldoc::MAX_BIAS_ABS;
 
 /// The sample intervals a recording or a log may have, s: 1 kHz to one
 /// sample every 10 s (a slow navigation log at 0.1 Hz; the Seagliders'
@@ -75,7 +78,7 @@ pub enum IntakeError {
         path: PathBuf,
         /// The test's finding.
         #[source]
-        source: ComputeError,
+        source: AnglesLookLikeRadians,
     },
     /// A position is too far from the site.
     #[error("{}: the reference field and declination would be another place's; give the site where the recording was made", .0)]
@@ -117,7 +120,7 @@ pub fn take_in(mut recording: Recording, path: &Path, map: &ColumnMap) -> Result
         }
     }
     if map.unit(col::ROLL_DEG).is_none() && map.unit(col::PITCH_DEG).is_none() {
-        crate::compute::attitude::check_attitude_units(&recording, NOMINAL_FIELD_NT).map_err(|source| IntakeError::AttitudeUnits { path: path.into(), source })?;
+        check_attitude_units(&recording, NOMINAL_FIELD_NT).map_err(|source| IntakeError::AttitudeUnits { path: path.into(), source })?;
     }
     if let (Some(lat), Some(lon)) = (recording.lat_deg.as_mut(), recording.lon_deg.as_mut()) {
         notes.extend(placeholder_note(drop_placeholder_fixes(lat, lon), path));
@@ -315,6 +318,57 @@ pub fn check_positions(rec: &Recording, path: &Path, site_lat_deg: f64, site_lon
         warnings.push(SiteWarning::Far(far));
     }
     Ok(warnings)
+}
+
+/// The samples with the attitude columns read as `k` × degrees.
+pub(crate) fn levelled_samples(rec: &Recording, roll: &[f64], pitch: &[f64], k: f64) -> Vec<AttitudeSample<f64>> {
+    rec.mag.iter().zip(roll).zip(pitch).map(|((&raw, r), p)| AttitudeSample { raw, tilt: Tilt::new((k * r).to_radians(), (k * p).to_radians()) }).collect()
+}
+
+/// A recording's roll and pitch that look like radians under degree names:
+/// every angle within ±π, and levelled as radians the field is far more
+/// consistent (the attitude-aided fit's robust residual under
+/// [`RADIANS_RESIDUAL_RATIO`] of the one read as degrees). A vehicle that
+/// really stays within ±3° is not refused: read as radians its angles
+/// reach ±170° and level nothing.
+pub fn check_attitude_units(rec: &Recording, field_nt: f64) -> Result<(), AnglesLookLikeRadians> {
+    let (Some(roll), Some(pitch)) = (rec.roll_deg.as_ref(), rec.pitch_deg.as_ref()) else { return Ok(()) };
+    let max_abs = roll.iter().chain(pitch).filter(|v| v.is_finite()).fold(0.0f64, |m, v| m.max(v.abs()));
+    if !(max_abs <= std::f64::consts::PI && max_abs >= MIN_RADIANS_SPAN) {
+        return Ok(());
+    }
+    let fit = |k: f64| {
+        // A fit that fails, or whose matrix no sensor has, is no fit.
+        fit_attitude(&levelled_samples(rec, roll, pitch, k), field_nt, &AttitudeConfig::new()).ok().filter(|e| e.cal.validate(MAX_BIAS_ABS).is_ok()).map(|e| e.residual_sigma_nt)
+    };
+    let Some(as_radians) = fit(180.0 / std::f64::consts::PI) else { return Ok(()) };
+    let as_degrees = fit(1.0);
+    if as_degrees.is_none_or(|d| as_radians < RADIANS_RESIDUAL_RATIO * d) {
+        return Err(AnglesLookLikeRadians { max_abs, as_degrees_nt: as_degrees.unwrap_or(f64::INFINITY), as_radians_nt: as_radians });
+    }
+    Ok(())
+}
+
+/// Below this largest |angle| (0.57° read as degrees) the columns say
+/// nothing about their unit.
+const MIN_RADIANS_SPAN: f64 = 0.01;
+/// Radians are refused when levelling with them leaves less than this
+/// fraction of the residual that degrees leave.
+pub const RADIANS_RESIDUAL_RATIO: f64 = 0.5;
+
+/// `roll_deg`, `pitch_deg` hold radians: the numbers of the test
+/// ([`check_attitude_units`]).
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+#[error(
+    "roll_deg and pitch_deg look like radians: every angle is within ±{max_abs:.2}, and levelled with them read as radians the field is consistent to {as_radians_nt:.0} nT where read as degrees it is {as_degrees_nt:.0} nT (inf: no plausible calibration)"
+)]
+pub struct AnglesLookLikeRadians {
+    /// Largest |angle| in the columns.
+    pub max_abs: f64,
+    /// The attitude fit's robust residual with the angles as degrees, nT.
+    pub as_degrees_nt: f64,
+    /// The same as radians, nT.
+    pub as_radians_nt: f64,
 }
 
 #[cfg(test)]

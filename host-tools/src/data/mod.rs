@@ -1,11 +1,9 @@
 //! Data on disk: tables (CSV, [`table`]: the one reader and writer),
-//! recordings, the calibration document (JSON), the
-//! typed results inside documents and session summaries, and the merging of
+//! recordings, a heading-only compass's log ([`compass`]), and the merging of
 //! a board log ([`board_log`]) with a navigation log ([`nav_log`]) kept on
 //! another clock; vehicle logs imported as recordings ([`dataflash`],
 //! [`nmea`]).
 
-pub mod caldoc;
 pub mod compass;
 pub mod dataflash;
 pub mod intake;
@@ -16,8 +14,6 @@ pub mod import;
 pub mod nmea;
 pub mod pairing;
 pub mod recording;
-pub mod results;
 pub mod table;
 
-pub use caldoc::{CalDoc, CalDocError};
 pub use recording::{Recording, RecordingError};

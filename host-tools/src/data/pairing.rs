@@ -1,7 +1,7 @@
 //! Pairing two streams by time: the board's field samples (on the board's
 //! clock) with the navigation computer's rows (on its own clock). One module
 //! for `magcal merge` (offline logs) and the live session
-//! ([`crate::session::record`]): the clock map between the two, where a time
+//! (`session::record`): the clock map between the two, where a time
 //! falls among a stream's samples, interpolation (angles wrapped), and the
 //! live nearest-sample pairer.
 //!

@@ -4,9 +4,9 @@ use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
-use crate::data::caldoc::CalDoc;
+use crate::doc::caldoc::CalDoc;
 use crate::data::recording::Recording;
-use crate::data::results::{SessionSettings, SessionSummary};
+use crate::doc::results::{SessionSettings, SessionSummary};
 use crate::geomag::Site;
 
 /// A validation run: a recording and the true heading of each row.

@@ -15,8 +15,8 @@ use crate::compute::card::{deviation_card, DeviationCard};
 use calib_core::integrity::IntegrityState;
 use crate::compute::magnetic_headings;
 use crate::compute::truth::{calibrated_fields_nt, heading_rms_deg, true_headings_rad};
-use crate::data::caldoc::CalDoc;
-use crate::data::results::TraceEntry;
+use crate::doc::caldoc::CalDoc;
+use crate::doc::results::TraceEntry;
 use crate::geomag::Field;
 use crate::procedure::{PITCH_GATE_DEG, ROLL_GATE_DEG};
 

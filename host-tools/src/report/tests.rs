@@ -1,6 +1,7 @@
 use super::*;
 use crate::compute::card::DeviationCard;
-use crate::data::{CalDoc, Recording};
+use crate::data::Recording;
+use crate::doc::CalDoc;
 use crate::geomag::Site;
 use calib_core::heading::wrap_pi;
 use calib_core::cal::{FieldCal, ModelKind};
@@ -30,7 +31,7 @@ fn docs() -> (CalDoc, CalDoc) {
     fixed.quality.predicted_heading_rms_deg = Some(0.25);
     // The reference the integrity judges against: the test field's dip,
     // atan(40 000 / 20 000).
-    fixed.reference = Some(crate::compute::reference::Reference { inclination_deg: Some(2f64.atan().to_degrees()), ..crate::compute::reference::Reference::user_intensity(44_721.4) });
+    fixed.reference = Some(crate::doc::reference::Reference { inclination_deg: Some(2f64.atan().to_degrees()), ..crate::doc::reference::Reference::user_intensity(44_721.4) });
     (raw, fixed)
 }
 

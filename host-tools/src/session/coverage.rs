@@ -75,7 +75,7 @@ pub struct SwingTracker {
 impl SwingTracker {
     /// Tracks with `guess` (the board's coefficients before the session) to
     /// turn raw samples into headings.
-    pub fn new(guess: &crate::data::CalDoc) -> Self {
+    pub fn new(guess: &crate::doc::CalDoc) -> Self {
         Self { coverage: SwingCoverage::default(), cal: guess.field_cal() }
     }
 

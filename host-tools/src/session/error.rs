@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use crate::board::ClientError;
 use crate::compute::ComputeError;
-use crate::data::caldoc::CalDocError;
+use crate::doc::caldoc::CalDocError;
 use crate::data::recording::RecordingError;
 use crate::report::ReportError;
 

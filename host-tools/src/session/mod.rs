@@ -29,9 +29,9 @@ use crate::board::coefficients::{doc_from_coefficients, to_coefficients};
 use crate::board::{BoardClient, ClientError};
 use crate::compute::{self, truth, Chain, ChainOptions, ComputeError, FirstStep};
 use crate::compute::apply::{apply_recording, ApplyOptions};
-use crate::data::results::{OnboardFitSummary, RecalibrateEvidence, SessionSettings, SessionSummary, ValidationMetrics};
-use crate::data::CalDoc;
-pub use crate::integrity_evidence::{recalibrate_evidence, recalibrate_text, RECALIBRATE_CAL_INVALID_FRACTION};
+use crate::doc::results::{OnboardFitSummary, RecalibrateEvidence, SessionSettings, SessionSummary, ValidationMetrics};
+use crate::doc::CalDoc;
+pub use crate::doc::integrity::{recalibrate_evidence, recalibrate_text, RECALIBRATE_CAL_INVALID_FRACTION};
 use crate::geomag::Site;
 
 pub mod coverage;

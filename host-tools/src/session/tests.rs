@@ -379,7 +379,7 @@ fn identity_doc() -> CalDoc {
     let mut doc = CalDoc::new(ModelKind::Sphere, &FieldCal::identity(), 44_721.4, Default::default());
     doc.quality.predicted_heading_rms_deg = Some(0.5);
     // The test field's dip, atan(40 000 / 20 000), as the document's reference.
-    doc.reference = Some(crate::compute::reference::Reference { inclination_deg: Some(2f64.atan().to_degrees()), ..crate::compute::reference::Reference::user_intensity(44_721.4) });
+    doc.reference = Some(crate::doc::reference::Reference { inclination_deg: Some(2f64.atan().to_degrees()), ..crate::doc::reference::Reference::user_intensity(44_721.4) });
     doc
 }
 

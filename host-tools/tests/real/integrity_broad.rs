@@ -17,9 +17,10 @@
 use calib_core::cal::{FieldCal, ModelKind};
 use host_tools::compute::apply::{apply_recording, score, ApplyOptions, IntegrityScore};
 use host_tools::compute::card::read_reference_column;
-use host_tools::compute::reference::Reference;
-use host_tools::data::results::Quality;
-use host_tools::data::{CalDoc, Recording};
+use host_tools::doc::Reference;
+use host_tools::doc::Quality;
+use host_tools::data::Recording;
+use host_tools::doc::CalDoc;
 
 use super::data;
 

@@ -9,9 +9,11 @@ use anyhow::{bail, Context, Result};
 use host_tools::compute::apply::{apply_recording, choose_inclination, choose_north, document_inclination_deg, summarize, write_applied, ApplyError, ApplyOptions, InclinationSource};
 use host_tools::compute::card::read_reference_column;
 use host_tools::compute::compass::{apply_compass, write_compass_applied};
-use host_tools::compute::reference::{given_disagreement, shown, world_allowance, world_field_for};
-use host_tools::data::compass::{CompassDoc, Document};
-use host_tools::data::{CalDoc, Recording};
+use host_tools::compute::reference::{given_disagreement, shown, world_field_for};
+use host_tools::doc::reference::world_allowance;
+use host_tools::doc::{CompassDoc, Document};
+use host_tools::data::Recording;
+use host_tools::doc::CalDoc;
 use host_tools::geomag::Site;
 
 

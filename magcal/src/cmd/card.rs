@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
 use host_tools::compute::card::{compass_card, deviation_card, check_reference_column, read_reference_column, CardError, DeviationCard, STEP_DEG_RANGE};
-use host_tools::data::compass::Document;
+use host_tools::doc::Document;
 
 use super::hinted;
 

@@ -6,12 +6,13 @@ use anyhow::{Context, Result};
 use calib_core::cal::ModelKind;
 use host_tools::compute::models::MODELS;
 use host_tools::compute::{self, FitOptions, GyroLag};
-use host_tools::data::caldoc::model_kind;
+use host_tools::doc::caldoc::model_kind;
 use host_tools::data::Recording;
 
 use super::{check_out, check_positions, emit, hinted, reference_field, warn_all, SiteArgs};
 use host_tools::compute::{ComputeError, GyroError};
-use host_tools::compute::reference::Reference;
+use host_tools::doc::HeldOutBasis;
+use host_tools::doc::Reference;
 
 /// `--model`: `auto` or one model.
 #[derive(Debug, Clone, Copy)]
@@ -134,11 +135,11 @@ pub fn run(a: Args) -> Result<()> {
 }
 
 /// What the held-out errors of `auto` are measured against, in words.
-fn basis_words(b: compute::auto::HeldOutBasis) -> &'static str {
+fn basis_words(b: HeldOutBasis) -> &'static str {
     match b {
-        compute::auto::HeldOutBasis::ReferenceHeading => "the recording's ref_heading_deg (one constant offset removed)",
-        compute::auto::HeldOutBasis::FieldAndDip => "the reference field (each held-out sample's dip and horizontal intensity)",
-        compute::auto::HeldOutBasis::Intensity => "the reference intensity (no roll and pitch)",
+        HeldOutBasis::ReferenceHeading => "the recording's ref_heading_deg (one constant offset removed)",
+        HeldOutBasis::FieldAndDip => "the reference field (each held-out sample's dip and horizontal intensity)",
+        HeldOutBasis::Intensity => "the reference intensity (no roll and pitch)",
     }
 }
 

@@ -8,7 +8,7 @@ use std::time::Duration;
 
 use anyhow::Result;
 use host_tools::board::log::{create_log_file, log_board, LogEnd, LogError, LogOptions, LogSummary, LOGGED_SAMPLES};
-use host_tools::integrity_evidence::{integrity_text, recalibrate_text};
+use host_tools::doc::integrity::{integrity_text, recalibrate_text};
 use host_tools::board::BoardClient;
 use host_tools::session::Progress;
 

@@ -23,7 +23,8 @@ use anyhow::{bail, Context, Result};
 use host_tools::data::compass::CompassLog;
 use host_tools::data::intake::{self, IntakeError};
 use host_tools::data::table::ColumnMap;
-use host_tools::data::{CalDoc, Recording, RecordingError};
+use host_tools::data::{Recording, RecordingError};
+use host_tools::doc::CalDoc;
 use host_tools::files::{self, Replaces};
 use host_tools::geomag::{self, Field, Site};
 
@@ -155,9 +156,9 @@ pub fn reference_field(field_nt: Option<f64>, site: &SiteArgs) -> Result<Field> 
 
 /// Refuses a field intensity that is not one at the Earth's surface in nT,
 /// saying which unit it looks like (`what` names where it came from): the
-/// one rule of the document check ([`host_tools::data::caldoc::field_nt_problem`]).
+/// one rule of the document check ([`host_tools::doc::field_nt_problem`]).
 pub fn check_field_nt(field_nt: f64, what: &str) -> Result<()> {
-    match host_tools::data::caldoc::field_nt_problem(field_nt) {
+    match host_tools::doc::field_nt_problem(field_nt) {
         None => Ok(()),
         Some(why) => bail!("{what} {why}"),
     }
@@ -294,8 +295,8 @@ pub fn number_in(range: std::ops::RangeInclusive<f64>, unit: &'static str) -> im
 }
 
 /// The hint for a weak document refused.
-pub fn weak_hint(e: &host_tools::data::CalDocError) -> Option<&'static str> {
-    matches!(e, host_tools::data::CalDocError::WeakReference { .. }).then_some("give --allow-weak to use it anyway (it is then said in the output)")
+pub fn weak_hint(e: &host_tools::doc::CalDocError) -> Option<&'static str> {
+    matches!(e, host_tools::doc::CalDocError::WeakReference { .. }).then_some("give --allow-weak to use it anyway (it is then said in the output)")
 }
 
 /// A check's refusal: returned, or with `allow_weak` kept as a warning
@@ -326,8 +327,8 @@ pub fn load_field_doc(path: &Path, allow_weak: bool) -> Result<CalDoc> {
 
 /// Either form of document (field or heading-only) through the one
 /// document check, as [`load_field_doc`].
-pub fn load_document(path: &Path, allow_weak: bool) -> Result<host_tools::data::compass::Document> {
-    let (doc, said) = host_tools::data::compass::Document::load_with(path, allow_weak).map_err(|e| hinted(e, weak_hint))?;
+pub fn load_document(path: &Path, allow_weak: bool) -> Result<host_tools::doc::Document> {
+    let (doc, said) = host_tools::doc::compass::Document::load_with(path, allow_weak).map_err(|e| hinted(e, weak_hint))?;
     for w in said {
         eprintln!("warning: {w}");
     }

@@ -8,7 +8,7 @@ use std::path::PathBuf;
 use anyhow::{bail, Context, Result};
 use host_tools::compute::compass::{swing_compass, DeclinationSource};
 use host_tools::compute::{self, swing::WaterCurrentMode, Delay};
-use host_tools::data::CalDoc;
+use host_tools::doc::CalDoc;
 
 use super::{check_out, emit, warn_all};
 
@@ -68,7 +68,7 @@ pub struct Args {
 }
 
 /// With `--strict`, a delay search stopped at its window's edge is refused.
-fn strict_edge(a: &Args, q: Option<&host_tools::data::results::SwingQuality>) -> Result<()> {
+fn strict_edge(a: &Args, q: Option<&host_tools::doc::results::SwingQuality>) -> Result<()> {
     if let (true, Some(q)) = (a.strict, q) {
         if let Some((Some(b), [lo, hi])) = q.delay_search.as_ref().map(|d| (d.at_edge_s, d.window_s)) {
             bail!(
@@ -190,7 +190,7 @@ fn run_compass(a: &Args, delay: Delay, mode: WaterCurrentMode) -> Result<()> {
 }
 
 /// "; held out: x° → y° RMS" when the fit has its held-out check.
-fn held_out_text(q: Option<&host_tools::data::results::SwingQuality>) -> String {
+fn held_out_text(q: Option<&host_tools::doc::results::SwingQuality>) -> String {
     match q.and_then(|q| q.held_out) {
         Some(h) => format!("; held out (each half by the other's swing): {:.2}° → {:.2}° RMS over {} pairs", h.before_rms_deg, h.after_rms_deg, h.pairs),
         None => String::new(),

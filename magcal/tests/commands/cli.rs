@@ -8,7 +8,7 @@ use calib_core::cal::{FieldCal, ModelKind, Swing};
 use calib_core::conformance::SplitMix64;
 use calib_core::heading::{ned_field, ned_to_body, wrap_two_pi};
 use calib_core::ortho::{gamma, OrthoAngles};
-use host_tools::data::caldoc::CalDoc;
+use host_tools::doc::CalDoc;
 use host_tools::data::recording::Recording;
 use super::{magcal};
 
@@ -266,7 +266,7 @@ fn the_documented_chain_runs_on_simulated_field_tests() {
     }
     let o = magcal(&["simulate", "validation", "--seed", "13", "--rate-hz", "1", "--out", sess.join("validation_truth.csv").to_str().unwrap()]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let settings = host_tools::data::results::SessionSettings { lat_deg: 36.9, lon_deg: 50.6, decimal_year: 2021.0, vehicle: "simulated".into(), firmware: "0.1.0".into(), reproduce: vec![] };
+    let settings = host_tools::doc::results::SessionSettings { lat_deg: 36.9, lon_deg: 50.6, decimal_year: 2021.0, vehicle: "simulated".into(), firmware: "0.1.0".into(), reproduce: vec![] };
     std::fs::write(sess.join("settings.json"), serde_json::to_string(&settings).unwrap()).unwrap();
     let rep = ok_json(&magcal(&["report", "--session", sess.to_str().unwrap(), "--json"]));
     assert_eq!(rep["card"]["against"], "truth (validation run)", "{rep}");
@@ -342,7 +342,7 @@ fn bad_data_catalogue() {
 }
 
 mod arbitrary_bytes {
-    use host_tools::data::caldoc::CalDoc;
+    use host_tools::doc::CalDoc;
     use host_tools::data::recording::Recording;
     use proptest::prelude::*;
     use std::path::Path;

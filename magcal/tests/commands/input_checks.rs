@@ -7,7 +7,7 @@ use std::process::Output;
 use calib_core::cal::{FieldCal, ModelKind};
 use calib_core::conformance::SplitMix64;
 use calib_core::heading::{ned_field, ned_to_body};
-use host_tools::data::caldoc::CalDoc;
+use host_tools::doc::CalDoc;
 use host_tools::data::recording::Recording;
 use super::{magcal, p};
 

@@ -27,9 +27,10 @@ use calib_core::integrity::IntegrityState;
 use calib_core::integrity::Tuning;
 use host_tools::compute::apply::{apply_recording, gate_curve, score, Applied, ApplyOptions, IntegrityScore};
 use host_tools::compute::card::read_reference_column;
-use host_tools::compute::reference::Reference;
-use host_tools::data::results::Quality;
-use host_tools::data::{CalDoc, Recording};
+use host_tools::doc::Reference;
+use host_tools::doc::Quality;
+use host_tools::data::Recording;
+use host_tools::doc::CalDoc;
 use serde_json::json;
 
 /// The BROAD lab's inclination, degrees: the mean of `lab_inclination_deg`

@@ -13,7 +13,7 @@ use calib_core::cal::{FieldCal, ModelKind};
 use calib_core::heading::{level, magnetic_heading_rad};
 use host_tools::compute::attitude::attitude_samples;
 use host_tools::compute::{fit_recording, truth, FitOptions};
-use host_tools::compute::reference::Reference;
+use host_tools::doc::Reference;
 use host_tools::data::Recording;
 use host_tools::geomag::Site;
 use serde_json::json;
@@ -171,8 +171,8 @@ fn attitude_leave_one_out(sets: &[Dataset], md: &mut String) -> serde_json::Valu
 /// after one offset.
 fn wrong_calibrations(root: &Path, md: &mut String) -> serde_json::Value {
     use host_tools::compute::apply::{apply_recording, score, ApplyOptions};
-    use host_tools::data::results::Quality;
-    use host_tools::data::CalDoc;
+    use host_tools::doc::Quality;
+    use host_tools::doc::CalDoc;
     let _ = writeln!(md, "\n`apply` with wrong calibrations (judged against the lab's inclination; rows after the first 10 s):\n\n| trial | calibration | not ok | ok rows' heading RMS |\n|---|---|---|---|");
     let mut rows = Vec::new();
     let data = root.join("tests/data");

@@ -1,5 +1,5 @@
 use super::*;
-use crate::data::results::{GyroQuality, Quality};
+use crate::doc::results::{GyroQuality, Quality};
 use calib_core::cal::{FieldCal, ModelKind};
 use calib_core::conformance::SplitMix64;
 use calib_core::heading::magnetic_heading_rad;

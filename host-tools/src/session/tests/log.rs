@@ -180,8 +180,8 @@ fn the_logged_integrity_states_are_counted_and_judged_by_the_sessions_rule() {
     let e = s.recalibrate.expect("100 of about 400 samples cal_invalid");
     assert_eq!((e.rows as u64, e.cal_invalid_rows, e.hard_iron_applied), (s.samples, 100, false));
     assert!(e.cal_invalid_fraction > 0.10 && e.cal_invalid_fraction < 0.30, "{e:?}");
-    let line = crate::integrity_evidence::recalibrate_text(&e, crate::board::log::LOGGED_SAMPLES);
-    let counts = crate::integrity_evidence::integrity_text(c);
+    let line = crate::doc::integrity::recalibrate_text(&e, crate::board::log::LOGGED_SAMPLES);
+    let counts = crate::doc::integrity::integrity_text(c);
     assert_eq!(counts, format!("{} ok, 0 disturbed, 100 cal_invalid, 0 no_attitude, 0 unjudged; longest disturbance 1.0 s, longest cal_invalid 1.0 s; no on-line hard-iron estimate", s.samples - 100));
     assert!(line.starts_with("RECALIBRATE") && line.contains(&format!("100 of {} logged samples", s.samples)) && line.contains("longest cal_invalid stretch 1.0 s"), "{line}");
     // In the JSON summary, typed.

@@ -8,7 +8,7 @@ use calib_core::cal::{CalError, Calibration, EnvTerms, FieldCal, ModelKind, Swin
 use serde::{Deserialize, Serialize};
 
 use super::results::{Quality, TraceEntry};
-use crate::compute::reference::Reference;
+use super::reference::Reference;
 
 /// Largest |bias| accepted in a document, raw units (far beyond any sensor
 /// range in counts, nT or µT; catches corrupted files).
@@ -190,6 +190,53 @@ pub const FORMAT_VERSION: u32 = 1;
 /// What a document without `format_version` is.
 pub(crate) fn format_one() -> u32 {
     1
+}
+
+/// The form of a heading-only calibration document.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DocForm {
+    /// Only the swing, for a compass that gives a heading.
+    HeadingOnly,
+}
+
+/// Just the `form` key, to tell the documents apart before reading either.
+#[derive(Deserialize)]
+struct FormProbe {
+    #[serde(default)]
+    form: Option<DocForm>,
+}
+
+/// Just the `format_version` key, read before the document's own types
+/// (which refuse keys they do not know: a newer document must be refused
+/// for its format, not for its first new key).
+#[derive(Deserialize)]
+struct VersionProbe {
+    #[serde(default)]
+    format_version: Option<u64>,
+}
+
+/// The document's text without a UTF-8 byte-order mark, refused when its
+/// `format_version` is newer than [`FORMAT_VERSION`] or 0
+/// (text that is not JSON is left to the document's reader to name).
+pub(crate) fn read_doc_text(path: &Path) -> Result<String, CalDocError> {
+    let text = std::fs::read_to_string(path).map_err(|source| CalDocError::Io { path: path.into(), source })?;
+    let text = text.strip_prefix('\u{feff}').map(str::to_string).unwrap_or(text);
+    if let Ok(VersionProbe { format_version: Some(version) }) = serde_json::from_str::<VersionProbe>(&text) {
+        if version == 0 {
+            return Err(CalDocError::BadFormat { path: path.into(), version });
+        }
+        if version > u64::from(FORMAT_VERSION) {
+            return Err(CalDocError::NewerFormat { path: path.into(), version });
+        }
+    }
+    Ok(text)
+}
+
+/// Whether a document's text is the heading-only form (`false` when it
+/// does not say, or is not JSON: the field reader then says why).
+pub(crate) fn is_compass_doc(text: &str) -> bool {
+    serde_json::from_str::<FormProbe>(text).is_ok_and(|p| p.form == Some(DocForm::HeadingOnly))
 }
 
 /// The calibration document. A key it does not know is refused with the
@@ -390,7 +437,7 @@ impl CalDoc {
             // recording is no independent judge: its disagreement is said,
             // not refused (the session's chain writes such documents when
             // no site is known; the world model's or a user's is refused).
-            let independent = self.reference.as_ref().is_some_and(|r| r.source != crate::compute::reference::ReferenceSource::CalibrationData);
+            let independent = self.reference.as_ref().is_some_and(|r| r.source != super::reference::ReferenceSource::CalibrationData);
             if !independent {
                 said.push(format!("{}: the calibration disagrees with the field estimated from its own calibration recording ({d}): no independent reference judged it", path.display()));
                 return Ok(said);
@@ -413,8 +460,8 @@ impl CalDoc {
     /// the document and what must be said about it.
     pub fn load_with(path: &Path, allow_weak: bool) -> Result<(Self, Vec<String>), CalDocError> {
         // A UTF-8 byte-order mark (Windows editors) is not part of the JSON.
-        let text = super::compass::read_doc_text(path)?;
-        if super::compass::is_compass_doc(&text) {
+        let text = read_doc_text(path)?;
+        if is_compass_doc(&text) {
             return Err(CalDocError::HeadingOnly(path.into()));
         }
         let doc: CalDoc = serde_json::from_str(&text).map_err(|source| CalDocError::Parse { path: path.into(), source })?;
@@ -474,10 +521,10 @@ mod tests {
         // The heading-only form through the same reader.
         let c = dir.path().join("compass.json");
         std::fs::write(&c, r#"{"format_version": 3, "form": "heading_only", "swing": {"a": 0, "b": 0, "c": 0, "d": 0, "e": 0}}"#).unwrap();
-        let e = super::super::compass::Document::load(&c).unwrap_err().to_string();
+        let e = crate::doc::compass::Document::load(&c).unwrap_err().to_string();
         assert!(e.contains("format 3, newer"), "{e}");
         std::fs::write(&c, r#"{"form": "heading_only", "swing": {"a": 0, "b": 0, "c": 0, "d": 0, "e": 0}}"#).unwrap();
-        assert!(super::super::compass::Document::load(&c).is_ok());
+        assert!(crate::doc::compass::Document::load(&c).is_ok());
     }
 
     #[test]
@@ -589,8 +636,8 @@ mod tests {
         assert!(reason(&d).contains("predicted_heading_rms_deg"), "{}", reason(&d));
         // A failed reference check: refused, or kept with allow_weak and said.
         let mut d = doc();
-        let mut r = crate::compute::reference::Reference::user_intensity(48_730.0);
-        r.check = Some(crate::compute::reference::ReferenceCheck { inclination_deg: None, inclination_allowance_deg: None, field_nt: 30_000.0, agrees: false, disagreement: "the calibrated intensity is 30000 nT".into() });
+        let mut r = crate::doc::reference::Reference::user_intensity(48_730.0);
+        r.check = Some(crate::doc::reference::ReferenceCheck { inclination_deg: None, inclination_allowance_deg: None, field_nt: 30_000.0, agrees: false, disagreement: "the calibrated intensity is 30000 nT".into() });
         d.reference = Some(r);
         d.validate(p).unwrap();
         assert!(matches!(d.check(p, false), Err(CalDocError::WeakReference { .. })));
@@ -598,7 +645,7 @@ mod tests {
         assert!(said.len() == 1 && said[0].contains("30000 nT"), "{said:?}");
         assert!(doc().check(p, false).unwrap().is_empty());
         // Against the fit's own estimate (no independent judge): said, not refused.
-        d.reference.as_mut().unwrap().source = crate::compute::reference::ReferenceSource::CalibrationData;
+        d.reference.as_mut().unwrap().source = crate::doc::reference::ReferenceSource::CalibrationData;
         let said = d.check(p, false).unwrap();
         assert!(said.len() == 1 && said[0].contains("no independent reference"), "{said:?}");
     }

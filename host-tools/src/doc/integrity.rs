@@ -2,7 +2,7 @@
 //! per-sample integrity into "the calibration does not fit this vehicle any
 //! more", for the session (its validation run, applied by the board's own
 //! code on the host) and `magcal log` (the board's streamed states). A leaf:
-//! it imports only the typed results ([`crate::data::results`]).
+//! it imports only the typed results ([`crate::doc::results`]).
 //!
 //! * [`IntegrityCounts`]: what the rule reads — samples per state, the
 //!   longest stretches, whether the on-line hard iron was applied;
@@ -13,7 +13,7 @@
 use calib_core::integrity::IntegrityState;
 use serde::{Deserialize, Serialize};
 
-use crate::data::results::RecalibrateEvidence;
+use crate::doc::results::RecalibrateEvidence;
 
 /// Share of a run judged `cal_invalid` above which "recalibrate" is said:
 /// `cal_invalid` needs a misfit sustained for seconds, so a pier or hull

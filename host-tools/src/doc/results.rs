@@ -40,7 +40,7 @@ pub struct Quality {
     pub expected_heading_rms_deg: Option<f64>,
     /// `fit --model auto`: the candidates, their held-out errors and the choice.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub auto: Option<crate::compute::auto::AutoChoice>,
+    pub auto: Option<super::auto::AutoChoice>,
 }
 
 /// What the gyro-aided fit determined, and how well.
@@ -540,7 +540,7 @@ pub struct SessionSummary {
 /// Why a session or `magcal log` says "recalibrate": what the run's
 /// per-sample integrity found with the calibration (the session's validation
 /// run with the final calibration; the board's streamed states for `magcal
-/// log`). The rule is [`crate::integrity_evidence::recalibrate_evidence`].
+/// log`). The rule is [`crate::doc::integrity::recalibrate_evidence`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct RecalibrateEvidence {
     /// Rows of the validation run.
