@@ -79,7 +79,7 @@ fn gliders_whose_dives_tell_the_dip_keep_it_and_stay_at_the_dip_held_fit() {
     // 52203.0`) 0.608°, −0.211°; the glider's own 0.784°. Measured now:
     // 0.608°, +0.349°, the data's dip kept (the world model 3 %).
     let (scatter, mean, doc) = auto_with_site("seaglider-sg236", "sg236_calib.csv", "sg236_validate.csv", SG236);
-    assert!(scatter <= 0.608 + 0.03 && scatter < 0.784, "{scatter}");
+    assert!(scatter <= 0.608 + 0.03, "{scatter}");
     assert!(mean.abs() < 1.0, "{mean}");
     let c = doc.reference.as_ref().and_then(|r| r.constraint.as_ref()).unwrap();
     assert!(!c.held && c.reference_share < 0.5 && c.text.starts_with("the data shaped the dip"), "{c:?}");
@@ -87,6 +87,6 @@ fn gliders_whose_dives_tell_the_dip_keep_it_and_stay_at_the_dip_held_fit() {
     // (`... sg180_calib.csv sg180_validate.csv 68.855 52677.8`) 0.501°,
     // +0.231°; the pilot's new calibration 1.189°. Measured now: 0.511°, −0.655°.
     let (scatter, mean, _) = auto_with_site("seaglider-sg180", "sg180_calib.csv", "sg180_validate.csv", SG180);
-    assert!(scatter <= 0.501 + 0.03 && scatter < 1.189, "{scatter}");
+    assert!(scatter <= 0.501 + 0.03, "{scatter}");
     assert!(mean.abs() < 1.0, "{mean}");
 }
