@@ -73,6 +73,12 @@ pub struct AttitudeConfig<T> {
     pub huber_k: T,
     /// Gauss–Newton iterations.
     pub iterations: u32,
+    /// Contiguous blocks of samples over which the data's information on
+    /// the dip is checked against its scatter ([`world`]): the dip prior's
+    /// weight is raised by how far the data overstate it. 0 keeps the
+    /// formal weighting (the prior at its stated σ against every residual
+    /// as independent).
+    pub dip_blocks: u32,
 }
 
 impl<T: Real> AttitudeConfig<T> {
@@ -88,7 +94,7 @@ impl<T: Real> AttitudeConfig<T> {
     /// second); 30 iterations (the step is below 1e-9 of the field after
     /// about 10 on every recording tried).
     pub fn new() -> Self {
-        Self { dip_prior: None, misalignment_sigma_rad: T::from_f64(0.2f64.to_radians()), huber_k: T::from_f64(0.8), iterations: 30 }
+        Self { dip_prior: None, misalignment_sigma_rad: T::from_f64(0.2f64.to_radians()), huber_k: T::from_f64(0.8), iterations: 30, dip_blocks: DIP_BLOCKS }
     }
 }
 
@@ -120,6 +126,13 @@ pub struct AttitudeEstimate<T> {
     /// The 1σ heading error over all headings, level, that the covariance
     /// predicts, rad.
     pub predicted_heading_rms_rad: T,
+    /// The share (0–1) of the fitted dip that the dip prior set: how much
+    /// the dip moves per unit move of the prior's inclination. 0 without a
+    /// prior.
+    pub dip_prior_share: T,
+    /// How far the data overstated their information on the dip (variance
+    /// ratio, ≥ 1; [`world`]): the factor the prior's weight was raised by.
+    pub dip_data_inflation: T,
 }
 
 /// The level matrix `C = C2ᵀ(θ) C1ᵀ(φ)` of a tilt (what [`Tilt::level`] applies).
@@ -259,7 +272,7 @@ fn sphere_start<T: Real>(data: &Prepared<'_, T>) -> Option<(T, Vec3<T>)> {
 /// One Gauss–Newton step with the robust weights at residual scale `sigma`
 /// (data rows divided by it, so the information is the parameters'
 /// inverse covariance). Returns the accumulator and the down-weighted count.
-fn step<T: Real>(x: &[T; UNKNOWNS], data: &Prepared<'_, T>, cfg: &AttitudeConfig<T>, sigma: T, robust: bool) -> (QrRls<T, UNKNOWNS>, u32) {
+fn step<T: Real>(x: &[T; UNKNOWNS], data: &Prepared<'_, T>, cfg: &AttitudeConfig<T>, sigma: T, robust: bool, inflation: T) -> (QrRls<T, UNKNOWNS>, u32) {
     let mut ls: QrRls<T, UNKNOWNS> = QrRls::new();
     let mut downweighted = 0;
     let k = cfg.huber_k * sigma;
@@ -278,11 +291,10 @@ fn step<T: Real>(x: &[T; UNKNOWNS], data: &Prepared<'_, T>, cfg: &AttitudeConfig
         }
         downweighted += u32::from(down);
     }
-    // Prior on the dip.
-    if let Some((dip, sd)) = cfg.dip_prior {
-        let mut phi = [T::ZERO; UNKNOWNS];
-        phi[DIP] = T::ONE / sd;
-        ls.update(&phi, (dip - x[DIP]) / sd);
+    // Prior on the dip, weighted against what the data can tell.
+    if let Some(prior) = cfg.dip_prior {
+        let (phi, y) = world::dip_prior_row(x, prior, inflation);
+        ls.update(&phi, y);
     }
     // Prior on the misalignment: (A_ij − A_ji)/(2·gain) ~ N(0, σ²).
     let gain = (x[0] + x[4] + x[8]) / T::from_f64(3.0);
@@ -312,13 +324,21 @@ pub fn fit_attitude<T: Real>(samples: &[AttitudeSample<T>], field_nt: T, cfg: &A
     // The first iterations are plain least squares at a nominal 1 % scale,
     // until the start's gross errors are gone; then the robust loss.
     let mut sigma = T::from_f64(0.01);
-    let mut last = None;
+    let mut last: Option<(QrRls<T, UNKNOWNS>, u32)> = None;
+    let mut inflation = T::ONE;
     for it in 0..cfg.iterations {
         let robust = it >= 3;
         if robust {
             sigma = (median_abs_residual(&x, &data) / T::from_f64(0.6745)).max(T::EPSILON);
         }
-        let (ls, down) = step(&x, &data, cfg, sigma, robust);
+        // Once the robust steps have settled, the data's own scatter sets
+        // the dip prior's weight for the rest ([`world`]).
+        if it == INFLATION_AT && cfg.dip_prior.is_some() && cfg.dip_blocks >= 2 {
+            if let Some(cov) = last.as_ref().and_then(|(ls, _)| ls.covariance()) {
+                inflation = world::dip_inflation(&x, &data, cfg, sigma, &cov[DIP], cfg.dip_blocks);
+            }
+        }
+        let (ls, down) = step(&x, &data, cfg, sigma, robust, inflation);
         let dx = ls.solve()?;
         for (v, d) in x.iter_mut().zip(dx.iter()) {
             *v += *d;
@@ -330,8 +350,30 @@ pub fn fit_attitude<T: Real>(samples: &[AttitudeSample<T>], field_nt: T, cfg: &A
     }
     let (ls, downweighted) = last.ok_or(FitError::TooFewSamples { have: 0, need: UNKNOWNS as u32 })?;
     let cov = ls.covariance().ok_or(FitError::InsufficientExcitation { parameter: 0 })?;
-    finish(&x, &cov, &data, field_nt, sigma, used as u32, downweighted)
+    let share = cfg.dip_prior.map_or(T::ZERO, |(_, sd)| (cov[DIP][DIP] * inflation / (sd * sd)).min(T::ONE));
+    let mut est = finish(&x, &cov, &data, field_nt, sigma, used as u32, downweighted)?;
+    est.dip_prior_share = share;
+    est.dip_data_inflation = inflation;
+    Ok(est)
 }
+
+/// The iteration at which the data's scatter sets the dip prior's weight
+/// (the robust loss starts at 3; the step is below 1e-6 of the field by
+/// about 8 on every recording tried).
+const INFLATION_AT: u32 = 8;
+
+/// The default of [`AttitudeConfig::dip_blocks`], leave-one-dataset-out
+/// over the four real glider cases with a site (Seaglider SG236 and SG180,
+/// each calibrated on its first dives and on its last; grid 0 = formal, 4,
+/// 8, 16 blocks; the dip scatter on the judged dives): 16 was chosen in
+/// three folds and 8 in one, with the left-out dataset's value the same
+/// within 0.001° at 8 and 16 (0.608/0.609°, 0.511°, 0.960/0.952°, 3.034°);
+/// the formal weighting was never chosen (SG236 dives 4–5: 0.991°). 8 is
+/// kept because the two tie: at 16 `auto` on SG236 dives 4–5 keeps the free
+/// fit (0.952° on the judged dives, against the dip-held fit's 0.656° kept
+/// at 8, where the held-out errors are 1.93° and 1.88°): the held-out judge
+/// tells the two apart by a few hundredths of a degree.
+pub const DIP_BLOCKS: u32 = 8;
 
 /// The estimate in raw units, with the 1σ of each coefficient and the
 /// predicted heading error.
@@ -373,6 +415,8 @@ fn finish<T: Real>(x: &[T; UNKNOWNS], cov: &[[T; UNKNOWNS]; UNKNOWNS], data: &Pr
         bias_sigma_raw,
         matrix_sigma_rel,
         predicted_heading_rms_rad: predicted_heading_rms(x, &inv, cov),
+        dip_prior_share: T::ZERO,
+        dip_data_inflation: T::ONE,
     })
 }
 
@@ -398,3 +442,4 @@ fn predicted_heading_rms<T: Real>(x: &[T; UNKNOWNS], inv: &Mat3<T>, cov: &[[T; U
 
 #[cfg(test)]
 mod tests;
+pub mod world;

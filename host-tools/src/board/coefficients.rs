@@ -60,6 +60,7 @@ pub fn doc_from_coefficients(c: &Coefficients) -> CalDoc {
             inclination_deg: Some(f64::from(i).to_degrees()),
             inclination_sigma_deg: None,
             check: None,
+            constraint: None,
         });
     }
     doc

@@ -124,6 +124,9 @@ fn held_out_deg(model: ModelKind, rec: &Recording, opts: &FitOptions, basis: Hel
     if pairs.is_empty() {
         return Err("no held-out sample could be judged".into());
     }
+    if basis == HeldOutBasis::FieldAndDip && opts.reference.as_ref().is_some_and(|r| r.independent_inclination()) {
+        super::dip_held::remove_common_offset(&mut pairs);
+    }
     Ok(match basis {
         HeldOutBasis::ReferenceHeading => heading_rms_after_offset_deg(pairs.into_iter()).0.rms,
         // The dip's error and the horizontal intensity's (the part of a
@@ -156,8 +159,10 @@ pub fn fit_auto(rec: &Recording, opts: &FitOptions) -> Result<(CalDoc, AutoChoic
     let units = crate::data::intake::check_attitude_units(rec, opts.field_nt).map_err(|e| e.to_string());
     let mut rows = Vec::new();
     let mut best: Option<(f64, CalDoc)> = None;
-    for model in candidates() {
-        let mut row = CandidateRow { model: model.name().to_string(), held_out_deg: None, predicted_deg: None, refused: None, note: None };
+    // Each levelled model also with the dip held at the world model's.
+    for (model, opts) in super::dip_held::with_held(candidates(), opts) {
+        let opts = &opts;
+        let mut row = CandidateRow { model: super::dip_held::row_name(model, opts), held_out_deg: None, predicted_deg: None, refused: None, note: None };
         let levelling = super::models::entry(model).levelled;
         if let Err(why) = allowed(model, rec).and(if levelling { units.clone() } else { Ok(()) }) {
             row.refused = Some(why);
@@ -190,7 +195,7 @@ pub fn fit_auto(rec: &Recording, opts: &FitOptions) -> Result<(CalDoc, AutoChoic
     }
     let expected = doc.quality.expected_heading_rms_deg.map_or(held_out, |p| p.max(held_out));
     doc.quality.expected_heading_rms_deg = Some(expected);
-    let choice = AutoChoice { chosen: doc.model.name().to_string(), basis, candidates: rows };
+    let choice = AutoChoice { chosen: super::dip_held::chosen_name(&doc), basis, candidates: rows };
     doc.quality.auto = Some(choice.clone());
     Ok((doc, choice))
 }

@@ -14,7 +14,7 @@ use super::error::ComputeError;
 use crate::doc::results::{FitQuality, Quality as ResultsQuality};
 use crate::data::Recording;
 use crate::doc::CalDoc;
-use crate::doc::reference::{Reference, ReferenceSource};
+use crate::doc::reference::{DipConstraint, Reference, ReferenceSource, HELD_DIP_SIGMA_DEG};
 
 /// Options of a field fit.
 #[derive(Debug, Clone)]
@@ -91,6 +91,8 @@ pub(crate) fn fit_with(rec: &Recording, opts: &FitOptions, checks: Checks) -> Re
     let mut attitude_predicted_deg = None;
     // The dip the fit itself estimated, with its 1σ, degrees.
     let mut fit_dip: Option<(f64, f64)> = None;
+    // How the reference's inclination shaped the fit.
+    let mut constraint: Option<DipConstraint> = None;
     let cal = match opts.model {
         ModelKind::Sphere => fit_batch::<Sphere, 4, f64>(&samples, opts.field_nt),
         ModelKind::Axis => fit_batch::<Axis, 6, f64>(&samples, opts.field_nt),
@@ -104,9 +106,13 @@ pub(crate) fn fit_with(rec: &Recording, opts: &FitOptions, checks: Checks) -> Re
         }
         ModelKind::Attitude => {
             let mut cfg = AttitudeConfig::new();
-            cfg.dip_prior = opts.reference.as_ref().filter(|r| r.independent_inclination()).and_then(|r| Some((r.inclination_deg?.to_radians(), r.inclination_sigma_deg?.to_radians())));
+            // The world model's inclination as a measurement weighted
+            // against what the data can tell, or held where asked.
+            let world = opts.reference.as_ref().filter(|r| r.independent_inclination()).and_then(|r| Some((r.inclination_deg?, r.inclination_sigma_deg?, r.dip_held())));
+            cfg.dip_prior = world.map(|(i, s, held)| (i.to_radians(), if held { HELD_DIP_SIGMA_DEG } else { s }.to_radians()));
             let est = super::attitude::fit_attitude_recording(rec, opts.field_nt, &cfg)?;
             fit_dip = Some((est.dip_rad.to_degrees(), est.dip_sigma_rad.to_degrees()));
+            constraint = world.map(|(i, s, held)| DipConstraint::shaped(held, est.dip_prior_share, est.dip_data_inflation, est.dip_rad.to_degrees(), i, s));
             warnings.extend(super::attitude::weakly_determined(&est, opts.field_nt));
             attitude_predicted_deg = Some(est.predicted_heading_rms_rad.to_degrees());
             Ok(est.cal)
@@ -127,7 +133,8 @@ pub(crate) fn fit_with(rec: &Recording, opts: &FitOptions, checks: Checks) -> Re
         warnings.push(format!("quality gate failed, kept because weak results were allowed: {e}"));
     }
     cal.validate(crate::doc::caldoc::MAX_BIAS_ABS).map_err(|e| ComputeError::Unusable(crate::doc::caldoc::cal_error_text(e)))?;
-    let reference = judge_against_reference(&cal, rec, opts, fit_dip, &mut warnings)?;
+    let mut reference = judge_against_reference(&cal, rec, opts, fit_dip, &mut warnings)?;
+    reference.constraint = constraint;
     let skipped = rec.len() - samples.len();
     if skipped > 0 {
         warnings.push(format!("{skipped} rows without a complete mx, my, mz were skipped"));

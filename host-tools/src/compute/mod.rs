@@ -22,6 +22,7 @@ pub mod backstep;
 pub mod card;
 pub mod chain;
 pub mod compass;
+pub mod dip_held;
 pub mod error;
 pub mod fit;
 pub mod gyro;

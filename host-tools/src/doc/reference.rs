@@ -81,7 +81,70 @@ pub struct Reference {
     /// What the calibrated recording showed beside this reference.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub check: Option<ReferenceCheck>,
+    /// How the inclination entered the fit: the constraint that shaped the
+    /// answer ([`DipConstraint`]). Given before a fit with `held` set, it
+    /// asks for the dip held at this inclination.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub constraint: Option<DipConstraint>,
 }
+
+/// How the reference's inclination shaped a levelled fit (the document's
+/// `reference.constraint`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DipConstraint {
+    /// The dip was held at the reference's inclination (`auto`'s dip-held
+    /// candidates); otherwise it was a measurement weighted against what
+    /// the data can tell.
+    pub held: bool,
+    /// The share (0–1) of the fitted dip that the reference set (how much
+    /// the dip moves per unit move of the reference's inclination): near 0
+    /// the data shaped it, near 1 the world model.
+    #[serde(default)]
+    pub reference_share: f64,
+    /// The fitted dip, degrees.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fitted_dip_deg: Option<f64>,
+    /// How far the data overstated their own information on the dip (the
+    /// variance of contiguous blocks' pulls over the formal one, ≥ 1): the
+    /// factor the reference's weight was raised by.
+    #[serde(default = "one")]
+    pub data_inflation: f64,
+    /// In words.
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub text: String,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+impl DipConstraint {
+    /// The request to hold the dip at the reference's inclination.
+    pub fn held() -> Self {
+        Self { held: true, reference_share: 1.0, fitted_dip_deg: None, data_inflation: 1.0, text: String::new() }
+    }
+
+    /// What a fit did with the reference's inclination: `held` as asked,
+    /// else weighted with `share` and `inflation` ([`calib_core::attitude_fit::AttitudeEstimate`]).
+    pub fn shaped(held: bool, share: f64, inflation: f64, fitted_dip_deg: f64, inclination_deg: f64, sigma_deg: f64) -> Self {
+        let text = if held {
+            format!("the dip held at the reference's {inclination_deg:.2}° (the data free in every other coefficient)")
+        } else {
+            let who = if share >= 0.5 { "the world model shaped the dip" } else { "the data shaped the dip" };
+            format!(
+                "{who}: the reference's {inclination_deg:.2}° ± {sigma_deg:.2}° weighs {:.0} % of the fitted {fitted_dip_deg:.2}° (its weight raised {inflation:.1}× by how far the data overstate what they tell)",
+                100.0 * share
+            )
+        };
+        Self { held, reference_share: share, fitted_dip_deg: Some(fitted_dip_deg), data_inflation: inflation, text }
+    }
+}
+
+/// The 1σ the dip prior is given to hold the dip at the reference's
+/// inclination, degrees (a hundredth of the smallest allowance).
+pub const HELD_DIP_SIGMA_DEG: f64 = 0.001;
+
 
 /// The calibrated recording against the reference.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -114,6 +177,7 @@ impl Reference {
             inclination_deg: Some(field.inclination_deg()),
             inclination_sigma_deg: Some(MODEL_INCLINATION_SIGMA_DEG.hypot(LOCAL_INCLINATION_SIGMA_DEG)),
             check: None,
+            constraint: None,
         }
     }
 
@@ -128,12 +192,18 @@ impl Reference {
             inclination_deg: None,
             inclination_sigma_deg: None,
             check: None,
+            constraint: None,
         }
     }
 
     /// Whether the inclination is independent of the calibration's own data.
     pub fn independent_inclination(&self) -> bool {
         self.inclination_deg.is_some() && self.source != ReferenceSource::CalibrationData
+    }
+
+    /// Whether the dip is asked to be held at the inclination.
+    pub fn dip_held(&self) -> bool {
+        self.constraint.as_ref().is_some_and(|c| c.held)
     }
 
     /// Where the reference came from, in words.

@@ -13,6 +13,7 @@ pub fn data(rel: &str) -> PathBuf {
 
 mod attitude_glider;
 mod geomag;
+mod glider_world;
 mod integrity_broad;
 mod limited_tilt;
 mod real_data;

@@ -65,6 +65,12 @@ struct Dataset {
     field_nt: f64,
     /// The world model at the site, where the site is known (the gliders).
     reference: Option<Reference>,
+    /// The world model at the lab's site for `auto` with a site (the BROAD
+    /// trials, whose lab is 1.6° of dip off IGRF-14).
+    site_only_for_auto: Option<Reference>,
+    /// The dip-held scipy fit (`xtask/python/glider_dip_held.py`) on the
+    /// same parts, judged the same way (the gliders).
+    numpy_dip_held: Option<String>,
     judge: Judge,
     floor: FieldCal<f64>,
 }
@@ -75,10 +81,13 @@ fn std_dev(v: &[f64]) -> f64 {
 }
 
 /// A real glider: dip and magnitude scatter on its validation dives below
-/// 3 m, and the dip's mean against IGRF-14 at the site (its README).
-fn glider(dir: &Path, name: &str, peer: &str, (lat, lon, date): (f64, f64, &str)) -> Option<Dataset> {
-    let calib = Recording::read(&dir.join(format!("{name}_calib.csv"))).ok()?;
-    let vpath = dir.join(format!("{name}_validate.csv"));
+/// 3 m, and the dip's mean against IGRF-14 at the site (its README);
+/// calibrated on `calib_csv`, judged on `judge_csv` (the files' own roles,
+/// or swapped: a few dives judged on the earlier ones).
+fn glider(dir: &Path, name: &str, (calib_csv, judge_csv): (&str, &str), peer: &str, (lat, lon, date): (f64, f64, &str)) -> Option<Dataset> {
+    let cpath = dir.join(calib_csv);
+    let calib = Recording::read(&cpath).ok()?;
+    let vpath = dir.join(judge_csv);
     let val = Recording::read(&vpath).ok()?;
     let depth = column(&vpath, "depth_m")?;
     let floor = StoredCal::read(&dir.join(peer))?.cal();
@@ -100,7 +109,17 @@ fn glider(dir: &Path, name: &str, peer: &str, (lat, lon, date): (f64, f64, &str)
         (d, format!("dip {d:.2}°, mean {:+.2}° off IGRF, |F| {mag_pct:.2} %", mean - igrf_dip))
     };
     let reference = Some(Reference::world_model(site, &world));
-    Some(Dataset { name: format!("seaglider-{name}"), calib, field_nt: world.total_nt(), reference, judge: Box::new(judge), floor })
+    let numpy_dip_held = numpy_dip_held(&cpath, &vpath, igrf_dip, world.total_nt());
+    Some(Dataset { name: name.to_string(), calib, field_nt: world.total_nt(), reference, site_only_for_auto: None, numpy_dip_held, judge: Box::new(judge), floor })
+}
+
+/// The dip-held scipy fit's dip scatter and mean against IGRF on the
+/// judged part (`None` without python3, numpy and scipy).
+fn numpy_dip_held(calib: &Path, judged: &Path, igrf_dip_deg: f64, field_nt: f64) -> Option<String> {
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("python/glider_dip_held.py");
+    let out = std::process::Command::new("python3").arg(script).arg(calib).arg(judged).arg(igrf_dip_deg.to_string()).arg(field_nt.to_string()).output().ok().filter(|o| o.status.success())?;
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).ok()?;
+    Some(format!("dip {:.2}°, mean {:+.2}° off IGRF", v["dip_scatter_deg"].as_f64()?, v["dip_mean_minus_igrf_deg"].as_f64()?))
 }
 
 /// A BROAD trial: heading RMS on the validation part after one offset.
@@ -117,16 +136,25 @@ fn broad(dir: &Path, n: &str) -> Option<Dataset> {
         (rms, format!("heading {rms:.2}°"))
     };
     let name = dir.file_name().map_or(n.to_string(), |f| f.to_string_lossy().into_owned());
-    Some(Dataset { name, calib, field_nt: t.field_nt?, reference: None, judge: Box::new(judge), floor: t.cal() })
+    // The lab's site (its README): IGRF-14 at TU Berlin, 2020-06-01.
+    let site_only_for_auto = Site::new(52.51, 13.32, "2020-06-01").ok().and_then(|s| Some(Reference::world_model(s, &s.field().ok()?)));
+    Some(Dataset { name, calib, field_nt: t.field_nt?, reference: None, site_only_for_auto, numpy_dip_held: None, judge: Box::new(judge), floor: t.cal() })
 }
 
 /// The datasets present under `tests/data`.
 fn datasets(root: &Path) -> Vec<Dataset> {
     let data: PathBuf = root.join("tests/data");
     let mut out: Vec<Dataset> = Vec::new();
-    out.extend(glider(&data.join("seaglider-sg236"), "sg236", "onboard_calibration.json", (46.902, -124.894, "2023-06-01")));
+    const SG236: (f64, f64, &str) = (46.902, -124.894, "2023-06-01");
+    const SG180: (f64, f64, &str) = (47.749, -122.408, "2026-07-01");
+    out.extend(glider(&data.join("seaglider-sg236"), "seaglider-sg236", ("sg236_calib.csv", "sg236_validate.csv"), "onboard_calibration.json", SG236));
     // SG180 flew its validation dives (5–6) with the pilot's new calibration: that is its peer.
-    out.extend(glider(&data.join("seaglider-sg180"), "sg180", "onboard_calibration_dives5-6.json", (47.749, -122.408, "2026-07-01")));
+    out.extend(glider(&data.join("seaglider-sg180"), "seaglider-sg180", ("sg180_calib.csv", "sg180_validate.csv"), "onboard_calibration_dives5-6.json", SG180));
+    // The thin case: the last dives calibrate, the earlier ones judge (SG236's
+    // dives 4–5 cannot tell the dip from the vertical scale: the free fit
+    // lands 1.75° off IGRF).
+    out.extend(glider(&data.join("seaglider-sg236"), "seaglider-sg236 dives 4–5 → 1–3", ("sg236_validate.csv", "sg236_calib.csv"), "onboard_calibration.json", SG236));
+    out.extend(glider(&data.join("seaglider-sg180"), "seaglider-sg180 dives 5–6 → 1–4", ("sg180_validate.csv", "sg180_calib.csv"), "onboard_calibration_dives1-4.json", SG180));
     for (d, n) in [("broad-02-limited", "02"), ("broad-03", "03"), ("broad-05", "05"), ("broad-06", "06"), ("broad-09", "09")] {
         out.extend(broad(&data.join(d), n));
     }
@@ -229,25 +257,67 @@ pub fn real_data(root: &Path) -> (serde_json::Value, String) {
             rows.push(json!({"dataset": d.name, "model": format!("{}{label}", model.name()), "verdict": verdict, "result": result, "floor": floor, "predicted": predicted}));
         }
     }
-    let _ = writeln!(md, "\n`fit` without `--model` (auto: every allowed model judged on {} held-out time blocks of the calibration part, the least held-out error kept; expected: the larger of the held-out error and the covariance's prediction ⊕ the heading's white noise):\n\n| dataset | kept | result on the validation part | floor | expected | held-out table |\n|---|---|---|---|---|---|", host_tools::compute::auto::FOLDS);
-    for d in &sets {
-        let (_, floor) = (d.judge)(&d.floor);
-        let opts = FitOptions { model: ModelKind::Attitude, field_nt: d.field_nt, saturation: None, allow_weak: false, gyro_lag: host_tools::compute::GyroLag::Given(0.0), reference: d.reference.clone() };
-        let (kept, result, predicted, table) = match host_tools::compute::auto::fit_auto(&d.calib, &opts) {
+    let _ = writeln!(md, "\n`fit` without `--model` (auto: every allowed model, the attitude fit also with the dip held at IGRF's where the site is known, judged on {} held-out time blocks of the calibration part, the least held-out error kept; expected: the larger of the held-out error and the covariance's prediction ⊕ the heading's white noise; the gliders' floor column adds the dip-held scipy fit, `xtask/python/glider_dip_held.py`; the BROAD trials also with the lab's site, whose dip is 1.6° off IGRF-14):\n\n| dataset | kept | result on the validation part | floor | expected | held-out table | the constraint that shaped the dip |\n|---|---|---|---|---|---|---|", host_tools::compute::auto::FOLDS);
+    let auto_runs = sets.iter().flat_map(|d| std::iter::once((d, d.reference.clone(), "")).chain(d.site_only_for_auto.clone().map(|r| (d, Some(r), " (lab's site)"))));
+    for (d, reference, label) in auto_runs {
+        let (_, own) = (d.judge)(&d.floor);
+        let floor = d.numpy_dip_held.as_ref().map_or(own.clone(), |n| format!("own: {own}; scipy dip-held: {n}"));
+        // With a site the intensity is the world model's (as `fit --lat --lon --date`).
+        let field_nt = reference.as_ref().filter(|_| !label.is_empty()).map_or(d.field_nt, |r| r.field_nt);
+        let opts = FitOptions { model: ModelKind::Attitude, field_nt, saturation: None, allow_weak: false, gyro_lag: host_tools::compute::GyroLag::Given(0.0), reference };
+        let (kept, result, predicted, table, constraint) = match host_tools::compute::auto::fit_auto(&d.calib, &opts) {
             Ok((doc, choice)) => (
                 choice.chosen.clone(),
                 (d.judge)(&doc.field_cal()).1,
                 doc.quality.expected_heading_rms_deg.map_or("—".into(), |p| format!("{p:.2}°")),
                 host_tools::compute::auto::table_text(&choice.candidates.iter().filter(|c| c.held_out_deg.is_some()).cloned().collect::<Vec<_>>()),
+                doc.reference.as_ref().and_then(|r| r.constraint.as_ref()).map_or("—".into(), |c| c.text.clone()),
             ),
-            Err(e) => ("refused".into(), e.to_string(), "—".into(), String::new()),
+            Err(e) => ("refused".into(), e.to_string(), "—".into(), String::new(), "—".into()),
         };
-        let _ = writeln!(md, "| {} | {kept} | {result} | {floor} | {predicted} | {table} |", d.name);
-        rows.push(json!({"dataset": d.name, "model": "auto", "kept": kept, "result": result, "floor": floor, "predicted": predicted}));
+        let _ = writeln!(md, "| {}{label} | {kept} | {result} | {floor} | {predicted} | {table} | {constraint} |", d.name);
+        rows.push(json!({"dataset": format!("{}{label}", d.name), "model": "auto", "kept": kept, "result": result, "floor": floor, "predicted": predicted, "constraint": constraint}));
     }
     let wrong = wrong_calibrations(root, &mut md);
     let loo = attitude_leave_one_out(&sets, &mut md);
-    (json!({"table": rows, "wrong_calibrations": wrong, "attitude_leave_one_out": loo}), md)
+    let dip_loo = dip_weighting_leave_one_out(&sets, &mut md);
+    (json!({"table": rows, "wrong_calibrations": wrong, "attitude_leave_one_out": loo, "dip_weighting_leave_one_out": dip_loo}), md)
+}
+
+/// The leave-one-dataset-out choice of how the world model's dip is
+/// weighted against the data (`AttitudeConfig::dip_blocks`: 0 the formal
+/// weighting, else the blocks the data's scatter is measured over), on the
+/// datasets with a site (the gliders, both ways round), each scored by its
+/// attitude fit's dip scatter on the judged dives.
+fn dip_weighting_leave_one_out(sets: &[Dataset], md: &mut String) -> serde_json::Value {
+    let grid = [0u32, 4, 8, 16];
+    let sited: Vec<&Dataset> = sets.iter().filter(|d| d.reference.is_some()).collect();
+    let scores: Vec<Vec<f64>> = grid
+        .iter()
+        .map(|&b| {
+            sited
+                .iter()
+                .map(|d| {
+                    let r = d.reference.as_ref();
+                    let dip_prior = r.and_then(|r| Some((r.inclination_deg?.to_radians(), r.inclination_sigma_deg?.to_radians())));
+                    let cfg = AttitudeConfig { dip_prior, dip_blocks: b, ..AttitudeConfig::new() };
+                    attitude_samples(&d.calib).ok().and_then(|s| fit_attitude(&s, d.field_nt, &cfg).ok()).map_or(f64::INFINITY, |e| (d.judge)(&e.cal).0)
+                })
+                .collect()
+        })
+        .collect();
+    let best: Vec<f64> = (0..sited.len()).map(|j| scores.iter().map(|s| s[j]).fold(f64::INFINITY, f64::min)).collect();
+    let default_at = grid.iter().position(|&b| b == calib_core::attitude_fit::DIP_BLOCKS);
+    let _ = writeln!(md, "\nThe world model's dip weighting, leave-one-dataset-out (blocks the data's dip scatter is measured over: 0 = the formal weighting, 4, 8, 16; scored by the attitude fit's dip scatter on the judged dives, the site given):\n\n| left out | chosen on the others | value on the one left out | with the default ({}) | formal (0) |\n|---|---|---|---|---|", calib_core::attitude_fit::DIP_BLOCKS);
+    let mut rows = Vec::new();
+    for (out, d) in sited.iter().enumerate() {
+        let sum = |c: usize| (0..sited.len()).filter(|&j| j != out).map(|j| scores[c][j] / best[j]).sum::<f64>();
+        let chosen = (0..grid.len()).min_by(|&a, &b| sum(a).total_cmp(&sum(b))).unwrap_or(0);
+        let with_default = default_at.map_or(f64::NAN, |c| scores[c][out]);
+        let _ = writeln!(md, "| {} | {} | {:.3}° | {:.3}° | {:.3}° |", d.name, grid[chosen], scores[chosen][out], with_default, scores[0][out]);
+        rows.push(json!({"left_out": d.name, "chosen": grid[chosen], "value": scores[chosen][out], "with_default": with_default, "formal": scores[0][out]}));
+    }
+    json!(rows)
 }
 
 #[cfg(test)]
@@ -259,6 +329,8 @@ mod tests {
         let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
         let (v, md) = super::real_data(&root);
         eprintln!("{md}");
-        assert_eq!(v["table"].as_array().map(Vec::len), Some(7 * super::MODELS.len() + 2 + 7), "{v}");
+        // 4 gliders and 5 trials: every model, the gliders' attitude fit
+        // without the site, auto (the trials also with the lab's site).
+        assert_eq!(v["table"].as_array().map(Vec::len), Some(9 * super::MODELS.len() + 4 + 9 + 5), "{v}");
     }
 }

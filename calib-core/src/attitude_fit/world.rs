@@ -1,0 +1,70 @@
+//! The world model's dip as a measurement in the attitude-aided fit,
+//! weighted against what the data can tell.
+//!
+//! The data rows are weighted by their robust residual scale as if every
+//! residual were independent. Along a real path they are not (a glider's
+//! residuals follow its dives, a hull's its headings), so the formal
+//! information on the dip overstates what the data hold, and a prior at the
+//! world model's stated σ barely moves the dip even where the data cannot
+//! tell it from the vertical scale. Here the data's own scatter decides:
+//! the recording is cut into contiguous blocks, each block's pull on the
+//! dip (its rows' score through the dip's row of the covariance) is
+//! summed, and the variance of those block pulls against the variance the
+//! formal weighting predicts for them is the inflation `κ ≥ 1` — the
+//! cluster-robust ("sandwich") variance of the dip over its formal one.
+//! The prior's row is then weighted `√κ/σ`: against the data's formal
+//! information that is the world model's σ against the data's real one. A
+//! thin or self-contradicting recording (large `κ`) ends near the world
+//! model; a rich, consistent one (`κ` near 1) where its data say.
+
+use super::{huber, level_matrix, rows, AttitudeConfig, Prepared, DIP, UNKNOWNS};
+use crate::Real;
+
+/// Largest number of blocks the data's dip information is checked over.
+pub const MAX_DIP_BLOCKS: u32 = 64;
+
+/// The prior's row for the solver: gradient and residual of the dip prior
+/// `(inclination_rad, sigma_rad)` at `x`, its weight raised by `√inflation`.
+pub(super) fn dip_prior_row<T: Real>(x: &[T; UNKNOWNS], (dip, sigma): (T, T), inflation: T) -> ([T; UNKNOWNS], T) {
+    let w = inflation.max(T::ONE).sqrt() / sigma;
+    let mut phi = [T::ZERO; UNKNOWNS];
+    phi[DIP] = w;
+    (phi, (dip - x[DIP]) * w)
+}
+
+/// The variance of the dip's block pulls over what the formal weighting
+/// predicts for them (at least 1): `blocks` contiguous blocks of the usable
+/// samples, robust weights at scale `sigma`, `dip_row` the dip's row of the
+/// covariance at `x`. 1 when it cannot be told (fewer than two blocks, no
+/// information).
+pub(super) fn dip_inflation<T: Real>(x: &[T; UNKNOWNS], data: &Prepared<'_, T>, cfg: &AttitudeConfig<T>, sigma: T, dip_row: &[T; UNKNOWNS], blocks: u32) -> T {
+    let blocks = blocks.min(MAX_DIP_BLOCKS) as usize;
+    let used = data.usable().count();
+    if blocks < 2 || used < blocks {
+        return T::ONE;
+    }
+    let k = cfg.huber_k * sigma;
+    let s2 = sigma * sigma;
+    let mut pulls = [T::ZERO; MAX_DIP_BLOCKS as usize];
+    let mut formal = T::ZERO;
+    for (n, s) in data.usable().enumerate() {
+        let Some(rs) = rows(x, data.norm.apply(s.raw), &level_matrix(&s.tilt)) else { continue };
+        let b = (n * blocks / used).min(blocks - 1);
+        for (j, r) in rs {
+            let w = huber(r, k);
+            let g: T = dip_row.iter().zip(j.iter()).fold(T::ZERO, |acc, (c, v)| acc + *c * *v);
+            if let Some(p) = pulls.get_mut(b) {
+                *p += g * w * r / s2;
+            }
+            formal += g * g * w / s2;
+        }
+    }
+    let pulls = pulls.get(..blocks).unwrap_or(&[]);
+    let nb = T::from_f64(blocks as f64);
+    let mean = pulls.iter().fold(T::ZERO, |a, p| a + *p) / nb;
+    let spread = pulls.iter().fold(T::ZERO, |a, p| a + (*p - mean) * (*p - mean)) * nb / (nb - T::ONE);
+    if !(formal > T::ZERO) || !spread.is_finite() {
+        return T::ONE;
+    }
+    (spread / formal).max(T::ONE)
+}
