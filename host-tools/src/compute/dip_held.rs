@@ -44,7 +44,7 @@ pub fn row_name(model: ModelKind, opts: &FitOptions) -> String {
 
 /// The name `auto` writes for the kept document: its model's, marked when
 /// its dip was held.
-pub fn chosen_name(doc: &crate::data::CalDoc) -> String {
+pub fn chosen_name(doc: &crate::doc::CalDoc) -> String {
     let held = doc.reference.as_ref().is_some_and(|r| r.dip_held());
     format!("{}{}", doc.model.name(), if held { HELD_LABEL } else { "" })
 }
