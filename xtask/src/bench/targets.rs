@@ -120,7 +120,7 @@ pub struct Sizes {
 
 impl Sizes {
     /// What CI computes (`cargo xtask bench --ci`): every seed, only the
-    /// chains and tunings the targets are about (about 40 CPU-s in the
+    /// chains and tunings the targets are about (about 50 CPU-s in the
     /// xtask binary's profile). The held bounds are the worst of these
     /// seeds, so a subset passed here for speed still holds them.
     pub const CI: Sizes = Sizes { effects_seeds: &super::effects::EFFECTS_SEEDS, effects_other_chains: false, varied_seeds: &super::varied::VARIED_SEEDS, varied_choice: false };
