@@ -199,7 +199,7 @@ pub fn run_ci(root: &Path) -> Result<()> {
     let varied_targets = section("varied", &mut || varied::targets(&varied::varied_sites_with(sizes.varied_seeds, sizes.varied_choice).0));
     let integrity_targets = section("integrity", &mut || integrity::targets(&integrity::shipped_only(root)));
     let real_targets = section("real data", &mut || real_data::targets(&real_data::real_data_with(root, false).0));
-    report(&[mcu_targets, effects_targets, varied_targets, integrity_targets, real_targets].concat(), &described)
+    report(&[mcu_targets, effects_targets, varied_targets, integrity_targets, real_targets].concat(), "CI sizes")
 }
 
 #[cfg(test)]
