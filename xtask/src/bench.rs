@@ -4,7 +4,9 @@
 //! (`crate::results_doc`).
 //!
 //! One module per section; [`run`] runs them in turn and joins their
-//! Markdown in the order of `results.md`.
+//! Markdown in the order of `results.md`, then checks the sections'
+//! targets ([`targets`]); [`run_ci`] (`cargo xtask bench --ci`) runs the
+//! sections that state targets at CI sizes and only checks them.
 
 use std::path::Path;
 
@@ -24,6 +26,7 @@ mod paper000;
 mod paper001;
 mod real_data;
 mod real_recordings;
+mod targets;
 mod varied;
 
 use effects::{effects, EFFECTS_SEEDS};
@@ -201,7 +204,81 @@ pub fn run(out_dir: &Path, only: &[String]) -> Result<()> {
         .fold("# Benchmarks (`cargo xtask bench`)\n\n".to_string(), |md, piece| md + piece);
     crate::results_doc::write_atomic(&out_dir.join("results.md"), &md)?;
     eprintln!("wrote {}", out_dir.join("results.json").display());
-    crate::results_doc::write_docs(&root, &results)
+    crate::results_doc::write_docs(&root, &results)?;
+    // The targets of the sections run now.
+    let mut all = Vec::new();
+    for (name, targets) in [
+        ("mcu", mcu::targets as fn(&serde_json::Value) -> Vec<targets::Target>),
+        ("effects", effects::targets),
+        ("varied", varied::targets),
+        ("integrity", integrity::targets),
+        ("real-data", real_data::targets),
+    ] {
+        let key = match name {
+            "varied" => "effects_varied_sites",
+            "real-data" => "real_data",
+            other => other,
+        };
+        // The MCU figures sit at the top level of the results.
+        let v = if name == "mcu" { &results } else { &results[key] };
+        if want(name) {
+            all.extend(targets(v));
+        }
+    }
+    report(&all, "the full bench")
+}
+
+/// Prints one line per target and the count (libtest's words, so that
+/// `cargo xtask test` counts them); fails naming every miss.
+fn report(all: &[targets::Target], sizes: &str) -> Result<()> {
+    let (lines, misses) = targets::check(all);
+    for l in &lines {
+        println!("{l}");
+    }
+    let verdict = if misses.is_empty() { "ok" } else { "FAILED" };
+    println!("test result: {verdict}. {} passed; {} failed; 0 ignored; 0 measured; 0 filtered out (bench targets, {sizes})", all.len() - misses.len(), misses.len());
+    if !misses.is_empty() {
+        let list: Vec<String> = misses.iter().map(ToString::to_string).collect();
+        bail!("{} bench target(s) missed:\n  {}", misses.len(), list.join("\n  "));
+    }
+    Ok(())
+}
+
+/// `cargo xtask bench --ci`: the sections that state targets (MCU,
+/// effects, varied sites, integrity, real data) at [`targets::Sizes::CI`],
+/// their targets checked; nothing written. The MCU section needs the
+/// board's release build of `mcu-bench` (it builds it) and QEMU.
+pub fn run_ci(root: &Path) -> Result<()> {
+    let sizes = targets::Sizes::CI;
+    let described = format!(
+        "CI sizes: effects seeds {:?}, the chain with every model only (the full bench: also each model off, the paper's method, each effect alone); varied sites seeds {:?}, the chain with the gradient only (the full bench: also the chain without it and the leave-one-site-out prior); integrity the shipped tuning only (the full bench: the 1 620-point leave-one-out grid and the gate curve); real data fit without --model and the wrong calibrations (the full bench: every model and the attitude fit's leave-one-out defaults)",
+        sizes.effects_seeds, sizes.varied_seeds
+    );
+    println!("bench targets at {described}");
+    let section = |name: &str, f: &mut dyn FnMut() -> Vec<targets::Target>| {
+        let started = std::time::Instant::now();
+        let t = f();
+        println!("{name}: {:.1} s", started.elapsed().as_secs_f64());
+        t
+    };
+    let mcu_targets = section("mcu", &mut || {
+        let mut m = mcu_costs(root).unwrap_or_else(|e| json!({"error": format!("{e:#}")}));
+        if let Ok(u) = crate::size::measure(&root.join("target/thumbv7em-none-eabihf/release/firmware")) {
+            m["flash_bytes"] = json!(u.flash_bytes);
+        }
+        let budget = cpu_budget(&m);
+        if let (Some(obj), Some(b)) = (m.as_object_mut(), budget.as_object()) {
+            for (k, v) in b {
+                obj.insert(k.clone(), v.clone());
+            }
+        }
+        mcu::targets(&m)
+    });
+    let effects_targets = section("effects", &mut || effects::targets(&effects::effects_with(sizes.effects_seeds, sizes.effects_other_chains).0));
+    let varied_targets = section("varied", &mut || varied::targets(&varied::varied_sites_with(sizes.varied_seeds, sizes.varied_choice).0));
+    let integrity_targets = section("integrity", &mut || integrity::targets(&integrity::shipped_only(root)));
+    let real_targets = section("real data", &mut || real_data::targets(&real_data::real_data_with(root, false).0));
+    report(&[mcu_targets, effects_targets, varied_targets, integrity_targets, real_targets].concat(), "CI sizes")
 }
 
 #[cfg(test)]
@@ -245,6 +322,15 @@ mod tests {
         let budget = super::cpu_budget(&mcu);
         eprintln!("{}\n{}", serde_json::to_string_pretty(&mcu).unwrap_or_default(), serde_json::to_string_pretty(&budget).unwrap_or_default());
         assert!(budget["cpu_busy_pct_at_pair_rate"].as_f64().is_some_and(|p| p > 0.0 && p < 100.0), "{budget}");
+        let mut all = mcu.clone();
+        if let (Some(obj), Some(b)) = (all.as_object_mut(), budget.as_object()) {
+            obj.extend(b.clone());
+        }
+        if let Ok(u) = crate::size::measure(&root.join("target/thumbv7em-none-eabihf/release/firmware")) {
+            all["flash_bytes"] = serde_json::json!(u.flash_bytes);
+        }
+        let misses = super::targets::check(&super::mcu::targets(&all)).1;
+        assert!(misses.is_empty(), "{misses:?}");
     }
 
     /// Only the varied-sites section:
@@ -258,6 +344,8 @@ mod tests {
         for s in v["summary"].as_array().into_iter().flatten() {
             assert_eq!(s["seeds"].as_u64(), Some(super::varied::VARIED_SEEDS.len() as u64), "{s}");
         }
+        let misses = super::targets::check(&super::varied::targets(&v)).1;
+        assert!(misses.is_empty(), "{misses:?}");
     }
 
     /// Only the import-speed section:
@@ -279,13 +367,40 @@ mod tests {
     }
 
     /// Only the effects section: `cargo test -p xtask bench::tests::effects_section -- --ignored --nocapture`.
-    /// Prints the table; asserts only that every seed of the full chain ran
-    /// (the targets are reported, met or not, in the summary line).
+    /// Prints the table; asserts that every seed of the full chain ran and
+    /// the section's targets ([`super::effects::targets`]).
     #[test]
     #[ignore = "a benchmark: prints its numbers"]
     fn effects_section() {
         let (v, md) = super::effects();
         eprintln!("{md}");
         assert_eq!(v["targets"]["seeds"].as_u64(), Some(super::EFFECTS_SEEDS.len() as u64), "{}", v["targets"]);
+        let misses = super::targets::check(&super::effects::targets(&v)).1;
+        assert!(misses.is_empty(), "{misses:?}");
+    }
+
+    /// The MCU section's targets read the figures `mcu-bench` and the CPU
+    /// budget name: a per-sample path one instruction over 300 and an
+    /// integrity one over +350 fail, naming the section and the number.
+    #[test]
+    fn the_mcu_targets_read_the_bench_s_figures_and_fail_past_them() {
+        let mut mcu = serde_json::json!({
+            "apply_env_heading_instructions": 259, "integrity_ok_turn_instructions": 573, "apply_heading_turn_instructions": 228,
+            "acquisition_cycle_instructions": 5563, "rls_full_update_instructions": 1192, "integrity_cal_invalid_instructions": 1491,
+            "flash_bytes": 72836,
+        });
+        let budget = super::cpu_budget(&mcu);
+        if let (Some(obj), Some(b)) = (mcu.as_object_mut(), budget.as_object()) {
+            obj.extend(b.clone());
+        }
+        let (lines, misses) = super::targets::check(&super::mcu::targets(&mcu));
+        assert!(misses.is_empty(), "{misses:?} {lines:?}");
+        mcu["apply_env_heading_instructions"] = serde_json::json!(301);
+        mcu["integrity_ok_turn_instructions"] = serde_json::json!(228 + 351);
+        let misses = super::targets::check(&super::mcu::targets(&mcu)).1;
+        let text: Vec<String> = misses.iter().map(ToString::to_string).collect();
+        assert_eq!(text.len(), 2, "{text:?}");
+        assert!(text[0].starts_with("mcu: ") && text[0].contains("is 301, target ≤ 300"), "{text:?}");
+        assert!(text[1].contains("is 351, target ≤ 350"), "{text:?}");
     }
 }

@@ -42,6 +42,7 @@ fn main() -> ExitCode {
         Some("test") => test::cmd_test(),
         Some("demo") => cmd_demo(),
         Some("size") => cmd_size().map(|_| ()),
+        Some("bench") if args.get(1).is_some_and(|a| a == "--ci") => bench::run_ci(&root()),
         Some("bench") => bench_sections(&args[1..]).and_then(|only| bench::run(&root().join("target").join("bench"), &only)),
         Some("results") => results_doc::cmd_results(&root(), args.get(1).map(String::as_str) == Some("--check")),
         Some("check-report") => cmd_check_report(args.get(1).map(PathBuf::from)),
@@ -51,7 +52,8 @@ fn main() -> ExitCode {
             eprintln!("  test   run every suite (host, on-target in QEMU, end-to-end)");
             eprintln!("  demo   boot the firmware in QEMU and run a session against it");
             eprintln!("  size   flash/RAM of the board release build");
-            eprintln!("  bench [--section NAME]...  accuracy benchmarks (target/bench/results.{{json,md}}, docs/results.json, docs/RESULTS.md)");
+            eprintln!("  bench [--section NAME]...  accuracy benchmarks (target/bench/results.{{json,md}}, docs/results.json, docs/RESULTS.md), their targets checked");
+            eprintln!("  bench --ci  the sections that state targets, at CI sizes: the targets checked, nothing written");
             eprintln!("  results [--check]  render docs/RESULTS.md from docs/results.json (or check that it is)");
             eprintln!("  check-report [PAGE]  render a report in headless Chromium and check it (default: target/demo/session/report/index.html)");
             return ExitCode::from(2);
@@ -187,6 +189,24 @@ fn use_log_decoder(built: bool) {
         // Called while xtask is single-threaded, before the suites start.
         std::env::set_var("PATH", p);
     }
+}
+
+/// Puts the folder [`build_log_decoder`] builds into first on the PATH,
+/// before the decoder is built (`cargo xtask test` builds it beside the
+/// other builds); [`forget_log_decoder`] when the build fails. Call it while
+/// xtask is single-threaded.
+fn log_decoder_on_path() {
+    let dir = root().join("target").join("tools").join("debug");
+    let path = std::env::var_os("PATH").unwrap_or_default();
+    if let Ok(p) = std::env::join_paths(std::iter::once(dir).chain(std::env::split_paths(&path))) {
+        std::env::set_var("PATH", p);
+    }
+}
+
+/// Removes a decoder left by an earlier build when this one failed, so
+/// that the QEMU board does not use it (it then writes its log raw).
+fn forget_log_decoder() {
+    let _ = std::fs::remove_file(root().join("target").join("tools").join("debug").join("defmt-print"));
 }
 
 fn firmware_elf() -> PathBuf {

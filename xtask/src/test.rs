@@ -4,21 +4,24 @@
 //!    Chromium through apt). Nothing is `cargo install`ed: the on-target
 //!    runner is `cargo xtask qemu-test` and the fuzz targets are a plain
 //!    cargo build ([`crate::fuzz`]).
-//! 2. **build**, three cargo builds side by side (they lock different build
+//! 2. **build**, four cargo builds side by side (they lock different build
 //!    directories): the host (every host test binary, the `magcal` binary
 //!    the end-to-end suite and the demo run, and clippy); the thumb target
 //!    (the board release build, the on-target tests in the same release
-//!    profile, clippy); the fuzz
-//!    targets; and the firmware log decoder (`xtask/defmt-print`, a
-//!    workspace of its own). Each host crate is compiled once: the host tests are built in
-//!    one `cargo test --no-run` over the workspace and their binaries are
-//!    run directly, so no later cargo command resolves other features and
-//!    rebuilds them.
-//! 3. **run**, three lanes side by side: the QEMU lane (on-target,
-//!    end-to-end, demo session, report in the browser: one QEMU at a time),
-//!    the CPU lane (host unit tests and doctests) and the fuzz lane (each
-//!    target for a fixed wall time at the lowest CPU priority, so it takes
-//!    the cores the other two leave idle and slows neither).
+//!    profile, clippy); the fuzz targets; and the firmware log decoder
+//!    (`xtask/defmt-print`, a workspace of its own). Each host crate is
+//!    compiled once: the host tests are built in one `cargo test --no-run`
+//!    over the workspace and their binaries are run directly, so no later
+//!    cargo command resolves other features and rebuilds them.
+//! 3. **run**, three lanes, each started as soon as its own builds are
+//!    done (no lane waits for a build it does not use): the CPU lane (host
+//!    unit tests and doctests) after the host build; the QEMU lane
+//!    (on-target, end-to-end, demo session, report in the browser: one
+//!    QEMU at a time; then the bench's targets, `cargo xtask bench --ci`)
+//!    after the host and thumb builds and the log decoder; the fuzz lane
+//!    (each target for a fixed wall time at the lowest CPU priority, so it
+//!    takes the cores the other two leave idle and slows neither) after the
+//!    fuzz build.
 //!
 //! The summary gives each suite's counts and the time each phase took, and
 //! the last line is `N passed, N failed`.
@@ -43,18 +46,21 @@ struct TestBinary {
     dir: PathBuf,
 }
 
-/// What the build phase produced.
-struct Built {
+/// What the host build produced.
+struct HostBuilt {
     /// The host build failed: its output's verdict.
-    host_failed: Option<Suite>,
+    failed: Option<Suite>,
     tests: Vec<TestBinary>,
     magcal: Option<PathBuf>,
-    lints: Suite,
+    /// clippy on calib-core and protocol passed.
+    lint: bool,
+}
+
+/// What the thumb build produced.
+struct ThumbBuilt {
     size: Suite,
     on_target_built: bool,
-    fuzz: Option<String>,
-    /// The firmware log decoder (`defmt-print`) was built.
-    log_decoder: bool,
+    lint: bool,
 }
 
 /// Runs every suite and prints the summary.
@@ -62,18 +68,39 @@ pub fn cmd_test() -> Result<()> {
     let started = Instant::now();
     let phases = Phases::default();
     phases.time("tools (rustup target, clippy, apt: QEMU, Chromium)", crate::ensure_tools)?;
-    let built = phases.time("build (side by side): host, thumb, fuzz targets, log decoder", build_all);
-    // Before the lanes start (no other thread reads the environment yet).
-    crate::use_log_decoder(built.log_decoder);
-    let (qemu, host, fuzz) = std::thread::scope(|s| {
-        let qemu = s.spawn(|| qemu_lane(&phases, &built));
-        let fuzz = s.spawn(|| phases.time("fuzz lane: 10 s a target, at the lowest CPU priority", || fuzz_suite(&built)));
-        let host = phases.time("CPU lane: host unit tests and doctests", || host_suite(&built));
-        (qemu.join(), host, fuzz.join())
+    // Before any thread starts (none reads the environment yet): the folder
+    // the log decoder is built into goes first on the PATH.
+    crate::log_decoder_on_path();
+    let host_triple = fuzz::host_triple();
+    // Each lane starts when its own build is done: the fuzz lane after the
+    // fuzz build, the CPU lane after the host build, the QEMU lane after
+    // the host build, the thumb build and the log decoder.
+    let (host, qemu, fuzz, host_lint) = std::thread::scope(|s| {
+        let phases = &phases;
+        let thumb = s.spawn(|| phases.time("thumb: board release build, on-target test binaries, clippy", build_thumb));
+        let decoder = s.spawn(|| phases.time("log decoder build (defmt-print)", crate::build_log_decoder));
+        let fuzz = s.spawn(|| {
+            let built = phases.time("fuzz lane: build (cargo build with cargo-fuzz's flags)", || build_fuzz(&host_triple));
+            phases.time("fuzz lane: 10 s a target, at the lowest CPU priority", || fuzz_suite(built.as_deref()))
+        });
+        let host = phases.time("CPU lane: host build (test binaries, magcal, clippy)", build_host);
+        let e2e_tests: Vec<TestBinary> = host.tests.iter().filter(|t| t.package == "e2e-tests").cloned().collect();
+        let magcal = host.magcal.clone();
+        let qemu = s.spawn(move || {
+            let thumb = thumb.join().unwrap_or_else(|_| ThumbBuilt { size: Suite::gate(SIZE, false), on_target_built: false, lint: false });
+            if !decoder.join().unwrap_or(false) {
+                crate::forget_log_decoder();
+            }
+            let suites = qemu_lane(phases, thumb.on_target_built, &e2e_tests, magcal.as_deref());
+            (thumb.size, thumb.lint, suites)
+        });
+        let host_suite = phases.time("CPU lane: host unit tests and doctests", || host_suite(&host));
+        (host_suite, qemu.join(), fuzz.join(), host.lint)
     });
-    let (Ok(qemu), Ok(fuzz)) = (qemu, fuzz) else { bail!("a lane panicked") };
-    let [on_target, e2e, demo, report] = qemu;
-    let suites = vec![host, on_target, built.lints, built.size, e2e, fuzz, demo, report];
+    let (Ok((size, thumb_lint, qemu)), Ok(fuzz)) = (qemu, fuzz) else { bail!("a lane panicked") };
+    let [on_target, e2e, demo, report, bench] = qemu;
+    let lints = Suite::gate("no-panic lints (firmware, calib-core, protocol)", host_lint && thumb_lint);
+    let suites = vec![host, on_target, lints, size, e2e, fuzz, demo, report, bench];
     let (passed, failed, all_ok) = summary(&suites);
     eprintln!("{}", phases.table(started.elapsed()));
     println!("{passed} passed, {failed} failed");
@@ -83,33 +110,15 @@ pub fn cmd_test() -> Result<()> {
     Ok(())
 }
 
-/// The three builds, side by side.
-fn build_all() -> Built {
-    let host_triple = fuzz::host_triple();
-    std::thread::scope(|s| {
-        let thumb = s.spawn(build_thumb);
-        let fuzz = s.spawn(|| match &host_triple {
-            Ok(h) => capture("build: fuzz targets (cargo build with cargo-fuzz's flags)", &mut fuzz::build_command(h)).ok().filter(|o| o.success).map(|_| h.clone()),
-            Err(e) => {
-                note(&format!("no fuzz build: {e:#}"));
-                None
-            }
-        });
-        let log_decoder = s.spawn(crate::build_log_decoder);
-        let (host_failed, tests, magcal, host_lint) = build_host();
-        let (size, on_target_built, thumb_lint) = thumb.join().unwrap_or_else(|_| (Suite::gate(SIZE, false), false, false));
-        let lint_ok = host_lint && thumb_lint;
-        Built {
-            host_failed,
-            tests,
-            magcal,
-            lints: Suite::gate("no-panic lints (firmware, calib-core, protocol)", lint_ok),
-            size,
-            on_target_built,
-            fuzz: fuzz.join().ok().flatten(),
-            log_decoder: log_decoder.join().unwrap_or(false),
+/// The fuzz targets' build; the host triple when it succeeded.
+fn build_fuzz(host_triple: &Result<String>) -> Option<String> {
+    match host_triple {
+        Ok(h) => capture("build: fuzz targets (cargo build with cargo-fuzz's flags)", &mut fuzz::build_command(h)).ok().filter(|o| o.success).map(|_| h.clone()),
+        Err(e) => {
+            note(&format!("no fuzz build: {e:#}"));
+            None
         }
-    })
+    }
 }
 
 const SIZE: &str = "board build within flash/RAM budget";
@@ -117,7 +126,7 @@ const SIZE: &str = "board build within flash/RAM budget";
 /// The host build: every test binary of the workspace but the on-target
 /// suite (which is the thumb build's), in one `cargo test --no-run`, then
 /// clippy on the no_std crates.
-fn build_host() -> (Option<Suite>, Vec<TestBinary>, Option<PathBuf>, bool) {
+fn build_host() -> HostBuilt {
     const NAME: &str = "host unit tests (calib-core, protocol, firmware library, host-tools, xtask)";
     let out = capture(
         "build: host test binaries (cargo test --workspace --exclude target-tests --no-run)",
@@ -138,12 +147,12 @@ fn build_host() -> (Option<Suite>, Vec<TestBinary>, Option<PathBuf>, bool) {
     // indexing) on outside data: the crates deny those clippy lints, so a
     // clippy run that completes is the check.
     let lint = capture("lints: clippy on calib-core and protocol (deny unwrap_used, expect_used, panic, indexing_slicing)", cargo().args(["clippy", "-q", "-p", "calib-core", "-p", "magcal-protocol"]));
-    (failed, tests, magcal, lint.is_ok_and(|o| o.success))
+    HostBuilt { failed, tests, magcal, lint: lint.is_ok_and(|o| o.success) }
 }
 
 /// The thumb build: the board release build and its size gate, the
 /// on-target test binaries, clippy on the firmware.
-fn build_thumb() -> (Suite, bool, bool) {
+fn build_thumb() -> ThumbBuilt {
     let firmware = capture(
         "build: the firmware (board release build; the same binary boots on QEMU)",
         cargo().args(["build", "--release", "-p", "firmware", "--target", TARGET]),
@@ -164,7 +173,7 @@ fn build_thumb() -> (Suite, bool, bool) {
     // target folder). Overflow checks are the host tests' job on the same code.
     let on_target = capture("build: on-target test binaries (the board's release profile)", cargo().args(["test", "--release", "--no-run", "-p", "target-tests", "--target", TARGET]));
     let lint = capture("lints: clippy on the firmware for the board", cargo().args(["clippy", "-q", "-p", "firmware", "--target", TARGET, "--lib", "--bins"]));
-    (Suite::gate(SIZE, size_ok), on_target.is_ok_and(|o| o.success), lint.is_ok_and(|o| o.success))
+    ThumbBuilt { size: Suite::gate(SIZE, size_ok), on_target_built: on_target.is_ok_and(|o| o.success), lint: lint.is_ok_and(|o| o.success) }
 }
 
 /// The test binaries and the `magcal` binary among cargo's JSON messages.
@@ -210,9 +219,9 @@ fn test_binary(t: &TestBinary) -> Command {
     c
 }
 
-fn host_suite(built: &Built) -> Suite {
+fn host_suite(built: &HostBuilt) -> Suite {
     const NAME: &str = "host unit tests (calib-core, protocol, firmware library, host-tools, xtask)";
-    if let Some(failed) = &built.host_failed {
+    if let Some(failed) = &built.failed {
         return failed.clone();
     }
     let mut suite = Suite { name: NAME, passed: 0, failed: 0, ok: true, failures: vec![], flaky: vec![] };
@@ -225,10 +234,10 @@ fn host_suite(built: &Built) -> Suite {
     suite
 }
 
-fn fuzz_suite(built: &Built) -> Suite {
+fn fuzz_suite(host_triple: Option<&str>) -> Suite {
     let mut suite = Suite { name: "fuzz: frame decoder, coefficient record, CSV reader, calibration JSON, commands, vehicle logs", passed: 0, failed: 0, ok: true, failures: vec![], flaky: vec![] };
     for target in fuzz::TARGETS {
-        let ok = match &built.fuzz {
+        let ok = match host_triple {
             Some(host) => capture(&format!("fuzzing {target} (libFuzzer, {} s)", fuzz::SECONDS_PER_TARGET), &mut fuzz::run_command(host, target)).is_ok_and(|o| o.success),
             None => false,
         };
@@ -237,22 +246,36 @@ fn fuzz_suite(built: &Built) -> Suite {
     suite
 }
 
-/// The QEMU lane: on-target, end-to-end, the demo session and its report.
-fn qemu_lane(phases: &Phases, built: &Built) -> [Suite; 4] {
-    let on_target = phases.time("QEMU lane: on-target tests", || on_target_suite(built));
+/// The QEMU lane: on-target, end-to-end, the demo session and its report,
+/// then the bench's targets (the MCU section boots `mcu-bench` in QEMU).
+fn qemu_lane(phases: &Phases, on_target_built: bool, e2e_tests: &[TestBinary], magcal: Option<&Path>) -> [Suite; 5] {
+    let on_target = phases.time("QEMU lane: on-target tests", || on_target_suite(on_target_built));
     let elf = firmware_elf();
-    let e2e = phases.time("QEMU lane: end-to-end", || e2e_suite(built, &elf));
-    let (demo, summary) = phases.time("QEMU lane: demo session", || match &built.magcal {
+    let e2e = phases.time("QEMU lane: end-to-end", || e2e_suite(e2e_tests, magcal, &elf));
+    let (demo, summary) = phases.time("QEMU lane: demo session", || match magcal {
         Some(m) => demo::session_gate(&elf, m),
         None => (Suite::gate("demo session: heading ≤ 0.35° and field ≤ 30 nT after, verified upload", false), None),
     });
     let report = phases.time("QEMU lane: report in headless Chromium", || demo::report_gate(summary.as_ref()));
-    [on_target, e2e, demo, report]
+    let bench = phases.time("QEMU lane: bench targets (cargo xtask bench --ci)", bench_targets_suite);
+    [on_target, e2e, demo, report, bench]
 }
 
-fn on_target_suite(built: &Built) -> Suite {
+/// The bench's targets (`cargo xtask bench --ci`: MCU instructions, the
+/// effects, varied sites, integrity and real-data tables at CI sizes), run
+/// by this very xtask binary (the workspace's dev profile, opt-level 1:
+/// no build of its own); one count per target.
+fn bench_targets_suite() -> Suite {
+    const NAME: &str = "bench targets: MCU, effects, varied sites, integrity, real data";
+    let Ok(me) = std::env::current_exe() else { return Suite::gate(NAME, false) };
+    let mut c = Command::new(me);
+    c.current_dir(root()).args(["bench", "--ci"]);
+    run_suite(NAME, "bench targets (cargo xtask bench --ci)", &mut c).unwrap_or_else(|_| Suite::gate(NAME, false))
+}
+
+fn on_target_suite(built: bool) -> Suite {
     const NAME: &str = "on-target tests on the Cortex-M4F under QEMU";
-    if !built.on_target_built {
+    if !built {
         return Suite::gate(NAME, false);
     }
     // tests/thumb-runner hands each test binary to this very xtask
@@ -266,11 +289,11 @@ fn on_target_suite(built: &Built) -> Suite {
 }
 
 /// The end-to-end binaries, each test that fails run once more on its own.
-fn e2e_suite(built: &Built, elf: &Path) -> Suite {
+fn e2e_suite(tests: &[TestBinary], magcal: Option<&Path>, elf: &Path) -> Suite {
     const NAME: &str = "end-to-end: firmware in QEMU, magcal over a pty";
-    let Some(magcal) = &built.magcal else { return Suite::gate(NAME, false) };
+    let Some(magcal) = magcal else { return Suite::gate(NAME, false) };
     let mut suite = Suite { name: NAME, passed: 0, failed: 0, ok: true, failures: vec![], flaky: vec![] };
-    for t in built.tests.iter().filter(|t| t.package == "e2e-tests") {
+    for t in tests {
         let run = |filter: Option<&str>| {
             let mut c = test_binary(t);
             c.env("MAGCAL_FIRMWARE_ELF", elf).env("MAGCAL_BIN", magcal);

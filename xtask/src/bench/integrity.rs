@@ -617,6 +617,68 @@ fn best(
         .map(|(g, _)| g)
 }
 
+/// The shipped tuning's rows only (what the targets are about; no
+/// leave-one-out grid, no curve): `{"trials": {name: {"shipped": row}}}`,
+/// the shape of [`section`]'s.
+pub fn shipped_only(root: &Path) -> serde_json::Value {
+    let trials = load_all(&root.join("tests/data"));
+    let mut out = serde_json::Map::new();
+    for (name, kind, tr) in &trials {
+        let entry = match tr.as_ref().and_then(|tr| run(tr, Knobs::shipped().tuning())) {
+            Some(s) => {
+                print_row(name, *kind, "shipped", &s);
+                json!({"shipped": row(&s, *kind)})
+            }
+            None => json!({"error": "the trial does not load"}),
+        };
+        out.insert(name.to_string(), entry);
+    }
+    json!({ "trials": out })
+}
+
+/// The section's targets, on the shipped tuning, per trial by its kind: a
+/// stationary magnet ≥ 60 % of the bad rows flagged with ≥ 85 % of the good
+/// rows `ok`; an attached one ≥ 95 % flagged; no magnet ≥ 95 % of the rows
+/// `ok`; on every trial with `ok` rows their heading RMS ≤ 3°. A missed one
+/// is held at what was measured ([`HELD`]). `v` is [`section`]'s or
+/// [`shipped_only`]'s JSON.
+pub fn targets(v: &serde_json::Value) -> Vec<super::targets::Target> {
+    use super::targets::{Bound, Target};
+    let mut out = Vec::new();
+    for (name, _, _, kind) in TRIALS {
+        let row = &v["trials"][name]["shipped"];
+        let mut add = |key: &'static str, what: &str, bound: Bound| {
+            let t = Target::new("integrity", format!("{name} ({}): {what}", kind.name()), row[key].as_f64(), bound);
+            out.push(match HELD.iter().find(|h| h.0 == name && h.1 == key) {
+                Some(&(_, _, held, why)) => t.held(held, why),
+                None => t,
+            });
+        };
+        match kind {
+            Kind::Stationary => {
+                add("bad_not_ok_pct", "bad rows flagged, %", Bound::AtLeast(60.0));
+                add("good_ok_pct", "good rows ok, %", Bound::AtLeast(85.0));
+            }
+            Kind::Attached => add("bad_not_ok_pct", "bad rows flagged, %", Bound::AtLeast(95.0)),
+            Kind::NoMagnet => add("ok_pct", "rows ok, %", Bound::AtLeast(95.0)),
+        }
+        if row["ok_pct"].as_f64().is_none_or(|p| p > 0.0) {
+            add("ok_rms_deg", "heading RMS on the ok rows, °", Bound::AtMost(OK_RMS_MAX_DEG));
+        }
+    }
+    out
+}
+
+/// The missed targets, held at what the shipped tuning measured (trial,
+/// figure, bound, why): broad-30 48.1 % flagged, broad-28 78.7 % of good
+/// rows `ok`, broad-06 81.25 % of rows `ok` (`cargo xtask bench --ci`,
+/// 2026-11-27).
+const HELD: [(&str, &str, super::targets::Bound, &str); 3] = [
+    ("broad-30", "bad_not_ok_pct", super::targets::Bound::AtLeast(48.0), "rows 5–8° off whose field fits pass: the stored calibration's own error tail"),
+    ("broad-28", "good_ok_pct", super::targets::Bound::AtLeast(78.5), "the magnet's first pass leaves the calibration invalid for 6 s more"),
+    ("broad-06", "ok_pct", super::targets::Bound::AtLeast(81.0), "its field is 5–6 % off the calibration's for 4 s: a local anomaly the monitor flags"),
+];
+
 #[cfg(test)]
 mod tests {
     /// Only this section: `cargo test -p xtask bench::integrity::tests::integrity_section -- --ignored --nocapture`.
@@ -631,5 +693,8 @@ mod tests {
             Some(super::TRIALS.len()),
             "{v}"
         );
+        let misses = crate::bench::targets::check(&super::targets(&v)).1;
+        assert!(misses.is_empty(), "{misses:?}");
     }
 }
+

@@ -105,3 +105,21 @@ pub fn cpu_budget(mcu: &serde_json::Value) -> serde_json::Value {
 pub fn markdown(mcu: &serde_json::Value) -> Result<String> {
     Ok(format!("## MCU cost (Cortex-M4F instructions, QEMU -icount; load at 168 MHz assuming 1 instruction per cycle)\n\n```\n{}\n```\n\n", serde_json::to_string_pretty(mcu)?))
 }
+
+/// The section's targets: the per-sample path ≤ 300 instructions, the
+/// integrity ≤ +350 on a usual sample, the CPU ≤ 10 % busy at the pair rate,
+/// the watchdog ≥ 2× the worst flash stall, the image within its flash
+/// budget. `mcu` is [`mcu_costs`] with [`cpu_budget`] and the size merged in.
+pub fn targets(mcu: &serde_json::Value) -> Vec<super::targets::Target> {
+    use super::targets::{Bound, Target};
+    let get = |k: &str| mcu.get(k).and_then(serde_json::Value::as_f64);
+    let integrity = get("integrity_ok_turn_instructions").zip(get("apply_heading_turn_instructions")).map(|(i, a)| i - a);
+    let watchdog = get("watchdog_timeout_ms").zip(get("worst_store_stall_ms")).map(|(w, s)| w / s);
+    vec![
+        Target::new("mcu", "instructions per output sample: apply with the current and temperature terms + heading", get("apply_env_heading_instructions"), Bound::AtMost(300.0)),
+        Target::new("mcu", "instructions the integrity adds to a usual output sample", integrity, Bound::AtMost(350.0)),
+        Target::new("mcu", "CPU busy at the pair rate, %", get("cpu_busy_pct_at_pair_rate"), Bound::AtMost(10.0)),
+        Target::new("mcu", "watchdog timeout over the worst flash stall", watchdog, Bound::AtLeast(2.0)),
+        Target::new("mcu", "board image flash, bytes", get("flash_bytes"), Bound::AtMost(crate::size::FLASH_BUDGET_BYTES as f64)),
+    ]
+}

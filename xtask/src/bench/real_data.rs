@@ -234,10 +234,17 @@ fn wrong_calibrations(root: &Path, md: &mut String) -> serde_json::Value {
 
 /// The table and the leave-one-out choice, as JSON and markdown.
 pub fn real_data(root: &Path) -> (serde_json::Value, String) {
+    real_data_with(root, true)
+}
+
+/// [`real_data`]; with `every_model` false only `fit` without `--model`
+/// and the wrong calibrations (what the targets are about): no table of
+/// every model, no leave-one-out choice of the attitude fit's defaults.
+pub fn real_data_with(root: &Path, every_model: bool) -> (serde_json::Value, String) {
     let sets = datasets(root);
     let mut md = String::from("\nReal recordings, every model: calibration part in, validation part out (BROAD: heading RMS against the optical reference after one constant offset; the glider: 1σ scatter of the dip and of |F| on dives 4–5 below 3 m). The floor: the true calibration (BROAD), the glider's own (Seaglider MAGCAL).\n\n| dataset | model | verdict | result | floor | predicted heading 1σ / expected with the noise |\n|---|---|---|---|---|---|\n");
     let mut rows = Vec::new();
-    for d in &sets {
+    for d in sets.iter().filter(|_| every_model) {
         let (_, floor) = (d.judge)(&d.floor);
         // Where the site is known, the attitude-aided fit without it too:
         // what the world model's dip prior changes.
@@ -260,15 +267,20 @@ pub fn real_data(root: &Path) -> (serde_json::Value, String) {
     let _ = writeln!(md, "\n`fit` without `--model` (auto: every allowed model, the attitude fit also with the dip held at IGRF's where the site is known, judged on {} held-out time blocks of the calibration part, the least held-out error kept; expected: the larger of the held-out error and the covariance's prediction ⊕ the heading's white noise; the gliders' floor column adds the dip-held scipy fit, `xtask/python/glider_dip_held.py`; the BROAD trials also with the lab's site, whose dip is 1.6° off IGRF-14):\n\n| dataset | kept | result on the validation part | floor | expected | held-out table | the constraint that shaped the dip |\n|---|---|---|---|---|---|---|", host_tools::compute::auto::FOLDS);
     let auto_runs = sets.iter().flat_map(|d| std::iter::once((d, d.reference.clone(), "")).chain(d.site_only_for_auto.clone().map(|r| (d, Some(r), " (lab's site)"))));
     for (d, reference, label) in auto_runs {
-        let (_, own) = (d.judge)(&d.floor);
+        let (floor_score, own) = (d.judge)(&d.floor);
         let floor = d.numpy_dip_held.as_ref().map_or(own.clone(), |n| format!("own: {own}; scipy dip-held: {n}"));
         // With a site the intensity is the world model's (as `fit --lat --lon --date`).
         let field_nt = reference.as_ref().filter(|_| !label.is_empty()).map_or(d.field_nt, |r| r.field_nt);
         let opts = FitOptions { model: ModelKind::Attitude, field_nt, saturation: None, allow_weak: false, gyro_lag: host_tools::compute::GyroLag::Given(0.0), reference };
+        let mut score = f64::NAN;
         let (kept, result, predicted, table, constraint) = match host_tools::compute::auto::fit_auto(&d.calib, &opts) {
             Ok((doc, choice)) => (
                 choice.chosen.clone(),
-                (d.judge)(&doc.field_cal()).1,
+                {
+                    let (value, text) = (d.judge)(&doc.field_cal());
+                    score = value;
+                    text
+                },
                 doc.quality.expected_heading_rms_deg.map_or("—".into(), |p| format!("{p:.2}°")),
                 host_tools::compute::auto::table_text(&choice.candidates.iter().filter(|c| c.held_out_deg.is_some()).cloned().collect::<Vec<_>>()),
                 doc.reference.as_ref().and_then(|r| r.constraint.as_ref()).map_or("—".into(), |c| c.text.clone()),
@@ -276,9 +288,12 @@ pub fn real_data(root: &Path) -> (serde_json::Value, String) {
             Err(e) => ("refused".into(), e.to_string(), "—".into(), String::new(), "—".into()),
         };
         let _ = writeln!(md, "| {}{label} | {kept} | {result} | {floor} | {predicted} | {table} | {constraint} |", d.name);
-        rows.push(json!({"dataset": format!("{}{label}", d.name), "model": "auto", "kept": kept, "result": result, "floor": floor, "predicted": predicted, "constraint": constraint}));
+        rows.push(json!({"dataset": format!("{}{label}", d.name), "model": "auto", "kept": kept, "result": result, "floor": floor, "predicted": predicted, "constraint": constraint, "score": score, "floor_score": floor_score}));
     }
     let wrong = wrong_calibrations(root, &mut md);
+    if !every_model {
+        return (json!({"table": rows, "wrong_calibrations": wrong}), md);
+    }
     let loo = attitude_leave_one_out(&sets, &mut md);
     let dip_loo = dip_weighting_leave_one_out(&sets, &mut md);
     (json!({"table": rows, "wrong_calibrations": wrong, "attitude_leave_one_out": loo, "dip_weighting_leave_one_out": dip_loo}), md)
@@ -320,6 +335,39 @@ fn dip_weighting_leave_one_out(sets: &[Dataset], md: &mut String) -> serde_json:
     json!(rows)
 }
 
+/// How far above its floor `fit` without `--model` may land on a BROAD
+/// trial's validation part, ° of heading RMS.
+const BROAD_OVER_FLOOR_MAX_DEG: f64 = 0.5;
+
+/// The section's targets: `fit` without `--model` within 0.5° of the
+/// floor on every BROAD trial, a glider's dip scatter below its own
+/// calibration's; the wrong calibrations (bias zeroed, an identity on raw
+/// counts, the matrix ×10) 100 % not `ok` after the first 10 s on every
+/// BROAD trial. `v` is [`real_data`]'s JSON.
+pub fn targets(v: &serde_json::Value) -> Vec<super::targets::Target> {
+    use super::targets::{Bound, Target};
+    let mut out = Vec::new();
+    let datasets = ["seaglider-sg236", "seaglider-sg180", "broad-02-limited", "broad-03", "broad-05", "broad-06", "broad-09"];
+    for name in datasets {
+        let row = v["table"].as_array().into_iter().flatten().find(|r| r["dataset"] == name && r["model"] == "auto");
+        let score = row.and_then(|r| r["score"].as_f64());
+        let floor = row.and_then(|r| r["floor_score"].as_f64());
+        out.push(if name.starts_with("seaglider") {
+            Target::new("real-data", format!("{name}: fit without --model, dip 1σ over the glider's own calibration's"), score.zip(floor).map(|(s, f)| s / f), Bound::AtMost(1.0))
+        } else {
+            Target::new("real-data", format!("{name}: fit without --model, heading RMS above the true calibration's, °"), score.zip(floor).map(|(s, f)| s - f), Bound::AtMost(BROAD_OVER_FLOOR_MAX_DEG))
+        });
+    }
+    for trial in &datasets[2..] {
+        for cal in ["bias zeroed", "identity", "matrix ×10"] {
+            let row = v["wrong_calibrations"].as_array().into_iter().flatten().find(|r| r["trial"] == *trial && r["calibration"] == cal);
+            let not_ok = row.and_then(|r| r["not_ok_after_10s"].as_f64()).map(|f| 100.0 * f);
+            out.push(Target::new("real-data", format!("{trial}, calibration {cal}: rows not ok after 10 s, %"), not_ok, Bound::AtLeast(100.0)));
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     /// Only this section: `cargo test -p xtask bench::real_data::tests::real_data_section -- --ignored --nocapture`.
@@ -332,5 +380,7 @@ mod tests {
         // 4 gliders and 5 trials: every model, the gliders' attitude fit
         // without the site, auto (the trials also with the lab's site).
         assert_eq!(v["table"].as_array().map(Vec::len), Some(9 * super::MODELS.len() + 4 + 9 + 5), "{v}");
+        let misses = crate::bench::targets::check(&super::targets(&v)).1;
+        assert!(misses.is_empty(), "{misses:?}");
     }
 }

@@ -86,13 +86,20 @@ fn mean_systematic_sq(data: &[&EffectsData], options: &ChainOptions) -> f64 {
 
 /// The section: JSON and Markdown.
 pub fn varied_sites_section() -> (serde_json::Value, String) {
+    varied_sites_with(&VARIED_SEEDS, true)
+}
+
+/// [`varied_sites_section`] over `seeds`; with `choice` false without the
+/// chain before the gradient and the leave-one-site-out choice of its prior
+/// (the targets are about the chain with the gradient).
+pub fn varied_sites_with(seeds: &[u64], choice: bool) -> (serde_json::Value, String) {
     let sites = varied_sites();
     let f = |v: Option<f64>, p: usize| v.map_or("–".to_string(), |x| format!("{x:.p$}"));
     let mut md = String::from(
         "| site | seed | drawn magnitudes | chain | heading RMS (°) | of which white noise (°) | systematic (°) | predicted (°) | observed / predicted | \\|F\\| error vs true field (nT) |\n|---|---|---|---|---|---|---|---|---|---|\n",
     );
     let mut rows = vec![];
-    let data = simulate(&sites, &VARIED_SEEDS);
+    let data = simulate(&sites, seeds);
     // Worst heading RMS, white noise and systematic part per site, new chain and without the gradient.
     let mut worst: Vec<(String, [f64; 3], [f64; 3], f64, f64, usize)> =
         sites.iter().map(|s| (s.name.to_string(), [0.0; 3], [0.0; 3], f64::INFINITY, 0.0, 0)).collect();
@@ -108,9 +115,8 @@ pub fn varied_sites_section() -> (serde_json::Value, String) {
         let w = worst.iter_mut().find(|w| w.0 == site.name);
         let described = describe(d);
         let mut slot = w;
-        for (label, options, k) in
-            [("with the field gradient", Variant::Full.options(), 1usize), ("without it (before)", Variant::NoFieldGradient.options(), 2)]
-        {
+        let chains = [("with the field gradient", Variant::Full.options(), 1usize), ("without it (before)", Variant::NoFieldGradient.options(), 2)];
+        for (label, options, k) in chains.into_iter().filter(|c| choice || c.2 == 1) {
             match run(d, &options) {
                 Ok(o) => {
                     let _ = writeln!(
@@ -149,7 +155,7 @@ pub fn varied_sites_section() -> (serde_json::Value, String) {
     let _ = writeln!(md);
     let mut summary = vec![];
     for (name, new, old, lo, hi, n) in &worst {
-        let met = *n == VARIED_SEEDS.len() && new[0] <= TARGET_HEADING_RMS_DEG;
+        let met = *n == seeds.len() && new[0] <= TARGET_HEADING_RMS_DEG;
         let _ = writeln!(
             md,
             "- **{name}**, worst of {n} seeds: heading RMS {:.3}° with the gradient, {:.3}° without (target ≤ {TARGET_HEADING_RMS_DEG}°: {}); white noise up to {:.3}° (no calibration removes it: the AHRS's 0.15° roll/pitch noise times tan I); systematic part {:.3}° with, {:.3}° without; observed/predicted {lo:.2}…{hi:.2}.",
@@ -161,6 +167,9 @@ pub fn varied_sites_section() -> (serde_json::Value, String) {
             old[2]
         );
         summary.push(json!({"site": name, "seeds": n, "worst_heading_rms_deg": new[0], "worst_heading_rms_without_gradient_deg": old[0], "worst_white_noise_deg": new[1], "worst_systematic_deg": new[2], "worst_systematic_without_gradient_deg": old[2], "observed_over_predicted": [lo, hi], "target_deg": TARGET_HEADING_RMS_DEG, "met": met}));
+    }
+    if !choice {
+        return (json!({"rows": rows, "summary": summary}), md);
     }
     // Leave one site out: the prior that does best (mean systematic²) on
     // the other two sites, reported on the one left out.
@@ -185,3 +194,29 @@ pub fn varied_sites_section() -> (serde_json::Value, String) {
 pub fn markdown(varied_md: &str) -> String {
     format!("\n## The five effects on varied sites\n\nThe five effects at three sites unlike paper 000's — high latitude (Trondheimsfjord, inclination 75°), low latitude (off Goa, 19.5°), southern (off Fiji, −40°, declination 13°) — with every effect's magnitudes drawn by seed from the ranges of `magcal_sim::varied::MagnitudeRanges` (thruster places and moments, thermocline, sensor lag and gains, the crustal bodies' strength, depth and place, magnetised by the site's field, the AHRS misalignment, the current's speed and direction). Our chain with the local field's gradient along the track in the joint back-stepping, and without it (the chain before). `cargo test --release -p xtask bench::tests::varied_sites_section -- --ignored --nocapture`.\n\n{varied_md}\n")
 }
+
+/// The section's targets: per site, the worst validation heading RMS of
+/// the chain with the gradient ≤ 0.25°; high latitude is held at what was
+/// measured (the AHRS's 0.15° roll/pitch noise × tan 75° alone is 0.55°:
+/// no calibration meets it there). `v` is [`varied_sites_section`]'s JSON.
+pub fn targets(v: &serde_json::Value) -> Vec<super::targets::Target> {
+    use super::targets::{Bound, Target};
+    varied_sites()
+        .iter()
+        .map(|site| {
+            let s = v["summary"].as_array().into_iter().flatten().find(|s| s["site"] == site.name);
+            let seeds = s.and_then(|s| s["seeds"].as_u64()).unwrap_or(0);
+            let worst = s.and_then(|s| s["worst_heading_rms_deg"].as_f64()).filter(|_| seeds > 0);
+            let t = Target::new("varied", format!("{}: validation heading RMS with the gradient, worst of {seeds} seeds, °", site.name), worst, Bound::AtMost(TARGET_HEADING_RMS_DEG));
+            if site.name == "high-latitude" {
+                t.held(Bound::AtMost(HELD_HIGH_LATITUDE_DEG), "the AHRS's roll/pitch noise × tan I alone is above it")
+            } else {
+                t
+            }
+        })
+        .collect()
+}
+
+/// The worst high-latitude heading RMS over [`VARIED_SEEDS`], °: measured
+/// 0.643 (`cargo xtask bench --ci`, 2026-11-27), rounded up by about 3 %.
+const HELD_HIGH_LATITUDE_DEG: f64 = 0.66;
