@@ -36,7 +36,10 @@
 //! samples, time constant `Tuning::misfit_tau_s`, above
 //! `Tuning::misfit_enter`) means the stored calibration no longer fits the
 //! vehicle: [`IntegrityState::CalInvalid`], until the fraction falls below
-//! `Tuning::misfit_exit`.
+//! `Tuning::misfit_exit` — also while an on-line hard iron is applied: the
+//! stored field is still checked, and takes over again once its own misfit
+//! fraction is below the exit and its headings have agreed with the gyro
+//! for `Tuning::recover_s` (`crate::online`).
 //!
 //! The heading's 1σ of a sample is `√(σ_cal² + (σ_n / H_h)²)` when ok (the
 //! calibration's own heading error and the field's noise `σ_n` across the
@@ -68,7 +71,7 @@ pub(crate) use monitor::positive_dt;
 pub use monitor::{IntegrityError, Monitor};
 pub use tuning::{
     Reference, Tuning, DEFAULT_FIELD_SIGMA_REL, INCLINATION_ALLOWANCE_DEG, MAX_MISFIT_STEP,
-    REANCHOR_TURN_DEG,
+    REANCHOR_TURN_DEG, RECOVER_S,
 };
 pub(crate) use monitor::Judgement;
 pub use verdict::{decide, Evidence, HardIronEvidence, IntegrityState, Verdict};

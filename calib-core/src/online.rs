@@ -16,11 +16,18 @@
 //! is below [`MAX_OFFSET_REL`] of `F`. Applied, each
 //! sample's σ adds the estimate's, and the corrected field goes through the
 //! same monitor: if it misfits for a sustained time the estimate is
-//! withdrawn and the stored calibration taken back as invalid (it is not
-//! checked while the estimate is applied; it is valid again only after its
-//! own field has fitted for a while). So a heading called `ok` with the
-//! estimate has passed every test a heading with the stored calibration
-//! must pass, with a σ at least as large.
+//! withdrawn and the stored calibration taken back as invalid (it is valid
+//! again only after its own field has fitted for a while). So a heading
+//! called `ok` with the estimate has passed every test a heading with the
+//! stored calibration must pass, with a σ at least as large.
+//!
+//! **The recovery.** While applied, the stored calibration is still
+//! checked (`OnlineIntegrity::stored_agrees`): once its own field's misfit
+//! fraction is below `Tuning::misfit_exit` and its headings have agreed
+//! with the gyro for `Tuning::recover_s`, the estimate is withdrawn and the
+//! stored calibration is valid again — an estimate a transient left behind
+//! (never confirmed by a 90° turn, never refuted by its field) does not
+//! keep the vehicle `cal_invalid` for good.
 //!
 //! While applied, the estimator goes on over the samples judged `ok`, and
 //! the offset in use follows its estimate whenever that passes the guard's
@@ -36,7 +43,7 @@ use crate::hardiron::{HardIron, HardIronEstimator};
 use crate::heading::{Tilt, Vec3};
 use crate::integrity::{
     cos_of_sin, positive_dt, HardIronEvidence, IntegrityError, IntegrityState, Judgement, Monitor,
-    Reference, Tuning, Verdict,
+    Reference, Tuning, Verdict, MAX_MISFIT_STEP,
 };
 use crate::Real;
 
@@ -104,6 +111,16 @@ pub struct OnlineIntegrity<T> {
     alt_dt_s: T,
     /// The gyro's confirmation of the applied estimate.
     confirm: Confirmation<T>,
+    /// While the estimate is applied: the same window over the stored
+    /// calibration's own headings, open while its field fits
+    /// ([`OnlineIntegrity::stored_agrees`]).
+    stored: Confirmation<T>,
+    /// How long the stored calibration has fitted and agreed with the
+    /// gyro while the estimate is applied, s (gaps pause it); its misfit
+    /// fraction meanwhile, and how long that has been tracked, s.
+    stored_agree_s: T,
+    stored_misfit: T,
+    stored_seen_s: T,
     health: Health<T>,
 }
 
@@ -139,6 +156,38 @@ impl<T: Real> Confirmation<T> {
     /// The same, closed: the next sample with a heading and rates opens one.
     fn closed(self) -> Self {
         Self { open: false, ..self }
+    }
+
+    /// Carries the window over one sample: the magnetic heading's change
+    /// since the window opened against the gyro's integrated yaw (`hh`: the
+    /// levelled horizontal intensity). A window not open, after a gap
+    /// longer than `Tuning::max_gap_s`, or older than [`CONFIRM_WINDOW_S`]
+    /// opens here and agrees; one that disagrees closes.
+    #[inline(always)]
+    fn step(&mut self, monitor: &Monitor<T>, heading_rad: T, hh: T, t: &Tilt<T>, w: Vec3<T>, dt: T) -> Check {
+        let tuning = monitor.tuning();
+        if !self.open || dt > tuning.max_gap_s || self.elapsed_s > T::from_f64(CONFIRM_WINDOW_S) {
+            *self = Confirmation::opened_at(heading_rad, self.confirmed);
+            return Check::Agrees;
+        }
+        let yaw_rad = (t.yaw_rate(w) - monitor.gyro_bias_rad_s()) * dt;
+        self.gyro_rad += yaw_rad;
+        self.turned_rad += yaw_rad.abs();
+        self.elapsed_s += dt;
+        let delta = crate::heading::wrap_pi(heading_rad - self.heading0_rad - self.gyro_rad);
+        // Both ends' noise, the gyro's scale error over the turn, its walk
+        // and its bias's 1σ over the window.
+        let bias = tuning.bias_sigma_rad_s * self.elapsed_s;
+        let var = T::from_f64(2.0) * monitor.sample_var(hh)
+            + tuning.scale_var_per_rad * self.turned_rad
+            + tuning.heading_walk_rad2_s * self.elapsed_s
+            + bias * bias;
+        let g = tuning.gyro_gate_sigma;
+        if delta * delta > g * g * var {
+            self.open = false;
+            return Check::Disagrees;
+        }
+        Check::Agrees
     }
 }
 
@@ -194,6 +243,10 @@ impl<T: Real> OnlineIntegrity<T> {
             alt_count: 0,
             alt_dt_s: T::ZERO,
             confirm: Confirmation::opened_at(T::ZERO, false).closed(),
+            stored: Confirmation::opened_at(T::ZERO, false).closed(),
+            stored_agree_s: T::ZERO,
+            stored_misfit: T::ZERO,
+            stored_seen_s: T::ZERO,
             health: Health {
                 samples_per_state: [0; IntegrityState::COUNT],
                 longest_disturbance_s: T::ZERO,
@@ -317,6 +370,9 @@ impl<T: Real> OnlineIntegrity<T> {
             } else {
                 if self.monitor.cal_invalid() {
                     self.withdraw();
+                } else if self.stored_agrees(cal, stored_nt, tilt, rate_rad_s, dt) {
+                    // The evidence against the stored calibration has ended.
+                    self.restore_stored();
                 } else if judgement.evidence.fits() {
                     // Only samples the corrected field passes on teach it: a
                     // structure passed must not pull the offset in use.
@@ -359,39 +415,90 @@ impl<T: Real> OnlineIntegrity<T> {
         rate_rad_s: Option<Vec3<T>>,
         dt: T,
     ) -> Check {
-        let tuning = *self.monitor.tuning();
         let c = &mut self.confirm;
         let (Some(heading), Some(t), Some(w)) = (heading_rad, tilt, rate_rad_s) else {
             c.open = false;
             return Check::Agrees;
         };
-        if !c.open || dt > tuning.max_gap_s || c.elapsed_s > T::from_f64(CONFIRM_WINDOW_S) {
-            *c = Confirmation::opened_at(heading, c.confirmed);
-            return Check::Agrees;
-        }
-        let yaw_rad = (t.yaw_rate(w) - self.monitor.gyro_bias_rad_s()) * dt;
-        c.gyro_rad += yaw_rad;
-        c.turned_rad += yaw_rad.abs();
-        c.elapsed_s += dt;
-        let delta = crate::heading::wrap_pi(heading - c.heading0_rad - c.gyro_rad);
-        // Both ends' noise, the gyro's scale error over the turn, its walk
-        // and its bias's 1σ over the window.
-        let bias = tuning.bias_sigma_rad_s * c.elapsed_s;
-        let var = T::from_f64(2.0) * self.monitor.sample_var(hh)
-            + tuning.scale_var_per_rad * c.turned_rad
-            + tuning.heading_walk_rad2_s * c.elapsed_s
-            + bias * bias;
-        let g = tuning.gyro_gate_sigma;
-        if delta * delta > g * g * var {
-            c.open = false;
+        if c.step(&self.monitor, heading, hh, t, w, dt) == Check::Disagrees {
             c.confirmed = false;
             return Check::Disagrees;
         }
-        if c.turned_rad >= T::from_f64(CONFIRM_TURN_RAD) {
+        if c.open && c.turned_rad >= T::from_f64(CONFIRM_TURN_RAD) {
             c.confirmed = true;
             c.open = false;
         }
         Check::Agrees
+    }
+
+    /// While the estimate is applied: whether the stored calibration fits
+    /// again, by the monitor's own rule for the field it no longer judges —
+    /// the stored field's misfit fraction (the same gates, time constant
+    /// and step cap, tracked over at least three time constants) below
+    /// `Tuning::misfit_exit` — and its headings' change has agreed with
+    /// the gyro's integrated yaw, every sample within the monitor's field
+    /// gates, for longer than `Tuning::recover_s` without a break (a sample
+    /// that opens a window, after a gap, pauses that clock). Without an
+    /// attitude or body rates, never.
+    #[inline(never)]
+    fn stored_agrees(
+        &mut self,
+        cal: &Calibration<T>,
+        stored_nt: Vec3<T>,
+        tilt: Option<&Tilt<T>>,
+        rate_rad_s: Option<Vec3<T>>,
+        dt: T,
+    ) -> bool {
+        let (Some(t), Some(w)) = (tilt, rate_rad_s) else {
+            self.stored.open = false;
+            return false;
+        };
+        let r = *self.monitor.reference();
+        let tuning = *self.monitor.tuning();
+        let l = t.level(stored_nt);
+        let hh = (l[0] * l[0] + l[1] * l[1]).sqrt();
+        let mag = (hh * hh + l[2] * l[2]).sqrt();
+        let g = tuning.field_gate(true);
+        let mut fits = (mag - r.field_nt).abs() < g * r.field_sigma_nt;
+        if let Some(s) = self.monitor.sin_inclination() {
+            let dip_z = (l[2] / mag.max(r.field_sigma_nt) - s) / cos_of_sin(s) * r.field_nt
+                / r.field_sigma_nt;
+            fits &= dip_z.abs() < g;
+        }
+        let a = (dt / tuning.misfit_tau_s).min(T::from_f64(MAX_MISFIT_STEP));
+        self.stored_misfit += a * (if fits { T::ZERO } else { T::ONE } - self.stored_misfit);
+        self.stored_seen_s += dt;
+        if !fits {
+            self.stored.open = false;
+            self.stored_agree_s = T::ZERO;
+            return false;
+        }
+        let heading_rad = cal.true_heading_of_levelled(l, hh);
+        if self.stored.step(&self.monitor, heading_rad, hh, t, w, dt) == Check::Disagrees {
+            self.stored_agree_s = T::ZERO;
+            return false;
+        }
+        // A window opened here has tested nothing yet.
+        if self.stored.elapsed_s > T::ZERO {
+            self.stored_agree_s += dt;
+        }
+        self.stored_agree_s > tuning.recover_s
+            && self.stored_seen_s >= T::from_f64(3.0) * tuning.misfit_tau_s
+            && self.stored_misfit < tuning.misfit_exit
+    }
+
+    /// The stored calibration fits again while the estimate is applied:
+    /// the estimate is withdrawn and the monitor goes on with the stored
+    /// field's misfit fraction (below `Tuning::misfit_exit`: valid); a new
+    /// estimate starts at the next onset.
+    #[inline(never)]
+    fn restore_stored(&mut self) {
+        self.applied = false;
+        self.stored.open = false;
+        self.stored_agree_s = T::ZERO;
+        self.confirm.open = false;
+        self.monitor.switch_field(self.stored_misfit);
+        self.restart_estimate();
     }
 
     /// Forgets the estimate in progress and its shadow check.
@@ -518,6 +625,11 @@ impl<T: Real> OnlineIntegrity<T> {
         self.applied = true;
         self.confirm.open = false;
         self.confirm.confirmed = false;
+        self.stored.open = false;
+        self.stored_agree_s = T::ZERO;
+        // The stored field was judged invalid: its misfit starts whole.
+        self.stored_misfit = T::ONE;
+        self.stored_seen_s = T::ZERO;
         // The monitor goes on with the corrected field's misfit fraction.
         self.monitor.switch_field(self.shadow_misfit);
         self.shadow_seen_s = T::ZERO;
@@ -576,3 +688,6 @@ impl<T: Real> OnlineIntegrity<T> {
         }
     }
 }
+
+#[cfg(test)]
+mod tests;

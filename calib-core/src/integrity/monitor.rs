@@ -113,6 +113,7 @@ impl<T: Real> Monitor<T> {
             t.max_gap_s,
             t.exit_s,
             t.reanchor_s,
+            t.recover_s,
             t.misfit_tau_s,
             t.inclination_memory,
             t.inclination_allowance_rad,
