@@ -17,7 +17,8 @@
 //!   (stream mode and output rate included);
 //! * [`health`](self::health): the one status snapshot.
 //!
-//! This root holds the [`Device`] and routes each request to its room.
+//! This root holds the [`Device`] and routes each request (one arm per
+//! endpoint of the protocol's table) to its room.
 //!
 //! Coefficient safety:
 //! * every set is validated (finite, orientation-preserving, plausible
@@ -52,7 +53,8 @@ mod pipeline;
 mod unlock;
 
 use calib_core::cal::Calibration;
-use magcal_protocol::{Coefficients, DeviceError, RequestBody, ResponseBody, Sample, StreamMode};
+use magcal_protocol::endpoint::{Ack, Pong};
+use magcal_protocol::{Call, Coefficients, DeviceError, Endpoint, RequestBody, ResponseBody, Sample, StreamMode};
 
 use crate::acquisition::RawSample;
 #[cfg(doc)]
@@ -133,6 +135,15 @@ impl Device {
         ResponseBody::Error(e)
     }
 
+    /// A room's answer as the reply, its refusal (if it is one) kept as the
+    /// last error.
+    fn reply(&mut self, body: ResponseBody) -> Handled {
+        if let ResponseBody::Error(e) = body {
+            self.last_error = Some(e);
+        }
+        Handled::Reply(body)
+    }
+
     /// Serves one request. `board` holds the counters the device does not
     /// own (acquisition, link, UART, feed), for a status report.
     pub fn handle(&mut self, req: &RequestBody, now_ms: u32, store: &mut impl CoefficientStore, board: &BoardCounters) -> ResponseBody {
@@ -149,57 +160,48 @@ impl Device {
     /// check comes back as [`Handled::Save`], for the caller to store
     /// outside any lock (an erase stalls the CPU for up to 800 ms) and hand
     /// back to [`Device::finish_commit`].
+    ///
+    /// One arm per endpoint of the protocol's table ([`Call`]; the compiler
+    /// holds the match exhaustive), each answered through its request's
+    /// [`Endpoint::answer`], which takes only that endpoint's response kind;
+    /// each arm hands the room that serves it the room's own payload.
     pub fn handle_request(&mut self, req: &RequestBody, now_ms: u32, board: &BoardCounters) -> Handled {
-        Handled::Reply(match Routed::of(req) {
+        let body = match Call::from(req.clone()) {
             // Answered by the link layer; here for completeness.
-            Routed::Ping { nonce } => ResponseBody::Pong { nonce },
-            Routed::Identify => ResponseBody::Error(DeviceError::Unsupported),
-            Routed::Status => ResponseBody::Status(self.health(now_ms, board)),
-            Routed::Output(r) => match self.pipeline.set_output(r) {
-                Ok(()) => ResponseBody::Ack,
-                Err(e) => self.refuse(e),
-            },
-            Routed::Input(r) => match self.inputs.accept(r, now_ms) {
-                Ok(()) => ResponseBody::Ack,
-                Err(e) => self.refuse(e),
-            },
-            Routed::Fit(r) => self.handle_fit(r, now_ms),
-            Routed::Coefficients(r) => return self.handle_coefficients(r, now_ms),
-            Routed::Mission { enabled } => {
-                self.bank.set_mission(enabled);
-                ResponseBody::Ack
+            Call::Ping(r) => r.answer(Ok(Pong { nonce: r.nonce })),
+            Call::Identify(r) => return Handled::Reply(r.answer(Err(DeviceError::Unsupported))),
+            Call::Status(r) => r.answer(Ok(self.health(now_ms, board))),
+            Call::SetStream(r) => r.answer(self.pipeline.set_output(OutputRequest::Stream(r.0)).map(|()| Ack)),
+            Call::SetOutputRate(r) => r.answer(self.pipeline.set_output(OutputRequest::Rate(r.hz)).map(|()| Ack)),
+            Call::Attitude(r) => {
+                let input = InputRequest::Attitude { roll_rad: r.roll_rad, pitch_rad: r.pitch_rad };
+                r.answer(self.inputs.accept(input, now_ms).map(|()| Ack))
             }
-        })
+            Call::Motion(r) => {
+                let input = InputRequest::Motion { roll_rad: r.roll_rad, pitch_rad: r.pitch_rad, rate_rad_s: r.rate_rad_s };
+                r.answer(self.inputs.accept(input, now_ms).map(|()| Ack))
+            }
+            Call::AttitudeEnv(r) => {
+                let input = InputRequest::AttitudeEnv { roll_rad: r.roll_rad, pitch_rad: r.pitch_rad, motor_current_a: r.motor_current_a };
+                r.answer(self.inputs.accept(input, now_ms).map(|()| Ack))
+            }
+            Call::FitStart(r) => r.answer(self.handle_fit(FitRequest::Start { model: r.model, field_nt: r.field_nt }, now_ms)),
+            Call::FitStop(r) => r.answer(self.handle_fit(FitRequest::Stop, now_ms)),
+            Call::FitQuery(r) => r.answer(self.handle_fit(FitRequest::Query, now_ms)),
+            Call::ReadCoefficients(r) => r.answer(Ok(self.bank.in_use())),
+            Call::Unlock(r) => r.answer(self.bank.unlock(r.key, now_ms).map(|()| Ack)),
+            Call::WriteCoefficients(r) => r.answer(self.bank.stage(r.0, now_ms).map(|()| Ack)),
+            Call::Commit(r) => match self.bank.prepare_commit(r.crc, now_ms) {
+                Ok(pending) => return Handled::Save(pending),
+                Err(e) => r.answer(Err(e)),
+            },
+            Call::SetMissionMode(r) => {
+                self.bank.set_mission(r.enabled);
+                r.answer(Ok(Ack))
+            }
+        };
+        self.reply(body)
     }
-}
-
-/// A request split, once, into the room that handles it with the payload
-/// that room takes: each room matches only its own requests, with no arm
-/// for another room's.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Routed {
-    /// `Ping`.
-    Ping {
-        /// Echoed.
-        nonce: u32,
-    },
-    /// `Identify` (the link layer answers it).
-    Identify,
-    /// `Status`.
-    Status,
-    /// The output pipeline's settings.
-    Output(OutputRequest),
-    /// The vehicle's attitude, rates and current.
-    Input(InputRequest),
-    /// The on-board fit.
-    Fit(FitRequest),
-    /// The coefficient bank.
-    Coefficients(CoefficientRequest),
-    /// Mission mode on or off.
-    Mission {
-        /// On.
-        enabled: bool,
-    },
 }
 
 /// What the output pipeline takes.
@@ -255,49 +257,6 @@ pub enum FitRequest {
     Stop,
     /// Report the fit.
     Query,
-}
-
-/// What the coefficient bank takes.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum CoefficientRequest {
-    /// Read the set in use.
-    Read,
-    /// Unlock writes with the challenge's answer.
-    Unlock {
-        /// The key.
-        key: u32,
-    },
-    /// Stage a set.
-    Write(magcal_protocol::Coefficients),
-    /// Store and use the staged set.
-    Commit {
-        /// The staged set's CRC.
-        crc: u32,
-    },
-}
-
-impl Routed {
-    /// The room and payload of a request (every request has one).
-    pub fn of(req: &RequestBody) -> Self {
-        match *req {
-            RequestBody::Ping { nonce } => Routed::Ping { nonce },
-            RequestBody::Identify => Routed::Identify,
-            RequestBody::Status => Routed::Status,
-            RequestBody::SetStream(mode) => Routed::Output(OutputRequest::Stream(mode)),
-            RequestBody::SetOutputRate { hz } => Routed::Output(OutputRequest::Rate(hz)),
-            RequestBody::Attitude { roll_rad, pitch_rad } => Routed::Input(InputRequest::Attitude { roll_rad, pitch_rad }),
-            RequestBody::Motion { roll_rad, pitch_rad, rate_rad_s } => Routed::Input(InputRequest::Motion { roll_rad, pitch_rad, rate_rad_s }),
-            RequestBody::AttitudeEnv { roll_rad, pitch_rad, motor_current_a } => Routed::Input(InputRequest::AttitudeEnv { roll_rad, pitch_rad, motor_current_a }),
-            RequestBody::FitStart { model, field_nt } => Routed::Fit(FitRequest::Start { model, field_nt }),
-            RequestBody::FitStop => Routed::Fit(FitRequest::Stop),
-            RequestBody::FitQuery => Routed::Fit(FitRequest::Query),
-            RequestBody::ReadCoefficients => Routed::Coefficients(CoefficientRequest::Read),
-            RequestBody::Unlock { key } => Routed::Coefficients(CoefficientRequest::Unlock { key }),
-            RequestBody::WriteCoefficients(c) => Routed::Coefficients(CoefficientRequest::Write(c)),
-            RequestBody::Commit { crc } => Routed::Coefficients(CoefficientRequest::Commit { crc }),
-            RequestBody::SetMissionMode { enabled } => Routed::Mission { enabled },
-        }
-    }
 }
 
 #[cfg(test)]

@@ -4,8 +4,9 @@
 //! them, and encodes one reply frame per request. Damaged frames are answered
 //! with a typed error and counted; nothing here can panic on what arrives.
 
+use magcal_protocol::endpoint::Pong;
 use magcal_protocol::{
-    self as proto, FrameDecoder, Identity, DeviceError, Name, Platform, Request, RequestBody,
+    self as proto, Call, Endpoint, FrameDecoder, Identity, DeviceError, Name, Platform, Request, RequestBody,
     Response, ResponseBody, MAX_FRAME_LEN,
 };
 
@@ -197,15 +198,15 @@ impl SampleBytes {
 
 /// The requests the link layer answers itself; `None` for the device's.
 fn serve(body: &RequestBody, device: &DeviceInfo) -> Option<ResponseBody> {
-    match body {
-        RequestBody::Ping { nonce } => Some(ResponseBody::Pong { nonce: *nonce }),
-        RequestBody::Identify => Some(ResponseBody::Identity(Identity {
+    match Call::from(body.clone()) {
+        Call::Ping(r) => Some(r.answer(Ok(Pong { nonce: r.nonce }))),
+        Call::Identify(r) => Some(r.answer(Ok(Identity {
             name: short_name(crate::FIRMWARE_NAME),
             firmware_version: short_name(crate::FIRMWARE_VERSION),
             protocol_version: proto::PROTOCOL_VERSION,
             platform: device.platform,
             uptime_ms: device.uptime_ms,
-        })),
+        }))),
         _ => None,
     }
 }

@@ -7,113 +7,14 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::DeviceError;
 use crate::crc::CRC32;
+#[cfg(doc)]
+use crate::endpoint::RequestBody;
 
 /// Capacity of the short text fields (names, version strings).
 pub const NAME_LEN: usize = 24;
 
 /// A short, bounded text field.
 pub type Name = heapless::String<NAME_LEN>;
-
-/// A request from the host. `seq` is echoed in the response so the host can
-/// match replies to requests and drop stale ones.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Request {
-    /// Host-chosen sequence number, echoed in the [`Response`].
-    pub seq: u16,
-    /// What is asked.
-    pub body: RequestBody,
-}
-
-/// What the host can ask. Every request gets exactly one [`Response`].
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum RequestBody {
-    /// Liveness check; the board echoes `nonce` in [`ResponseBody::Pong`].
-    Ping {
-        /// Arbitrary value echoed back.
-        nonce: u32,
-    },
-    /// Ask for the firmware's [`Identity`].
-    Identify,
-    /// Ask for [`Health`].
-    Status,
-    /// Choose what is streamed (as unsolicited [`ResponseBody::Sample`] frames).
-    SetStream(StreamMode),
-    /// Output rate, 1–100 Hz.
-    SetOutputRate {
-        /// Samples per second.
-        hz: u8,
-    },
-    /// Attitude from the vehicle's AHRS, for the heading. Stale after
-    /// [`ATTITUDE_TIMEOUT_MS`].
-    Attitude {
-        /// Roll, radians.
-        roll_rad: f32,
-        /// Pitch, radians.
-        pitch_rad: f32,
-    },
-    /// Start the on-board recursive fit (restarts one in progress).
-    FitStart {
-        /// Which model.
-        model: OnboardModel,
-        /// Reference field intensity, nT.
-        field_nt: f32,
-    },
-    /// Stop the on-board fit (its last state stays readable).
-    FitStop,
-    /// Ask for the fit's [`FitReport`].
-    FitQuery,
-    /// Ask for the coefficients in use.
-    ReadCoefficients,
-    /// Unlock coefficient writes: `key` must be the [`Health::unlock_challenge`]
-    /// of this boot XOR [`UNLOCK_XOR`]. Refused in mission mode. Expires after
-    /// [`UNLOCK_TIMEOUT_MS`].
-    Unlock {
-        /// The response to the challenge.
-        key: u32,
-    },
-    /// Stage coefficients (validated, not yet used or stored). Needs unlock.
-    WriteCoefficients(Coefficients),
-    /// Store the staged coefficients in flash and use them. `crc` must be
-    /// [`Coefficients::crc`] of what was staged. Needs unlock.
-    Commit {
-        /// CRC-32 of the staged coefficients.
-        crc: u32,
-    },
-    /// Enter or leave mission mode (locks coefficient writes).
-    SetMissionMode {
-        /// Mission mode on.
-        enabled: bool,
-    },
-    /// Attitude and body rotation rates from the vehicle's AHRS: the
-    /// [`RequestBody::Attitude`] for the heading plus what the on-board
-    /// gyro-aided fit ([`OnboardModel::Gyro`]) needs. Stale after
-    /// [`ATTITUDE_TIMEOUT_MS`]. (Last in the enum: earlier variants keep
-    /// their wire tags.)
-    Motion {
-        /// Roll, radians.
-        roll_rad: f32,
-        /// Pitch, radians.
-        pitch_rad: f32,
-        /// Body rates (x forward, y right, z down), rad/s.
-        rate_rad_s: [f32; 3],
-    },
-    /// [`RequestBody::Attitude`] plus the thrusters' (motor) current, for
-    /// the current term of the [`Coefficients`]. The current is stale after
-    /// [`ATTITUDE_TIMEOUT_MS`], like the attitude; while it is stale and the
-    /// stored current term is non-zero the board withholds the heading
-    /// ([`DeviceCounters::current_stale`] counts those samples). (After
-    /// [`RequestBody::Motion`]: earlier variants keep their wire tags.)
-    AttitudeEnv {
-        /// Roll, radians.
-        roll_rad: f32,
-        /// Pitch, radians.
-        pitch_rad: f32,
-        /// Thruster (motor) current, A (the recording's `motor_current_a`).
-        motor_current_a: f32,
-    },
-}
 
 /// The largest motor current a [`RequestBody::AttitudeEnv`] may carry, A.
 pub const MAX_MOTOR_CURRENT_A: f32 = 1000.0;

@@ -30,7 +30,10 @@
 //! # Layout
 //!
 //! As postcard-rpc keeps its ICD apart from its wire code:
-//! * [`icd`]: the messages both sides compile (requests, responses, samples,
+//! * [`endpoint`]: the requests, each paired with the one kind of answer
+//!   it gets, in one table both sides dispatch through (postcard-rpc's
+//!   `endpoints!` is the model);
+//! * [`icd`]: the messages both sides compile (responses, samples,
 //!   health, coefficients, the sensor feed) — what is said;
 //! * [`frame`]: how it travels — versioned, CRC-checked, COBS-delimited
 //!   frames, encoder and incremental decoder;
@@ -38,16 +41,18 @@
 //!   the ICD carries them);
 //! * [`crc`]: the CRC-32 of the frames and of the coefficient commit.
 //!
-//! Imports go one way: `icd` → `error`, `crc`; `frame` → `error`, `crc`;
+//! Imports go one way: `endpoint` → `icd`, `error`; `icd` → `error`, `crc`; `frame` → `error`, `crc`;
 //! the ICD knows nothing of framing.
 //!
 //! Everything is re-exported here, so `magcal_protocol::Request` etc. work.
 
 pub mod crc;
+pub mod endpoint;
 pub mod error;
 pub mod frame;
 pub mod icd;
 
+pub use endpoint::{Call, Endpoint, EndpointInfo, Reply, Request, RequestBody, ENDPOINTS};
 pub use error::{DeviceError, FrameError};
 pub use frame::{decode, decode_body, encode, FrameDecoder, MAX_DECODED_LEN, MAX_FRAME_LEN, MAX_PAYLOAD_LEN, PROTOCOL_VERSION};
 pub use icd::*;

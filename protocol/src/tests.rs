@@ -376,3 +376,138 @@ fn on_board_models_keep_their_wire_bytes() {
     }
     assert_eq!(OnboardModel::of_kind(ModelKind::Triangular), None);
 }
+
+/// One request of every endpoint (a sample value of each).
+fn one_of_each() -> [RequestBody; 16] {
+    use crate::endpoint as ep;
+    let c = Coefficients {
+        bias: [1.0; 3],
+        matrix: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+        swing: [0.0; 5],
+        declination_rad: 0.0,
+        field_nt: 48_000.0,
+        current_bias_per_a: [0.0; 3],
+        temp_ref_c: 25.0,
+        temp_gain_per_c: [0.0; 3],
+        inclination_rad: Coefficients::NO_INCLINATION,
+    };
+    [
+        ep::Ping { nonce: 9 }.into_body(),
+        ep::Identify.into_body(),
+        ep::Status.into_body(),
+        ep::SetStream(StreamMode::Both).into_body(),
+        ep::SetOutputRate { hz: 10 }.into_body(),
+        ep::Attitude { roll_rad: 0.1, pitch_rad: 0.2 }.into_body(),
+        ep::FitStart { model: OnboardModel::Full, field_nt: 48_000.0 }.into_body(),
+        ep::FitStop.into_body(),
+        ep::FitQuery.into_body(),
+        ep::ReadCoefficients.into_body(),
+        ep::Unlock { key: 3 }.into_body(),
+        ep::WriteCoefficients(c).into_body(),
+        ep::Commit { crc: 5 }.into_body(),
+        ep::SetMissionMode { enabled: true }.into_body(),
+        ep::Motion { roll_rad: 0.1, pitch_rad: 0.2, rate_rad_s: [0.0, 0.0, 0.3] }.into_body(),
+        ep::AttitudeEnv { roll_rad: 0.1, pitch_rad: 0.2, motor_current_a: 4.0 }.into_body(),
+    ]
+}
+
+/// The endpoint table keeps every request's wire tag: the tags are the
+/// variant order of the hand-written request enum it replaced (protocol 6),
+/// and postcard writes each request's code as its first byte.
+#[test]
+fn endpoint_codes_are_the_wire_tags_of_protocol_6() {
+    let before = [
+        "Ping", "Identify", "Status", "SetStream", "SetOutputRate", "Attitude", "FitStart", "FitStop", "FitQuery",
+        "ReadCoefficients", "Unlock", "WriteCoefficients", "Commit", "SetMissionMode", "Motion", "AttitudeEnv",
+    ];
+    assert_eq!(ENDPOINTS.len(), before.len());
+    for (i, (row, name)) in ENDPOINTS.iter().zip(before).enumerate() {
+        assert_eq!((row.name, usize::from(row.code)), (name, i));
+    }
+    let mut seen = [false; 16];
+    for body in one_of_each() {
+        let mut buf = [0u8; MAX_PAYLOAD_LEN];
+        let bytes = postcard::to_slice(&body, &mut buf).unwrap();
+        let call = Call::from(body.clone());
+        assert_eq!(bytes[0], call.code(), "{body:?}");
+        seen[usize::from(call.code())] = true;
+        let back: RequestBody = postcard::from_bytes(bytes).unwrap();
+        assert_eq!(back, body);
+    }
+    assert!(seen.iter().all(|s| *s), "one request of each endpoint");
+}
+
+/// The answer kind of a response (exhaustive: a new response variant must
+/// be placed here, as an endpoint's answer or as one of the two that answer
+/// no particular request).
+fn kind(body: &ResponseBody) -> Option<&'static str> {
+    match body {
+        ResponseBody::Pong { .. } => Some("Pong"),
+        ResponseBody::Identity(_) => Some("Identity"),
+        ResponseBody::Ack => Some("Ack"),
+        ResponseBody::Status(_) => Some("Status"),
+        ResponseBody::Fit(_) => Some("Fit"),
+        ResponseBody::Coefficients { .. } => Some("Coefficients"),
+        ResponseBody::Committed { .. } => Some("Committed"),
+        ResponseBody::Error(_) | ResponseBody::Sample(_) => None,
+    }
+}
+
+/// Every answer kind answers some endpoint, each endpoint's kind is a
+/// response variant, and each typed answer goes to its variant and back
+/// (and refuses another kind).
+#[test]
+fn every_answer_kind_answers_an_endpoint_and_round_trips() {
+    use crate::endpoint::{Ack, Committed, InUse, Pong, Reply};
+    fn round_trip<R: Reply + PartialEq + core::fmt::Debug + Clone>(r: R) -> &'static str {
+        let body = r.clone().into_body();
+        assert_eq!(kind(&body), Some(R::KIND));
+        assert_eq!(R::from_body(body), Ok(r));
+        assert_eq!(R::from_body(ResponseBody::Error(DeviceError::Unsupported)), Err(ResponseBody::Error(DeviceError::Unsupported)));
+        R::KIND
+    }
+    let identity = match identity().body {
+        ResponseBody::Identity(i) => i,
+        _ => unreachable!(),
+    };
+    let report = FitReport { running: true, model: Some(OnboardModel::Axis), samples: 3, coverage_pct: 4, residual_rms_nt: 5.0, estimate: None };
+    let c = match one_of_each()[11] {
+        RequestBody::WriteCoefficients(c) => c,
+        _ => unreachable!(),
+    };
+    let health = Health {
+        uptime_ms: 1,
+        board: BoardCounters::default(),
+        device: DeviceCounters::default(),
+        mission_mode: false,
+        unlocked: true,
+        unlock_challenge: 3,
+        coefficient_source: CoefficientSource::Default,
+        coefficient_seq: 0,
+        last_error: None,
+        output_rate_hz: 10,
+        stream: StreamMode::Off,
+        temp_c: None,
+        env_degraded: false,
+        integrity_samples: [0; Integrity::COUNT],
+        longest_disturbance_ms: 0,
+        hard_iron_nt: None,
+        hard_iron_applied: false,
+        hard_iron_applications: 0,
+    };
+    let kinds = [
+        round_trip(health),
+        round_trip(Ack),
+        round_trip(Pong { nonce: 1 }),
+        round_trip(identity),
+        round_trip(report),
+        round_trip(InUse { coefficients: c, source: CoefficientSource::Stored, seq: 2 }),
+        round_trip(Committed { seq: 7 }),
+    ];
+    for k in kinds {
+        assert!(ENDPOINTS.iter().any(|e| e.response == k), "{k} answers no endpoint");
+    }
+    for e in ENDPOINTS {
+        assert!(kinds.contains(&e.response), "{}: {}", e.name, e.response);
+    }
+}

@@ -4,10 +4,11 @@
 //! sequence and the write lock of [`super::unlock`]).
 
 use calib_core::cal::{Calibration, EnvTerms, FieldCal, Swing};
-use magcal_protocol::{CoefficientSource, Coefficients, DeviceError, ResponseBody};
+use magcal_protocol::endpoint::{Commit, Committed, InUse};
+use magcal_protocol::{CoefficientSource, Coefficients, DeviceError, Endpoint, Reply, ResponseBody};
 
 use super::unlock::WriteLock;
-use super::{CoefficientRequest, Device, Handled};
+use super::Device;
 use crate::acquisition::COUNTS_PER_NT;
 use crate::adc::FULL_SCALE_COUNTS;
 
@@ -179,29 +180,27 @@ impl Bank {
         }
     }
 
-    /// Read, unlock, stage, commit (validated and encoded here, stored by
-    /// the caller).
-    /// A commit comes back as [`Handled::Save`], to store and then hand to
-    /// [`Bank::finish_commit`].
-    pub(super) fn handle(&mut self, req: CoefficientRequest, now_ms: u32) -> Result<Handled, DeviceError> {
-        match req {
-            CoefficientRequest::Read => Ok(Handled::Reply(ResponseBody::Coefficients { coefficients: self.in_use, source: self.source, seq: self.seq })),
-            CoefficientRequest::Unlock { key } => self.lock.unlock(key, now_ms).map(|()| Handled::Reply(ResponseBody::Ack)),
-            CoefficientRequest::Write(c) => self.stage(c, now_ms).map(|()| Handled::Reply(ResponseBody::Ack)),
-            CoefficientRequest::Commit { crc } => self.prepare_commit(crc, now_ms).map(Handled::Save),
-        }
+    /// The set in use, where it came from and its record's sequence.
+    pub(super) fn in_use(&self) -> InUse {
+        InUse { coefficients: self.in_use, source: self.source, seq: self.seq }
+    }
+
+    /// Unlocks writes with the challenge's answer.
+    pub(super) fn unlock(&mut self, key: u32, now_ms: u32) -> Result<(), DeviceError> {
+        self.lock.unlock(key, now_ms)
     }
 
     /// Stages a set: unlocked, outside mission mode, valid.
-    fn stage(&mut self, c: Coefficients, now_ms: u32) -> Result<(), DeviceError> {
+    pub(super) fn stage(&mut self, c: Coefficients, now_ms: u32) -> Result<(), DeviceError> {
         self.lock.check_write(now_ms)?;
         validate(&c)?;
         self.staged = Some(c);
         Ok(())
     }
 
-    /// Checks a commit and encodes the staged set for the store.
-    fn prepare_commit(&mut self, crc: u32, now_ms: u32) -> Result<PendingCommit, DeviceError> {
+    /// Checks a commit and encodes the staged set for the store (stored by
+    /// the caller, then handed to [`Bank::finish_commit`]).
+    pub(super) fn prepare_commit(&mut self, crc: u32, now_ms: u32) -> Result<PendingCommit, DeviceError> {
         self.lock.check_write(now_ms)?;
         let staged = self.staged.ok_or(DeviceError::NothingStaged)?;
         if staged.crc() != crc {
@@ -229,11 +228,6 @@ impl Bank {
 }
 
 impl Device {
-    /// The coefficient bank's requests.
-    pub(super) fn handle_coefficients(&mut self, req: CoefficientRequest, now_ms: u32) -> Handled {
-        self.bank.handle(req, now_ms).unwrap_or_else(|e| Handled::Reply(self.refuse(e)))
-    }
-
     /// Ends a commit after the store ([`Bank::finish_commit`]); a new set
     /// in use restarts the integrity monitor on its field.
     pub fn finish_commit(&mut self, pending: PendingCommit, saved: Result<u32, SaveFailed>) -> ResponseBody {
@@ -241,7 +235,8 @@ impl Device {
             Ok(seq) => {
                 self.pipeline.restart_integrity(pending.staged.field_nt, pending.staged.inclination());
                 self.last_error = None;
-                ResponseBody::Committed { seq }
+                let committed: <Commit as Endpoint>::Response = Committed { seq };
+                committed.into_body()
             }
             Err(e) => self.refuse(e),
         }

@@ -11,7 +11,7 @@ use calib_core::cal::FieldCal;
 use calib_core::fit::{AxisRls, FitError, FullRls, Model, Normalization, RecursiveFit, SphereRls};
 use calib_core::gyro::{GyroConfig, GyroFit, GyroSample, MAX_WINDOW_STEPS};
 use calib_core::quality::CoverageMask;
-use magcal_protocol::{Coefficients, DeviceError, FitReport, OnboardModel, ResponseBody};
+use magcal_protocol::{Coefficients, DeviceError, FitReport, OnboardModel};
 
 use super::FitRequest;
 
@@ -204,23 +204,22 @@ impl Device {
         }
     }
 
-    /// The on-board fit: start, stop, query.
-    pub(super) fn handle_fit(&mut self, req: FitRequest, now_ms: u32) -> ResponseBody {
+    /// The on-board fit: start, stop, query; each answers the fit's report.
+    pub(super) fn handle_fit(&mut self, req: FitRequest, now_ms: u32) -> Result<FitReport, DeviceError> {
         match req {
             FitRequest::Start { model, field_nt } => {
                 if !(field_nt >= FIELD_RANGE_NT.0 && field_nt <= FIELD_RANGE_NT.1) {
-                    return self.refuse(DeviceError::BadArgument);
+                    return Err(DeviceError::BadArgument);
                 }
                 self.fit = Some(OnboardFit::new(model, field_nt, self.bank.calibration().field.bias, self.output_rate_hz(), now_ms));
-                ResponseBody::Fit(self.fit_report())
             }
             FitRequest::Stop => {
                 if let Some(f) = &mut self.fit {
                     f.running = false;
                 }
-                ResponseBody::Fit(self.fit_report())
             }
-            FitRequest::Query => ResponseBody::Fit(self.fit_report()),
+            FitRequest::Query => {}
         }
+        Ok(self.fit_report())
     }
 }

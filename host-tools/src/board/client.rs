@@ -5,8 +5,9 @@ use std::collections::VecDeque;
 use std::io::{self, Read, Write};
 use std::time::{Duration, Instant};
 
+use magcal_protocol::endpoint as ep;
 use magcal_protocol::{
-    self as proto, Coefficients, CoefficientSource, OnboardModel, FitReport, FrameDecoder, FrameError, Health, Identity, Request,
+    self as proto, Endpoint, Reply, Coefficients, CoefficientSource, OnboardModel, FitReport, FrameDecoder, FrameError, Health, Identity, Request,
     RequestBody, Response, ResponseBody, Sample, StreamMode, MAX_FRAME_LEN, UNLOCK_XOR,
 };
 
@@ -272,103 +273,82 @@ impl<P: Read + Write> BoardClient<P> {
         }
     }
 
-    /// Asks the board who it is.
-    pub fn identify(&mut self) -> Result<Identity, ClientError> {
-        match self.request(RequestBody::Identify)? {
-            ResponseBody::Identity(id) => Ok(id),
-            other => Err(ClientError::Unexpected(Box::new(other))),
-        }
+    /// Sends one endpoint's request and returns its typed answer (the
+    /// protocol's endpoint table pairs each request with the one kind of
+    /// reply it gets; any other reply is [`ClientError::Unexpected`]).
+    pub fn call<E: Endpoint>(&mut self, req: E) -> Result<E::Response, ClientError> {
+        E::Response::from_body(self.request(req.into_body())?).map_err(|other| ClientError::Unexpected(Box::new(other)))
     }
 
-    fn expect_ack(&mut self, body: RequestBody) -> Result<(), ClientError> {
-        match self.request(body)? {
-            ResponseBody::Ack => Ok(()),
-            other => Err(ClientError::Unexpected(Box::new(other))),
-        }
+    /// Asks the board who it is.
+    pub fn identify(&mut self) -> Result<Identity, ClientError> {
+        self.call(ep::Identify)
     }
 
     /// The board's counters and state.
     pub fn status(&mut self) -> Result<Health, ClientError> {
-        match self.request(RequestBody::Status)? {
-            ResponseBody::Status(h) => Ok(h),
-            other => Err(ClientError::Unexpected(Box::new(other))),
-        }
+        self.call(ep::Status)
     }
 
     /// Chooses what is streamed.
     pub fn set_stream(&mut self, mode: StreamMode) -> Result<(), ClientError> {
-        self.expect_ack(RequestBody::SetStream(mode))
+        self.call(ep::SetStream(mode)).map(|ep::Ack| ())
     }
 
     /// Sets the output rate (1–100 Hz).
     pub fn set_output_rate(&mut self, hz: u8) -> Result<(), ClientError> {
-        self.expect_ack(RequestBody::SetOutputRate { hz })
+        self.call(ep::SetOutputRate { hz }).map(|ep::Ack| ())
     }
 
     /// Sends the vehicle's attitude.
     pub fn attitude(&mut self, roll_rad: f32, pitch_rad: f32) -> Result<(), ClientError> {
-        self.expect_ack(RequestBody::Attitude { roll_rad, pitch_rad })
+        self.call(ep::Attitude { roll_rad, pitch_rad }).map(|ep::Ack| ())
     }
 
     /// Sends the vehicle's attitude and body rates (for the heading and the
     /// board's gyro-aided fit).
     pub fn motion(&mut self, roll_rad: f32, pitch_rad: f32, rate_rad_s: [f32; 3]) -> Result<(), ClientError> {
-        self.expect_ack(RequestBody::Motion { roll_rad, pitch_rad, rate_rad_s })
+        self.call(ep::Motion { roll_rad, pitch_rad, rate_rad_s }).map(|ep::Ack| ())
     }
 
     /// Sends the vehicle's attitude with the thrusters' (motor) current, A,
     /// for the board's current term.
     pub fn attitude_env(&mut self, roll_rad: f32, pitch_rad: f32, motor_current_a: f32) -> Result<(), ClientError> {
-        self.expect_ack(RequestBody::AttitudeEnv { roll_rad, pitch_rad, motor_current_a })
+        self.call(ep::AttitudeEnv { roll_rad, pitch_rad, motor_current_a }).map(|ep::Ack| ())
     }
 
     /// Enters or leaves mission mode.
     pub fn set_mission_mode(&mut self, enabled: bool) -> Result<(), ClientError> {
-        self.expect_ack(RequestBody::SetMissionMode { enabled })
+        self.call(ep::SetMissionMode { enabled }).map(|ep::Ack| ())
     }
 
     /// Starts the on-board fit.
     pub fn fit_start(&mut self, model: OnboardModel, field_nt: f32) -> Result<FitReport, ClientError> {
-        match self.request(RequestBody::FitStart { model, field_nt })? {
-            ResponseBody::Fit(r) => Ok(r),
-            other => Err(ClientError::Unexpected(Box::new(other))),
-        }
+        self.call(ep::FitStart { model, field_nt })
     }
 
     /// The on-board fit's state.
     pub fn fit_query(&mut self) -> Result<FitReport, ClientError> {
-        match self.request(RequestBody::FitQuery)? {
-            ResponseBody::Fit(r) => Ok(r),
-            other => Err(ClientError::Unexpected(Box::new(other))),
-        }
+        self.call(ep::FitQuery)
     }
 
     /// Stops the on-board fit.
     pub fn fit_stop(&mut self) -> Result<FitReport, ClientError> {
-        match self.request(RequestBody::FitStop)? {
-            ResponseBody::Fit(r) => Ok(r),
-            other => Err(ClientError::Unexpected(Box::new(other))),
-        }
+        self.call(ep::FitStop)
     }
 
     /// The coefficients in use.
     pub fn read_coefficients(&mut self) -> Result<(Coefficients, CoefficientSource, u32), ClientError> {
-        match self.request(RequestBody::ReadCoefficients)? {
-            ResponseBody::Coefficients { coefficients, source, seq } => Ok((coefficients, source, seq)),
-            other => Err(ClientError::Unexpected(Box::new(other))),
-        }
+        self.call(ep::ReadCoefficients).map(|ep::InUse { coefficients, source, seq }| (coefficients, source, seq))
     }
 
     /// Unlock, stage, commit, read back and compare: the only way the host
     /// writes coefficients. Returns the stored record's sequence number.
     pub fn upload_coefficients(&mut self, c: &Coefficients) -> Result<u32, ClientError> {
         let challenge = self.status()?.unlock_challenge;
-        self.expect_ack(RequestBody::Unlock { key: challenge ^ UNLOCK_XOR })?;
-        self.expect_ack(RequestBody::WriteCoefficients(*c))?;
-        let seq = match self.request(RequestBody::Commit { crc: c.crc() })? {
-            ResponseBody::Committed { seq } => seq,
-            other => return Err(ClientError::Unexpected(Box::new(other))),
-        };
+        self.call(ep::Unlock { key: challenge ^ UNLOCK_XOR })?;
+        self.call(ep::WriteCoefficients(*c))?;
+        let ep::Committed { seq } = self.call(ep::Commit { crc: c.crc() })?;
         let (back, source, back_seq) = self.read_coefficients()?;
         if back != *c || source != CoefficientSource::Stored || back_seq != seq {
             return Err(ClientError::ReadBackDiffers { seq, back_seq, stored: source == CoefficientSource::Stored });
@@ -378,10 +358,7 @@ impl<P: Read + Write> BoardClient<P> {
 
     /// Round-trip check: returns the echoed nonce.
     pub fn ping(&mut self, nonce: u32) -> Result<u32, ClientError> {
-        match self.request(RequestBody::Ping { nonce })? {
-            ResponseBody::Pong { nonce } => Ok(nonce),
-            other => Err(ClientError::Unexpected(Box::new(other))),
-        }
+        self.call(ep::Ping { nonce }).map(|ep::Pong { nonce }| nonce)
     }
 }
 
@@ -495,6 +472,16 @@ mod tests {
         let t0 = Instant::now();
         assert!(matches!(dead.send_raw(&[1, 2, 3]), Err(ClientError::Io(_))));
         assert!(t0.elapsed() < Duration::from_secs(2), "{:?}", t0.elapsed());
+    }
+
+    /// A typed call takes only its endpoint's kind of reply: a board that
+    /// acknowledges everything serves `SetStream` but not `Status`.
+    #[test]
+    fn a_call_takes_only_its_endpoints_reply_kind() {
+        let mut link = board(|q| vec![Response { seq: Some(q.seq), body: ResponseBody::Ack }], 0);
+        assert!(link.set_stream(StreamMode::Raw).is_ok());
+        assert!(matches!(link.call(ep::Status), Err(ClientError::Unexpected(b)) if *b == ResponseBody::Ack));
+        assert!(matches!(link.call(ep::Commit { crc: 1 }), Err(ClientError::Unexpected(_))));
     }
 
     #[test]

@@ -83,7 +83,7 @@ pub(crate) fn fit_with(rec: &Recording, opts: &FitOptions, checks: Checks) -> Re
         return Err(ComputeError::NoSamples);
     }
     calib_core::fit::check_samples(&samples, 1, opts.saturation)?;
-    if checks.attitude_units && matches!(opts.model, ModelKind::Attitude | ModelKind::Gyro) {
+    if checks.attitude_units && super::models::entry(opts.model).levelled {
         crate::data::intake::check_attitude_units(rec, opts.field_nt)?;
     }
     let mut warnings = Vec::new();

@@ -85,6 +85,17 @@ mod tests {
         assert_eq!(ModelKind::from_name("ellipsoid"), None);
     }
 
+    /// calib-core's coverage gates agree with the registry: exactly the
+    /// levelled models (judged by their levelled field, not by how much of
+    /// the sphere they saw) do not rest on coverage.
+    #[test]
+    fn the_coverage_gates_follow_the_registrys_levelled_flag() {
+        for e in &MODELS {
+            let gate = calib_core::quality::Gates::<f64>::for_model(e.kind).min_coverage_pct;
+            assert_eq!(gate == 0, e.levelled, "{}: gate {gate} %", e.kind.name());
+        }
+    }
+
     #[test]
     fn a_recording_without_the_gyro_lacks_what_the_gyro_model_needs() {
         let rec = Recording { mag: vec![[1.0, 2.0, 3.0]], roll_deg: Some(vec![0.0]), pitch_deg: Some(vec![0.0]), ..Recording::default() };

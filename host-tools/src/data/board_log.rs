@@ -8,7 +8,7 @@
 use std::path::Path;
 
 use super::recording::RecordingError;
-use super::table::{col, column_set, present_columns, read_table_mapped, take_columns, write_table, ColumnMap, ColumnSet};
+use super::table::{board_output_names, col, column_set, present_columns, read_table_mapped, take_columns, write_table, ColumnMap, ColumnSet};
 
 /// `t`: seconds on the board's clock.
 pub const T: &str = col::T;
@@ -20,14 +20,15 @@ pub const TEMP_C: &str = col::TEMP_C;
 pub const HEALTH: &str = col::HEALTH;
 /// `heading_sigma_deg`: the board's 1σ of the sample's heading, degrees
 /// (written by `magcal log`; empty when the board had no heading).
-pub const HEADING_SIGMA_DEG: &str = "heading_sigma_deg";
+pub const HEADING_SIGMA_DEG: &str = col::HEADING_SIGMA_DEG;
 /// `integrity`: the board's judgement of the sample, a word (`ok`,
 /// `disturbed`, `cal_invalid`, `no_attitude`, `unjudged`: every
 /// `IntegrityState::name`; written by `magcal log`, not
 /// read back by [`BoardLog::read`]).
-pub const INTEGRITY: &str = "integrity";
-/// Every column in the order the board writes them.
-pub const COLUMNS: [&str; 8] = [T, MAG[0], MAG[1], MAG[2], TEMP_C, HEALTH, HEADING_SIGMA_DEG, INTEGRITY];
+pub const INTEGRITY: &str = col::INTEGRITY;
+/// Every column in the order the board writes them: the registry's
+/// columns marked `board_output`, in its order.
+pub const COLUMNS: [&str; 8] = board_output_names();
 /// The header line the board writes ([`COLUMNS`] joined by commas).
 pub const HEADER: &str = "t,mx,my,mz,temp_c,health,heading_sigma_deg,integrity";
 

@@ -8,11 +8,12 @@ use std::time::{Duration, Instant};
 
 use magcal_protocol::Sample;
 
-use super::vehicle::{Step, Vehicle};
+use super::vehicle::{Taken, Step, Vehicle, STEP_COLUMNS};
 use super::error::SessionError;
 use crate::board::reconnect::{reconnect_at, Resume};
 use crate::board::{BoardClient, ClientError};
 use crate::data::pairing::{ClockMap, TimePairer};
+use crate::data::table::ColumnSet;
 use crate::data::Recording;
 
 /// A recorded manoeuvre.
@@ -48,7 +49,12 @@ pub fn record<P: Read + Write>(
     mut resume: Option<Resume<'_, P>>,
     mut on_step: impl FnMut(usize, &Step, &Sample, &mut BoardClient<P>) -> Result<(), SessionError>,
 ) -> Result<Recorded, SessionError> {
-    let mut rec = Recording { t_s: Some(vec![]), roll_deg: Some(vec![]), pitch_deg: Some(vec![]), ref_heading_deg: Some(vec![]), lat_deg: Some(vec![]), lon_deg: Some(vec![]), ..Recording::default() };
+    let mut rec = Recording::default();
+    for c in STEP_COLUMNS.iter().filter(|c| c.recorded == Taken::FromStart) {
+        if let Some(slot) = rec.column_slot(c.name) {
+            *slot = Some(vec![]);
+        }
+    }
     let (mut samples, mut truth, mut truth_field) = (Vec::new(), Vec::new(), Vec::new());
     let mut i = 0;
     let started = Instant::now();
@@ -75,35 +81,21 @@ pub fn record<P: Read + Write>(
         };
         let raw = sample.raw.map(|r| r.map(f64::from)).unwrap_or([f64::NAN; 3]);
         rec.mag.push(raw);
-        for (col, v) in [
-            (&mut rec.t_s, step.t_s),
-            (&mut rec.roll_deg, step.roll_deg),
-            (&mut rec.pitch_deg, step.pitch_deg),
-            (&mut rec.ref_heading_deg, step.ref_heading_deg),
-            (&mut rec.lat_deg, step.lat_deg),
-            (&mut rec.lon_deg, step.lon_deg),
-        ] {
-            if let Some(c) = col.as_mut() {
-                c.push(v);
-            }
-        }
-        // The gyro's columns once a step has rates (earlier rows NaN).
-        if step.rate_rad_s.iter().any(|w| w.is_finite()) || rec.gx_rad_s.is_some() {
-            let rows = rec.mag.len() - 1;
-            for (col, v) in [(&mut rec.gx_rad_s, step.rate_rad_s[0]), (&mut rec.gy_rad_s, step.rate_rad_s[1]), (&mut rec.gz_rad_s, step.rate_rad_s[2])] {
-                col.get_or_insert_with(|| vec![f64::NAN; rows]).push(v);
-            }
-        }
-        // The thrusters' current once a step has it; the board's measured
-        // temperature once a sample has it (earlier rows NaN).
+        // The step's columns the recording holds, by registry name.
         let rows = rec.mag.len() - 1;
-        if step.motor_current_a.is_finite() || rec.motor_current_a.is_some() {
-            rec.motor_current_a.get_or_insert_with(|| vec![f64::NAN; rows]).push(step.motor_current_a);
+        for c in &STEP_COLUMNS {
+            let take = match c.recorded {
+                Taken::FromStart => true,
+                Taken::OnceAny(names) => names.iter().any(|n| step.column(n).is_some_and(f64::is_finite)),
+                Taken::Never => continue,
+            };
+            if let Some(slot) = rec.column_slot(c.name) {
+                if take || slot.is_some() {
+                    slot.get_or_insert_with(|| vec![f64::NAN; rows]).push((c.get)(&step));
+                }
+            }
         }
-        // Speed through water once a step has it (the swing fit's current).
-        if step.speed_mps.is_finite() || rec.speed_mps.is_some() {
-            rec.speed_mps.get_or_insert_with(|| vec![f64::NAN; rows]).push(step.speed_mps);
-        }
+        // The board's measured temperature once a sample has it (earlier rows NaN).
         if sample.temp_c.is_some() || rec.temp_c.is_some() {
             rec.temp_c.get_or_insert_with(|| vec![f64::NAN; rows]).push(sample.temp_c.map_or(f64::NAN, f64::from));
         }

@@ -93,24 +93,75 @@ pub trait Vehicle {
     fn describe(&self) -> String;
 }
 
-/// Navigation columns a stream may carry (`t`, `roll_deg`, `pitch_deg`
-/// required, first): the navigation log's (the registry's), a reference
-/// heading and, from the simulator, the true field. Read by name.
-const NAV_COLUMNS: [&str; 13] = [
-    col::T,
-    col::ROLL_DEG,
-    col::PITCH_DEG,
-    col::REF_HEADING_DEG,
-    col::LAT_DEG,
-    col::LON_DEG,
-    col::TRUE_HEADING_DEG,
-    col::GYRO[0],
-    col::GYRO[1],
-    col::GYRO[2],
-    col::MOTOR_CURRENT_A,
-    col::SPEED_MPS,
-    col::TRUE_FIELD_NT,
-];
+/// When the session's recording takes a step column.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Taken {
+    /// From the first row (NaN when a step has no value).
+    FromStart,
+    /// Once any of these columns of a step has a finite value (earlier rows
+    /// NaN): the gyro's three together, the current, the speed.
+    OnceAny(&'static [&'static str]),
+    /// Not a recording column (a truth the session keeps apart).
+    Never,
+}
+
+/// One of a [`Step`]'s columns: its registry name, its field, and when the
+/// session's recording takes it.
+#[derive(Clone, Copy)]
+pub(crate) struct StepColumn {
+    /// The registry name ([`col`]).
+    pub name: &'static str,
+    /// Reads the field.
+    pub get: fn(&Step) -> f64,
+    /// Sets the field.
+    set: fn(&mut Step, f64),
+    /// When the recording takes it.
+    pub recorded: Taken,
+}
+
+/// A [`Step`]'s columns by registry name (`t`, `roll_deg`, `pitch_deg`
+/// first: required): the one list a navigation stream is read by and the
+/// session's recording is filled from (a test holds it to the registry).
+pub(crate) const STEP_COLUMNS: [StepColumn; 13] = {
+    use Taken::*;
+    const fn c(name: &'static str, get: fn(&Step) -> f64, set: fn(&mut Step, f64), recorded: Taken) -> StepColumn {
+        StepColumn { name, get, set, recorded }
+    }
+    [
+        c(col::T, |s| s.t_s, |s, v| s.t_s = v, FromStart),
+        c(col::ROLL_DEG, |s| s.roll_deg, |s, v| s.roll_deg = v, FromStart),
+        c(col::PITCH_DEG, |s| s.pitch_deg, |s, v| s.pitch_deg = v, FromStart),
+        c(col::REF_HEADING_DEG, |s| s.ref_heading_deg, |s, v| s.ref_heading_deg = v, FromStart),
+        c(col::LAT_DEG, |s| s.lat_deg, |s, v| s.lat_deg = v, FromStart),
+        c(col::LON_DEG, |s| s.lon_deg, |s, v| s.lon_deg = v, FromStart),
+        c(col::TRUE_HEADING_DEG, |s| s.true_heading_deg, |s, v| s.true_heading_deg = v, Never),
+        c(col::GYRO[0], |s| s.rate_rad_s[0], |s, v| s.rate_rad_s[0] = v, OnceAny(&col::GYRO)),
+        c(col::GYRO[1], |s| s.rate_rad_s[1], |s, v| s.rate_rad_s[1] = v, OnceAny(&col::GYRO)),
+        c(col::GYRO[2], |s| s.rate_rad_s[2], |s, v| s.rate_rad_s[2] = v, OnceAny(&col::GYRO)),
+        c(col::MOTOR_CURRENT_A, |s| s.motor_current_a, |s, v| s.motor_current_a = v, OnceAny(&[col::MOTOR_CURRENT_A])),
+        c(col::SPEED_MPS, |s| s.speed_mps, |s, v| s.speed_mps = v, OnceAny(&[col::SPEED_MPS])),
+        c(col::TRUE_FIELD_NT, |s| s.true_field_nt, |s, v| s.true_field_nt = v, Never),
+    ]
+};
+
+/// The names of [`STEP_COLUMNS`]: the columns a navigation stream may
+/// carry, read by name.
+const NAV_COLUMNS: [&str; STEP_COLUMNS.len()] = {
+    let mut out = [""; STEP_COLUMNS.len()];
+    let mut i = 0;
+    while i < out.len() {
+        out[i] = STEP_COLUMNS[i].name;
+        i += 1;
+    }
+    out
+};
+
+impl Step {
+    /// The step's value of the column named `name` (`None`: not a step column).
+    pub(crate) fn column(&self, name: &str) -> Option<f64> {
+        STEP_COLUMNS.iter().find(|c| c.name == name).map(|c| (c.get)(self))
+    }
+}
 
 /// One navigation stream: CSV lines in the INTERFACES.md columns from a
 /// file, a FIFO or stdin, one line per step.
@@ -143,20 +194,12 @@ impl<R: BufRead> NavStream<R> {
             }
             match self.columns.values(&line) {
                 Some(v) if v.get(col::T).is_finite() => {
-                    return Ok(Some(Step {
-                        t_s: v.get(col::T),
-                        roll_deg: v.get(col::ROLL_DEG),
-                        pitch_deg: v.get(col::PITCH_DEG),
-                        ref_heading_deg: v.get(col::REF_HEADING_DEG),
-                        lat_deg: v.get(col::LAT_DEG),
-                        lon_deg: v.get(col::LON_DEG),
-                        true_heading_deg: v.get(col::TRUE_HEADING_DEG),
-                        feed_seq: None,
-                        rate_rad_s: col::GYRO.map(|g| v.get(g)),
-                        motor_current_a: v.get(col::MOTOR_CURRENT_A),
-                        speed_mps: v.get(col::SPEED_MPS),
-                        true_field_nt: v.get(col::TRUE_FIELD_NT),
-                    }))
+                    let nan = f64::NAN;
+                    let mut step = Step { t_s: nan, roll_deg: nan, pitch_deg: nan, ref_heading_deg: nan, lat_deg: nan, lon_deg: nan, true_heading_deg: nan, feed_seq: None, rate_rad_s: [nan; 3], motor_current_a: nan, speed_mps: nan, true_field_nt: nan };
+                    for c in &STEP_COLUMNS {
+                        (c.set)(&mut step, v.get(c.name));
+                    }
+                    return Ok(Some(step));
                 }
                 _ => eprintln!("  navigation line {} skipped: not numbers: {line}", self.line_no),
             }
@@ -211,5 +254,38 @@ impl<R: BufRead> Vehicle for NavVehicle<R> {
     }
     fn describe(&self) -> String {
         "a real vehicle (navigation CSV streams)".into()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::data::table::{column_spec, merged_columns, ColumnSet};
+    use crate::data::Recording;
+
+    /// The session's columns are the registry's: every step column is a
+    /// registry column; the recording takes exactly the step columns it
+    /// holds; and every column `merge` carries from a navigation log into
+    /// a recording is one a navigation stream may carry and the session
+    /// records (a navigation column registered but dropped by the session
+    /// fails here).
+    #[test]
+    fn the_step_columns_are_held_to_the_registry() {
+        assert_eq!(NAV_COLUMNS[..3], [col::T, col::ROLL_DEG, col::PITCH_DEG]);
+        for c in &STEP_COLUMNS {
+            assert!(column_spec(c.name).is_some(), "{} is not a registry column", c.name);
+            let in_recording = Recording::NAMES.contains(&c.name);
+            assert_eq!(c.recorded != Taken::Never, in_recording, "{}", c.name);
+            if let Taken::OnceAny(names) = c.recorded {
+                assert!(names.contains(&c.name), "{}", c.name);
+            }
+        }
+        for m in merged_columns() {
+            assert!(STEP_COLUMNS.iter().any(|c| c.name == m.name && c.recorded != Taken::Never), "{} is not recorded by the session", m.name);
+        }
+        let mut names = NAV_COLUMNS.to_vec();
+        names.sort_unstable();
+        names.dedup();
+        assert_eq!(names.len(), NAV_COLUMNS.len(), "a column twice");
     }
 }

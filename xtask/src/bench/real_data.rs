@@ -21,8 +21,8 @@ use serde_json::json;
 /// The glider is judged below this depth (the README's rule).
 const GLIDER_JUDGE_DEPTH_M: f64 = 3.0;
 
-/// Every `fit --model`.
-const MODELS: [ModelKind; 6] = ModelKind::ALL;
+/// Every `fit --model` (the model registry's order).
+const MODELS: [ModelKind; ModelKind::ALL.len()] = ModelKind::ALL;
 
 /// A numeric column read apart (the recording reader ignores it), by the
 /// product's one table reader.

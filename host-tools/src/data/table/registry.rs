@@ -32,6 +32,12 @@ pub mod col {
     pub const TEMP_C: &str = "temp_c";
     /// `health`: the board sample's health bits.
     pub const HEALTH: &str = "health";
+    /// `heading_sigma_deg`: the board's 1σ of a sample's heading, degrees
+    /// (empty when the board had no heading).
+    pub const HEADING_SIGMA_DEG: &str = "heading_sigma_deg";
+    /// `integrity`: the board's judgement of a sample, a word (every
+    /// `IntegrityState::name`).
+    pub const INTEGRITY: &str = "integrity";
     /// `t_board`: a merged row's time on the board's clock, s.
     pub const T_BOARD: &str = "t_board";
     /// `true_heading_deg`: a reference (or the simulator's true) heading.
@@ -95,6 +101,11 @@ pub struct Logs {
     /// A board log ([`crate::data::board_log::BoardLog`]: what `magcal log`
     /// writes and `merge` reads).
     pub board: bool,
+    /// The file `magcal log` writes (the board log's header, in this
+    /// registry's order): the board log's columns and the board's own
+    /// judgement of each sample, which [`crate::data::board_log::BoardLog`]
+    /// does not read back.
+    pub board_output: bool,
 }
 
 /// One column of the project: its name, what it measures, the largest
@@ -119,18 +130,20 @@ const fn column(name: &'static str, quantity: Quantity, limit_deg: Option<f64>, 
 }
 
 /// In a navigation log only.
-const NAV: Logs = Logs { recording: false, nav: true, board: false };
+const NAV: Logs = Logs { recording: false, nav: true, board: false, board_output: false };
 /// In a recording and a navigation log: merged from the navigation log
 /// into the recording.
-const BOTH: Logs = Logs { recording: true, nav: true, board: false };
+const BOTH: Logs = Logs { recording: true, nav: true, board: false, board_output: false };
 /// In a recording and the board log (the board's own measurements).
-const REC_BOARD: Logs = Logs { recording: true, nav: false, board: true };
+const REC_BOARD: Logs = Logs { recording: true, nav: false, board: true, board_output: true };
 /// In the board log only.
-const BOARD: Logs = Logs { recording: false, nav: false, board: true };
+const BOARD: Logs = Logs { recording: false, nav: false, board: true, board_output: true };
 /// In every log (the time, each on its own clock).
-const ALL: Logs = Logs { recording: true, nav: true, board: true };
+const ALL: Logs = Logs { recording: true, nav: true, board: true, board_output: true };
+/// Written by `magcal log` only (the board's judgement of a sample).
+const BOARD_OUTPUT: Logs = Logs { recording: false, nav: false, board: false, board_output: true };
 /// In none of the types (a truth, a compass log's or an output column).
-const OTHER: Logs = Logs { recording: false, nav: false, board: false };
+const OTHER: Logs = Logs { recording: false, nav: false, board: false, board_output: false };
 
 /// Every column a recording, a navigation log or a board log may hold: the
 /// one list that the column mapping (`--columns`), the unit conversions, the
@@ -139,7 +152,7 @@ const OTHER: Logs = Logs { recording: false, nav: false, board: false };
 /// field in the type that holds it ([`crate::data::Recording`],
 /// [`crate::data::NavLog`], [`crate::data::board_log::BoardLog`]: one line
 /// of their column list each).
-pub const COLUMNS: [Column; 25] = {
+pub const COLUMNS: [Column; 27] = {
     use col::*;
     use Interp::*;
     use Quantity::*;
@@ -161,6 +174,8 @@ pub const COLUMNS: [Column; 25] = {
         column(MOTOR_CURRENT_A, Other, None, BOTH, Linear),
         column(TEMP_C, Other, None, REC_BOARD, Linear),
         column(HEALTH, Other, None, BOARD, Linear),
+        column(HEADING_SIGMA_DEG, Other, None, BOARD_OUTPUT, Linear),
+        column(INTEGRITY, Other, None, BOARD_OUTPUT, Linear),
         column(T_BOARD, Time, None, OTHER, Linear),
         column(TRUE_HEADING_DEG, Heading, None, OTHER, Heading360),
         column(TRUE_FIELD_NT, Other, None, OTHER, Linear),
@@ -225,6 +240,24 @@ macro_rules! column_set {
     };
 }
 pub(crate) use column_set;
+
+/// The names of the columns `magcal log` writes ([`Logs::board_output`]),
+/// in the registry's order; `N` must be their count (checked when the
+/// constant is evaluated, at compile time).
+pub const fn board_output_names<const N: usize>() -> [&'static str; N] {
+    let mut out = [""; N];
+    let (mut i, mut n) = (0, 0);
+    while i < COLUMNS.len() {
+        if COLUMNS[i].logs.board_output {
+            assert!(n < N, "more columns than N");
+            out[n] = COLUMNS[i].name;
+            n += 1;
+        }
+        i += 1;
+    }
+    assert!(n == N, "fewer columns than N");
+    out
+}
 
 /// A project column by name.
 pub fn column_spec(name: &str) -> Option<&'static Column> {
