@@ -39,7 +39,7 @@ fn judge(cal: &FieldCal<f64>, path: &Path, igrf_dip_deg: f64) -> (f64, f64) {
 }
 
 /// `fit` (auto) on `calib` with the site, judged on `judged`.
-fn auto_with_site(dir: &str, calib: &str, judged: &str, (lat, lon, date): (f64, f64, &str)) -> (f64, f64, host_tools::data::CalDoc) {
+fn auto_with_site(dir: &str, calib: &str, judged: &str, (lat, lon, date): (f64, f64, &str)) -> (f64, f64, host_tools::doc::CalDoc) {
     let site = Site::new(lat, lon, date).unwrap();
     let world = site.field().unwrap();
     let reference = Reference::world_model(site, &world);
