@@ -2,7 +2,7 @@
 //! a vehicle with an AHRS (roll, pitch) and no gyro that cannot tumble.
 //! Reads `roll_deg, pitch_deg`; says which parameters the data leave weak.
 
-use calib_core::attitude_fit::{fit_attitude, AttitudeConfig, AttitudeEstimate, AttitudeSample};
+use calib_core::attitude_fit::{fit_attitude_in, scratch_len, AttitudeConfig, AttitudeEstimate, AttitudeSample};
 use calib_core::heading::Tilt;
 
 use super::error::ComputeError;
@@ -46,7 +46,7 @@ pub fn check_attitude_units(rec: &Recording, field_nt: f64) -> Result<(), Comput
     }
     let fit = |k: f64| {
         // A fit that fails, or whose matrix no sensor has, is no fit.
-        fit_attitude(&levelled_samples(rec, roll, pitch, k), field_nt, &AttitudeConfig::new()).ok().filter(|e| e.cal.validate(crate::data::caldoc::MAX_BIAS_ABS).is_ok()).map(|e| e.residual_sigma_nt)
+        fit_in(&levelled_samples(rec, roll, pitch, k), field_nt, &AttitudeConfig::new()).ok().filter(|e| e.cal.validate(crate::data::caldoc::MAX_BIAS_ABS).is_ok()).map(|e| e.residual_sigma_nt)
     };
     let Some(as_radians) = fit(180.0 / std::f64::consts::PI) else { return Ok(()) };
     let as_degrees = fit(1.0);
@@ -90,5 +90,13 @@ pub fn weakly_determined(est: &AttitudeEstimate<f64>, field_nt: f64) -> Vec<Stri
 /// Fits the attitude-aided calibration; the magnitude is scaled to `field_nt`.
 pub fn fit_attitude_recording(rec: &Recording, field_nt: f64, cfg: &AttitudeConfig<f64>) -> Result<AttitudeEstimate<f64>, ComputeError> {
     let samples = attitude_samples(rec)?;
-    Ok(fit_attitude(&samples, field_nt, cfg)?)
+    Ok(fit_in(&samples, field_nt, cfg)?)
+}
+
+/// [`calib_core::attitude_fit::fit_attitude`] with its working memory (the
+/// same result, bit for bit, without counting over the data for every
+/// robust scale).
+pub fn fit_in(samples: &[AttitudeSample<f64>], field_nt: f64, cfg: &AttitudeConfig<f64>) -> Result<AttitudeEstimate<f64>, calib_core::fit::FitError> {
+    let mut scratch = vec![0.0; scratch_len(samples.len())];
+    fit_attitude_in(samples, field_nt, cfg, &mut scratch)
 }
