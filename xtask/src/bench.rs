@@ -11,6 +11,7 @@ use serde_json::json;
 
 mod compass;
 mod effects;
+mod fit_speed;
 mod host_throughput;
 mod import_speed;
 mod integrity;
@@ -121,6 +122,10 @@ pub fn run(out_dir: &Path) -> Result<()> {
     let (import_numbers, import_md) = import_speed::section(&root);
     eprintln!("{import_md}");
     results["import_speed"] = import_numbers;
+    eprintln!("== fit speed: `fit` auto and attitude beside scipy's least_squares, 10⁴ to 10⁶ rows");
+    let (fit_speed_numbers, fit_speed_md) = fit_speed::section(&root);
+    eprintln!("{fit_speed_md}");
+    results["fit_speed"] = fit_speed_numbers;
     if let Some(obj) = mcu.as_object() {
         for (k, v) in obj {
             results[k] = v.clone();
@@ -139,7 +144,7 @@ pub fn run(out_dir: &Path) -> Result<()> {
         host_throughput::markdown(&results["host_throughput"])?,
     ]
     .concat();
-    let md = md + &varied::markdown(&varied_md) + &import_speed::markdown(&import_md) + &compass::markdown(&compass_md);
+    let md = md + &varied::markdown(&varied_md) + &import_speed::markdown(&import_md) + &fit_speed::markdown(&fit_speed_md) + &compass::markdown(&compass_md);
     std::fs::write(out_dir.join("results.md"), md)?;
     eprintln!("wrote {}", out_dir.join("results.json").display());
     Ok(())
@@ -215,6 +220,25 @@ mod tests {
             assert!(row["rows"].as_u64().is_some_and(|n| n > 0), "{row}");
             if let Some(r) = row["ratio"].as_f64() {
                 assert!(r >= 1.0, "{row}");
+            }
+        }
+    }
+
+    /// Only the fit-speed section, from a release build:
+    /// `cargo test --release -p xtask bench::tests::fit_speed_section -- --ignored --nocapture`.
+    /// Every row was fitted by both, and the attitude fit's coefficients are
+    /// scipy's on the same model (measured: within 2e-6 of the gain and the
+    /// field at 66 500 rows; the Huber scales differ slightly).
+    #[test]
+    #[ignore = "a benchmark: prints its numbers"]
+    fn fit_speed_section() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        let (v, md) = super::fit_speed::section(&root);
+        eprintln!("{md}");
+        for row in v["rows"].as_array().into_iter().flatten() {
+            assert!(row["auto_s"].as_f64().is_some() && row["attitude_s"].as_f64().is_some(), "{row}");
+            if let Some(d) = row["attitude_vs_scipy_coefficients"].as_f64() {
+                assert!(d < 1e-4, "{row}");
             }
         }
     }
