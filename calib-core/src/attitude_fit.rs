@@ -334,7 +334,7 @@ fn step<T: Real, L: LeastSquares<T, UNKNOWNS> + Default>(x: &[T; UNKNOWNS], data
 /// linearly (about ×0.4 an iteration on a 66 500-row swing), so the
 /// coefficients end within about this of where the full count of
 /// iterations takes them.
-pub const STEP_TOLERANCE: f64 = 1e-11;
+pub const STEP_TOLERANCE: f64 = 1e-12;
 
 /// Fits the attitude-aided calibration to `samples`; `field_nt` is the
 /// reference intensity the matrix is scaled to. Needs no memory beyond the
