@@ -571,7 +571,7 @@ fn run<T: Real>(samples: &[GyroSample<T>], norm: Normalization<T>, cfg: &GyroCon
     for s in samples {
         if !finite_sample(s) {
             fit.rejected = fit.rejected.saturating_add(1);
-            chain = WindowChain::new();
+            chain.reset();
             continue;
         }
         let r = norm.apply(s.raw);
@@ -615,6 +615,16 @@ struct WindowChain<T> {
 impl<T: Real> WindowChain<T> {
     fn new() -> Self {
         Self { raw: [[T::ZERO; 3]; MAX_WINDOW_STEPS + 1], step: [identity3(); MAX_WINDOW_STEPS + 1], back: [identity3(); MAX_WINDOW_STEPS + 1], front: None, m: 1, count: 0, previous: None }
+    }
+
+    /// Breaks the chain, as a new one would start (the stores are written
+    /// before they are read again, so they are left as they are: a broken
+    /// chain costs nothing to restart).
+    fn reset(&mut self) {
+        self.front = None;
+        self.m = 1;
+        self.count = 0;
+        self.previous = None;
     }
 
     /// As [`Chain::push`].
@@ -728,7 +738,7 @@ impl<T: Real> LmProblem<T, TIMING> for GyroTimingProblem<'_, T> {
         let mut windows = 0u32;
         for s in self.samples {
             if !(s.t_s.is_finite() && s.raw.iter().chain(s.rate_rad_s.iter()).all(|v| v.is_finite())) {
-                chains = core::array::from_fn(|_| WindowChain::new());
+                chains.iter_mut().for_each(WindowChain::reset);
                 continue;
             }
             let r = self.norm.apply(s.raw);

@@ -308,7 +308,7 @@ fn a_sub_sample_magnetometer_lag_of_either_sign_is_recovered() {
 
 /// The batch's two-stack chain yields the windows [`Chain`] yields — the
 /// same pairs of readings, the same rotation to rounding (measured: 1.6e-15
-/// at most, at 32 steps) — across the ring's wrap, a break in time and every window
+/// at most, at 32 steps) — across the ring's wrap, a break in time, a reset and every window
 /// length, with rates on all three axes that change every sample.
 #[test]
 fn the_batch_chain_gives_the_chains_windows() {
@@ -325,6 +325,11 @@ fn the_batch_chain_gives_the_chains_windows() {
             let t_s = i as f64 * 0.05 + if i >= 150 { 1.0 } else { 0.0 };
             let rate_rad_s = [0, 1, 2].map(|_| 2.0 * rng.uniform() - 1.0);
             let s = GyroSample { t_s, raw: [i as f64, 0.5, -1.0], rate_rad_s, roll_rad: 0.0, pitch_rad: 0.0 };
+            // A reset at sample 300 (a missing reading) restarts both.
+            if i == 300 {
+                a = Chain::new();
+                b.reset();
+            }
             match (a.push(&s, s.raw, &cfg), b.push(&s, s.raw, &cfg)) {
                 (None, None) => {}
                 (Some((ai, aj, ar)), Some((bi, bj, br))) => {
@@ -339,7 +344,7 @@ fn the_batch_chain_gives_the_chains_windows() {
                 (x, y) => panic!("window {k}, sample {i}: {} vs {}", x.is_some(), y.is_some()),
             }
         }
-        assert_eq!(yielded, 400 - 2 * k, "window {k}");
+        assert_eq!(yielded, 400 - 3 * k, "window {k}");
         assert!(worst < 1e-14, "window {k}: {worst:e}");
     }
 }
