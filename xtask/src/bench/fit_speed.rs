@@ -86,7 +86,9 @@ pub fn section(root: &Path) -> (serde_json::Value, String) {
     let opts = FitOptions { model: ModelKind::Attitude, field_nt, saturation: None, allow_weak: false, gyro_lag: GyroLag::Given(0.0), reference: Some(Reference::world_model(site, &field)) };
     let duration_s = SWING_SEGMENTS_S[2].1;
     for n in ROWS {
-        let rate_hz = n as f64 / duration_s;
+        // A hair under n / duration: the simulator's 10⁶-row cap is checked
+        // on the product, which rounds above 10⁶ otherwise.
+        let rate_hz = n as f64 / duration_s * (1.0 - 1e-12);
         let csv = dir.join(format!("swing_{n}.csv"));
         let written = swing(&SensorModel::paper_like(), &site, 1, rate_hz).map(|s| s.with_gyro(&GyroModel::mems(), 1)).map_err(|e| e.to_string()).and_then(|s| s.write(&csv).map_err(|e| e.to_string()));
         if let Err(e) = written {
