@@ -227,8 +227,9 @@ mod tests {
     /// Only the fit-speed section, from a release build:
     /// `cargo test --release -p xtask bench::tests::fit_speed_section -- --ignored --nocapture`.
     /// Every row was fitted by both, and the attitude fit's coefficients are
-    /// scipy's on the same model (measured: within 2e-6 of the gain and the
-    /// field at 66 500 rows; the Huber scales differ slightly).
+    /// scipy's on the same model (measured: within 4.7e-6 of the gain and
+    /// the field at 10⁴ rows, 7.5e-7 at 66 500, 5e-8 at 10⁶; the Huber
+    /// scales differ slightly).
     #[test]
     #[ignore = "a benchmark: prints its numbers"]
     fn fit_speed_section() {
