@@ -277,11 +277,14 @@ impl<T: Real, const N: usize> NormalEquations<T, N> {
         if !y.is_finite() || !phi.iter().all(|v| v.is_finite()) {
             return false;
         }
+        // The upper triangle only (the lower is its mirror, made at the
+        // solve: the same products summed in the same order, bit for bit).
         for i in 0..N {
-            for j in 0..N {
-                self.ata[i][j] += phi[i] * phi[j];
+            let p = phi[i];
+            for j in i..N {
+                self.ata[i][j] += p * phi[j];
             }
-            self.atb[i] += phi[i] * y;
+            self.atb[i] += p * y;
         }
         self.btb += y * y;
         self.count = self.count.saturating_add(1);
@@ -311,6 +314,11 @@ impl<T: Real, const N: usize> NormalEquations<T, N> {
             *di = T::ONE / a.sqrt();
         }
         let mut a = self.ata;
+        for i in 1..N {
+            for j in 0..i {
+                a[i][j] = a[j][i];
+            }
+        }
         let mut b = self.atb;
         for i in 0..N {
             for j in 0..N {

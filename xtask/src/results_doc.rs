@@ -22,7 +22,7 @@ use serde_json::{json, Value};
 /// The bench's sections in the order of `docs/RESULTS.md`: the name
 /// `cargo xtask bench --section` takes, the title, and how long the section
 /// took here (`cargo xtask bench`'s debug build, two shared cores).
-pub const SECTIONS: [(&str, &str, &str); 15] = [
+pub const SECTIONS: [(&str, &str, &str); 16] = [
     ("mcu", "MCU cost (Cortex-M4F instructions under QEMU -icount) and the CPU budget", "a firmware release build (under the shared build lock: minutes), then seconds under QEMU"),
     ("paper000", "Paper 000: simulated field tests", "23 s"),
     ("paper001", "Paper 001: J (eq 16) vs N pairs and noise σ", "under 1 s"),
@@ -33,6 +33,7 @@ pub const SECTIONS: [(&str, &str, &str); 15] = [
     ("host-throughput", "Host throughput", "1 s; numpy's part needs Python"),
     ("varied", "The five effects on varied sites", "4 min"),
     ("import-speed", "Import speed per format", "4 s; the independent readers need Python"),
+    ("fit-speed", "Fit speed beside scipy", "minutes, from a release build; scipy's part needs Python"),
     ("compass", "A heading-only compass's swing", "under 1 s"),
     ("real-recordings", "Real recordings: magnitude spread before and after the full fit", "1 s"),
     ("real-data", "Real recordings it never saw, every model", "14 s"),

@@ -2,7 +2,7 @@
 //! a vehicle with an AHRS (roll, pitch) and no gyro that cannot tumble.
 //! Reads `roll_deg, pitch_deg`; says which parameters the data leave weak.
 
-use calib_core::attitude_fit::{fit_attitude, AttitudeConfig, AttitudeEstimate, AttitudeSample};
+use calib_core::attitude_fit::{fit_attitude_in, scratch_len, AttitudeConfig, AttitudeEstimate, AttitudeSample};
 
 use super::error::ComputeError;
 use crate::data::intake::levelled_samples;
@@ -54,5 +54,13 @@ pub fn weakly_determined(est: &AttitudeEstimate<f64>, field_nt: f64) -> Vec<Stri
 /// Fits the attitude-aided calibration; the magnitude is scaled to `field_nt`.
 pub fn fit_attitude_recording(rec: &Recording, field_nt: f64, cfg: &AttitudeConfig<f64>) -> Result<AttitudeEstimate<f64>, ComputeError> {
     let samples = attitude_samples(rec)?;
-    Ok(fit_attitude(&samples, field_nt, cfg)?)
+    Ok(fit_in(&samples, field_nt, cfg)?)
+}
+
+/// [`calib_core::attitude_fit::fit_attitude`] with its working memory (the
+/// same result, bit for bit, without counting over the data for every
+/// robust scale).
+pub fn fit_in(samples: &[AttitudeSample<f64>], field_nt: f64, cfg: &AttitudeConfig<f64>) -> Result<AttitudeEstimate<f64>, calib_core::fit::FitError> {
+    let mut scratch = vec![0.0; scratch_len(samples.len())];
+    fit_attitude_in(samples, field_nt, cfg, &mut scratch)
 }

@@ -28,6 +28,7 @@
 
 use calib_core::cal::{FieldCal, ModelKind};
 use calib_core::heading::{level, magnetic_heading_rad};
+use rayon::prelude::*;
 
 use super::error::ComputeError;
 use super::fit::{fit_with, Checks, FitOptions};
@@ -112,14 +113,24 @@ fn held_out_errors(cal: &FieldCal<f64>, rec: &Recording, lo: usize, hi: usize, b
 /// The held-out RMS of a candidate, degrees; why not, when a fold's fit is refused.
 fn held_out_deg(model: ModelKind, rec: &Recording, opts: &FitOptions, basis: HeldOutBasis) -> Result<f64, String> {
     let n = rec.len();
+    // The folds are independent: fitted side by side, their errors taken
+    // in fold order (the first refused fold named, as one by one).
+    let folds: Vec<Result<Vec<(f64, f64)>, String>> = (0..FOLDS)
+        .into_par_iter()
+        .map(|k| {
+            let (lo, hi) = (k * n / FOLDS, (k + 1) * n / FOLDS);
+            let train = without_block(rec, lo, hi);
+            let fold_opts = FitOptions { model, allow_weak: true, ..opts.clone() };
+            let doc = fit_with(&train, &fold_opts, Checks { attitude_units: false, magnitude_gate: false }).map_err(|e| format!("fold {} of {FOLDS}: {e}", k + 1))?;
+            let dip = doc.reference.as_ref().and_then(|r| r.inclination_deg);
+            let mut pairs = Vec::new();
+            held_out_errors(&doc.field_cal(), rec, lo, hi, basis, dip, opts.field_nt, &mut pairs);
+            Ok(pairs)
+        })
+        .collect();
     let mut pairs = Vec::new();
-    for k in 0..FOLDS {
-        let (lo, hi) = (k * n / FOLDS, (k + 1) * n / FOLDS);
-        let train = without_block(rec, lo, hi);
-        let fold_opts = FitOptions { model, allow_weak: true, ..opts.clone() };
-        let doc = fit_with(&train, &fold_opts, Checks { attitude_units: false, magnitude_gate: false }).map_err(|e| format!("fold {} of {FOLDS}: {e}", k + 1))?;
-        let dip = doc.reference.as_ref().and_then(|r| r.inclination_deg);
-        held_out_errors(&doc.field_cal(), rec, lo, hi, basis, dip, opts.field_nt, &mut pairs);
+    for fold in folds {
+        pairs.extend(fold?);
     }
     if pairs.is_empty() {
         return Err("no held-out sample could be judged".into());
@@ -169,12 +180,15 @@ pub fn fit_auto(rec: &Recording, opts: &FitOptions) -> Result<(CalDoc, AutoChoic
             rows.push(row);
             continue;
         }
-        match fit_candidate(rec, model, opts) {
+        // The full fit and the held-out folds side by side (the folds'
+        // judgement is only read when the full fit is accepted).
+        let (full, held_out) = rayon::join(|| fit_candidate(rec, model, opts), || held_out_deg(model, rec, opts, basis));
+        match full {
             Err(e) => row.refused = Some(e.to_string()),
             Ok((doc, note)) => {
                 row.note = note;
                 row.predicted_deg = doc.quality.predicted_heading_rms_deg;
-                match held_out_deg(model, rec, opts, basis) {
+                match held_out {
                     Err(why) => row.refused = Some(format!("not judged on held-out data: {why}")),
                     Ok(h) => {
                         row.held_out_deg = Some(h);

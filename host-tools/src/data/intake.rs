@@ -25,7 +25,7 @@ use std::path::{Path, PathBuf};
 
 use super::table::{col, ColumnMap, ColumnUnit, TableError};
 use super::Recording;
-use calib_core::attitude_fit::{fit_attitude, AttitudeConfig, AttitudeSample};
+use calib_core::attitude_fit::{fit_attitude_in, scratch_len, AttitudeConfig, AttitudeSample};
 use calib_core::heading::Tilt;
 
 use crate::doc::caldoc::MAX_BIAS_ABS;
@@ -339,7 +339,9 @@ pub fn check_attitude_units(rec: &Recording, field_nt: f64) -> Result<(), Angles
     }
     let fit = |k: f64| {
         // A fit that fails, or whose matrix no sensor has, is no fit.
-        fit_attitude(&levelled_samples(rec, roll, pitch, k), field_nt, &AttitudeConfig::new()).ok().filter(|e| e.cal.validate(MAX_BIAS_ABS).is_ok()).map(|e| e.residual_sigma_nt)
+        let samples = levelled_samples(rec, roll, pitch, k);
+        let mut scratch = vec![0.0; scratch_len(samples.len())];
+        fit_attitude_in(&samples, field_nt, &AttitudeConfig::new(), &mut scratch).ok().filter(|e| e.cal.validate(MAX_BIAS_ABS).is_ok()).map(|e| e.residual_sigma_nt)
     };
     let Some(as_radians) = fit(180.0 / std::f64::consts::PI) else { return Ok(()) };
     let as_degrees = fit(1.0);
