@@ -11,7 +11,12 @@
 //! * with a reference heading column (`ref_heading_deg`): the heading error
 //!   against it, one constant offset removed (a declination or a mounting
 //!   offset);
-//! * otherwise, by the field against the reference: each held-out sample's
+//! * otherwise with a gyro (`t`, `gx, gy, gz`, roll and pitch): the
+//!   calibrated heading's changes along each held-out block against the
+//!   yaw the gyro integrates ([`super::heading_judge`]): a rotated or
+//!   mis-scaled horizontal field, which leaves the intensity and the dip
+//!   unchanged, shows there;
+//! * otherwise, without either, by the field against the reference: each held-out sample's
 //!   dip against the reference inclination (the world model's at the site,
 //!   else the fold's own fitted dip) and its horizontal intensity against
 //!   `F cos I` (relative, in radians: a hard-iron or scale error moves the
@@ -22,9 +27,13 @@
 //! heading error written into the document when it exceeds the one from the
 //! covariance and the heading noise
 //! ([`crate::data::results::Quality::expected_heading_rms_deg`]). A model
-//! whose full fit is refused keeps its reason in the table; when no
-//! candidate's held-out error is below [`MAX_HELD_OUT_DEG`] the fit is
-//! refused.
+//! whose full fit is refused keeps its reason in the table. A candidate is
+//! kept only when both its held-out error and its own expected error (the
+//! covariance's prediction with the heading noise) are below
+//! [`MAX_HELD_OUT_DEG`]; the least held-out error among those wins. When
+//! none qualifies the fit is refused with the numbers, or, with
+//! `allow_weak`, the least held-out error is kept and the document says so
+//! ([`AutoChoice::kept_weak`]).
 
 use calib_core::cal::{FieldCal, ModelKind};
 use calib_core::heading::{level, magnetic_heading_rad};
@@ -32,12 +41,14 @@ use serde::{Deserialize, Serialize};
 
 use super::error::ComputeError;
 use super::fit::{fit_with, Checks, FitOptions};
+use super::heading_judge::GyroYaw;
 use super::truth::heading_rms_after_offset_deg;
 use crate::data::{CalDoc, Recording};
 
 /// Contiguous blocks of the held-out judgement.
 pub const FOLDS: usize = 5;
-/// No candidate with a held-out error above this is kept, degrees.
+/// No candidate with a held-out error or an expected error of its own at
+/// or above this is kept (unless weak results are allowed), degrees.
 pub const MAX_HELD_OUT_DEG: f64 = 5.0;
 
 /// The models `auto` tries, in the order of its table: the registry's
@@ -58,6 +69,10 @@ pub struct CandidateRow {
     /// The covariance's own prediction, degrees.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub predicted_deg: Option<f64>,
+    /// The candidate's own expected heading error (the prediction with the
+    /// heading noise, before the held-out error), degrees.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub expected_deg: Option<f64>,
     /// Why the model was not fitted or not judged.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub refused: Option<String>,
@@ -73,6 +88,9 @@ pub struct CandidateRow {
 pub enum HeldOutBasis {
     /// The recording's `ref_heading_deg`.
     ReferenceHeading,
+    /// The heading's changes along each held-out block against the
+    /// integrated gyro yaw (one constant per unbroken stretch removed).
+    GyroYaw,
     /// The dip and horizontal intensity against the reference field.
     FieldAndDip,
     /// The intensity alone (no roll and pitch).
@@ -88,11 +106,18 @@ pub struct AutoChoice {
     pub basis: HeldOutBasis,
     /// Every candidate.
     pub candidates: Vec<CandidateRow>,
+    /// Set when the model kept did not qualify (its held-out or its own
+    /// expected error at or above [`MAX_HELD_OUT_DEG`]) and was kept only
+    /// because weak results were allowed: why, in words.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kept_weak: Option<String>,
 }
 
 fn basis_of(rec: &Recording) -> HeldOutBasis {
     if rec.ref_heading_deg.as_ref().is_some_and(|r| r.iter().any(|v| v.is_finite())) && rec.roll_deg.is_some() && rec.pitch_deg.is_some() {
         HeldOutBasis::ReferenceHeading
+    } else if rec.t_s.is_some() && rec.gyro_rad_s().is_some() && rec.roll_deg.is_some() && rec.pitch_deg.is_some() {
+        HeldOutBasis::GyroYaw
     } else if rec.roll_deg.is_some() && rec.pitch_deg.is_some() {
         HeldOutBasis::FieldAndDip
     } else {
@@ -149,21 +174,35 @@ fn held_out_errors(cal: &FieldCal<f64>, rec: &Recording, lo: usize, hi: usize, b
                 let m = (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt();
                 out.push((m / field_nt - 1.0, 0.0));
             }
+            // Judged along whole stretches ([`GyroYaw::held_out_squares`]).
+            HeldOutBasis::GyroYaw => {}
         }
     }
 }
 
 /// The held-out RMS of a candidate, degrees; why not, when a fold's fit is refused.
-fn held_out_deg(model: ModelKind, rec: &Recording, opts: &FitOptions, basis: HeldOutBasis) -> Result<f64, String> {
+fn held_out_deg(model: ModelKind, rec: &Recording, opts: &FitOptions, basis: HeldOutBasis, yaw: Option<&GyroYaw>) -> Result<f64, String> {
     let n = rec.len();
     let mut pairs = Vec::new();
+    let mut squares = Vec::new();
     for k in 0..FOLDS {
         let (lo, hi) = (k * n / FOLDS, (k + 1) * n / FOLDS);
         let train = without_block(rec, lo, hi);
         let fold_opts = FitOptions { model, allow_weak: true, ..opts.clone() };
         let doc = fit_with(&train, &fold_opts, Checks { attitude_units: false, magnitude_gate: false }).map_err(|e| format!("fold {} of {FOLDS}: {e}", k + 1))?;
-        let dip = doc.reference.as_ref().and_then(|r| r.inclination_deg);
-        held_out_errors(&doc.field_cal(), rec, lo, hi, basis, dip, opts.field_nt, &mut pairs);
+        match (basis, yaw) {
+            (HeldOutBasis::GyroYaw, Some(yaw)) => yaw.held_out_squares(&doc.field_cal(), rec, lo, hi, &mut squares),
+            _ => {
+                let dip = doc.reference.as_ref().and_then(|r| r.inclination_deg);
+                held_out_errors(&doc.field_cal(), rec, lo, hi, basis, dip, opts.field_nt, &mut pairs);
+            }
+        }
+    }
+    if basis == HeldOutBasis::GyroYaw {
+        if squares.is_empty() {
+            return Err(format!("no held-out stretch of {} rows or more without a break", super::heading_judge::MIN_STRETCH_ROWS));
+        }
+        return Ok(trimmed_rms(squares).to_degrees());
     }
     if pairs.is_empty() {
         return Err("no held-out sample could be judged".into());
@@ -174,6 +213,7 @@ fn held_out_deg(model: ModelKind, rec: &Recording, opts: &FitOptions, basis: Hel
         // calibration error that turns the heading) in quadrature.
         HeldOutBasis::FieldAndDip => trimmed_rms(pairs.iter().map(|(d, h)| d * d + h * h).collect()).to_degrees(),
         HeldOutBasis::Intensity => trimmed_rms(pairs.iter().map(|(m, _)| m * m).collect()).to_degrees(),
+        HeldOutBasis::GyroYaw => f64::NAN,
     })
 }
 
@@ -190,18 +230,24 @@ fn trimmed_rms(mut squares: Vec<f64>) -> f64 {
     (squares[..keep].iter().sum::<f64>() / keep as f64).sqrt()
 }
 
-/// Fits every candidate, judges each on held-out blocks, keeps the best.
-/// `opts.model` is ignored. The kept document's expected heading error is
-/// the larger of its own and its held-out error.
+/// Fits every candidate, judges each on held-out blocks, keeps the best
+/// that qualifies (module documentation). `opts.model` is ignored. The kept
+/// document's expected heading error is the larger of its own and its
+/// held-out error.
 pub fn fit_auto(rec: &Recording, opts: &FitOptions) -> Result<(CalDoc, AutoChoice), ComputeError> {
-    let basis = basis_of(rec);
+    let mut basis = basis_of(rec);
+    let yaw = if basis == HeldOutBasis::GyroYaw { gyro_yaw(rec, opts) } else { None };
+    if basis == HeldOutBasis::GyroYaw && yaw.is_none() {
+        basis = HeldOutBasis::FieldAndDip;
+    }
     // Roll and pitch in radians refuse every levelling candidate: checked
     // once here, not in each candidate's and fold's fit.
     let units = super::attitude::check_attitude_units(rec, opts.field_nt).map_err(|e| e.to_string());
     let mut rows = Vec::new();
-    let mut best: Option<(f64, CalDoc)> = None;
+    // (held-out, own expected, document) of every judged candidate.
+    let mut judged: Vec<(f64, f64, CalDoc)> = Vec::new();
     for model in candidates() {
-        let mut row = CandidateRow { model: model.name().to_string(), held_out_deg: None, predicted_deg: None, refused: None, note: None };
+        let mut row = CandidateRow { model: model.name().to_string(), held_out_deg: None, predicted_deg: None, expected_deg: None, refused: None, note: None };
         let levelling = super::models::entry(model).levelled;
         if let Err(why) = allowed(model, rec).and(if levelling { units.clone() } else { Ok(()) }) {
             row.refused = Some(why);
@@ -213,30 +259,111 @@ pub fn fit_auto(rec: &Recording, opts: &FitOptions) -> Result<(CalDoc, AutoChoic
             Ok((doc, note)) => {
                 row.note = note;
                 row.predicted_deg = doc.quality.predicted_heading_rms_deg;
-                match held_out_deg(model, rec, opts, basis) {
+                row.expected_deg = doc.quality.expected_heading_rms_deg;
+                match held_out_deg(model, rec, opts, basis, yaw.as_ref()) {
                     Err(why) => row.refused = Some(format!("not judged on held-out data: {why}")),
                     Ok(h) => {
                         row.held_out_deg = Some(h);
-                        if best.as_ref().is_none_or(|(b, _)| h < *b) {
-                            best = Some((h, doc));
-                        }
+                        // No expected error of its own (no inclination to
+                        // turn the noise into heading): the held-out one.
+                        judged.push((h, doc.quality.expected_heading_rms_deg.unwrap_or(h), doc));
                     }
                 }
             }
         }
         rows.push(row);
     }
-    let Some((held_out, mut doc)) = best else {
-        return Err(ComputeError::NoModel { table: table_text(&rows) });
+    let scores: Vec<(f64, f64)> = judged.iter().map(|(h, e, _)| (*h, *e)).collect();
+    let (pick, kept_weak) = match choose(&scores, opts.allow_weak) {
+        Choice::None => return Err(ComputeError::NoModel { table: table_text(&rows) }),
+        Choice::Refused(i) => {
+            let (h, e, doc) = &judged[i];
+            let why = WeakWhy { model: doc.model.name().to_string(), held_out_deg: *h, expected_deg: *e, basis };
+            return Err(ComputeError::NoModelQualifies { why: why.to_string(), table: table_text(&rows) });
+        }
+        Choice::Kept(i) => (i, None),
+        Choice::KeptWeak(i) => {
+            let (h, e, doc) = &judged[i];
+            let why = WeakWhy { model: doc.model.name().to_string(), held_out_deg: *h, expected_deg: *e, basis };
+            (i, Some(format!("kept because weak results were allowed: {why}")))
+        }
     };
-    if !(held_out <= MAX_HELD_OUT_DEG) && !opts.allow_weak {
-        return Err(ComputeError::NoModel { table: table_text(&rows) });
-    }
+    let (held_out, _, mut doc) = judged.swap_remove(pick);
     let expected = doc.quality.expected_heading_rms_deg.map_or(held_out, |p| p.max(held_out));
     doc.quality.expected_heading_rms_deg = Some(expected);
-    let choice = AutoChoice { chosen: doc.model.name().to_string(), basis, candidates: rows };
+    if let (Some(why), Some(fit)) = (&kept_weak, doc.quality.fit.as_mut()) {
+        fit.warnings.push(why.clone());
+    }
+    let choice = AutoChoice { chosen: doc.model.name().to_string(), basis, candidates: rows, kept_weak };
     doc.quality.auto = Some(choice.clone());
     Ok((doc, choice))
+}
+
+/// What [`choose`] decided, by index into the judged candidates.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Choice {
+    /// Nothing was judged.
+    None,
+    /// The least held-out error of those that qualify.
+    Kept(usize),
+    /// None qualifies; the least held-out error, kept as weak results are allowed.
+    KeptWeak(usize),
+    /// None qualifies; the least held-out error, whose numbers refuse the fit.
+    Refused(usize),
+}
+
+/// The choice among `(held-out, own expected)` errors, degrees: the least
+/// held-out error among the candidates with both below
+/// [`MAX_HELD_OUT_DEG`]; when none, the least held-out error overall is
+/// kept weak (`allow_weak`) or refused.
+fn choose(scores: &[(f64, f64)], allow_weak: bool) -> Choice {
+    let qualifies = |&(h, e): &(f64, f64)| h < MAX_HELD_OUT_DEG && e < MAX_HELD_OUT_DEG;
+    let least = |only_qualified: bool| scores.iter().enumerate().filter(|(_, s)| !only_qualified || qualifies(s)).min_by(|a, b| a.1 .0.total_cmp(&b.1 .0)).map(|(i, _)| i);
+    match (least(true), least(false)) {
+        (Some(i), _) => Choice::Kept(i),
+        (None, Some(i)) if allow_weak => Choice::KeptWeak(i),
+        (None, Some(i)) => Choice::Refused(i),
+        (None, None) => Choice::None,
+    }
+}
+
+/// The numbers of the best candidate that does not qualify.
+struct WeakWhy {
+    model: String,
+    held_out_deg: f64,
+    expected_deg: f64,
+    basis: HeldOutBasis,
+}
+
+impl std::fmt::Display for WeakWhy {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "the least held-out error, `{}`'s, is {:.2}° ({}) and its own expected error {:.2}°; both must be below {MAX_HELD_OUT_DEG}°",
+            self.model,
+            self.held_out_deg,
+            basis_text(self.basis),
+            self.expected_deg
+        )
+    }
+}
+
+/// What a held-out error was measured against, in a few words.
+pub fn basis_text(basis: HeldOutBasis) -> &'static str {
+    match basis {
+        HeldOutBasis::ReferenceHeading => "judged by the heading against ref_heading_deg",
+        HeldOutBasis::GyroYaw => "judged by the heading's changes against the integrated gyro yaw",
+        HeldOutBasis::FieldAndDip => "judged by the field's dip and horizontal intensity",
+        HeldOutBasis::Intensity => "judged by the field's intensity",
+    }
+}
+
+/// The gyro yaw track of the held-out judge, the gyro's bias removed as
+/// the gyro-aided fit of the whole recording estimates it (none when that
+/// fit fails: a bias of 0.005 rad/s then bends a 2 s stretch by 0.6°).
+fn gyro_yaw(rec: &Recording, opts: &FitOptions) -> Option<GyroYaw> {
+    let bias = super::gyro::fit_gyro_recording(rec, opts.field_nt, opts.gyro_lag).map_or([0.0; 3], |(_, q)| q.gyro_bias_rad_s);
+    GyroYaw::new(rec, bias)
 }
 
 /// One candidate's fit on the whole recording. The models that do not rest
@@ -259,9 +386,37 @@ pub fn table_text(rows: &[CandidateRow]) -> String {
     rows.iter()
         .map(|r| match (&r.refused, r.held_out_deg) {
             (Some(why), _) => format!("{}: {why}", r.model),
-            (None, Some(h)) => format!("{}: held-out {h:.2}°", r.model),
+            (None, Some(h)) => match r.expected_deg {
+                Some(e) => format!("{}: held-out {h:.2}°, expected {e:.2}°", r.model),
+                None => format!("{}: held-out {h:.2}°", r.model),
+            },
             (None, None) => format!("{}: not judged", r.model),
         })
         .collect::<Vec<_>>()
         .join("; ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The finding's numbers: `attitude` held-out 2.50° with its own
+    /// expected error 6.64°, `gyro` held-out 13.2° with 2.9°. Before, the
+    /// least held-out error was kept whatever its own expected error; now
+    /// neither qualifies.
+    #[test]
+    fn a_candidate_qualifies_only_with_both_errors_below_the_limit() {
+        let finding = [(2.50, 6.64), (13.2, 2.9)];
+        assert_eq!(choose(&finding, false), Choice::Refused(0));
+        assert_eq!(choose(&finding, true), Choice::KeptWeak(0));
+        // The one that qualifies wins over a smaller held-out error that does not.
+        assert_eq!(choose(&[(1.0, 5.0), (3.0, 4.9)], false), Choice::Kept(1));
+        assert_eq!(choose(&[(2.0, 1.5), (1.9, 2.2)], false), Choice::Kept(1));
+        assert_eq!(choose(&[], true), Choice::None);
+        // NaN never qualifies.
+        assert_eq!(choose(&[(f64::NAN, 1.0)], false), Choice::Refused(0));
+        let why = WeakWhy { model: "attitude".into(), held_out_deg: 2.5, expected_deg: 6.64, basis: HeldOutBasis::GyroYaw };
+        let text = ComputeError::NoModelQualifies { why: why.to_string(), table: String::new() }.to_string();
+        assert!(text.contains("2.50°") && text.contains("6.64°") && text.contains("below 5°") && text.contains("gyro yaw") && text.contains("--allow-weak"), "{text}");
+    }
 }
