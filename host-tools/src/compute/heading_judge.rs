@@ -7,7 +7,7 @@
 //! turning through 90° by the gyro, the calibrated heading turns through
 //! 90° only when the calibration is right. Over each unbroken stretch of a
 //! held-out block (no step longer than [`MAX_STEP_FACTOR`] sample
-//! intervals) the difference between the calibrated heading and the
+//! intervals, none longer than [`MAX_STRETCH_S`]) the difference between the calibrated heading and the
 //! integrated yaw, `ψᵢ − Yᵢ`, is constant for a right calibration (its
 //! constant is the stretch's unknown start); its scatter about the
 //! stretch's mean is the heading error the judge measures.
@@ -25,6 +25,16 @@ use crate::data::Recording;
 /// A step longer than this many median sample intervals (or not forward
 /// in time) breaks a stretch: the gyro was not integrated across it.
 pub const MAX_STEP_FACTOR: f64 = 1.5;
+
+/// A stretch is cut after this long, s: the gyro's remaining bias drifts
+/// the integrated yaw (0.005 rad/s is 1.1° in 4 s), and a long stretch
+/// would count the drift as the calibration's error. Chosen on the BROAD
+/// trials: uncut, the tapped trial 25's first half (12 s blocks without a
+/// break) judged its gyro fit 6.45° (1.86° on the second half) and was
+/// refused; cut at 2, 4 or 8 s it was kept (held-out 1.70°, 2.47°,
+/// 3.87°), and the limited-tilt trials' choices were the same at 2 and 4 s
+/// on every trial and 294-row cut; 4 s keeps the longer view of the turn.
+pub const MAX_STRETCH_S: f64 = 4.0;
 
 /// Stretches shorter than this many rows are not judged (their one
 /// unknown constant takes most of what they could say).
@@ -59,6 +69,7 @@ impl GyroYaw {
         let mut stretch = vec![0usize; n];
         let mut id = 0usize;
         let mut previous: Option<(usize, f64)> = None;
+        let mut start_s = f64::NAN;
         for i in 0..n {
             let Some(rate) = yaw_rate(i) else {
                 previous = None;
@@ -67,12 +78,13 @@ impl GyroYaw {
                 continue;
             };
             match previous {
-                Some((p, prev_rate)) if t[i] - t[p] > 0.0 && t[i] - t[p] <= MAX_STEP_FACTOR * step_s => {
+                Some((p, prev_rate)) if t[i] - t[p] > 0.0 && t[i] - t[p] <= MAX_STEP_FACTOR * step_s && t[i] - start_s <= MAX_STRETCH_S => {
                     yaw_rad[i] = yaw_rad[p] + 0.5 * (prev_rate + rate) * (t[i] - t[p]);
                 }
                 _ => {
                     id += 1;
                     yaw_rad[i] = 0.0;
+                    start_s = t[i];
                 }
             }
             stretch[i] = id;

@@ -25,6 +25,7 @@ pub mod compass;
 pub mod error;
 pub mod fit;
 pub mod gyro;
+pub mod gyro_robust;
 pub mod heading_judge;
 pub mod models;
 pub mod ortho;
