@@ -45,6 +45,10 @@ use super::heading_judge::GyroYaw;
 use super::truth::heading_rms_after_offset_deg;
 use crate::data::{CalDoc, Recording};
 
+/// The gyro yaw judges only when at least this share of the rows lies in
+/// stretches it can integrate.
+pub const MIN_YAW_SHARE: f64 = 0.5;
+
 /// Contiguous blocks of the held-out judgement.
 pub const FOLDS: usize = 5;
 /// No candidate with a held-out error or an expected error of its own at
@@ -236,7 +240,9 @@ fn trimmed_rms(mut squares: Vec<f64>) -> f64 {
 /// held-out error.
 pub fn fit_auto(rec: &Recording, opts: &FitOptions) -> Result<(CalDoc, AutoChoice), ComputeError> {
     let mut basis = basis_of(rec);
-    let yaw = if basis == HeldOutBasis::GyroYaw { gyro_yaw(rec, opts) } else { None };
+    // A gyro logged too sparsely to integrate (no stretch of a few rows
+    // without a break over most of the recording) leaves the field's judge.
+    let yaw = if basis == HeldOutBasis::GyroYaw { gyro_yaw(rec, opts).filter(|y| y.usable_share() >= MIN_YAW_SHARE) } else { None };
     if basis == HeldOutBasis::GyroYaw && yaw.is_none() {
         basis = HeldOutBasis::FieldAndDip;
     }

@@ -93,6 +93,26 @@ impl GyroYaw {
         Some(Self { yaw_rad, stretch })
     }
 
+    /// The share of rows in stretches of [`MIN_STRETCH_ROWS`] or more (the
+    /// rows this judge can use).
+    pub fn usable_share(&self) -> f64 {
+        let n = self.stretch.len();
+        let mut usable = 0usize;
+        let mut i = 0;
+        while i < n {
+            let mut j = i;
+            while j < n && self.stretch[j] == self.stretch[i] {
+                j += 1;
+            }
+            let rows = (i..j).filter(|&k| self.yaw_rad[k].is_finite()).count();
+            if rows >= MIN_STRETCH_ROWS {
+                usable += rows;
+            }
+            i = j;
+        }
+        usable as f64 / n.max(1) as f64
+    }
+
     /// The heading errors (rad) of `cal` on rows `lo..hi` against the yaw,
     /// each stretch's mean removed, with each squared error scaled by
     /// `n / (n − 1)` for the stretch's constant (so the mean of the
