@@ -86,6 +86,15 @@ pub enum ComputeError {
         /// Every candidate and why it was not kept.
         table: String,
     },
+    /// `fit --model auto`: candidates were judged, but none has both its
+    /// held-out error and its own expected error below the limit.
+    #[error("no model is kept: {why} (--allow-weak keeps it; every candidate: {table})")]
+    NoModelQualifies {
+        /// The best candidate's numbers and the limit, in words.
+        why: String,
+        /// Every candidate and why it was not kept.
+        table: String,
+    },
     /// The attitude-aided fit's roll or pitch is beyond 180: not degrees.
     #[error("roll_deg or pitch_deg exceeds 180: the attitude columns must be in degrees")]
     AttitudeNotDegrees,

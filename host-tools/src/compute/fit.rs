@@ -98,7 +98,14 @@ pub(crate) fn fit_with(rec: &Recording, opts: &FitOptions, checks: Checks) -> Re
         ModelKind::Axis => fit_batch::<Axis, 6, f64>(&samples, opts.field_nt),
         ModelKind::Full | ModelKind::Triangular => fit_batch::<Full, 9, f64>(&samples, opts.field_nt),
         ModelKind::Gyro => {
-            let (cal, q) = super::gyro::fit_gyro_recording(rec, opts.field_nt, opts.gyro_lag)?;
+            let (plain, q) = super::gyro::fit_gyro_recording(rec, opts.field_nt, opts.gyro_lag)?;
+            // Huber-reweighted from the plain solution, with its gyro bias
+            // and lag (an estimated lag: the rates read at all of it).
+            let given_lag_s = match opts.gyro_lag {
+                super::gyro::GyroLag::Given(lag_s) => lag_s,
+                super::gyro::GyroLag::Estimate => q.gyro_lag_s,
+            };
+            let cal = super::gyro_robust::refine_recording(rec, opts.field_nt, given_lag_s, &q, &plain).unwrap_or(plain);
             fit_dip = Some((q.inclination_deg(opts.field_nt), 0.0));
             warnings.extend(q.weakly_determined.iter().cloned());
             gyro_quality = Some(q);

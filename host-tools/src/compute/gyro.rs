@@ -35,7 +35,7 @@ const WEAK_HEADING_DEG: f64 = 1.0;
 
 /// The gyro rates at `t − lag_s`, linearly interpolated between rows
 /// (NaN outside the recording or next to a missing rate).
-fn rates_at_lag(t: &[f64], rates: &[[f64; 3]], lag_s: f64) -> Vec<[f64; 3]> {
+pub(crate) fn rates_at_lag(t: &[f64], rates: &[[f64; 3]], lag_s: f64) -> Vec<[f64; 3]> {
     if lag_s == 0.0 {
         return rates.to_vec();
     }

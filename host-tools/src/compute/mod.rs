@@ -26,6 +26,8 @@ pub mod dip_held;
 pub mod error;
 pub mod fit;
 pub mod gyro;
+pub mod gyro_robust;
+pub mod heading_judge;
 pub mod models;
 pub mod ortho;
 pub mod reference;

@@ -4,7 +4,8 @@
 
 use serde::{Deserialize, Serialize};
 
-/// No candidate with a held-out error above this is kept, degrees.
+/// No candidate with a held-out error or an expected error of its own at
+/// or above this is kept (unless weak results are allowed), degrees.
 pub const MAX_HELD_OUT_DEG: f64 = 5.0;
 
 /// One candidate's row of the table.
@@ -18,6 +19,10 @@ pub struct CandidateRow {
     /// The covariance's own prediction, degrees.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub predicted_deg: Option<f64>,
+    /// The candidate's own expected heading error (the prediction with the
+    /// heading noise, before the held-out error), degrees.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub expected_deg: Option<f64>,
     /// Why the model was not fitted or not judged.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub refused: Option<String>,
@@ -33,6 +38,9 @@ pub struct CandidateRow {
 pub enum HeldOutBasis {
     /// The recording's `ref_heading_deg`.
     ReferenceHeading,
+    /// The heading's changes along each held-out block against the
+    /// integrated gyro yaw (one constant per unbroken stretch removed).
+    GyroYaw,
     /// The dip and horizontal intensity against the reference field.
     FieldAndDip,
     /// The intensity alone (no roll and pitch).
@@ -48,4 +56,9 @@ pub struct AutoChoice {
     pub basis: HeldOutBasis,
     /// Every candidate.
     pub candidates: Vec<CandidateRow>,
+    /// Set when the model kept did not qualify (its held-out or its own
+    /// expected error at or above [`MAX_HELD_OUT_DEG`]) and was kept only
+    /// because weak results were allowed: why, in words.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kept_weak: Option<String>,
 }

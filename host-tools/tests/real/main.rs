@@ -12,6 +12,7 @@ pub fn data(rel: &str) -> PathBuf {
 }
 
 mod attitude_glider;
+mod auto_judge;
 mod geomag;
 mod glider_world;
 mod integrity_broad;

@@ -58,7 +58,9 @@ pub struct Args {
     /// Estimate that lag from the data instead (gyro model; within ±0.25 s).
     #[arg(long)]
     estimate_gyro_lag: bool,
-    /// Return coefficients even when the quality gates fail.
+    /// Return coefficients even when the quality gates fail (with `auto`:
+    /// keep the least held-out error even when it, or the model's own
+    /// expected error, is not below the limit; the document says so).
     #[arg(long)]
     allow_weak: bool,
     /// Write the calibration document here.
@@ -107,9 +109,13 @@ pub fn run(a: Args) -> Result<()> {
             for row in &choice.candidates {
                 let held = row.held_out_deg.map_or("—".to_string(), |h| format!("{h:.2}°"));
                 let predicted = row.predicted_deg.map_or("—".to_string(), |p| format!("{p:.2}°"));
-                eprintln!("  {:<9} held-out {held:>7}  covariance {predicted:>7}  {}", row.model, row.refused.as_deref().or(row.note.as_deref()).unwrap_or(""));
+                let expected = row.expected_deg.map_or("—".to_string(), |p| format!("{p:.2}°"));
+                eprintln!("  {:<9} held-out {held:>7}  covariance {predicted:>7}  expected {expected:>7}  {}", row.model, row.refused.as_deref().or(row.note.as_deref()).unwrap_or(""));
             }
-            eprintln!("  kept {} (the least held-out error)", choice.chosen);
+            match &choice.kept_weak {
+                Some(why) => eprintln!("  kept {}: {why}", choice.chosen),
+                None => eprintln!("  kept {} (the least held-out error of those whose held-out and own expected errors are below {}°)", choice.chosen, host_tools::doc::MAX_HELD_OUT_DEG),
+            }
             doc
         }
     };
@@ -138,6 +144,7 @@ pub fn run(a: Args) -> Result<()> {
 fn basis_words(b: HeldOutBasis) -> &'static str {
     match b {
         HeldOutBasis::ReferenceHeading => "the recording's ref_heading_deg (one constant offset removed)",
+        HeldOutBasis::GyroYaw => "the integrated gyro yaw (each held-out stretch's heading changes)",
         HeldOutBasis::FieldAndDip => "the reference field (each held-out sample's dip and horizontal intensity)",
         HeldOutBasis::Intensity => "the reference intensity (no roll and pitch)",
     }
