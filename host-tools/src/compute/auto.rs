@@ -133,20 +133,6 @@ fn held_out_deg(model: ModelKind, rec: &Recording, opts: &FitOptions, basis: Hel
     let n = rec.len();
     // The folds are independent: fitted side by side, their errors taken
     // in fold order (the first refused fold named, as one by one).
-    let folds: Vec<Result<Vec<(f64, f64)>, String>> = (0..FOLDS)
-        .into_par_iter()
-        .map(|k| {
-            let (lo, hi) = (k * n / FOLDS, (k + 1) * n / FOLDS);
-            let train = without_block(rec, lo, hi);
-            let fold_opts = FitOptions { model, allow_weak: true, ..opts.clone() };
-            let doc = fit_with(&train, &fold_opts, Checks { attitude_units: false, magnitude_gate: false }).map_err(|e| format!("fold {} of {FOLDS}: {e}", k + 1))?;
-            let dip = doc.reference.as_ref().and_then(|r| r.inclination_deg);
-            let mut pairs = Vec::new();
-            held_out_errors(&doc.field_cal(), rec, lo, hi, basis, dip, opts.field_nt, &mut pairs);
-            Ok(pairs)
-        })
-        .collect();
-    let mut pairs = Vec::new();
     let folds: Vec<Result<(Vec<(f64, f64)>, Vec<f64>), String>> = (0..FOLDS)
         .into_par_iter()
         .map(|k| {

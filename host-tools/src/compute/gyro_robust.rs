@@ -203,7 +203,7 @@ pub fn refine(samples: &[GyroSample<f64>], cfg: &GyroConfig<f64>, field_nt: f64,
 /// [`refine`] on a recording, with the plain gyro-aided fit's gyro bias
 /// and lag (`plain`), the rates read `given_lag_s` earlier (as the plain
 /// fit read them).
-pub fn refine_recording(rec: &crate::data::Recording, field_nt: f64, given_lag_s: f64, plain: &crate::data::results::GyroQuality, start: &FieldCal<f64>) -> Option<FieldCal<f64>> {
+pub fn refine_recording(rec: &crate::data::Recording, field_nt: f64, given_lag_s: f64, plain: &crate::doc::results::GyroQuality, start: &FieldCal<f64>) -> Option<FieldCal<f64>> {
     let t = rec.t_s.as_ref()?;
     let rates = super::gyro::rates_at_lag(t, &rec.gyro_rad_s()?, given_lag_s);
     let step_s = crate::data::pairing::median_step_s(t)?;
