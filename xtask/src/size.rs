@@ -5,10 +5,12 @@ use std::path::Path;
 use anyhow::{bail, Context, Result};
 use object::{Object, ObjectSection, SectionFlags};
 
-/// The firmware's flash budget on the STM32F405: 72 KiB (with
-/// the integrity monitor and NMEA; the application sectors hold 128 KiB
-/// beside the coefficient store's). The size gate fails above it.
-pub const FLASH_BUDGET_BYTES: u64 = 72 * 1024;
+/// The firmware's flash budget on the STM32F405: 80 KiB (the
+/// application sectors hold 128 KiB beside the coefficient store's). The
+/// image is 75 636 B with the integrity monitor, NMEA, the wire's endpoint
+/// table and the stored calibration's re-check while an on-line hard iron is
+/// applied (72 836 B before the last two). The size gate fails above it.
+pub const FLASH_BUDGET_BYTES: u64 = 80 * 1024;
 /// RAM budget (statics; the stack takes what is left of the 128 KiB SRAM).
 pub const RAM_BUDGET_BYTES: u64 = 64 * 1024;
 

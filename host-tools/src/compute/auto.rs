@@ -141,12 +141,16 @@ fn held_out_deg(model: ModelKind, rec: &Recording, opts: &FitOptions, basis: Hel
             let fold_opts = FitOptions { model, allow_weak: true, ..opts.clone() };
             let doc = fit_with(&train, &fold_opts, Checks { attitude_units: false, magnitude_gate: false }).map_err(|e| format!("fold {} of {FOLDS}: {e}", k + 1))?;
             let (mut pairs, mut squares) = (Vec::new(), Vec::new());
+            let dip = doc.reference.as_ref().and_then(|r| r.inclination_deg);
             match (basis, yaw) {
-                (HeldOutBasis::GyroYaw, Some(yaw)) => yaw.held_out_squares(&doc.field_cal(), rec, lo, hi, &mut squares),
-                _ => {
-                    let dip = doc.reference.as_ref().and_then(|r| r.inclination_deg);
-                    held_out_errors(&doc.field_cal(), rec, lo, hi, basis, dip, opts.field_nt, &mut pairs);
+                // The heading's changes against the gyro, and the field's dip
+                // and horizontal intensity beside them: a rotated horizontal
+                // field shows in the first, a wrong field in the second.
+                (HeldOutBasis::GyroYaw, Some(yaw)) => {
+                    yaw.held_out_squares(&doc.field_cal(), rec, lo, hi, &mut squares);
+                    held_out_errors(&doc.field_cal(), rec, lo, hi, HeldOutBasis::FieldAndDip, dip, opts.field_nt, &mut pairs);
                 }
+                _ => held_out_errors(&doc.field_cal(), rec, lo, hi, basis, dip, opts.field_nt, &mut pairs),
             }
             Ok((pairs, squares))
         })
@@ -161,7 +165,15 @@ fn held_out_deg(model: ModelKind, rec: &Recording, opts: &FitOptions, basis: Hel
         if squares.is_empty() {
             return Err(format!("no held-out stretch of {} rows or more without a break", super::heading_judge::MIN_STRETCH_ROWS));
         }
-        return Ok(trimmed_rms(squares).to_degrees());
+        // In quadrature with the field's: where the gyro's own integration
+        // error sets a floor every candidate shares (a 2 Hz log), the field
+        // still tells them apart.
+        if opts.reference.as_ref().is_some_and(|r| r.independent_inclination()) {
+            super::dip_held::remove_common_offset(&mut pairs);
+        }
+        let yaw_rad = trimmed_rms(squares);
+        let field_rad = if pairs.is_empty() { 0.0 } else { trimmed_rms(pairs.iter().map(|(d, h)| d * d + h * h).collect()) };
+        return Ok(yaw_rad.hypot(field_rad).to_degrees());
     }
     if pairs.is_empty() {
         return Err("no held-out sample could be judged".into());

@@ -14,22 +14,10 @@ use host_tools::doc::{HeldOutBasis, MAX_HELD_OUT_DEG};
 use host_tools::compute::{truth, ComputeError, FitOptions, GyroLag};
 use host_tools::data::recording::Recording;
 
+use super::real_gyro::{optical_deg, Truth};
+
 fn dir() -> PathBuf {
     super::data("broad-02-limited")
-}
-
-fn optical_deg(path: &Path) -> Vec<f64> {
-    let text = std::fs::read_to_string(path).unwrap();
-    let mut lines = text.lines();
-    let col = lines.next().and_then(|h| h.split(',').position(|c| c == "truth_heading_deg")).unwrap();
-    lines.map(|l| l.split(',').nth(col).and_then(|v| v.parse().ok()).unwrap_or(f64::NAN)).collect()
-}
-
-#[derive(serde::Deserialize)]
-struct Truth {
-    bias: [f64; 3],
-    matrix: [[f64; 3]; 3],
-    field_nt: f64,
 }
 
 fn cut(v: &Option<Vec<f64>>, lo: usize, hi: usize) -> Option<Vec<f64>> {

@@ -19,7 +19,7 @@ fn dir(name: &str) -> PathBuf {
 }
 
 /// The optical heading column of a validation file, degrees.
-fn optical_deg(path: &Path) -> Vec<f64> {
+pub(crate) fn optical_deg(path: &Path) -> Vec<f64> {
     let text = std::fs::read_to_string(path).unwrap();
     let mut lines = text.lines();
     let col = lines.next().and_then(|h| h.split(',').position(|c| c == "truth_heading_deg")).unwrap();
@@ -27,10 +27,10 @@ fn optical_deg(path: &Path) -> Vec<f64> {
 }
 
 #[derive(serde::Deserialize)]
-struct Truth {
-    bias: [f64; 3],
-    matrix: [[f64; 3]; 3],
-    field_nt: f64,
+pub(crate) struct Truth {
+    pub(crate) bias: [f64; 3],
+    pub(crate) matrix: [[f64; 3]; 3],
+    pub(crate) field_nt: f64,
 }
 
 /// (heading RMS of the gyro fit with the product's defaults, the floor),

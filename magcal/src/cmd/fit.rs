@@ -144,7 +144,7 @@ pub fn run(a: Args) -> Result<()> {
 fn basis_words(b: HeldOutBasis) -> &'static str {
     match b {
         HeldOutBasis::ReferenceHeading => "the recording's ref_heading_deg (one constant offset removed)",
-        HeldOutBasis::GyroYaw => "the integrated gyro yaw (each held-out stretch's heading changes)",
+        HeldOutBasis::GyroYaw => "the integrated gyro yaw (each held-out stretch's heading changes) with the reference field's dip and horizontal intensity, in quadrature",
         HeldOutBasis::FieldAndDip => "the reference field (each held-out sample's dip and horizontal intensity)",
         HeldOutBasis::Intensity => "the reference intensity (no roll and pitch)",
     }
