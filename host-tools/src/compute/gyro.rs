@@ -163,7 +163,7 @@ pub fn fit_gyro_recording(rec: &Recording, field_nt: f64, gyro_lag: GyroLag) -> 
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     /// A swing test at ±15° / ±5°, turning at 1/12 rad/s, built from the
@@ -171,7 +171,7 @@ mod tests {
     /// magnetometer (and attitude) sample the motion at `t − mag_late_s`
     /// and whose gyro samples it at `t − gyro_late_s`; the raw field is the
     /// truth's through bias (300, −200, 100) and per-axis scale.
-    fn swing_recording(dt: f64, n: usize, mag_late_s: f64, gyro_late_s: f64) -> Recording {
+    pub(crate) fn swing_recording(dt: f64, n: usize, mag_late_s: f64, gyro_late_s: f64) -> Recording {
         let ned = calib_core::heading::ned_field(48_000.0, 1.05, 0.0);
         let motion = |t: f64| {
             let (roll, pitch, yaw) = (0.26 * (t / 6.0).sin(), 0.09 * (t / 9.0).sin(), t / 12.0);

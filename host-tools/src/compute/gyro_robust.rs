@@ -231,24 +231,11 @@ mod tests {
     /// 100) and per-axis scale. Every 37th row the gyro's z reads 0.5
     /// rad/s too much (a glitch: each spoils the windows across it).
     fn swing_with_glitches() -> Recording {
-        let ned = calib_core::heading::ned_field(48_000.0, 1.05, 0.0);
-        let mut rec = Recording { t_s: Some(vec![]), roll_deg: Some(vec![]), pitch_deg: Some(vec![]), gx_rad_s: Some(vec![]), gy_rad_s: Some(vec![]), gz_rad_s: Some(vec![]), ..Recording::default() };
-        for i in 0..3000 {
-            let t = i as f64 * 0.2;
-            let (roll, pitch, yaw) = (0.26 * (t / 6.0).sin(), 0.09 * (t / 9.0).sin(), t / 12.0);
-            let (rd, pd, yd) = (0.26 / 6.0 * (t / 6.0).cos(), 0.09 / 9.0 * (t / 9.0).cos(), 1.0 / 12.0);
-            let mut rate = [rd - yd * pitch.sin(), pd * roll.cos() + yd * roll.sin() * pitch.cos(), -pd * roll.sin() + yd * roll.cos() * pitch.cos()];
+        let mut rec = crate::compute::gyro::tests::swing_recording(0.2, 3000, 0.0, 0.0);
+        for (i, gz) in rec.gz_rad_s.iter_mut().flatten().enumerate() {
             if i % 37 == 0 {
-                rate[2] += 0.5;
+                *gz += 0.5;
             }
-            let h = calib_core::heading::ned_to_body(ned, roll, pitch, yaw);
-            rec.mag.push([h[0] * 0.011 + 300.0, h[1] * 0.009 - 200.0, h[2] * 0.010 + 100.0]);
-            rec.t_s.as_mut().unwrap().push(t);
-            rec.roll_deg.as_mut().unwrap().push(roll.to_degrees());
-            rec.pitch_deg.as_mut().unwrap().push(pitch.to_degrees());
-            rec.gx_rad_s.as_mut().unwrap().push(rate[0]);
-            rec.gy_rad_s.as_mut().unwrap().push(rate[1]);
-            rec.gz_rad_s.as_mut().unwrap().push(rate[2]);
         }
         rec
     }
