@@ -24,9 +24,8 @@ fn cut(v: &Option<Vec<f64>>, lo: usize, hi: usize) -> Option<Vec<f64>> {
     v.as_ref().map(|v| v[lo..hi].to_vec())
 }
 
-/// Rows `lo..hi` of the calibration part.
-fn calib_rows(lo: usize, hi: usize) -> Recording {
-    let r = Recording::read(&dir().join("02_calib.csv")).unwrap();
+/// Rows `lo..hi` of `r`: the field, the attitude and the gyro.
+fn rows(r: &Recording, lo: usize, hi: usize) -> Recording {
     Recording {
         t_s: cut(&r.t_s, lo, hi),
         mag: r.mag[lo..hi].to_vec(),
@@ -37,6 +36,11 @@ fn calib_rows(lo: usize, hi: usize) -> Recording {
         gz_rad_s: cut(&r.gz_rad_s, lo, hi),
         ..Recording::default()
     }
+}
+
+/// Rows `lo..hi` of the calibration part.
+fn calib_rows(lo: usize, hi: usize) -> Recording {
+    rows(&Recording::read(&dir().join("02_calib.csv")).unwrap(), lo, hi)
 }
 
 /// Heading RMS on the validation part after one constant offset, degrees.
@@ -97,16 +101,7 @@ fn a_long_stretch_without_breaks_is_not_refused_for_the_gyros_drift() {
     let path = d.join("broad_25.csv");
     let all = Recording::read(&path).unwrap();
     let half = all.len() / 2;
-    let part = |lo: usize, hi: usize| Recording {
-        t_s: cut(&all.t_s, lo, hi),
-        mag: all.mag[lo..hi].to_vec(),
-        roll_deg: cut(&all.roll_deg, lo, hi),
-        pitch_deg: cut(&all.pitch_deg, lo, hi),
-        gx_rad_s: cut(&all.gx_rad_s, lo, hi),
-        gy_rad_s: cut(&all.gy_rad_s, lo, hi),
-        gz_rad_s: cut(&all.gz_rad_s, lo, hi),
-        ..Recording::default()
-    };
+    let part = |lo: usize, hi: usize| rows(&all, lo, hi);
     let (calib, val) = (part(0, half), part(half, all.len()));
     let optical = optical_deg(&path)[half..].to_vec();
     let t: Truth = serde_json::from_str(&std::fs::read_to_string(d.join("broad_25.truth.json")).unwrap()).unwrap();
