@@ -1,4 +1,14 @@
-//! The fuzz targets (`fuzz/`), built and run without cargo-fuzz.
+//! The fuzz targets (`fuzz/`): replayed in the host tests, fuzzed by
+//! `cargo xtask fuzz`, built and run without cargo-fuzz.
+//!
+//! Each target's body is a plain function in `fuzz/fuzz_targets/*_drive.rs`
+//! (the libFuzzer target only calls it). `cargo xtask test` runs every
+//! target over its committed seeds (`fuzz/seeds/TARGET/`), the working
+//! corpus of earlier fuzzing (`fuzz/corpus/TARGET/`) and any crash saved
+//! there (`fuzz/artifacts/TARGET/`) through that function in the normal
+//! host test build ([`replay`]): an input that panics fails the suite, and no
+//! second build of the host crates with coverage instrumentation is made.
+//! Fuzzing proper, which needs that build, is `cargo xtask fuzz`:
 //!
 //! `cargo fuzz build --sanitizer none -O` is a plain `cargo build --release`
 //! of the fuzz crate for the host triple with SanitizerCoverage switched on
@@ -10,10 +20,7 @@
 //! `cd fuzz && cargo fuzz run --sanitizer none -O TARGET` still works for
 //! whoever has cargo-fuzz.
 
-use std::path::{Path, PathBuf};
-
-/// `nice` from coreutils.
-const NICE: &str = "/usr/bin/nice";
+use std::path::PathBuf;
 use std::process::Command;
 
 use anyhow::{bail, Context, Result};
@@ -24,8 +31,8 @@ use anyhow::{bail, Context, Result};
 /// through the one importer.
 pub const TARGETS: [&str; 6] = ["frame_decoder", "coefficient_record", "csv_reader", "caldoc_loader", "commands", "import"];
 
-/// Time box of one target, s.
-pub const SECONDS_PER_TARGET: u32 = 10;
+/// Time box of one target, s, when `cargo xtask fuzz` is given none.
+pub const SECONDS_PER_TARGET: u32 = 60;
 
 /// cargo-fuzz's flags for `--sanitizer none` on Linux: SanitizerCoverage
 /// with 8-bit counters, the PC table, compare tracing and stack depth (what
@@ -61,24 +68,52 @@ pub fn build_command(host: &str) -> Command {
 }
 
 /// One target's time-boxed run (`cargo fuzz run --sanitizer none -O TARGET
-/// CORPUS... -- -max_total_time=10`): new inputs go to the working corpus,
-/// a crash to `fuzz/artifacts/TARGET/`.
-pub fn run_command(host: &str, target: &str) -> Command {
+/// CORPUS... -- -max_total_time=SECONDS`): new inputs go to the working
+/// corpus, a crash to `fuzz/artifacts/TARGET/` (both replayed by the host
+/// tests from then on).
+pub fn run_command(host: &str, target: &str, seconds: u32) -> Command {
     let fuzz = dir();
     let artifacts = fuzz.join("artifacts").join(target);
     let _ = std::fs::create_dir_all(&artifacts);
-    let exe = fuzz.join("target").join(host).join("release").join(target);
-    // libFuzzer's time box is wall time: at the lowest priority (nice 19)
-    // the run takes only the CPU the other lanes leave idle.
-    let mut c = if Path::new(NICE).is_file() {
-        let mut c = Command::new(NICE);
-        c.args(["-n", "19"]).arg(exe);
-        c
-    } else {
-        Command::new(exe)
-    };
-    c.current_dir(&fuzz).arg(format!("-artifact_prefix={}/", artifacts.display())).args(corpus(target)).arg(format!("-max_total_time={SECONDS_PER_TARGET}"));
+    let mut c = Command::new(fuzz.join("target").join(host).join("release").join(target));
+    c.current_dir(&fuzz).arg(format!("-artifact_prefix={}/", artifacts.display())).args(corpus(target)).arg(format!("-max_total_time={seconds}"));
     c
+}
+
+/// `cargo xtask fuzz [--seconds N] [TARGET]...`: builds the targets with
+/// cargo-fuzz's flags and fuzzes each (every target when none is named)
+/// for `N` seconds of wall time.
+pub fn cmd_fuzz(args: &[String]) -> Result<()> {
+    let mut seconds = SECONDS_PER_TARGET;
+    let mut targets = Vec::new();
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        if a == "--seconds" {
+            let v = it.next().context("--seconds needs a number of seconds")?;
+            seconds = v.parse().with_context(|| format!("--seconds {v}: not a whole number of seconds"))?;
+        } else if let Some(t) = TARGETS.iter().find(|t| **t == a.as_str()) {
+            targets.push(*t);
+        } else {
+            bail!("unknown fuzz target or option `{a}` (targets: {}; usage: cargo xtask fuzz [--seconds N] [TARGET]...)", TARGETS.join(", "));
+        }
+    }
+    if targets.is_empty() {
+        targets = TARGETS.to_vec();
+    }
+    let host = host_triple()?;
+    super::say("fuzz targets: build with cargo-fuzz's flags (release, SanitizerCoverage)");
+    super::run(&mut build_command(&host))?;
+    let mut crashed = Vec::new();
+    for target in targets {
+        super::say(&format!("fuzzing {target} for {seconds} s (libFuzzer)"));
+        if super::run(&mut run_command(&host, target, seconds)).is_err() {
+            crashed.push(target);
+        }
+    }
+    if !crashed.is_empty() {
+        bail!("libFuzzer stopped on {} (the input is in fuzz/artifacts/TARGET/; `cargo xtask test` replays it)", crashed.join(", "));
+    }
+    Ok(())
 }
 
 /// The corpus directories of a fuzz target: the working corpus (new inputs
@@ -92,6 +127,101 @@ fn corpus(target: &str) -> Vec<PathBuf> {
         vec![work, seeds]
     } else {
         vec![work]
+    }
+}
+
+// The targets' bodies, the very files the libFuzzer targets include.
+#[cfg(test)]
+#[path = "../../fuzz/fuzz_targets/caldoc_loader_drive.rs"]
+mod caldoc_loader_drive;
+#[cfg(test)]
+#[path = "../../fuzz/fuzz_targets/coefficient_record_drive.rs"]
+mod coefficient_record_drive;
+#[cfg(test)]
+#[path = "../../fuzz/fuzz_targets/commands_drive.rs"]
+mod commands_drive;
+#[cfg(test)]
+#[path = "../../fuzz/fuzz_targets/csv_reader_drive.rs"]
+mod csv_reader_drive;
+#[cfg(test)]
+#[path = "../../fuzz/fuzz_targets/frame_decoder_drive.rs"]
+mod frame_decoder_drive;
+#[cfg(test)]
+#[path = "../../fuzz/fuzz_targets/import_drive.rs"]
+mod import_drive;
+
+/// Every fuzz target over its seeds, its working corpus and its saved
+/// crashes, through the target's own body: one test per target, which
+/// names each input that panics. `cargo xtask test` runs these as the fuzz
+/// suite (`fuzz::replay::`).
+#[cfg(test)]
+mod replay {
+    use std::panic::{catch_unwind, AssertUnwindSafe};
+
+    use super::dir;
+
+    /// Runs every input of `target` through `drive`; panics naming the
+    /// inputs that panicked, or when the target has no committed seed.
+    fn replay(target: &str, drive: fn(&[u8])) {
+        let fuzz = dir();
+        let mut inputs = Vec::new();
+        for folder in ["seeds", "corpus", "artifacts"] {
+            let Ok(entries) = std::fs::read_dir(fuzz.join(folder).join(target)) else { continue };
+            let mut paths: Vec<_> = entries.filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.is_file()).collect();
+            paths.sort();
+            if folder == "seeds" {
+                assert!(!paths.is_empty(), "fuzz/seeds/{target}/ holds no seed: nothing to replay");
+            }
+            inputs.extend(paths);
+        }
+        assert!(!inputs.is_empty(), "fuzz/seeds/{target}/ is missing: nothing to replay");
+        let panicked: Vec<String> = inputs
+            .iter()
+            .filter(|path| match std::fs::read(path) {
+                Ok(bytes) => catch_unwind(AssertUnwindSafe(|| drive(&bytes))).is_err(),
+                Err(e) => panic!("reading {}: {e}", path.display()),
+            })
+            .map(|p| p.display().to_string())
+            .collect();
+        assert!(panicked.is_empty(), "{target}: {} of {} inputs panic: {}", panicked.len(), inputs.len(), panicked.join(", "));
+    }
+
+    #[test]
+    fn frame_decoder() {
+        replay("frame_decoder", super::frame_decoder_drive::drive);
+    }
+
+    #[test]
+    fn coefficient_record() {
+        replay("coefficient_record", super::coefficient_record_drive::drive);
+    }
+
+    #[test]
+    fn csv_reader() {
+        replay("csv_reader", super::csv_reader_drive::drive);
+    }
+
+    #[test]
+    fn caldoc_loader() {
+        replay("caldoc_loader", super::caldoc_loader_drive::drive);
+    }
+
+    #[test]
+    fn commands() {
+        replay("commands", super::commands_drive::drive);
+    }
+
+    #[test]
+    fn import() {
+        replay("import", super::import_drive::drive);
+    }
+
+    #[test]
+    fn every_target_is_replayed() {
+        // The six tests above, one per target of `fuzz/Cargo.toml`.
+        let manifest = std::fs::read_to_string(dir().join("Cargo.toml")).unwrap_or_default();
+        let bins = manifest.matches("[[bin]]").count();
+        assert_eq!(bins, super::TARGETS.len(), "fuzz/Cargo.toml has {bins} targets, TARGETS {}", super::TARGETS.len());
     }
 }
 
@@ -114,7 +244,7 @@ mod tests {
 
     #[test]
     fn a_run_is_time_boxed_and_reads_the_seeds() {
-        let c = run_command("h", "frame_decoder");
+        let c = run_command("h", "frame_decoder", 10);
         let args: Vec<_> = c.get_args().map(|a| a.to_string_lossy().into_owned()).collect();
         assert_eq!(args.last().map(String::as_str), Some("-max_total_time=10"));
         assert!(args.iter().any(|a| a.ends_with("fuzz/seeds/frame_decoder")), "{args:?}");

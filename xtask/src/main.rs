@@ -11,6 +11,9 @@
 //!   from their `results.json`; `results [--check]` renders it again (or
 //!   checks that the committed one is what the renderer makes).
 //!
+//! * `fuzz [--seconds N] [TARGET]...` — libFuzzer on the fuzz targets
+//!   (`fuzz/`), time-boxed; `test` replays their seeds, corpus and crashes.
+//!
 //! * `qemu-test ELF` — the on-target suite's runner (tests/thumb-runner
 //!   calls it for each embedded-test binary).
 //!
@@ -46,6 +49,7 @@ fn main() -> ExitCode {
         Some("bench") => bench_sections(&args[1..]).and_then(|only| bench::run(&root().join("target").join("bench"), &only)),
         Some("results") => results_doc::cmd_results(&root(), args.get(1).map(String::as_str) == Some("--check")),
         Some("check-report") => cmd_check_report(args.get(1).map(PathBuf::from)),
+        Some("fuzz") => fuzz::cmd_fuzz(&args[1..]),
         Some("qemu-test") => return qemu_test::main(&args[1..]),
         _ => {
             eprintln!("usage: cargo xtask <test|demo|size|bench>");
@@ -55,6 +59,7 @@ fn main() -> ExitCode {
             eprintln!("  bench [--section NAME]...  accuracy benchmarks (target/bench/results.{{json,md}}, docs/results.json, docs/RESULTS.md), their targets checked");
             eprintln!("  bench --ci  the sections that state targets, at CI sizes: the targets checked, nothing written");
             eprintln!("  results [--check]  render docs/RESULTS.md from docs/results.json (or check that it is)");
+            eprintln!("  fuzz [--seconds N] [TARGET]...  libFuzzer on each fuzz target (default: all, {} s each); crashes land in fuzz/artifacts/, which `test` replays", fuzz::SECONDS_PER_TARGET);
             eprintln!("  check-report [PAGE]  render a report in headless Chromium and check it (default: target/demo/session/report/index.html)");
             return ExitCode::from(2);
         }

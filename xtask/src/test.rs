@@ -2,26 +2,25 @@
 //!
 //! 1. **tools**: what a fresh machine lacks (rustup target, clippy, QEMU and
 //!    Chromium through apt). Nothing is `cargo install`ed: the on-target
-//!    runner is `cargo xtask qemu-test` and the fuzz targets are a plain
-//!    cargo build ([`crate::fuzz`]).
-//! 2. **build**, four cargo builds side by side (they lock different build
+//!    runner is `cargo xtask qemu-test`.
+//! 2. **build**, three cargo builds side by side (they lock different build
 //!    directories): the host (every host test binary, the `magcal` binary
 //!    the end-to-end suite and the demo run, and clippy); the thumb target
 //!    (the board release build, the on-target tests in the same release
-//!    profile, clippy); the fuzz targets; and the firmware log decoder
+//!    profile, clippy); and the firmware log decoder
 //!    (`xtask/defmt-print`, a workspace of its own). Each host crate is
 //!    compiled once: the host tests are built in one `cargo test --no-run`
 //!    over the workspace and their binaries are run directly, so no later
 //!    cargo command resolves other features and rebuilds them.
-//! 3. **run**, three lanes, each started as soon as its own builds are
+//! 3. **run**, two lanes, each started as soon as its own builds are
 //!    done (no lane waits for a build it does not use): the CPU lane (host
-//!    unit tests and doctests) after the host build; the QEMU lane
-//!    (on-target, end-to-end, demo session, report in the browser: one
-//!    QEMU at a time; then the bench's targets, `cargo xtask bench --ci`)
-//!    after the host and thumb builds and the log decoder; the fuzz lane
-//!    (each target for a fixed wall time at the lowest CPU priority, so it
-//!    takes the cores the other two leave idle and slows neither) after the
-//!    fuzz build.
+//!    unit tests and doctests, then every fuzz target over its seeds and
+//!    corpus through the target's body, [`crate::fuzz`]) after the host
+//!    build; the QEMU lane (on-target, end-to-end, demo session, report in
+//!    the browser: one QEMU at a time; then the bench's targets, `cargo
+//!    xtask bench --ci`) after the host and thumb builds and the log
+//!    decoder. Fuzzing proper (libFuzzer on a build of its own with
+//!    coverage instrumentation) is `cargo xtask fuzz`, not part of this run.
 //!
 //! The summary gives each suite's counts and the time each phase took, and
 //! the last line is `N passed, N failed`.
@@ -33,7 +32,7 @@ use std::time::Instant;
 use anyhow::{bail, Result};
 
 use crate::suite::{capture, count, note, run_suite, summary, Phases, Suite};
-use crate::{cargo, demo, firmware_elf, fuzz, root, size, TARGET};
+use crate::{cargo, demo, firmware_elf, root, size, TARGET};
 
 /// A test binary from the host build.
 #[derive(Debug, Clone, PartialEq)]
@@ -71,18 +70,13 @@ pub fn cmd_test() -> Result<()> {
     // Before any thread starts (none reads the environment yet): the folder
     // the log decoder is built into goes first on the PATH.
     crate::log_decoder_on_path();
-    let host_triple = fuzz::host_triple();
-    // Each lane starts when its own build is done: the fuzz lane after the
-    // fuzz build, the CPU lane after the host build, the QEMU lane after
-    // the host build, the thumb build and the log decoder.
-    let (host, qemu, fuzz, host_lint) = std::thread::scope(|s| {
+    // Each lane starts when its own build is done: the CPU lane after the
+    // host build, the QEMU lane after the host build, the thumb build and
+    // the log decoder.
+    let (host, fuzz, qemu, host_lint) = std::thread::scope(|s| {
         let phases = &phases;
         let thumb = s.spawn(|| phases.time("thumb: board release build, on-target test binaries, clippy", build_thumb));
         let decoder = s.spawn(|| phases.time("log decoder build (defmt-print)", crate::build_log_decoder));
-        let fuzz = s.spawn(|| {
-            let built = phases.time("fuzz lane: build (cargo build with cargo-fuzz's flags)", || build_fuzz(&host_triple));
-            phases.time("fuzz lane: 10 s a target, at the lowest CPU priority", || fuzz_suite(built.as_deref()))
-        });
         let host = phases.time("CPU lane: host build (test binaries, magcal, clippy)", build_host);
         let e2e_tests: Vec<TestBinary> = host.tests.iter().filter(|t| t.package == "e2e-tests").cloned().collect();
         let magcal = host.magcal.clone();
@@ -95,9 +89,10 @@ pub fn cmd_test() -> Result<()> {
             (thumb.size, thumb.lint, suites)
         });
         let host_suite = phases.time("CPU lane: host unit tests and doctests", || host_suite(&host));
-        (host_suite, qemu.join(), fuzz.join(), host.lint)
+        let fuzz = phases.time("CPU lane: fuzz targets over their seeds and corpus", || fuzz_suite(&host));
+        (host_suite, fuzz, qemu.join(), host.lint)
     });
-    let (Ok((size, thumb_lint, qemu)), Ok(fuzz)) = (qemu, fuzz) else { bail!("a lane panicked") };
+    let Ok((size, thumb_lint, qemu)) = qemu else { bail!("a lane panicked") };
     let [on_target, e2e, demo, report, bench] = qemu;
     let lints = Suite::gate("no-panic lints (firmware, calib-core, protocol)", host_lint && thumb_lint);
     let suites = vec![host, on_target, lints, size, e2e, fuzz, demo, report, bench];
@@ -108,17 +103,6 @@ pub fn cmd_test() -> Result<()> {
         bail!("some suites failed");
     }
     Ok(())
-}
-
-/// The fuzz targets' build; the host triple when it succeeded.
-fn build_fuzz(host_triple: &Result<String>) -> Option<String> {
-    match host_triple {
-        Ok(h) => capture("build: fuzz targets (cargo build with cargo-fuzz's flags)", &mut fuzz::build_command(h)).ok().filter(|o| o.success).map(|_| h.clone()),
-        Err(e) => {
-            note(&format!("no fuzz build: {e:#}"));
-            None
-        }
-    }
 }
 
 const SIZE: &str = "board build within flash/RAM budget";
@@ -227,23 +211,39 @@ fn host_suite(built: &HostBuilt) -> Suite {
     let mut suite = Suite { name: NAME, passed: 0, failed: 0, ok: true, failures: vec![], flaky: vec![] };
     for t in built.tests.iter().filter(|t| t.package != "e2e-tests") {
         let title = format!("host unit tests: {} {}", t.package, t.target);
-        suite.absorb(run_suite(NAME, &title, &mut test_binary(t)).unwrap_or_else(|_| Suite::gate(NAME, false)));
+        let mut c = test_binary(t);
+        if is_xtask_bin(t) {
+            // The fuzz suite's, counted there.
+            c.args(["--skip", FUZZ_REPLAY]);
+        }
+        suite.absorb(run_suite(NAME, &title, &mut c).unwrap_or_else(|_| Suite::gate(NAME, false)));
     }
     let doc = run_suite(NAME, "host doctests", cargo().args(["test", "--doc", "--no-fail-fast", "--workspace", "--exclude", "target-tests"]));
     suite.absorb(doc.unwrap_or_else(|_| Suite::gate(NAME, false)));
     suite
 }
 
-fn fuzz_suite(host_triple: Option<&str>) -> Suite {
-    let mut suite = Suite { name: "fuzz: frame decoder, coefficient record, CSV reader, calibration JSON, commands, vehicle logs", passed: 0, failed: 0, ok: true, failures: vec![], flaky: vec![] };
-    for target in fuzz::TARGETS {
-        let ok = match host_triple {
-            Some(host) => capture(&format!("fuzzing {target} (libFuzzer, {} s)", fuzz::SECONDS_PER_TARGET), &mut fuzz::run_command(host, target)).is_ok_and(|o| o.success),
-            None => false,
-        };
-        suite.absorb(Suite::gate(suite.name, ok));
+/// The test that replays the fuzz targets' inputs: xtask's own unit tests
+/// under `fuzz::replay::` (one test per target).
+const FUZZ_REPLAY: &str = "fuzz::replay::";
+
+/// xtask's unit-test binary, which holds the fuzz replay.
+fn is_xtask_bin(t: &TestBinary) -> bool {
+    t.package == "xtask" && t.target == "bin xtask"
+}
+
+/// Every fuzz target over its committed seeds, the working corpus and any
+/// saved crash, through the target's body in the host test build
+/// (`crate::fuzz`, `replay`): one count per target.
+fn fuzz_suite(built: &HostBuilt) -> Suite {
+    const NAME: &str = "fuzz targets replayed: frame decoder, coefficient record, CSV reader, calibration JSON, commands, vehicle logs";
+    if built.failed.is_some() {
+        return Suite::gate(NAME, false);
     }
-    suite
+    let Some(t) = built.tests.iter().find(|t| is_xtask_bin(t)) else { return Suite::gate(NAME, false) };
+    let mut c = test_binary(t);
+    c.arg(FUZZ_REPLAY);
+    run_suite(NAME, "fuzz targets over their seeds and corpus (xtask fuzz::replay)", &mut c).unwrap_or_else(|_| Suite::gate(NAME, false))
 }
 
 /// The QEMU lane: on-target, end-to-end, the demo session and its report,
