@@ -50,7 +50,12 @@ use crate::doc::auto::{AutoChoice, CandidateRow, HeldOutBasis, MAX_HELD_OUT_DEG}
 use crate::doc::CalDoc;
 
 /// The gyro yaw judges only when at least this share of the rows lies in
-/// stretches it can integrate.
+/// stretches it can integrate. The data could not choose it: swept
+/// leave-one-trial-out from 0.25 to 0.9 on the six BROAD trials with the
+/// optical heading (whole and in 294-row cuts,
+/// [`super::heading_judge::MAX_STRETCH_S`]), every share gave the same
+/// kept fits and refusals on every trial and cut; it is kept at a half, the share where
+/// the judge's rows outnumber those it cannot see.
 pub const MIN_YAW_SHARE: f64 = 0.5;
 
 /// Contiguous blocks of the held-out judgement.
@@ -211,10 +216,30 @@ fn trimmed_rms(mut squares: Vec<f64>) -> f64 {
 /// document's expected heading error is the larger of its own and its
 /// held-out error.
 pub fn fit_auto(rec: &Recording, opts: &FitOptions) -> Result<(CalDoc, AutoChoice), ComputeError> {
+    fit_auto_judged(rec, opts, &YawJudge::default())
+}
+
+/// The gyro-yaw judge's constants.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct YawJudge {
+    /// Stretches are cut after this long, s ([`super::heading_judge::MAX_STRETCH_S`]).
+    pub max_stretch_s: f64,
+    /// The judge is used when at least this share of the rows is usable ([`MIN_YAW_SHARE`]).
+    pub min_share: f64,
+}
+
+impl Default for YawJudge {
+    fn default() -> Self {
+        Self { max_stretch_s: super::heading_judge::MAX_STRETCH_S, min_share: MIN_YAW_SHARE }
+    }
+}
+
+/// [`fit_auto`] with the gyro-yaw judge's constants `judge` (for choosing them).
+pub fn fit_auto_judged(rec: &Recording, opts: &FitOptions, judge: &YawJudge) -> Result<(CalDoc, AutoChoice), ComputeError> {
     let mut basis = basis_of(rec);
     // A gyro logged too sparsely to integrate (no stretch of a few rows
     // without a break over most of the recording) leaves the field's judge.
-    let yaw = if basis == HeldOutBasis::GyroYaw { gyro_yaw(rec, opts).filter(|y| y.usable_share() >= MIN_YAW_SHARE) } else { None };
+    let yaw = if basis == HeldOutBasis::GyroYaw { gyro_yaw(rec, opts, judge.max_stretch_s).filter(|y| y.usable_share() >= judge.min_share) } else { None };
     if basis == HeldOutBasis::GyroYaw && yaw.is_none() {
         basis = HeldOutBasis::FieldAndDip;
     }
@@ -350,9 +375,9 @@ pub fn basis_text(basis: HeldOutBasis) -> &'static str {
 /// The gyro yaw track of the held-out judge, the gyro's bias removed as
 /// the gyro-aided fit of the whole recording estimates it (none when that
 /// fit fails: a bias of 0.005 rad/s then bends a 2 s stretch by 0.6°).
-fn gyro_yaw(rec: &Recording, opts: &FitOptions) -> Option<GyroYaw> {
+fn gyro_yaw(rec: &Recording, opts: &FitOptions, max_stretch_s: f64) -> Option<GyroYaw> {
     let bias = super::gyro::fit_gyro_recording(rec, opts.field_nt, opts.gyro_lag).map_or([0.0; 3], |(_, q)| q.gyro_bias_rad_s);
-    GyroYaw::new(rec, bias)
+    GyroYaw::with_stretch(rec, bias, max_stretch_s)
 }
 
 /// One candidate's fit on the whole recording. The models that do not rest
