@@ -399,7 +399,7 @@ fn fit_candidate(rec: &Recording, model: ModelKind, opts: &FitOptions) -> Result
 /// arc of headings the recording never visits: × (1 + this × gap / 360°).
 /// Its covariance sees only the noise, not the model's error, and outside
 /// the headings it saw that error is not held by anything (BROAD's 294-row
-/// cuts with gaps of 230–290°: 1.5–2.1 times the expected error on the
+/// cuts with gaps of 230–290°: 0.97–2.13 times (most 1.3–2.1) the expected error on the
 /// validation part; the gyro fit's 0.7–1.5, so it is not widened). Chosen
 /// leave-one-trial-out over the 55 cuts of 294 rows (stride 49) of the five
 /// limited-tilt trials' calibration parts, scored by cuts kept more than 5°
