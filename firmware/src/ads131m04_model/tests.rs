@@ -1,5 +1,8 @@
 #![allow(clippy::unwrap_used, clippy::indexing_slicing)]
+use super::converter::{ccitt, div_ceil_u64_u32, div_u64_u32, ADS_FRAME_BYTES};
 use super::*;
+use embedded_hal::digital::{InputPin, OutputPin};
+use embedded_hal::spi::{Operation, SpiDevice};
 
 /// A NULL frame, and the channel-0 code and STATUS the model answers.
 fn null_frame(adc: &mut Ads131m04Model) -> (u16, i32) {
@@ -117,9 +120,9 @@ fn the_model_divides_times_as_u64_division_does() {
     for _ in 0..20_000 {
         let a = (rng.uniform() * 1e13) as u64;
         let b = (rng.uniform() * 3e7) as u32 + 1;
-        assert_eq!(super::div_u64_u32(a, b), a / u64::from(b), "{a} / {b}");
-        assert_eq!(super::div_ceil_u64_u32(a, b), a.div_ceil(u64::from(b)), "{a} / {b}");
+        assert_eq!(div_u64_u32(a, b), a / u64::from(b), "{a} / {b}");
+        assert_eq!(div_ceil_u64_u32(a, b), a.div_ceil(u64::from(b)), "{a} / {b}");
     }
-    assert_eq!(super::div_u64_u32(u64::MAX, u32::MAX), u64::MAX / u64::from(u32::MAX));
-    assert_eq!(super::div_ceil_u64_u32(7, 0), 7, "a zero divisor counts as 1");
+    assert_eq!(div_u64_u32(u64::MAX, u32::MAX), u64::MAX / u64::from(u32::MAX));
+    assert_eq!(div_ceil_u64_u32(7, 0), 7, "a zero divisor counts as 1");
 }
