@@ -7,7 +7,7 @@
 
 use magcal_sim::scenario::{effects_data_at, evaluate_variant, Variant};
 use magcal_sim::varied::{varied_effects, varied_sites};
-use magcal_sim::{Effect, SensorModel};
+use magcal_sim::Effect;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
@@ -42,7 +42,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     }
                 }
             }
-            let data = effects_data_at(&SensorModel::paper_like(), &named.site, seed, &effects)?;
+            let data = effects_data_at(&named.sensor(), &named.site, seed, &effects)?;
             if std::env::var("DESCRIBE").is_ok() {
                 if let Some(t) = data.run.truth.effects.as_ref() {
                     let th = t.thrusters.as_ref().map(|x| (x.field_nt_per_a.clone(), x.bus_current_a_range));

@@ -29,9 +29,20 @@ pub struct NamedSite {
     pub name: &'static str,
     /// Where and when.
     pub site: Site,
+    /// The AHRS's roll and pitch noise there (1σ, °): the levelling's
+    /// error, which at a steep inclination becomes heading noise (× tan I).
+    pub ahrs_noise_deg: f64,
 }
 
-/// Three sites unlike paper 000's (inclination 56°, |F| 48.7 µT), each at
+impl NamedSite {
+    /// [`SensorModel::paper_like`](crate::SensorModel::paper_like) with this
+    /// site's AHRS noise.
+    pub fn sensor(&self) -> crate::SensorModel {
+        crate::SensorModel { ahrs_noise_deg: self.ahrs_noise_deg, ..crate::SensorModel::paper_like() }
+    }
+}
+
+/// Four sites unlike paper 000's (inclination 56°, |F| 48.7 µT), each at
 /// mid-2024 (IGRF-14 there, for scale):
 ///
 /// * `high-latitude`: Trondheimsfjord, 63.45° N 10.3° E — inclination 74.9°,
@@ -39,12 +50,17 @@ pub struct NamedSite {
 /// * `low-latitude`: the Arabian Sea off Goa, 15.0° N 73.0° E — inclination
 ///   19.5°, |F| 41.9 µT, H 39.5 µT, Z 14.0 µT (the vertical channel weak);
 /// * `southern`: off Suva, Fiji, 18.2° S 178.4° E — inclination −39.9°
-///   (the field points up), declination +12.8°, |F| 42.4 µT.
-pub fn varied_sites() -> [NamedSite; 3] {
+///   (the field points up), declination +12.8°, |F| 42.4 µT;
+/// * `high-latitude-quiet-ahrs`: Trondheimsfjord again with an AHRS of
+///   0.05° roll/pitch noise (a navigation-grade unit) instead of 0.15°, so
+///   that the AHRS's noise × tan I no longer hides the calibration's error.
+pub fn varied_sites() -> [NamedSite; 4] {
+    let trondheim = Site { lat_deg: 63.45, lon_deg: 10.3, decimal_year: 2024.5 };
     [
-        NamedSite { name: "high-latitude", site: Site { lat_deg: 63.45, lon_deg: 10.3, decimal_year: 2024.5 } },
-        NamedSite { name: "low-latitude", site: Site { lat_deg: 15.0, lon_deg: 73.0, decimal_year: 2024.5 } },
-        NamedSite { name: "southern", site: Site { lat_deg: -18.2, lon_deg: 178.4, decimal_year: 2024.5 } },
+        NamedSite { name: "high-latitude", site: trondheim, ahrs_noise_deg: 0.15 },
+        NamedSite { name: "low-latitude", site: Site { lat_deg: 15.0, lon_deg: 73.0, decimal_year: 2024.5 }, ahrs_noise_deg: 0.15 },
+        NamedSite { name: "southern", site: Site { lat_deg: -18.2, lon_deg: 178.4, decimal_year: 2024.5 }, ahrs_noise_deg: 0.15 },
+        NamedSite { name: "high-latitude-quiet-ahrs", site: trondheim, ahrs_noise_deg: 0.05 },
     ]
 }
 
@@ -287,7 +303,7 @@ mod tests {
 
     #[test]
     fn the_sites_are_what_their_names_say() {
-        let [high, low, south] = varied_sites().map(|s| geomag::igrf14(s.site.lat_deg, s.site.lon_deg, 0.0, s.site.decimal_year).unwrap());
+        let [high, low, south, _] = varied_sites().map(|s| geomag::igrf14(s.site.lat_deg, s.site.lon_deg, 0.0, s.site.decimal_year).unwrap());
         assert!((70.0..80.0).contains(&high.inclination_deg()), "{}", high.inclination_deg());
         assert!((15.0..25.0).contains(&low.inclination_deg()), "{}", low.inclination_deg());
         assert!(south.inclination_deg() < -30.0 && south.declination_deg() > 10.0, "{} {}", south.inclination_deg(), south.declination_deg());

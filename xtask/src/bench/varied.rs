@@ -1,6 +1,6 @@
 //! The five effects on varied sites: the chain with the
 //! local field's gradient along the track against the chain without it, at
-//! three sites unlike paper 000's and with every effect's magnitudes drawn
+//! four sites unlike paper 000's and with every effect's magnitudes drawn
 //! by seed ([`magcal_sim::varied`]); and the gradient prior chosen
 //! leave-one-site-out.
 
@@ -10,7 +10,6 @@ use calib_core::backstep::joint::GRADIENT_PRIOR_NT_PER_M;
 use host_tools::compute::ChainOptions;
 use magcal_sim::scenario::{evaluate_options, varied_effects_data, EffectsData, EffectsOutcome, Variant};
 use magcal_sim::varied::{varied_sites, NamedSite};
-use magcal_sim::SensorModel;
 use serde_json::json;
 
 /// Seeds of the varied-sites section.
@@ -65,7 +64,7 @@ fn simulate(sites: &[NamedSite], seeds: &[u64]) -> Vec<(NamedSite, u64, Result<E
     let mut out = vec![];
     for s in sites {
         for &seed in seeds {
-            out.push((*s, seed, varied_effects_data(&SensorModel::paper_like(), &s.site, seed).map_err(|e| e.to_string())));
+            out.push((*s, seed, varied_effects_data(&s.sensor(), &s.site, seed).map_err(|e| e.to_string())));
         }
     }
     out
@@ -158,7 +157,7 @@ pub fn varied_sites_with(seeds: &[u64], choice: bool) -> (serde_json::Value, Str
         let met = *n == seeds.len() && new[0] <= TARGET_HEADING_RMS_DEG;
         let _ = writeln!(
             md,
-            "- **{name}**, worst of {n} seeds: heading RMS {:.3}° with the gradient, {:.3}° without (target ≤ {TARGET_HEADING_RMS_DEG}°: {}); white noise up to {:.3}° (no calibration removes it: the AHRS's 0.15° roll/pitch noise times tan I); systematic part {:.3}° with, {:.3}° without; observed/predicted {lo:.2}…{hi:.2}.",
+            "- **{name}**, worst of {n} seeds: heading RMS {:.3}° with the gradient, {:.3}° without (target ≤ {TARGET_HEADING_RMS_DEG}°: {}); white noise up to {:.3}° (no calibration removes it: the AHRS's roll/pitch noise times tan I); systematic part {:.3}° with, {:.3}° without; observed/predicted {lo:.2}…{hi:.2}.",
             new[0],
             old[0],
             if met { "met" } else { "**not met**" },
@@ -172,8 +171,8 @@ pub fn varied_sites_with(seeds: &[u64], choice: bool) -> (serde_json::Value, Str
         return (json!({"rows": rows, "summary": summary}), md);
     }
     // Leave one site out: the prior that does best (mean systematic²) on
-    // the other two sites, reported on the one left out.
-    let _ = writeln!(md, "\nThe gradient prior (σ of ∂H/∂s and ∂Z/∂s; default {GRADIENT_PRIOR_NT_PER_M} nT/m) chosen leave-one-site-out from {GRADIENT_PRIORS_NT_PER_M:?} nT/m on seeds {LOO_SEEDS:?}: the prior with the smallest mean systematic² on the other two sites, reported on the site left out.\n\n| left out | chosen prior (nT/m) | systematic RMS on the left-out site with it (°) | with the default (°) |\n|---|---|---|---|");
+    // the other sites, reported on the one left out.
+    let _ = writeln!(md, "\nThe gradient prior (σ of ∂H/∂s and ∂Z/∂s; default {GRADIENT_PRIOR_NT_PER_M} nT/m) chosen leave-one-site-out from {GRADIENT_PRIORS_NT_PER_M:?} nT/m on seeds {LOO_SEEDS:?}: the prior with the smallest mean systematic² on the other sites, reported on the site left out.\n\n| left out | chosen prior (nT/m) | systematic RMS on the left-out site with it (°) | with the default (°) |\n|---|---|---|---|");
     let loo_data = simulate(&sites, &LOO_SEEDS);
     let mut loo = vec![];
     for left in &sites {
@@ -192,7 +191,7 @@ pub fn varied_sites_with(seeds: &[u64], choice: bool) -> (serde_json::Value, Str
 
 /// The `results.md` section "The five effects on varied sites".
 pub fn markdown(varied_md: &str) -> String {
-    format!("\n## The five effects on varied sites\n\nThe five effects at three sites unlike paper 000's — high latitude (Trondheimsfjord, inclination 75°), low latitude (off Goa, 19.5°), southern (off Fiji, −40°, declination 13°) — with every effect's magnitudes drawn by seed from the ranges of `magcal_sim::varied::MagnitudeRanges` (thruster places and moments, thermocline, sensor lag and gains, the crustal bodies' strength, depth and place, magnetised by the site's field, the AHRS misalignment, the current's speed and direction). Our chain with the local field's gradient along the track in the joint back-stepping, and without it (the chain before). `cargo test --release -p xtask bench::tests::varied_sites_section -- --ignored --nocapture`.\n\n{varied_md}\n")
+    format!("\n## The five effects on varied sites\n\nThe five effects at four sites unlike paper 000's — high latitude (Trondheimsfjord, inclination 75°), low latitude (off Goa, 19.5°), southern (off Fiji, −40°, declination 13°), and high latitude again with an AHRS of 0.05° roll/pitch noise instead of 0.15° — with every effect's magnitudes drawn by seed from the ranges of `magcal_sim::varied::MagnitudeRanges` (thruster places and moments, thermocline, sensor lag and gains, the crustal bodies' strength, depth and place, magnetised by the site's field, the AHRS misalignment, the current's speed and direction). Our chain with the local field's gradient along the track in the joint back-stepping, and without it (the chain before). `cargo test --release -p xtask bench::tests::varied_sites_section -- --ignored --nocapture`.\n\n{varied_md}\n")
 }
 
 /// The section's targets: per site, the worst validation heading RMS of
@@ -208,10 +207,10 @@ pub fn targets(v: &serde_json::Value) -> Vec<super::targets::Target> {
             let seeds = s.and_then(|s| s["seeds"].as_u64()).unwrap_or(0);
             let worst = s.and_then(|s| s["worst_heading_rms_deg"].as_f64()).filter(|_| seeds > 0);
             let t = Target::new("varied", format!("{}: validation heading RMS with the gradient, worst of {seeds} seeds, °", site.name), worst, Bound::AtMost(TARGET_HEADING_RMS_DEG));
-            if site.name == "high-latitude" {
-                t.held(Bound::AtMost(HELD_HIGH_LATITUDE_DEG), "the AHRS's roll/pitch noise × tan I alone is above it")
-            } else {
-                t
+            match site.name {
+                "high-latitude" => t.held(Bound::AtMost(HELD_HIGH_LATITUDE_DEG), "the AHRS's roll/pitch noise × tan I alone is above it"),
+                "high-latitude-quiet-ahrs" => t.held(Bound::AtMost(HELD_HIGH_LATITUDE_QUIET_AHRS_DEG), "the per-ampere vector is corrupted by the crustal anomaly (seed 1: 42 %)"),
+                _ => t,
             }
         })
         .collect()
@@ -220,3 +219,8 @@ pub fn targets(v: &serde_json::Value) -> Vec<super::targets::Target> {
 /// The worst high-latitude heading RMS over [`VARIED_SEEDS`], °: measured
 /// 0.643 (`cargo xtask bench --ci`, 2026-11-27), rounded up by about 3 %.
 const HELD_HIGH_LATITUDE_DEG: f64 = 0.66;
+
+/// The worst heading RMS at the high-latitude site with the 0.05° AHRS
+/// over [`VARIED_SEEDS`], °: measured 0.378 (seed 1; the example
+/// `varied_sites`, release, 2026-11-27), rounded up by about 3 %.
+const HELD_HIGH_LATITUDE_QUIET_AHRS_DEG: f64 = 0.39;
