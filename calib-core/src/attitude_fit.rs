@@ -150,15 +150,22 @@ fn model<T: Real>(x: &[T; UNKNOWNS], u: Vec3<T>) -> Vec3<T> {
     g
 }
 
-/// The two residuals and their gradients for one sample.
-fn rows<T: Real>(x: &[T; UNKNOWNS], u: Vec3<T>, c: &Mat3<T>) -> Option<[([T; UNKNOWNS], T); 2]> {
+/// `(sin δ, cos δ)` of the unknowns' dip: the same for every sample of a
+/// pass, so found once a pass.
+fn dip_sin_cos<T: Real>(x: &[T; UNKNOWNS]) -> (T, T) {
+    (x[DIP].sin(), x[DIP].cos())
+}
+
+/// The two residuals and their gradients for one sample; `dip` is
+/// [`dip_sin_cos`]`(x)`.
+fn rows<T: Real>(x: &[T; UNKNOWNS], dip: (T, T), u: Vec3<T>, c: &Mat3<T>) -> Option<[([T; UNKNOWNS], T); 2]> {
     let l = mul_mat_vec(c, model(x, u));
     let hmag = (l[0] * l[0] + l[1] * l[1]).sqrt();
     if !(hmag > T::ZERO) {
         return None;
     }
     let (nx, ny) = (l[0] / hmag, l[1] / hmag);
-    let (sd, cd) = (x[DIP].sin(), x[DIP].cos());
+    let (sd, cd) = dip;
     let mut jv = [T::ZERO; UNKNOWNS];
     let mut jh = [T::ZERO; UNKNOWNS];
     for i in 0..3 {
@@ -253,8 +260,9 @@ impl<T: Real> Prepared<'_, T> {
 
     /// Calls `f` on every residual at `x`.
     fn for_each(&self, x: &[T; UNKNOWNS], mut f: impl FnMut(T)) {
+        let dip = dip_sin_cos(x);
         for s in self.usable() {
-            if let Some(rows) = rows(x, self.norm.apply(s.raw), &level_matrix(&s.tilt)) {
+            if let Some(rows) = rows(x, dip, self.norm.apply(s.raw), &level_matrix(&s.tilt)) {
                 for (_, r) in rows {
                     f(r);
                 }
@@ -308,8 +316,9 @@ fn step<T: Real, L: LeastSquares<T, UNKNOWNS> + Default>(x: &[T; UNKNOWNS], data
     let mut ls = L::default();
     let mut downweighted = 0;
     let k = cfg.huber_k * sigma;
+    let dip = dip_sin_cos(x);
     for s in data.usable() {
-        let Some(rows) = rows(x, data.norm.apply(s.raw), &level_matrix(&s.tilt)) else { continue };
+        let Some(rows) = rows(x, dip, data.norm.apply(s.raw), &level_matrix(&s.tilt)) else { continue };
         let mut down = false;
         for (j, r) in rows {
             let w = if robust { huber(r, k) } else { T::ONE };
