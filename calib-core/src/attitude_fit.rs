@@ -445,7 +445,7 @@ pub fn fit_attitude_in<T: Real>(samples: &[AttitudeSample<T>], field_nt: T, cfg:
             None => {
                 let (ls, down): (QrRls<T, UNKNOWNS>, u32) = step(&x, &data, cfg, sigma, robust, inflation);
                 let dx = ls.solve()?;
-                last = Some((ls.covariance(), down));
+                last = Some((if wants_covariance { ls.covariance() } else { None }, down));
                 dx
             }
         };
