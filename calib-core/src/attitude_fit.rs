@@ -25,7 +25,7 @@
 //! ```
 //!
 //! solved by Gauss–Newton on [`QrRls`] (square-root information, so it
-//! stays accurate in `f32`) with Huber's loss on a scale re-estimated at
+//! stays accurate in `f32`; in `f64` on the normal equations) with Huber's loss on a scale re-estimated at
 //! every iteration as the residuals' median absolute value / 0.6745: no
 //! assumed noise level, and the
 //! AHRS's tilt errors in waves, the glider's nose-down surface attitude and
@@ -150,15 +150,22 @@ fn model<T: Real>(x: &[T; UNKNOWNS], u: Vec3<T>) -> Vec3<T> {
     g
 }
 
-/// The two residuals and their gradients for one sample.
-fn rows<T: Real>(x: &[T; UNKNOWNS], u: Vec3<T>, c: &Mat3<T>) -> Option<[([T; UNKNOWNS], T); 2]> {
+/// `(sin δ, cos δ)` of the unknowns' dip: the same for every sample of a
+/// pass, so found once a pass.
+fn dip_sin_cos<T: Real>(x: &[T; UNKNOWNS]) -> (T, T) {
+    (x[DIP].sin(), x[DIP].cos())
+}
+
+/// The two residuals and their gradients for one sample; `dip` is
+/// [`dip_sin_cos`]`(x)`.
+fn rows<T: Real>(x: &[T; UNKNOWNS], dip: (T, T), u: Vec3<T>, c: &Mat3<T>) -> Option<[([T; UNKNOWNS], T); 2]> {
     let l = mul_mat_vec(c, model(x, u));
     let hmag = (l[0] * l[0] + l[1] * l[1]).sqrt();
     if !(hmag > T::ZERO) {
         return None;
     }
     let (nx, ny) = (l[0] / hmag, l[1] / hmag);
-    let (sd, cd) = (x[DIP].sin(), x[DIP].cos());
+    let (sd, cd) = dip;
     let mut jv = [T::ZERO; UNKNOWNS];
     let mut jh = [T::ZERO; UNKNOWNS];
     for i in 0..3 {
@@ -253,8 +260,9 @@ impl<T: Real> Prepared<'_, T> {
 
     /// Calls `f` on every residual at `x`.
     fn for_each(&self, x: &[T; UNKNOWNS], mut f: impl FnMut(T)) {
+        let dip = dip_sin_cos(x);
         for s in self.usable() {
-            if let Some(rows) = rows(x, self.norm.apply(s.raw), &level_matrix(&s.tilt)) {
+            if let Some(rows) = rows(x, dip, self.norm.apply(s.raw), &level_matrix(&s.tilt)) {
                 for (_, r) in rows {
                     f(r);
                 }
@@ -308,8 +316,9 @@ fn step<T: Real, L: LeastSquares<T, UNKNOWNS> + Default>(x: &[T; UNKNOWNS], data
     let mut ls = L::default();
     let mut downweighted = 0;
     let k = cfg.huber_k * sigma;
+    let dip = dip_sin_cos(x);
     for s in data.usable() {
-        let Some(rows) = rows(x, data.norm.apply(s.raw), &level_matrix(&s.tilt)) else { continue };
+        let Some(rows) = rows(x, dip, data.norm.apply(s.raw), &level_matrix(&s.tilt)) else { continue };
         let mut down = false;
         for (j, r) in rows {
             let w = if robust { huber(r, k) } else { T::ONE };
@@ -385,12 +394,15 @@ pub fn fit_attitude_in<T: Real>(samples: &[AttitudeSample<T>], field_nt: T, cfg:
     // matrix's condition number squared is far inside `f64`'s precision,
     // and a Gauss–Newton step's rounding does not move the point it
     // converges to), several times cheaper than the square-root form, and
-    // stop once a step moves no unknown by more than [`STEP_TOLERANCE`]; the
-    // last iteration, whose accumulator gives the covariance, is the
-    // square-root form's. In `f32` (the MCU's precision) every iteration is.
+    // stop once a step moves no unknown by more than [`STEP_TOLERANCE`];
+    // the covariance is their inverse too (the square-root form's where
+    // they fail). In `f32` (the MCU's precision) every iteration is the
+    // square-root form's.
     let fast = T::EPSILON < T::from_f64(1e-10);
     let mut sigma = T::from_f64(0.01);
-    let mut last: Option<(QrRls<T, UNKNOWNS>, u32)> = None;
+    // The covariance (when the step's accumulator gave one) and the
+    // down-weighted count of the last step that gave them.
+    let mut last: Option<(Option<[[T; UNKNOWNS]; UNKNOWNS]>, u32)> = None;
     let mut inflation = T::ONE;
     let mut settled = false;
     // The dip prior's weight is set from the data's scatter at
@@ -405,19 +417,35 @@ pub fn fit_attitude_in<T: Real>(samples: &[AttitudeSample<T>], field_nt: T, cfg:
         // Once the robust steps have settled, the data's own scatter sets
         // the dip prior's weight for the rest ([`world`]).
         if it == INFLATION_AT && inflates {
-            if let Some(cov) = last.as_ref().and_then(|(ls, _)| ls.covariance()) {
+            if let Some(cov) = last.as_ref().and_then(|(cov, _)| cov.as_ref()) {
                 inflation = world::dip_inflation(&x, &data, cfg, sigma, &cov[DIP], cfg.dip_blocks);
             }
         }
         let final_iteration = settled || it + 1 == cfg.iterations;
         let needs_covariance = inflates && it + 1 == INFLATION_AT;
-        let normal = if fast && !final_iteration && !needs_covariance { step::<T, NormalEquations<T, UNKNOWNS>>(&x, &data, cfg, sigma, robust, inflation).0.solve().ok() } else { None };
+        // In `f64` the covariance too comes from the normal equations (the
+        // inverse information, to rounding the square-root form's); the
+        // square-root form where they fail.
+        let wants_covariance = final_iteration || needs_covariance;
+        let normal = if fast {
+            let (ne, down) = step::<T, NormalEquations<T, UNKNOWNS>>(&x, &data, cfg, sigma, robust, inflation);
+            match (ne.solve().ok(), wants_covariance) {
+                (Some(dx), false) => Some(dx),
+                (Some(dx), true) => ne.covariance().map(|cov| {
+                    last = Some((Some(cov), down));
+                    dx
+                }),
+                (None, _) => None,
+            }
+        } else {
+            None
+        };
         let dx = match normal {
             Some(dx) => dx,
             None => {
                 let (ls, down): (QrRls<T, UNKNOWNS>, u32) = step(&x, &data, cfg, sigma, robust, inflation);
                 let dx = ls.solve()?;
-                last = Some((ls, down));
+                last = Some((if wants_covariance { ls.covariance() } else { None }, down));
                 dx
             }
         };
@@ -432,8 +460,8 @@ pub fn fit_attitude_in<T: Real>(samples: &[AttitudeSample<T>], field_nt: T, cfg:
         }
         settled = fast && !(inflates && it < INFLATION_AT) && dx.iter().all(|d| d.abs() <= T::from_f64(STEP_TOLERANCE));
     }
-    let (ls, downweighted) = last.ok_or(FitError::TooFewSamples { have: 0, need: UNKNOWNS as u32 })?;
-    let cov = ls.covariance().ok_or(FitError::InsufficientExcitation { parameter: 0 })?;
+    let (cov, downweighted) = last.ok_or(FitError::TooFewSamples { have: 0, need: UNKNOWNS as u32 })?;
+    let cov = cov.ok_or(FitError::InsufficientExcitation { parameter: 0 })?;
     let share = cfg.dip_prior.map_or(T::ZERO, |(_, sd)| (cov[DIP][DIP] * inflation / (sd * sd)).min(T::ONE));
     let mut est = finish(&x, &cov, &data, field_nt, sigma, used as u32, downweighted)?;
     est.dip_prior_share = share;

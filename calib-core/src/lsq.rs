@@ -296,6 +296,55 @@ impl<T: Real, const N: usize> NormalEquations<T, N> {
         self.solve_leading(N)
     }
 
+    /// `(ΦᵀΦ)⁻¹`, the unscaled covariance of the estimate (as
+    /// [`QrRls::covariance`], to rounding: the inverse of the Jacobi-scaled
+    /// matrix's Cholesky factor, column by column). `None` when a direction
+    /// has no information or too few samples were added.
+    pub fn covariance(&self) -> Option<[[T; N]; N]> {
+        if (self.count as usize) < N {
+            return None;
+        }
+        let mut d = [T::ONE; N];
+        for (i, di) in d.iter_mut().enumerate() {
+            let a = self.ata[i][i];
+            if !(a > T::ZERO) {
+                return None;
+            }
+            *di = T::ONE / a.sqrt();
+        }
+        let mut a = self.ata;
+        for i in 0..N {
+            for j in 0..N {
+                let v = if j >= i { self.ata[i][j] } else { self.ata[j][i] };
+                a[i][j] = v * d[i] * d[j];
+            }
+        }
+        let l = crate::linalg::cholesky(&a).ok()?;
+        // L⁻¹ (lower triangular) by forward substitution, then
+        // (ΦᵀΦ)⁻¹ = D·L⁻ᵀL⁻¹·D.
+        let mut inv = [[T::ZERO; N]; N];
+        for j in 0..N {
+            for i in j..N {
+                let mut s = if i == j { T::ONE } else { T::ZERO };
+                for k in j..i {
+                    s -= l[i][k] * inv[k][j];
+                }
+                inv[i][j] = s / l[i][i];
+            }
+        }
+        let mut cov = [[T::ZERO; N]; N];
+        for i in 0..N {
+            for j in 0..N {
+                let mut s = T::ZERO;
+                for k in i.max(j)..N {
+                    s += inv[k][i] * inv[k][j];
+                }
+                cov[i][j] = s * d[i] * d[j];
+            }
+        }
+        cov.iter().flatten().all(|v| v.is_finite()).then_some(cov)
+    }
+
     /// The estimate of the model made of the first `k` columns only.
     pub fn solve_leading(&self, k: usize) -> Result<[T; N], SolveError> {
         let k = k.min(N);
@@ -347,6 +396,44 @@ mod tests {
     fn lcg(seed: &mut u64) -> f64 {
         *seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
         ((*seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+    }
+
+    /// The normal equations' covariance: a hand inverse, and the square-root
+    /// form's on random rows.
+    #[test]
+    fn the_normal_equations_covariance_is_the_inverse_information() {
+        // Rows (1, 0), (1, 1), (1, 2): ΦᵀΦ = [[3, 3], [3, 5]], inverse [[5, −3], [−3, 3]] / 6.
+        let mut ne = NormalEquations::<f64, 2>::new();
+        for t in [0.0, 1.0, 2.0] {
+            ne.update(&[1.0, t], 0.0);
+        }
+        let cov = ne.covariance().unwrap();
+        let hand = [[5.0 / 6.0, -0.5], [-0.5, 0.5]];
+        for i in 0..2 {
+            for j in 0..2 {
+                assert!((cov[i][j] - hand[i][j]).abs() < 1e-15, "{cov:?}");
+            }
+        }
+        let (mut qr, mut ne) = (QrRls::<f64, 5>::new(), NormalEquations::<f64, 5>::new());
+        let mut seed = 11;
+        for _ in 0..200 {
+            let phi = [lcg(&mut seed), 3.0 * lcg(&mut seed), lcg(&mut seed), 0.01 * lcg(&mut seed), 1.0];
+            qr.update(&phi, lcg(&mut seed));
+            ne.update(&phi, 0.0);
+        }
+        let (a, b) = (qr.covariance().unwrap(), ne.covariance().unwrap());
+        for i in 0..5 {
+            for j in 0..5 {
+                // Measured: 2e-14 of the diagonal.
+                assert!((a[i][j] - b[i][j]).abs() < 1e-12 * (a[i][i] * a[j][j]).sqrt(), "{i} {j}: {} {}", a[i][j], b[i][j]);
+            }
+        }
+        // No information on a direction: none.
+        let mut flat = NormalEquations::<f64, 2>::new();
+        for _ in 0..3 {
+            flat.update(&[1.0, 0.0], 1.0);
+        }
+        assert!(flat.covariance().is_none());
     }
 
     #[test]

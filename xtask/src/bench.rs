@@ -221,10 +221,12 @@ pub fn run(out_dir: &Path, only: &[String]) -> Result<()> {
         ("varied", varied::targets),
         ("integrity", integrity::targets),
         ("real-data", real_data::targets),
+        ("fit-speed", fit_speed::targets),
     ] {
         let key = match name {
             "varied" => "effects_varied_sites",
             "real-data" => "real_data",
+            "fit-speed" => "fit_speed",
             other => other,
         };
         // The MCU figures sit at the top level of the results.
@@ -392,6 +394,8 @@ mod tests {
                 assert!(d < 1e-4, "{row}");
             }
         }
+        let misses = super::targets::check(&super::fit_speed::targets(&v)).1;
+        assert!(misses.is_empty(), "{misses:?}");
     }
 
     /// Only the effects section: `cargo test -p xtask bench::tests::effects_section -- --ignored --nocapture`.

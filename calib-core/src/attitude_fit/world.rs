@@ -17,7 +17,7 @@
 //! thin or self-contradicting recording (large `κ`) ends near the world
 //! model; a rich, consistent one (`κ` near 1) where its data say.
 
-use super::{huber, level_matrix, rows, AttitudeConfig, Prepared, DIP, UNKNOWNS};
+use super::{dip_sin_cos, huber, level_matrix, rows, AttitudeConfig, Prepared, DIP, UNKNOWNS};
 use crate::Real;
 
 /// Largest number of blocks the data's dip information is checked over.
@@ -47,8 +47,9 @@ pub(super) fn dip_inflation<T: Real>(x: &[T; UNKNOWNS], data: &Prepared<'_, T>, 
     let s2 = sigma * sigma;
     let mut pulls = [T::ZERO; MAX_DIP_BLOCKS as usize];
     let mut formal = T::ZERO;
+    let dip = dip_sin_cos(x);
     for (n, s) in data.usable().enumerate() {
-        let Some(rs) = rows(x, data.norm.apply(s.raw), &level_matrix(&s.tilt)) else { continue };
+        let Some(rs) = rows(x, dip, data.norm.apply(s.raw), &level_matrix(&s.tilt)) else { continue };
         let b = (n * blocks / used).min(blocks - 1);
         for (j, r) in rs {
             let w = huber(r, k);

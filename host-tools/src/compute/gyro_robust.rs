@@ -154,29 +154,41 @@ pub fn refine(samples: &[GyroSample<f64>], cfg: &GyroConfig<f64>, field_nt: f64,
         return None;
     }
     let mut x = unknowns_of(start, &norm, samples)?;
+    // Each group's residual norm per row at the pass's `x` (computed once a
+    // pass, for the scale and the weights).
+    let mut res = vec![0.0; gs.len()];
     for _ in 0..PASSES {
+        for (r, g) in res.iter_mut().zip(&gs) {
+            *r = residual(g, &x) / (g.rows.len() as f64).sqrt();
+        }
         // Robust scale of each kind: 1.4826 × the median residual norm
         // (per row of the group).
         let scale = |kinematic: bool| {
-            let mut r: Vec<f64> = gs.iter().filter(|g| g.kinematic == kinematic).map(|g| residual(g, &x) / (g.rows.len() as f64).sqrt()).collect();
+            let mut r: Vec<f64> = gs.iter().zip(&res).filter(|(g, _)| g.kinematic == kinematic).map(|(_, r)| *r).collect();
             calib_core::series::median(&mut r).map(|m| 1.4826 * m)
         };
         let (sk, sa) = (scale(true), scale(false));
-        let mut ata = SMatrix::<f64, N, N>::zeros();
+        // The lower triangle of `Σ w·φφᵀ` (what the Cholesky factor reads),
+        // each entry `(w·φ_i)·φ_j` as the outer product gives it.
+        let mut ata = [[0.0; N]; N];
         let mut atb = SVector::<f64, N>::zeros();
-        for g in &gs {
+        for (g, &r) in gs.iter().zip(&res) {
             let s = if g.kinematic { sk } else { sa };
-            let r = residual(g, &x) / (g.rows.len() as f64).sqrt();
             let w = match s {
                 Some(s) if s > 0.0 && r > HUBER_K * s => HUBER_K * s / r,
                 _ => 1.0,
             };
             for (phi, y) in &g.rows {
-                let p = SVector::<f64, N>::from_column_slice(phi);
-                ata += w * p * p.transpose();
-                atb += w * *y * p;
+                for i in 0..N {
+                    let wp = w * phi[i];
+                    for j in 0..=i {
+                        ata[i][j] += wp * phi[j];
+                    }
+                }
+                atb += w * *y * SVector::<f64, N>::from_column_slice(phi);
             }
         }
+        let ata = SMatrix::<f64, N, N>::from_fn(|i, j| if j <= i { ata[i][j] } else { ata[j][i] });
         x = ata.cholesky()?.solve(&atb);
     }
     // Back to a calibration scaled to `field_nt` (as calib-core's estimate).
