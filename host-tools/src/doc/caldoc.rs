@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use calib_core::cal::{CalError, Calibration, EnvTerms, FieldCal, ModelKind, Swing};
 use serde::{Deserialize, Serialize};
 
+use super::auto::MAX_HELD_OUT_DEG;
 use super::results::{Quality, TraceEntry};
 use super::reference::Reference;
 
@@ -74,6 +75,18 @@ pub enum CalDocError {
         path: PathBuf,
         /// The document's `reference.check.disagreement`.
         disagreement: String,
+    },
+    /// `fit` (auto) kept a model none of whose candidates qualified
+    /// (`quality.auto.kept_weak`: its held-out or its own expected error at
+    /// or above [`MAX_HELD_OUT_DEG`]), only because weak results were
+    /// allowed when it was fitted, and the command using it did not allow
+    /// them.
+    #[error("{path}: `fit` kept this calibration only because weak results were allowed when it was fitted: {numbers}")]
+    KeptWeak {
+        /// The file.
+        path: PathBuf,
+        /// The kept model's held-out and own expected errors against the limit, in words.
+        numbers: String,
     },
 }
 
@@ -231,6 +244,17 @@ pub(crate) fn read_doc_text(path: &Path) -> Result<String, CalDocError> {
         }
     }
     Ok(text)
+}
+
+/// What `auto`'s held-out errors were measured against, in a few words.
+fn basis_words(basis: super::auto::HeldOutBasis) -> &'static str {
+    use super::auto::HeldOutBasis::*;
+    match basis {
+        ReferenceHeading => "held out against ref_heading_deg",
+        GyroYaw => "held out against the integrated gyro yaw",
+        FieldAndDip => "held out against the field's dip and horizontal intensity",
+        Intensity => "held out against the field's intensity",
+    }
 }
 
 /// Whether a document's text is the heading-only form (`false` when it
@@ -424,14 +448,42 @@ impl CalDoc {
         (!check.agrees).then_some(if check.disagreement.is_empty() { "no reason recorded" } else { check.disagreement.as_str() })
     }
 
+    /// Why `fit` (auto) kept this document only as weak results were
+    /// allowed (`quality.auto.kept_weak`), with the kept model's numbers
+    /// from its candidate row against [`MAX_HELD_OUT_DEG`] (the recorded
+    /// words when the row is missing); `None` for any other document.
+    pub fn kept_weak(&self) -> Option<String> {
+        let auto = self.quality.auto.as_ref()?;
+        let recorded = auto.kept_weak.as_ref()?;
+        let row = auto.candidates.iter().find(|r| r.model == auto.chosen);
+        let deg = |v: Option<f64>| v.map_or_else(|| "not recorded".to_string(), |v| format!("{v:.2}°"));
+        Some(match row {
+            Some(r) if r.held_out_deg.is_some() => format!(
+                "the model kept, `{}`, has a held-out error of {} and its own expected error is {} ({}), where both must be below {MAX_HELD_OUT_DEG}°",
+                auto.chosen,
+                deg(r.held_out_deg),
+                deg(r.expected_deg.or(r.held_out_deg)),
+                basis_words(auto.basis),
+            ),
+            _ => format!("`{}`: {recorded}", auto.chosen),
+        })
+    }
+
     /// The one check of a document a command is about to use:
-    /// [`CalDoc::validate`], and a failed reference check refused unless
-    /// `allow_weak` ([`CalDocError::WeakReference`]). Returns what the
-    /// command must say about the document (on stderr and in its summary):
-    /// empty for a sound one.
+    /// [`CalDoc::validate`], then refused unless `allow_weak`: a failed
+    /// reference check ([`CalDocError::WeakReference`]) and a model `fit`
+    /// (auto) kept though it did not qualify ([`CalDocError::KeptWeak`]).
+    /// Returns what the command must say about the document (on stderr and
+    /// in its summary or output document): empty for a sound one.
     pub fn check(&self, path: &Path, allow_weak: bool) -> Result<Vec<String>, CalDocError> {
         self.validate(path)?;
         let mut said = Vec::new();
+        if let Some(numbers) = self.kept_weak() {
+            if !allow_weak {
+                return Err(CalDocError::KeptWeak { path: path.into(), numbers });
+            }
+            said.push(format!("{}: a weak calibration (`fit` kept it only because weak results were allowed: {numbers}); used because weak results were allowed", path.display()));
+        }
         if let Some(d) = self.reference_disagreement() {
             // A reference the fit estimated from its own calibration
             // recording is no independent judge: its disagreement is said,
@@ -451,7 +503,7 @@ impl CalDoc {
     }
 
     /// Reads a document and runs [`CalDoc::check`] on it: weak documents
-    /// (a failed reference check) refused. [`CalDoc::load_with`] to allow them.
+    /// (a failed reference check, a model `fit` kept only as weak) refused. [`CalDoc::load_with`] to allow them.
     pub fn load(path: &Path) -> Result<Self, CalDocError> {
         Self::load_with(path, false).map(|(doc, _)| doc)
     }
@@ -644,6 +696,23 @@ mod tests {
         let said = d.check(p, true).unwrap();
         assert!(said.len() == 1 && said[0].contains("30000 nT"), "{said:?}");
         assert!(doc().check(p, false).unwrap().is_empty());
+        // A model `fit` (auto) kept only as weak: refused with its numbers
+        // against the limit, or used with allow_weak and said.
+        let mut w = doc();
+        let row = |model: &str, held_out: f64, expected: f64| crate::doc::auto::CandidateRow { model: model.into(), held_out_deg: Some(held_out), predicted_deg: None, expected_deg: Some(expected), refused: None, note: None };
+        w.quality.auto = Some(crate::doc::auto::AutoChoice {
+            chosen: "axis".into(),
+            basis: crate::doc::auto::HeldOutBasis::GyroYaw,
+            candidates: vec![row("attitude", 9.1, 2.0), row("axis", 7.88, 3.4)],
+            kept_weak: Some("kept because weak results were allowed".into()),
+        });
+        let e = w.check(p, false).unwrap_err();
+        let text = e.to_string();
+        assert!(matches!(e, CalDocError::KeptWeak { .. }) && text.contains("`axis`") && text.contains("7.88°") && text.contains("3.40°") && text.contains("below 5°") && text.contains("gyro yaw"), "{text}");
+        let said = w.check(p, true).unwrap();
+        assert!(said.len() == 1 && said[0].contains("7.88°") && said[0].contains("weak results were allowed"), "{said:?}");
+        w.quality.auto.as_mut().unwrap().kept_weak = None;
+        assert!(w.check(p, false).unwrap().is_empty(), "a choice that qualified is not weak");
         // Against the fit's own estimate (no independent judge): said, not refused.
         d.reference.as_mut().unwrap().source = crate::doc::reference::ReferenceSource::CalibrationData;
         let said = d.check(p, false).unwrap();

@@ -68,7 +68,10 @@ pub fn run(a: Args) -> Result<()> {
     if !(a.max_rotation_deg.is_finite() && a.max_rotation_deg >= 0.0) {
         bail!("--max-rotation-deg must be a non-negative number of degrees, not {}", a.max_rotation_deg);
     }
-    let doc = super::load_field_doc(&a.cal, a.allow_weak)?;
+    let (doc, said) = host_tools::doc::CalDoc::load_with(&a.cal, a.allow_weak).map_err(|e| hinted(e, super::weak_hint))?;
+    for w in &said {
+        eprintln!("warning: {w}");
+    }
     let stack = match a.format {
         Format::Ardupilot => Stack::ArduPilot,
         Format::Px4 => Stack::Px4,
@@ -91,6 +94,11 @@ pub fn run(a: Args) -> Result<()> {
         eprintln!("warning: {}", w.message);
     }
     let text = ex.to_file_text(&a.cal, &doc);
+    // What was used with --allow-weak is said in the file too, under its first line.
+    let text = match text.split_once('\n') {
+        Some((first, rest)) if !said.is_empty() => format!("{first}\n{}{rest}", said.iter().map(|w| format!("# WARNING: {w}\n")).collect::<String>()),
+        _ => text,
+    };
     host_tools::files::write_text_atomic(&a.out, &text)?;
     eprintln!("wrote {} ({} parameters)", a.out.display(), ex.params.len());
     if a.json {

@@ -296,7 +296,7 @@ pub fn number_in(range: std::ops::RangeInclusive<f64>, unit: &'static str) -> im
 
 /// The hint for a weak document refused.
 pub fn weak_hint(e: &host_tools::doc::CalDocError) -> Option<&'static str> {
-    matches!(e, host_tools::doc::CalDocError::WeakReference { .. }).then_some("give --allow-weak to use it anyway (it is then said in the output)")
+    matches!(e, host_tools::doc::CalDocError::WeakReference { .. } | host_tools::doc::CalDocError::KeptWeak { .. }).then_some("give --allow-weak to use it anyway (it is then said in the output)")
 }
 
 /// A check's refusal: returned, or with `allow_weak` kept as a warning

@@ -112,9 +112,13 @@ pub fn run(a: Args) -> Result<()> {
         eprintln!("warning: {w}");
     }
     let rec = a.columns.read(&a.input)?;
-    let (doc, fit, delay_s) =
+    let (mut doc, fit, delay_s) =
         compute::swing::swing_recording_with(&rec, &doc, delay, mode).with_context(|| format!("{}: swing fit", a.input.display()))?;
     warn_all(&doc);
+    // What was used with --allow-weak goes into the document too (said on stderr above).
+    if let Some(q) = doc.quality.swing.as_mut() {
+        q.warnings.extend(said);
+    }
     strict_edge(&a, doc.quality.swing.as_ref())?;
     let s = fit.swing;
     let current_removed = doc.quality.swing.as_ref().and_then(|q| q.current);

@@ -39,6 +39,7 @@ mod hostile;
 mod import;
 mod import_formats;
 mod input_checks;
+mod kept_weak;
 mod log;
 mod log_workflow;
 mod merge;

@@ -73,6 +73,10 @@ struct Dataset {
     numpy_dip_held: Option<String>,
     judge: Judge,
     floor: FieldCal<f64>,
+    /// What the floor column holds where it is not a floor (the BROAD
+    /// disturbed trials: the IMU's calibration without the magnet), or that
+    /// there is no reference at all.
+    floor_is: Option<&'static str>,
 }
 
 fn std_dev(v: &[f64]) -> f64 {
@@ -110,7 +114,7 @@ fn glider(dir: &Path, name: &str, (calib_csv, judge_csv): (&str, &str), peer: &s
     };
     let reference = Some(Reference::world_model(site, &world));
     let numpy_dip_held = numpy_dip_held(&cpath, &vpath, igrf_dip, world.total_nt());
-    Some(Dataset { name: name.to_string(), calib, field_nt: world.total_nt(), reference, site_only_for_auto: None, numpy_dip_held, judge: Box::new(judge), floor })
+    Some(Dataset { name: name.to_string(), calib, field_nt: world.total_nt(), reference, site_only_for_auto: None, numpy_dip_held, judge: Box::new(judge), floor, floor_is: None })
 }
 
 /// The dip-held scipy fit's dip scatter and mean against IGRF on the
@@ -138,7 +142,7 @@ fn broad(dir: &Path, n: &str) -> Option<Dataset> {
     let name = dir.file_name().map_or(n.to_string(), |f| f.to_string_lossy().into_owned());
     // The lab's site (its README): IGRF-14 at TU Berlin, 2020-06-01.
     let site_only_for_auto = Site::new(52.51, 13.32, "2020-06-01").ok().and_then(|s| Some(Reference::world_model(s, &s.field().ok()?)));
-    Some(Dataset { name, calib, field_nt: t.field_nt?, reference: None, site_only_for_auto, numpy_dip_held: None, judge: Box::new(judge), floor: t.cal() })
+    Some(Dataset { name, calib, field_nt: t.field_nt?, reference: None, site_only_for_auto, numpy_dip_held: None, judge: Box::new(judge), floor: t.cal(), floor_is: None })
 }
 
 /// The datasets present under `tests/data`.
@@ -157,6 +161,76 @@ fn datasets(root: &Path) -> Vec<Dataset> {
     out.extend(glider(&data.join("seaglider-sg180"), "seaglider-sg180 dives 5–6 → 1–4", ("sg180_validate.csv", "sg180_calib.csv"), "onboard_calibration_dives1-4.json", SG180));
     for (d, n) in [("broad-02-limited", "02"), ("broad-03", "03"), ("broad-05", "05"), ("broad-06", "06"), ("broad-09", "09")] {
         out.extend(broad(&data.join(d), n));
+    }
+    out
+}
+
+/// One BROAD series with the optical heading and no validation part of
+/// its own (the disturbed trials and the tapped one): its first half
+/// calibrates, its second half judges (heading RMS after one offset). The
+/// truth file is the IMU's calibration without the magnet: the floor of
+/// trial 25 (no magnet), only a reference beside the others.
+fn broad_series(dir: &Path, n: &str, magnet: bool) -> Option<Dataset> {
+    let path = dir.join(format!("broad_{n}.csv"));
+    let t = StoredCal::read(&dir.join(format!("broad_{n}.truth.json")))?;
+    let all = Recording::read(&path).ok()?;
+    let optical = column(&path, "truth_heading_deg")?;
+    let half = all.len() / 2;
+    let part = |lo: usize, hi: usize| {
+        let cut = |v: &Option<Vec<f64>>| v.as_ref().and_then(|v| v.get(lo..hi)).map(<[f64]>::to_vec);
+        Recording { t_s: cut(&all.t_s), mag: all.mag.get(lo..hi).unwrap_or_default().to_vec(), roll_deg: cut(&all.roll_deg), pitch_deg: cut(&all.pitch_deg), gx_rad_s: cut(&all.gx_rad_s), gy_rad_s: cut(&all.gy_rad_s), gz_rad_s: cut(&all.gz_rad_s), ..Recording::default() }
+    };
+    let (calib, val) = (part(0, half), part(half, all.len()));
+    let optical = optical.get(half..)?.to_vec();
+    let judge = move |cal: &FieldCal<f64>| {
+        let (Some(roll), Some(pitch)) = (val.roll_deg.as_ref(), val.pitch_deg.as_ref()) else { return (f64::NAN, String::new()) };
+        let h = (0..val.len()).map(|i| (magnetic_heading_rad(cal.apply(val.mag[i]), roll[i].to_radians(), pitch[i].to_radians()), optical[i]));
+        let rms = truth::heading_rms_after_offset_deg(h).0.rms;
+        (rms, format!("heading {rms:.2}° (second half)"))
+    };
+    let floor_is = magnet.then_some("no floor (a magnet): the calibration without it gives");
+    Some(Dataset { name: format!("broad-{n} (first half → second half)"), calib, field_nt: t.field_nt?, reference: None, site_only_for_auto: None, numpy_dip_held: None, judge: Box::new(judge), floor: t.cal(), floor_is })
+}
+
+/// A recording with no reference to judge a calibration by (no heading, no
+/// site): `auto`'s choice and its held-out table only. `map` names its
+/// columns and units as `--columns` does (empty: bare `x y z` lines); the
+/// intensity is a nominal 50 000 nT (it scales the matrix only).
+fn without_reference(root: &Path, name: &str, rel: &str, map: &str) -> Option<Dataset> {
+    let path = root.join("tests/data").join(rel);
+    let calib = if map.is_empty() {
+        let text = std::fs::read_to_string(&path).ok()?;
+        let mag = text.lines().filter_map(|l| {
+            let v: Vec<f64> = l.split_whitespace().filter_map(|x| x.parse().ok()).collect();
+            (v.len() == 3).then(|| [v[0], v[1], v[2]])
+        });
+        Recording { mag: mag.collect(), ..Recording::default() }
+    } else {
+        host_tools::data::intake::read_recording(&path, &map.parse().ok()?).ok()?.recording
+    };
+    let judge = |_: &FieldCal<f64>| (f64::NAN, "no reference: held out only".to_string());
+    Some(Dataset { name: name.into(), calib, field_nt: 50_000.0, reference: None, site_only_for_auto: None, numpy_dip_held: None, judge: Box::new(judge), floor: FieldCal::identity(), floor_is: Some("no reference") })
+}
+
+/// The datasets only `fit` without `--model` is run on (not the table of
+/// every model, not the leave-one-out choices): the BROAD series without a
+/// validation part, and the recordings without any reference. The
+/// vehicles' logs (ArduSub, PX4, NMEA 2000) come in through `import` and are
+/// left out: a few headings each, every model refused (the closing note).
+fn auto_only_datasets(root: &Path) -> Vec<Dataset> {
+    let data: PathBuf = root.join("tests/data");
+    let mut out: Vec<Dataset> = Vec::new();
+    for (dir, n, magnet) in [("broad-25-28-34", "25", false), ("broad-25-28-34", "28", true), ("broad-30", "30", true), ("broad-33", "33", true), ("broad-25-28-34", "34", true)] {
+        out.extend(broad_series(&data.join(dir), n, magnet));
+    }
+    let xio = "t=Time (s),mx=Magnetometer X (uT):uT,my=Magnetometer Y (uT):uT,mz=Magnetometer Z (uT):uT,gx=Gyroscope X (deg/s):deg/s,gy=Gyroscope Y (deg/s):deg/s,gz=Gyroscope Z (deg/s):deg/s";
+    for (name, rel, map) in [
+        ("sunsided-full-sphere", "sunsided-full-sphere/hmc5883l_compass.csv", "t=t_s,mx=mag_x_gauss:gauss,my=mag_y_gauss:gauss,mz=mag_z_gauss:gauss"),
+        ("ck-explorer", "ck-explorer/acc_mag_log.csv", "mx=mx,my=my,mz=mz"),
+        ("bazhin", "bazhin/mag_out.txt", ""),
+        ("xio-fusion", "xio-fusion/sensor_data.csv", xio),
+    ] {
+        out.extend(without_reference(root, name, rel, map));
     }
     out
 }
@@ -265,10 +339,16 @@ pub fn real_data_with(root: &Path, every_model: bool) -> (serde_json::Value, Str
         }
     }
     let _ = writeln!(md, "\n`fit` without `--model` (auto: every allowed model, the attitude fit also with the dip held at IGRF's where the site is known, judged on {} held-out time blocks of the calibration part, the least held-out error kept; expected: the larger of the held-out error and the covariance's prediction ⊕ the heading's white noise; the gliders' floor column adds the dip-held scipy fit, `xtask/python/glider_dip_held.py`; the BROAD trials also with the lab's site, whose dip is 1.6° off IGRF-14):\n\n| dataset | kept | result on the validation part | floor | expected | held-out table | the constraint that shaped the dip |\n|---|---|---|---|---|---|---|", host_tools::compute::auto::FOLDS);
-    let auto_runs = sets.iter().flat_map(|d| std::iter::once((d, d.reference.clone(), "")).chain(d.site_only_for_auto.clone().map(|r| (d, Some(r), " (lab's site)"))));
+    let more = auto_only_datasets(root);
+    let auto_runs = sets.iter().chain(&more).flat_map(|d| std::iter::once((d, d.reference.clone(), "")).chain(d.site_only_for_auto.clone().map(|r| (d, Some(r), " (lab's site)"))));
     for (d, reference, label) in auto_runs {
         let (floor_score, own) = (d.judge)(&d.floor);
-        let floor = d.numpy_dip_held.as_ref().map_or(own.clone(), |n| format!("own: {own}; scipy dip-held: {n}"));
+        let floor = match (d.numpy_dip_held.as_ref(), d.floor_is) {
+            (Some(n), _) => format!("own: {own}; scipy dip-held: {n}"),
+            (None, Some("no reference")) => "no reference".to_string(),
+            (None, Some(what)) => format!("{what} {own}"),
+            (None, None) => own,
+        };
         // With a site the intensity is the world model's (as `fit --lat --lon --date`).
         let field_nt = reference.as_ref().filter(|_| !label.is_empty()).map_or(d.field_nt, |r| r.field_nt);
         let opts = FitOptions { model: ModelKind::Attitude, field_nt, saturation: None, allow_weak: false, gyro_lag: host_tools::compute::GyroLag::Given(0.0), reference };
@@ -378,8 +458,9 @@ mod tests {
         let (v, md) = super::real_data(&root);
         eprintln!("{md}");
         // 4 gliders and 5 trials: every model, the gliders' attitude fit
-        // without the site, auto (the trials also with the lab's site).
-        assert_eq!(v["table"].as_array().map(Vec::len), Some(9 * super::MODELS.len() + 4 + 9 + 5), "{v}");
+        // without the site, auto (the trials also with the lab's site); auto
+        // alone on 5 BROAD series and 4 recordings without a reference.
+        assert_eq!(v["table"].as_array().map(Vec::len), Some(9 * super::MODELS.len() + 4 + 9 + 5 + 9), "{v}");
         let misses = crate::bench::targets::check(&super::targets(&v)).1;
         assert!(misses.is_empty(), "{misses:?}");
     }
