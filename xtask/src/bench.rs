@@ -8,7 +8,7 @@
 //! targets ([`targets`]); [`run_ci`] (`cargo xtask bench --ci`) runs the
 //! sections that state targets at CI sizes and only checks them.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Result};
 use serde_json::{json, Value};
@@ -43,7 +43,8 @@ use real_recordings::real_recordings;
 /// of [`crate::results_doc::SECTIONS`]) and writes the results:
 /// `target/bench/results.{json,md}`, `docs/results.json` and `docs/RESULTS.md`.
 /// With `only`, the other sections are kept from the previous
-/// `target/bench/results.json`, each with its own date and commit.
+/// `target/bench/results.json` (or, where there is none, the committed
+/// `docs/results.json`), each with its own date and commit.
 pub fn run(out_dir: &Path, only: &[String]) -> Result<()> {
     let known: Vec<&str> = crate::results_doc::SECTIONS.iter().map(|s| s.0).collect();
     if let Some(bad) = only.iter().find(|s| !known.contains(&s.as_str())) {
@@ -53,7 +54,11 @@ pub fn run(out_dir: &Path, only: &[String]) -> Result<()> {
     std::fs::create_dir_all(out_dir)?;
     let root = out_dir.join("../..");
     let root = root.canonicalize().unwrap_or(root);
-    let previous = std::fs::read_to_string(out_dir.join("results.json")).ok().and_then(|t| serde_json::from_str::<Value>(&t).ok());
+    // The other sections come from this machine's last run or, on a fresh
+    // clone, from the committed `docs/results.json`: a one-section run
+    // never empties the rest of `docs/RESULTS.md`.
+    let read = |p: PathBuf| std::fs::read_to_string(p).ok().and_then(|t| serde_json::from_str::<Value>(&t).ok()).filter(Value::is_object);
+    let previous = read(out_dir.join("results.json")).or_else(|| read(root.join("docs/results.json")));
     let mut results = match previous {
         Some(p) if !only.is_empty() && p.is_object() => p,
         _ => json!({}),
