@@ -3,7 +3,7 @@
 #![no_main]
 use calib_core::cal::ModelKind;
 use host_tools::compute::{fit_recording, FitOptions};
-use host_tools::data::recording::Recording;
+use host_tools::data::Recording;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

@@ -14,7 +14,6 @@ use super::results::Quality;
 /// The smallest slope of the corrected heading against the compass's that a
 /// swing may have (the field calibration's too: one check,
 /// [`super::caldoc::swing_problem`]).
-pub use super::caldoc::MIN_CORRECTION_SLOPE;
 
 /// A heading-only compass's calibration: the swing and the declination.
 /// What `magcal swing` writes for a compass log; `apply` and `card` use it.
