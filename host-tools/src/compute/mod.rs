@@ -53,7 +53,7 @@ pub use card::{
     check_reference_column, compass_card, deviation_card, read_reference_column, CardError, DeviationCard, STEP_DEG_RANGE,
 };
 pub use compass::{apply_compass, swing_compass, write_compass_applied, DeclinationSource};
-pub use models::{ModelEntry, MODELS};
+pub use models::{gates, ModelEntry, MODELS};
 pub use reference::{check_given_field, given_disagreement, shown, world_field_for};
 pub use truth::{
     calibrated_fields_nt, field_rms_against_nt, field_rms_nt, heading_rms_after_offset_deg, heading_rms_deg, true_headings_rad, Rms,
