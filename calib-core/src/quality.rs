@@ -4,7 +4,7 @@
 //! each body axis was exercised. [`Gates`] turns them into a verdict, so a
 //! weak calibration is refused with a reason instead of being returned.
 
-use crate::cal::{FieldCal, ModelKind};
+use crate::cal::FieldCal;
 use crate::fit::FitError;
 use crate::heading::Vec3;
 use crate::Real;
@@ -144,23 +144,16 @@ pub struct Gates<T> {
 }
 
 impl<T: Real> Gates<T> {
-    /// Defaults per model. The more parameters, the more of the sphere they
-    /// need: a full ellipsoid (9 parameters) from a cap of directions is an
-    /// extrapolation; the axis model is what paper 000 fits from an AUV's
-    /// swing test (yaw all round, roll ±55°, pitch ±10°).
-    pub fn for_model(kind: ModelKind) -> Self {
-        // A sphere's centre from a cap of directions is an extrapolation
-        // too: on BROAD trial 05 (19 % of the bins, |roll|, |pitch| ≤ 25°)
-        // it gave 7.5° of heading error where the true calibration gives
-        // 2.2°. The gyro-aided model does not rest on coverage: its own
-        // covariance says what the data determine.
-        let min_coverage_pct = match kind {
-            ModelKind::Sphere => 30,
-            ModelKind::Axis => 25,
-            ModelKind::Full | ModelKind::Triangular => 40,
-            ModelKind::Gyro | ModelKind::Attitude => 0,
-        };
-        Self { min_coverage_pct, max_residual_pct: T::from_f64(2.0) }
+    /// The largest RMS magnitude residual a calibration may keep, percent
+    /// of the field.
+    pub const MAX_RESIDUAL_PCT: f64 = 2.0;
+
+    /// The gates of a model that needs `min_coverage_pct` of the direction
+    /// bins, with the residual at most [`Self::MAX_RESIDUAL_PCT`]. Each
+    /// model's coverage is data in the host's model registry (host-tools'
+    /// `compute::MODELS`), beside the rest of what is known of the model.
+    pub fn with_coverage(min_coverage_pct: u8) -> Self {
+        Self { min_coverage_pct, max_residual_pct: T::from_f64(Self::MAX_RESIDUAL_PCT) }
     }
 
     /// The verdict.
@@ -181,6 +174,9 @@ mod tests {
     use super::*;
     use crate::conformance::SplitMix64;
 
+    /// The full model's coverage gate (the host registry's).
+    const FULL_COVERAGE_PCT: u8 = 40;
+
     #[test]
     fn a_full_tumble_covers_every_bin_and_spreads_every_axis() {
         let mut rng = SplitMix64::new(1);
@@ -192,7 +188,7 @@ mod tests {
         for k in 0..3 {
             assert!((q.axis_spread[k] - 1.0 / 3f64.sqrt()).abs() < 0.02, "{:?}", q.axis_spread);
         }
-        assert_eq!(Gates::for_model(ModelKind::Full).check(&q), Ok(()));
+        assert_eq!(Gates::with_coverage(FULL_COVERAGE_PCT).check(&q), Ok(()));
     }
 
     #[test]
@@ -206,7 +202,7 @@ mod tests {
         let q = assess(&FieldCal::identity(), &data, 48_000.0);
         assert!(q.coverage_pct <= 34, "{}", q.coverage_pct);
         assert_eq!(
-            Gates::for_model(ModelKind::Full).check(&q),
+            Gates::with_coverage(FULL_COVERAGE_PCT).check(&q),
             Err(FitError::InsufficientCoverage { covered_pct: q.coverage_pct })
         );
     }

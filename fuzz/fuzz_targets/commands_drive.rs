@@ -20,14 +20,14 @@
 
 use std::path::Path;
 
-use host_tools::compute::apply::{apply_recording, ApplyOptions};
-use host_tools::compute::card::{compass_card, deviation_card};
-use host_tools::compute::compass::{apply_compass, swing_compass};
+use host_tools::compute::{apply_recording, ApplyOptions};
+use host_tools::compute::{compass_card, deviation_card};
+use host_tools::compute::{apply_compass, swing_compass};
 use host_tools::compute::{swing_recording_with, Delay, WaterCurrentMode};
-use host_tools::data::compass::CompassLog;
+use host_tools::data::CompassLog;
 use host_tools::doc::CompassDoc;
-use host_tools::data::nmea;
-use host_tools::data::table::{col, ColumnMap};
+use host_tools::data::{import_nmea_reader, NmeaImported, NmeaOptions};
+use host_tools::data::{col, ColumnMap};
 use host_tools::data::Recording;
 use host_tools::doc::CalDoc;
 
@@ -44,7 +44,7 @@ struct Options {
     step_deg: f64,
     points: usize,
     declination_deg: Option<f64>,
-    import: nmea::ImportOptions,
+    import: NmeaOptions,
 }
 
 fn options(bytes: &[u8]) -> Options {
@@ -60,7 +60,7 @@ fn options(bytes: &[u8]) -> Options {
         step_deg: STEPS_DEG[usize::from(b(4)) % STEPS_DEG.len()],
         points: if b(5) & 1 == 0 { 16 } else { 8 },
         declination_deg: (b(6) & 1 == 1).then(|| f64::from(b(7) as i8) / 2.0),
-        import: nmea::ImportOptions {
+        import: NmeaOptions {
             min_course_speed_mps: f64::from(b(8)) / 20.0,
             reference_talker: match b(9) % 4 {
                 0 => None,
@@ -74,7 +74,7 @@ fn options(bytes: &[u8]) -> Options {
 
 /// The importer's rows as a compass log (what `swing` reads back from the
 /// CSV `import` writes), when they hold a compass heading.
-fn compass_log(im: &nmea::Imported) -> Option<CompassLog> {
+fn compass_log(im: &NmeaImported) -> Option<CompassLog> {
     let column = |name: &str| im.column(name).map(<[f64]>::to_vec);
     Some(CompassLog {
         t_s: column(col::T)?,
@@ -106,7 +106,7 @@ pub fn drive(data: &[u8]) {
     // A heading-only compass: the CSV and the NMEA import as its log.
     let compass_doc = serde_json::from_slice::<CompassDoc>(json).ok().filter(|d| d.validate(doc_path).is_ok());
     let mut logs: Vec<CompassLog> = CompassLog::from_reader_mapped(csv, csv_path, &map).into_iter().collect();
-    if let Ok(im) = nmea::import_reader(log, Path::new("fuzz.nmea"), &o.import) {
+    if let Ok(im) = import_nmea_reader(log, Path::new("fuzz.nmea"), &o.import) {
         logs.extend(compass_log(&im));
     }
     for log in &logs {

@@ -6,7 +6,7 @@
 //! corpus input through it (`xtask/src/fuzz.rs`, `replay`).
 use calib_core::cal::ModelKind;
 use host_tools::compute::{fit_recording, FitOptions};
-use host_tools::data::recording::Recording;
+use host_tools::data::Recording;
 
 /// Runs one input.
 pub fn drive(data: &[u8]) {

@@ -4,7 +4,7 @@
 //! the second magnetometer instance; the rest is the log. A clear error or
 //! an import whose every column is as long as its time column — never a
 //! panic.
-use host_tools::data::import::{import, Format, ImportOptions};
+use host_tools::data::{import, Format, ImportOptions};
 
 /// Runs one input.
 pub fn drive(data: &[u8]) {

@@ -21,6 +21,11 @@
 //! `tests/layering.rs` holds them): `files`, `geomag`, `procedure` < `doc`
 //! < `data` < `compute` < `board`, `export`, `report` < `session`.
 //!
+//! These layers are the whole public surface: each re-exports what callers
+//! outside the crate use (`compute::fit_recording`, `doc::CalDoc`), and the
+//! modules inside a layer are `pub(crate)`. The one deeper public path is
+//! the column registry's names, [`data::col`].
+//!
 //! The `magcal` binary (crate `magcal`) is a thin clap front end over this
 //! library, and the field-test simulator is a crate of its own
 //! (`magcal-sim`) that this library does not depend on. Errors here are

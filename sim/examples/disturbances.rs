@@ -7,7 +7,7 @@
 //!
 //! `cargo run --release -p magcal-sim --example disturbances [seeds…]`
 
-use host_tools::compute::truth;
+use host_tools::compute::true_headings_rad;
 use magcal_sim::effects::Effects;
 use magcal_sim::field_test::{self, RunKind};
 use magcal_sim::scenario::{effects_data, effects_runs, Variant};
@@ -24,7 +24,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let chain = host_tools::compute::calibrate(&data.swing.recording, &data.run.recording, &paper_site(), &Variant::Full.options())?;
         let (_, validation) = effects_runs();
         let sim = field_test::run_with(&SensorModel::paper_like(), &paper_site(), &validation, seed + 200, 2.0, RunKind::Validation, &disturbed)?;
-        let headings = truth::true_headings_rad(&chain.final_doc, &sim.recording);
+        let headings = true_headings_rad(&chain.final_doc, &sim.recording);
         let errors: Vec<f64> = headings.iter().zip(&sim.true_heading_deg).map(|(h, t)| calib_core::heading::wrap_pi(h - t.to_radians()).to_degrees()).collect();
         let disturbance = sim.effect_column("truth_disturbance_nt").ok_or("no disturbance column")?;
         let on = sim.effect_column("payload_on").ok_or("no payload column")?;

@@ -4,8 +4,8 @@
 //! offset and drift between them.
 
 use calib_core::conformance::SplitMix64;
-use host_tools::data::board_log::BoardLog;
-use host_tools::data::nav_log::NavLog;
+use host_tools::data::BoardLog;
+use host_tools::data::NavLog;
 
 use crate::field_test::Simulation;
 

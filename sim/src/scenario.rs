@@ -3,11 +3,11 @@
 //! paper's and ours) → swing (Fourier) fit against the delayed GPS course →
 //! true-heading and field errors on a separate validation run. The chain is
 //! host-tools' own ([`host_tools::compute::chain`]); the errors against truth
-//! are [`host_tools::compute::truth`]'s. Used by the acceptance tests and by
+//! are [`host_tools::compute`]'s. Used by the acceptance tests and by
 //! `cargo xtask bench`.
 
-use host_tools::compute::{self, truth, ChainOptions, ComputeError, WaterCurrentMode, Delay, FirstStep};
-use host_tools::doc::results::BackstepMethod;
+use host_tools::compute::{self, ChainOptions, ComputeError, WaterCurrentMode, Delay, FirstStep};
+use host_tools::doc::BackstepMethod;
 use host_tools::doc::CalDoc;
 use host_tools::geomag::Site;
 
@@ -27,14 +27,14 @@ pub enum ScenarioError {
 
 /// True-heading RMS error (degrees) of a calibration on a simulated run.
 pub fn heading_rms_deg(doc: &CalDoc, sim: &Simulation) -> f64 {
-    let headings = truth::true_headings_rad(doc, &sim.recording);
-    truth::heading_rms_deg(headings.into_iter().zip(sim.true_heading_deg.iter().copied())).rms
+    let headings = compute::true_headings_rad(doc, &sim.recording);
+    compute::heading_rms_deg(headings.into_iter().zip(sim.true_heading_deg.iter().copied())).rms
 }
 
 /// The white-noise part of a calibration's true-heading error on a
 /// simulated run, °: `RMS(e_i − e_{i−1})/√2` over consecutive rows.
 pub fn heading_noise_deg(doc: &CalDoc, sim: &Simulation) -> f64 {
-    let errors: Vec<f64> = truth::true_headings_rad(doc, &sim.recording)
+    let errors: Vec<f64> = compute::true_headings_rad(doc, &sim.recording)
         .into_iter()
         .zip(sim.true_heading_deg.iter())
         .map(|(h, t)| calib_core::heading::wrap_pi(h - t.to_radians()))
@@ -57,9 +57,9 @@ pub fn heading_noise_deg(doc: &CalDoc, sim: &Simulation) -> f64 {
 /// document's current and temperature terms applied.
 pub fn field_error_nt(doc: &CalDoc, sim: &Simulation) -> f64 {
     let rec = &sim.recording;
-    let h = truth::calibrated_fields_nt(doc, rec);
+    let h = compute::calibrated_fields_nt(doc, rec);
     let fields = (0..rec.len()).step_by(10).map(|i| (h[i], i));
-    truth::field_rms_nt(fields, rec, &sim.truth.site).rms
+    compute::field_rms_nt(fields, rec, &sim.truth.site).rms
 }
 
 /// RMS of |h| − |true local field| over a simulated run with the anomaly
@@ -67,8 +67,8 @@ pub fn field_error_nt(doc: &CalDoc, sim: &Simulation) -> f64 {
 /// was really in, not IGRF. `None` without the simulator's true-field columns.
 pub fn field_error_true_nt(doc: &CalDoc, sim: &Simulation) -> Option<f64> {
     let (n, e, d) = (sim.effect_column("true_field_n_nt")?, sim.effect_column("true_field_e_nt")?, sim.effect_column("true_field_d_nt")?);
-    let h = truth::calibrated_fields_nt(doc, &sim.recording);
-    let r = truth::field_rms_against_nt((0..h.len()).step_by(10).map(|i| (h[i], (n[i].powi(2) + e[i].powi(2) + d[i].powi(2)).sqrt())));
+    let h = compute::calibrated_fields_nt(doc, &sim.recording);
+    let r = compute::field_rms_against_nt((0..h.len()).step_by(10).map(|i| (h[i], (n[i].powi(2) + e[i].powi(2) + d[i].powi(2)).sqrt())));
     (r.samples > 0).then_some(r.rms)
 }
 

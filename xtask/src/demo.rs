@@ -79,7 +79,7 @@ fn reproduce_offline(magcal: &Path, dir: &Path) -> Result<()> {
 /// simulated vehicle and the real-vehicle `effects` (`magcal session
 /// --effects`); writes `<out_dir>/summary.json` and returns it.
 pub fn demo_session(elf: &Path, magcal: &Path, out_dir: &Path, plan: &str, effects: &str) -> Result<DemoSummary> {
-    use host_tools::board::qemu::{QemuBoard, QemuOptions};
+    use host_tools::board::{QemuBoard, QemuOptions};
 
     std::fs::create_dir_all(out_dir)?;
     say("booting the firmware on QEMU netduinoplus2 (STM32F405): USART1 = host link, USART2 = the simulated bridges");

@@ -10,13 +10,15 @@
 //! * [`reconnect`]: reopening a dropped link (the session's recording and
 //!   `magcal log`).
 
-pub mod client;
-pub mod coefficients;
-pub mod feed;
-pub mod log;
-pub mod qemu;
-pub mod reconnect;
+pub(crate) mod client;
+pub(crate) mod coefficients;
+pub(crate) mod feed;
+pub(crate) mod log;
+pub(crate) mod qemu;
+pub(crate) mod reconnect;
 
 pub use client::{BoardClient, ClientError, BAUD_RATE, SAMPLE_QUEUE};
 pub use feed::FeedWriter;
 pub use reconnect::{reconnect_at, Resume};
+pub use log::{create_log_file, log_board, LogEnd, LogError, LogOptions, LogOutput, LogProgress, LogSummary, LOGGED_SAMPLES, LOG_HEADER};
+pub use qemu::{QemuBoard, QemuError, QemuOptions};

@@ -6,7 +6,7 @@ use calib_core::attitude_fit::AttitudeConfig;
 use calib_core::cal::ModelKind;
 use calib_core::fit::{fit_batch, Axis, FitError, Full, Sphere};
 use calib_core::ortho;
-use calib_core::quality::{assess, Gates, Quality};
+use calib_core::quality::{assess, Quality};
 
 use super::gyro::GyroLag;
 use super::units::units_guess;
@@ -127,7 +127,7 @@ pub(crate) fn fit_with(rec: &Recording, opts: &FitOptions, checks: Checks) -> Re
     }
     .map_err(|e| with_advice(explain_failure(e, &samples, opts), rec))?;
     let q = assess(&cal, &samples, opts.field_nt);
-    let mut gates = Gates::for_model(opts.model);
+    let mut gates = super::models::gates(opts.model);
     if !checks.magnitude_gate && q.residual_rms_pct > gates.max_residual_pct {
         warnings.push(format!("magnitudes scatter by {:.1} % in sample: judged on held-out data instead", q.residual_rms_pct));
         gates.max_residual_pct = f64::INFINITY;
@@ -221,7 +221,7 @@ fn explain_failure(e: FitError, samples: &[[f64; 3]], opts: &FitOptions) -> FitE
         return e;
     };
     let q = assess(&sphere, samples, opts.field_nt);
-    if q.coverage_pct < Gates::<f64>::for_model(opts.model).min_coverage_pct {
+    if q.coverage_pct < super::models::entry(opts.model).min_coverage_pct {
         FitError::InsufficientCoverage { covered_pct: q.coverage_pct }
     } else {
         e

@@ -60,13 +60,8 @@ pub struct GyroYaw {
 
 impl GyroYaw {
     /// The yaw track of `rec`, with the gyro bias `gyro_bias_rad_s`
-    /// removed; `None` without time, gyro, roll and pitch.
-    pub fn new(rec: &Recording, gyro_bias_rad_s: [f64; 3]) -> Option<Self> {
-        Self::with_stretch(rec, gyro_bias_rad_s, MAX_STRETCH_S)
-    }
-
-    /// [`Self::new`] with stretches cut after `max_stretch_s` instead of
-    /// [`MAX_STRETCH_S`].
+    /// removed, cut into stretches of at most `max_stretch_s` (the default:
+    /// [`MAX_STRETCH_S`]); `None` without time, gyro, roll and pitch.
     pub fn with_stretch(rec: &Recording, gyro_bias_rad_s: [f64; 3], max_stretch_s: f64) -> Option<Self> {
         let t = rec.t_s.as_ref()?;
         let rates = rec.gyro_rad_s()?;
@@ -193,7 +188,7 @@ mod tests {
     #[test]
     fn a_right_calibration_follows_the_gyro_and_a_bent_one_does_not() {
         let ok = turn(0.0);
-        let yaw = GyroYaw::new(&ok, [0.0; 3]).unwrap();
+        let yaw = GyroYaw::with_stretch(&ok, [0.0; 3], MAX_STRETCH_S).unwrap();
         let mut sq = Vec::new();
         yaw.held_out_squares(&FieldCal::identity(), &ok, 0, 40, &mut sq);
         // Two stretches of 20 rows, every row judged; the heading follows

@@ -18,14 +18,6 @@ pub const MAG: [&str; 3] = col::MAG;
 pub const TEMP_C: &str = col::TEMP_C;
 /// `health`: the sample's health bits (optional; see [`HEALTH_SATURATED`]).
 pub const HEALTH: &str = col::HEALTH;
-/// `heading_sigma_deg`: the board's 1σ of the sample's heading, degrees
-/// (written by `magcal log`; empty when the board had no heading).
-pub const HEADING_SIGMA_DEG: &str = col::HEADING_SIGMA_DEG;
-/// `integrity`: the board's judgement of the sample, a word (`ok`,
-/// `disturbed`, `cal_invalid`, `no_attitude`, `unjudged`: every
-/// `IntegrityState::name`; written by `magcal log`, not
-/// read back by [`BoardLog::read`]).
-pub const INTEGRITY: &str = col::INTEGRITY;
 /// Every column in the order the board writes them: the registry's
 /// columns marked `board_output`, in its order.
 pub const COLUMNS: [&str; 8] = board_output_names();

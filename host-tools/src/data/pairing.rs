@@ -31,12 +31,12 @@ impl ClockMap {
     }
 
     /// The navigation time of a board time.
-    pub fn to_nav(&self, t_board_s: f64) -> f64 {
+    pub fn to_nav(self, t_board_s: f64) -> f64 {
         t_board_s + self.offset_s + self.drift_ppm * 1e-6 * (t_board_s - self.board_ref_s)
     }
 
     /// The board time of a navigation time (the inverse of [`ClockMap::to_nav`]).
-    pub fn to_board(&self, t_nav_s: f64) -> f64 {
+    pub fn to_board(self, t_nav_s: f64) -> f64 {
         let k = 1.0 + self.drift_ppm * 1e-6;
         (t_nav_s - self.offset_s + self.drift_ppm * 1e-6 * self.board_ref_s) / k
     }

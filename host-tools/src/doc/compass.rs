@@ -11,11 +11,6 @@ use serde::{Deserialize, Serialize};
 use super::caldoc::{read_doc_text, is_compass_doc, CalDoc, CalDocError, DocForm};
 use super::results::Quality;
 
-/// The smallest slope of the corrected heading against the compass's that a
-/// swing may have (the field calibration's too: one check,
-/// [`super::caldoc::swing_problem`]).
-pub use super::caldoc::MIN_CORRECTION_SLOPE;
-
 /// A heading-only compass's calibration: the swing and the declination.
 /// What `magcal swing` writes for a compass log; `apply` and `card` use it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -47,7 +42,7 @@ impl CompassDoc {
     }
 
     /// Checks the coefficients: finite, each below 1 rad, and the corrected
-    /// heading rising with the compass's by at least [`MIN_CORRECTION_SLOPE`].
+    /// heading rising with the compass's by at least [`super::caldoc::MIN_CORRECTION_SLOPE`].
     pub fn validate(&self, path: &Path) -> Result<(), CalDocError> {
         let invalid = |reason: String| CalDocError::Invalid { path: path.into(), reason };
         if let Some(why) = super::caldoc::swing_problem(&self.swing) {

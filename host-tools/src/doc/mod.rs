@@ -16,12 +16,12 @@
 //! * [`integrity`]: a run's per-sample integrity counted
 //!   ([`IntegrityCounts`]) and the "recalibrate" rule on them.
 
-pub mod auto;
-pub mod caldoc;
-pub mod compass;
-pub mod integrity;
-pub mod reference;
-pub mod results;
+pub(crate) mod auto;
+pub(crate) mod caldoc;
+pub(crate) mod compass;
+pub(crate) mod integrity;
+pub(crate) mod reference;
+pub(crate) mod results;
 
 pub use auto::{AutoChoice, CandidateRow, HeldOutBasis, MAX_HELD_OUT_DEG};
 pub use caldoc::{field_nt_problem, CalDoc, CalDocError, DocForm, FIELD_NT_RANGE, FORMAT_VERSION, MAX_BIAS_ABS};
@@ -29,3 +29,7 @@ pub use compass::{CompassDoc, Document};
 pub use integrity::{IntegrityCounts, StateCounts};
 pub use reference::{Reference, ReferenceCheck, ReferenceSource};
 pub use results::{Quality, SessionSummary};
+pub use caldoc::model_kind;
+pub use integrity::{integrity_text, recalibrate_text};
+pub use reference::world_allowance;
+pub use results::{BackstepMethod, JointEstimates, SessionSettings, SwingQuality};

@@ -24,11 +24,11 @@
 //! stylesheet, [`inputs`] what goes in and comes out, [`error`] why it
 //! failed.
 
-pub mod error;
-pub mod inputs;
+pub(crate) mod error;
+pub(crate) mod inputs;
 mod page;
-pub mod plot;
-pub mod sections;
+pub(crate) mod plot;
+pub(crate) mod sections;
 
 use std::path::Path;
 

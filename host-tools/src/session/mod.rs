@@ -34,12 +34,12 @@ use crate::doc::CalDoc;
 pub use crate::doc::integrity::{recalibrate_evidence, recalibrate_text, RECALIBRATE_CAL_INVALID_FRACTION};
 use crate::geomag::Site;
 
-pub mod coverage;
-pub mod error;
-pub mod progress;
-pub mod record;
-pub mod upload;
-pub mod vehicle;
+pub(crate) mod coverage;
+pub(crate) mod error;
+pub(crate) mod progress;
+pub(crate) mod record;
+pub(crate) mod upload;
+pub(crate) mod vehicle;
 
 pub use error::SessionError;
 pub use coverage::{SwingCoverage, SwingTracker, PITCH_GATE_DEG, ROLL_GATE_DEG};

@@ -9,10 +9,10 @@ use std::path::PathBuf;
 
 use calib_core::cal::{FieldCal, ModelKind};
 use calib_core::heading::magnetic_heading_rad;
-use host_tools::compute::auto::{fit_auto, fit_auto_judged, YawJudge};
+use host_tools::compute::{fit_auto, fit_auto_judged, YawJudge};
 use host_tools::doc::{HeldOutBasis, MAX_HELD_OUT_DEG};
-use host_tools::compute::{truth, ComputeError, FitOptions, GyroLag};
-use host_tools::data::recording::Recording;
+use host_tools::compute::{heading_rms_after_offset_deg, ComputeError, FitOptions, GyroLag};
+use host_tools::data::Recording;
 
 use super::real_gyro::{optical_deg, Truth};
 
@@ -49,7 +49,7 @@ fn validation_deg(cal: &FieldCal<f64>) -> f64 {
     let v = Recording::read(&path).unwrap();
     let (roll, pitch) = (v.roll_deg.as_ref().unwrap(), v.pitch_deg.as_ref().unwrap());
     let h = (0..v.len()).map(|i| magnetic_heading_rad(cal.apply(v.mag[i]), roll[i].to_radians(), pitch[i].to_radians()));
-    truth::heading_rms_after_offset_deg(h.zip(optical_deg(&path))).0.rms
+    heading_rms_after_offset_deg(h.zip(optical_deg(&path))).0.rms
 }
 
 fn truth_json() -> Truth {
@@ -108,7 +108,7 @@ fn a_long_stretch_without_breaks_is_not_refused_for_the_gyros_drift() {
     let heading = |cal: &FieldCal<f64>| {
         let (roll, pitch) = (val.roll_deg.as_ref().unwrap(), val.pitch_deg.as_ref().unwrap());
         let h = (0..val.len()).map(|i| magnetic_heading_rad(cal.apply(val.mag[i]), roll[i].to_radians(), pitch[i].to_radians()));
-        truth::heading_rms_after_offset_deg(h.zip(optical.iter().copied())).0.rms
+        heading_rms_after_offset_deg(h.zip(optical.iter().copied())).0.rms
     };
     let floor = heading(&FieldCal { bias: t.bias, matrix: t.matrix });
     let opts = FitOptions { model: ModelKind::Attitude, field_nt: t.field_nt, saturation: None, allow_weak: false, gyro_lag: GyroLag::Given(0.0), reference: None };
@@ -145,7 +145,7 @@ impl Trial {
         let v = &self.validate;
         let (roll, pitch) = (v.roll_deg.as_ref().unwrap(), v.pitch_deg.as_ref().unwrap());
         let h = (0..v.len()).map(|i| magnetic_heading_rad(cal.apply(v.mag[i]), roll[i].to_radians(), pitch[i].to_radians()));
-        truth::heading_rms_after_offset_deg(h.zip(self.optical.iter().copied())).0.rms
+        heading_rms_after_offset_deg(h.zip(self.optical.iter().copied())).0.rms
     }
 
     fn floor_deg(&self) -> f64 {

@@ -12,7 +12,7 @@ use std::path::Path;
 
 use calib_core::cal::{FieldCal, ModelKind};
 use calib_core::heading::level;
-use host_tools::compute::auto::fit_auto;
+use host_tools::compute::fit_auto;
 use host_tools::doc::Reference;
 use host_tools::compute::{FitOptions, GyroLag};
 use host_tools::data::Recording;
@@ -24,7 +24,7 @@ const JUDGE_DEPTH_M: f64 = 3.0;
 /// (dip scatter °, dip mean − IGRF °) of `cal` on `path` below 3 m.
 fn judge(cal: &FieldCal<f64>, path: &Path, igrf_dip_deg: f64) -> (f64, f64) {
     let rec = Recording::read(path).unwrap();
-    let depth = host_tools::compute::card::read_reference_column(path, "depth_m").unwrap().unwrap();
+    let depth = host_tools::compute::read_reference_column(path, "depth_m").unwrap().unwrap();
     let (roll, pitch) = (rec.roll_deg.as_ref().unwrap(), rec.pitch_deg.as_ref().unwrap());
     let dip: Vec<f64> = (0..rec.len())
         .filter(|&i| depth[i] > JUDGE_DEPTH_M)

@@ -15,8 +15,8 @@
 
 
 use calib_core::cal::{FieldCal, ModelKind};
-use host_tools::compute::apply::{apply_recording, score, ApplyOptions, IntegrityScore};
-use host_tools::compute::card::read_reference_column;
+use host_tools::compute::{apply_recording, score, ApplyOptions, IntegrityScore};
+use host_tools::compute::read_reference_column;
 use host_tools::doc::Reference;
 use host_tools::doc::Quality;
 use host_tools::data::Recording;

@@ -9,8 +9,8 @@ use std::path::PathBuf;
 
 use calib_core::cal::{FieldCal, ModelKind};
 use calib_core::heading::magnetic_heading_rad;
-use host_tools::compute::{fit_recording, truth, ComputeError, FitOptions};
-use host_tools::data::recording::Recording;
+use host_tools::compute::{fit_recording, heading_rms_after_offset_deg, ComputeError, FitOptions};
+use host_tools::data::Recording;
 
 /// The lab's mean intensity on the calibration part (the data's README).
 const LAB_FIELD_NT: f64 = 44_204.0;
@@ -46,7 +46,7 @@ fn validation_heading_rms_deg(cal: &FieldCal<f64>) -> f64 {
     let optical = optical_heading_deg();
     let (roll, pitch) = (rec.roll_deg.unwrap(), rec.pitch_deg.unwrap());
     let headings = (0..rec.mag.len()).map(|i| magnetic_heading_rad(cal.apply(rec.mag[i]), roll[i].to_radians(), pitch[i].to_radians()));
-    let (rms, _) = truth::heading_rms_after_offset_deg(headings.zip(optical));
+    let (rms, _) = heading_rms_after_offset_deg(headings.zip(optical));
     assert_eq!(rms.samples, 990);
     rms.rms
 }

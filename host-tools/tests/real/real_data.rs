@@ -9,7 +9,7 @@ use calib_core::cal::{FieldCal, ModelKind};
 use calib_core::fit::{fit_batch, Full};
 use calib_core::quality::assess;
 use host_tools::compute::{fit_recording, FitOptions, ComputeError};
-use host_tools::data::recording::Recording;
+use host_tools::data::Recording;
 use nalgebra::{DMatrix, Matrix3, SMatrix, SymmetricEigen, Vector3};
 
 use super::data;
@@ -201,9 +201,9 @@ struct YachtReference {
 /// 5-term fit does not: each half holds part of the circle).
 #[test]
 fn the_yachts_compass_swing_is_no_worse_than_the_best_delay_least_squares() {
-    use host_tools::compute::compass::swing_compass;
-    use host_tools::compute::swing::{Delay, WaterCurrentMode};
-    use host_tools::data::compass::CompassLog;
+    use host_tools::compute::swing_compass;
+    use host_tools::compute::{Delay, WaterCurrentMode};
+    use host_tools::data::CompassLog;
     let reference: YachtReference = serde_json::from_str(&std::fs::read_to_string(data("cirrus-yacht/reference.json")).unwrap()).unwrap();
     let log = CompassLog::read(&data("cirrus-yacht/compass_log.csv")).unwrap();
     let (doc, fit, delay_s, _) = swing_compass(&log, Some(reference.declination_deg), Delay::Estimate { min_s: -5.0, max_s: 5.0 }, WaterCurrentMode::Auto).unwrap();

@@ -11,8 +11,8 @@ use std::path::{Path, PathBuf};
 
 use calib_core::cal::{FieldCal, ModelKind};
 use calib_core::heading::magnetic_heading_rad;
-use host_tools::compute::{fit_recording, truth, FitOptions};
-use host_tools::data::recording::Recording;
+use host_tools::compute::{fit_recording, heading_rms_after_offset_deg, FitOptions};
+use host_tools::data::Recording;
 
 fn dir(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data").join(name)
@@ -44,7 +44,7 @@ fn trial(name: &str, id: &str) -> (f64, f64) {
     let heading = |cal: &FieldCal<f64>| {
         let (roll, pitch) = (validate.roll_deg.as_ref().unwrap(), validate.pitch_deg.as_ref().unwrap());
         let h = (0..validate.len()).map(|i| magnetic_heading_rad(cal.apply(validate.mag[i]), roll[i].to_radians(), pitch[i].to_radians()));
-        truth::heading_rms_after_offset_deg(h.zip(optical.iter().copied())).0.rms
+        heading_rms_after_offset_deg(h.zip(optical.iter().copied())).0.rms
     };
     let floor = heading(&FieldCal { bias: t.bias, matrix: t.matrix });
     // `magcal fit --model gyro` without options: no lag given (the fit

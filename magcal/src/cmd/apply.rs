@@ -1,16 +1,16 @@
 //! `magcal apply`: a calibration applied to any recording, with the
 //! heading's integrity per row, by the board's own per-sample code
-//! (host-tools' [`host_tools::compute::apply`] over calib-core's
+//! (host-tools' [`host_tools::compute::apply_recording`] over calib-core's
 //! `online::OnlineIntegrity`).
 
 use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
-use host_tools::compute::apply::{apply_recording, choose_inclination, choose_north, document_inclination_deg, summarize, write_applied, ApplyError, ApplyOptions, InclinationSource};
-use host_tools::compute::card::read_reference_column;
-use host_tools::compute::compass::{apply_compass, write_compass_applied};
-use host_tools::compute::reference::{given_disagreement, shown, world_field_for};
-use host_tools::doc::reference::world_allowance;
+use host_tools::compute::{apply_recording, choose_inclination, choose_north, document_inclination_deg, summarize, write_applied, ApplyError, ApplyOptions, InclinationSource};
+use host_tools::compute::read_reference_column;
+use host_tools::compute::{apply_compass, write_compass_applied};
+use host_tools::compute::{given_disagreement, shown, world_field_for};
+use host_tools::doc::world_allowance;
 use host_tools::doc::{CompassDoc, Document};
 use host_tools::data::Recording;
 use host_tools::doc::CalDoc;
@@ -141,7 +141,7 @@ pub fn run(a: Args) -> Result<()> {
     eprintln!("wrote {}", a.out.display());
     // The true heading by its one name, or the BROAD files' older one.
     let mut truth = None;
-    for name in [host_tools::data::table::col::TRUE_HEADING_DEG, TRUTH_HEADING_ALIAS] {
+    for name in [host_tools::data::col::TRUE_HEADING_DEG, TRUTH_HEADING_ALIAS] {
         if let Some(column) = read_reference_column(&a.input, name)? {
             truth = Some((name, column));
             break;

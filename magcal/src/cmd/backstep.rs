@@ -5,11 +5,11 @@ use std::path::PathBuf;
 use anyhow::{bail, Result};
 use clap::ValueEnum;
 use host_tools::compute::{self, BackstepOptions, RunReference, SwingMagnitudes};
-use host_tools::doc::results::BackstepMethod;
+use host_tools::doc::BackstepMethod;
 use host_tools::doc::CalDoc;
 
 use super::{check_field_nt, check_out, check_positions, emit, hinted, SiteArgs};
-use host_tools::compute::reference::{check_given_field, shown, world_field_for};
+use host_tools::compute::{check_given_field, shown, world_field_for};
 use host_tools::compute::ComputeError;
 
 /// The solver, as the command line names it.
@@ -170,7 +170,7 @@ fn backstep_hint(e: &ComputeError) -> Option<&'static str> {
 
 /// Prints the joint solver's estimates with their 1σ on stderr; without a
 /// swing test (`with_swing` false) it says the two biases are not separable.
-pub fn print_estimates(e: &host_tools::doc::results::JointEstimates, with_swing: bool) {
+pub fn print_estimates(e: &host_tools::doc::JointEstimates, with_swing: bool) {
     let v3 = |v: [f64; 3], k: f64| format!("[{:.4}, {:.4}, {:.4}]", v[0] * k, v[1] * k, v[2] * k);
     if let Some(c) = &e.bias_per_a_raw {
         eprintln!("  thruster field per A    {} ± {} raw/A", v3(c.value, 1.0), v3(c.sigma, 1.0));

@@ -1,11 +1,11 @@
 //! `magcal card`: the compass deviation card — the residual heading error by
 //! heading and by compass point, before and after the calibration
-//! (host-tools' [`host_tools::compute::card`]).
+//! (host-tools' [`host_tools::compute::deviation_card`]).
 
 use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
-use host_tools::compute::card::{compass_card, deviation_card, check_reference_column, read_reference_column, CardError, DeviationCard, STEP_DEG_RANGE};
+use host_tools::compute::{compass_card, deviation_card, check_reference_column, read_reference_column, CardError, DeviationCard, STEP_DEG_RANGE};
 use host_tools::doc::Document;
 
 use super::hinted;

@@ -4,9 +4,9 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use calib_core::cal::ModelKind;
-use host_tools::compute::models::MODELS;
+use host_tools::compute::MODELS;
 use host_tools::compute::{self, FitOptions, GyroLag};
-use host_tools::doc::caldoc::model_kind;
+use host_tools::doc::model_kind;
 use host_tools::data::Recording;
 
 use super::{check_out, check_positions, emit, hinted, reference_field, warn_all, SiteArgs};
@@ -103,7 +103,7 @@ pub fn run(a: Args) -> Result<()> {
     let mut doc = match a.model {
         ModelArg::Kind(model) => compute::fit_recording(&rec, &opts).map_err(|e| hinted(e, fit_hint)).with_context(|| format!("{}: {} fit", a.input.display(), model.name()))?,
         ModelArg::Auto => {
-            let (doc, choice) = compute::auto::fit_auto(&rec, &opts).map_err(|e| hinted(e, fit_hint)).with_context(|| format!("{}: model auto", a.input.display()))?;
+            let (doc, choice) = compute::fit_auto(&rec, &opts).map_err(|e| hinted(e, fit_hint)).with_context(|| format!("{}: model auto", a.input.display()))?;
             working.done();
             eprintln!("model auto: held-out errors against {}:", basis_words(choice.basis));
             for row in &choice.candidates {

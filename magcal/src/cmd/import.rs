@@ -6,7 +6,7 @@
 use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
-use host_tools::data::import::{self, Format, ImportOptions, Role};
+use host_tools::data::{import_file, Format, ImportOptions, Role};
 
 /// Arguments of `magcal import`.
 #[derive(clap::Args)]
@@ -79,7 +79,7 @@ pub fn run(a: Args) -> Result<()> {
         reference_talker: a.reference_talker.clone(),
         ..ImportOptions::default()
     };
-    let im = import::import_file(log, named, &opts).with_context(|| format!("{}: import", log.display()))?;
+    let im = import_file(log, named, &opts).with_context(|| format!("{}: import", log.display()))?;
     let r = &im.report;
     for n in &r.notes {
         eprintln!("note: {n}");

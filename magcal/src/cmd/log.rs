@@ -1,5 +1,5 @@
 //! `magcal log`: the board's raw stream to a board log on the board's clock
-//! (`host_tools::board::log`), for `magcal merge`.
+//! (`host_tools::board::log_board`), for `magcal merge`.
 
 use std::io::IsTerminal;
 use std::path::PathBuf;
@@ -7,8 +7,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use anyhow::Result;
-use host_tools::board::log::{create_log_file, log_board, LogEnd, LogError, LogOptions, LogSummary, LOGGED_SAMPLES};
-use host_tools::doc::integrity::{integrity_text, recalibrate_text};
+use host_tools::board::{create_log_file, log_board, LogEnd, LogError, LogOptions, LogSummary, LOGGED_SAMPLES};
+use host_tools::doc::{integrity_text, recalibrate_text};
 use host_tools::board::BoardClient;
 use host_tools::session::Progress;
 

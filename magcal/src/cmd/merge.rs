@@ -4,9 +4,9 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
-use host_tools::data::merge::{merge_files_with, Clock, MergeError, MergeOptions, SharedSignal};
+use host_tools::data::{merge_files_with, Clock, MergeError, MergeOptions, SharedSignal};
 use host_tools::data::RecordingError;
-use host_tools::data::table::ColumnMap;
+use host_tools::data::ColumnMap;
 
 /// Arguments of `magcal merge`.
 #[derive(clap::Args)]
@@ -46,7 +46,7 @@ pub struct Args {
     /// board samples in a longer one are written without navigation (and
     /// counted). A vehicle's attitude changes by degrees within a second or
     /// two. Never beyond five of the log's median steps (at least 1 s).
-    #[arg(long, default_value_t = host_tools::data::merge::MAX_NAV_GAP_S, value_parser = positive_s)]
+    #[arg(long, default_value_t = host_tools::data::MAX_NAV_GAP_S, value_parser = positive_s)]
     max_nav_gap_s: f64,
     /// Keep a given --offset-s the data disagree with (said in the output).
     #[arg(long)]

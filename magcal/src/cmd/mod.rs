@@ -20,10 +20,7 @@ pub mod swing;
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
-use host_tools::data::compass::CompassLog;
-use host_tools::data::intake::{self, IntakeError};
-use host_tools::data::table::ColumnMap;
-use host_tools::data::{Recording, RecordingError};
+use host_tools::data::{self, ColumnMap, CompassLog, IntakeError, Recording, RecordingError};
 use host_tools::doc::CalDoc;
 use host_tools::files::{self, Replaces};
 use host_tools::geomag::{self, Field, Site};
@@ -45,13 +42,13 @@ pub struct InputColumns {
 
 impl InputColumns {
     /// Reads a recording under the mapping through the one way in
-    /// ([`host_tools::data::intake`]: the time's unit, roll and pitch in
+    /// ([`host_tools::data::read_recording`]: the time's unit, roll and pitch in
     /// radians, placeholder fixes, duplicated columns), saying on stderr
     /// what it converted or dropped; a refusal says which `--columns` entry
     /// settles it.
     pub fn read(&self, path: &Path) -> Result<Recording> {
         let map = self.columns.clone().unwrap_or_default();
-        let intake = intake::read_recording(path, &map).map_err(|e| hinted(e, intake_hint))?;
+        let intake = data::read_recording(path, &map).map_err(|e| hinted(e, intake_hint))?;
         for note in &intake.notes {
             eprintln!("note: {note}");
         }
@@ -59,11 +56,11 @@ impl InputColumns {
     }
 
     /// Reads a heading-only compass's log under the mapping, through the
-    /// one way in ([`intake::read_compass`]: the time's unit, placeholder
+    /// one way in ([`data::read_compass`]: the time's unit, placeholder
     /// fixes), saying what it converted or dropped.
     pub fn read_compass(&self, path: &Path) -> Result<CompassLog> {
         let map = self.columns.clone().unwrap_or_default();
-        let (log, notes) = intake::read_compass(path, &map).map_err(|e| hinted(e, intake_hint))?;
+        let (log, notes) = data::read_compass(path, &map).map_err(|e| hinted(e, intake_hint))?;
         for note in &notes {
             eprintln!("note: {note}");
         }
@@ -179,25 +176,25 @@ pub fn check_out(flag: &str, out: &Path, inputs: &[&Path]) -> Result<()> {
 }
 
 /// Checks the recording's own positions (`lat_deg`/`lon_deg`, where present)
-/// against the site of the reference field ([`intake::check_positions`]):
-/// a warning beyond [`intake::SITE_WARN_KM`], a refusal beyond
-/// [`intake::SITE_REFUSE_KM`], naming both. Without a date the declination
+/// against the site of the reference field ([`data::check_positions`]):
+/// a warning beyond [`data::SITE_WARN_KM`], a refusal beyond
+/// [`data::SITE_REFUSE_KM`], naming both. Without a date the declination
 /// is not compared (see [`check_site`]).
 pub fn check_positions(rec: &Recording, path: &Path, lat_deg: f64, lon_deg: f64) -> Result<()> {
-    site_checked(intake::check_positions(rec, path, lat_deg, lon_deg, None, false), lat_deg, lon_deg)
+    site_checked(data::check_positions(rec, path, lat_deg, lon_deg, None, false), lat_deg, lon_deg)
 }
 
 /// [`check_positions`] against a site with its date: the declination at the
 /// farthest position against the site's too, refused beyond
-/// [`intake::DECLINATION_CHANGE_LIMIT_DEG`] unless `allow_weak` (then said
+/// [`data::DECLINATION_CHANGE_LIMIT_DEG`] unless `allow_weak` (then said
 /// on stderr).
 pub fn check_site(rec: &Recording, path: &Path, site: &Site, allow_weak: bool) -> Result<()> {
-    site_checked(intake::check_positions(rec, path, site.lat_deg, site.lon_deg, Some(site.decimal_year), allow_weak), site.lat_deg, site.lon_deg)
+    site_checked(data::check_positions(rec, path, site.lat_deg, site.lon_deg, Some(site.decimal_year), allow_weak), site.lat_deg, site.lon_deg)
 }
 
 /// The warnings of a site check on stderr, or its refusal with its hint;
 /// both name the site as given on the command line.
-fn site_checked(found: std::result::Result<Vec<intake::SiteWarning>, IntakeError>, lat_deg: f64, lon_deg: f64) -> Result<()> {
+fn site_checked(found: std::result::Result<Vec<data::SiteWarning>, IntakeError>, lat_deg: f64, lon_deg: f64) -> Result<()> {
     let site = format!("--lat {lat_deg} --lon {lon_deg}");
     match found {
         Ok(warnings) => {
@@ -328,7 +325,7 @@ pub fn load_field_doc(path: &Path, allow_weak: bool) -> Result<CalDoc> {
 /// Either form of document (field or heading-only) through the one
 /// document check, as [`load_field_doc`].
 pub fn load_document(path: &Path, allow_weak: bool) -> Result<host_tools::doc::Document> {
-    let (doc, said) = host_tools::doc::compass::Document::load_with(path, allow_weak).map_err(|e| hinted(e, weak_hint))?;
+    let (doc, said) = host_tools::doc::Document::load_with(path, allow_weak).map_err(|e| hinted(e, weak_hint))?;
     for w in said {
         eprintln!("warning: {w}");
     }

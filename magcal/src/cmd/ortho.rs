@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use anyhow::{bail, Context, Result};
 use calib_core::cal::ModelKind;
 use calib_core::fit::{fit_batch, Full};
-use calib_core::quality::{assess, Gates, Quality};
+use calib_core::quality::{assess, Quality};
 use clap::ValueEnum;
 use host_tools::compute::{self, OrthoSolver};
 use serde_json::json;
@@ -74,7 +74,7 @@ pub fn run(a: Args) -> Result<()> {
     }
     let q = quality(&tri, bias, &samples);
     if !a.allow_weak {
-        if let Err(e) = Gates::for_model(ModelKind::Triangular).check(&q) {
+        if let Err(e) = compute::gates(ModelKind::Triangular).check(&q) {
             bail!("{}: ortho: {e} (give --allow-weak to see the result anyway)", a.input.display());
         }
     }

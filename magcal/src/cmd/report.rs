@@ -7,8 +7,8 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
-use host_tools::compute::card::read_reference_column;
-use host_tools::doc::results::{SessionSettings, SessionSummary};
+use host_tools::compute::read_reference_column;
+use host_tools::doc::{SessionSettings, SessionSummary};
 use host_tools::doc::CalDoc;
 use host_tools::geomag::Site;
 use host_tools::report::{check_outputs, write_report, ReportInputs, Validation};

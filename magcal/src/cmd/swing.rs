@@ -6,8 +6,8 @@
 use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
-use host_tools::compute::compass::{swing_compass, DeclinationSource};
-use host_tools::compute::{self, swing::WaterCurrentMode, Delay};
+use host_tools::compute::{swing_compass, DeclinationSource};
+use host_tools::compute::{self, Delay, WaterCurrentMode};
 use host_tools::doc::CalDoc;
 
 use super::{check_out, emit, warn_all};
@@ -68,7 +68,7 @@ pub struct Args {
 }
 
 /// With `--strict`, a delay search stopped at its window's edge is refused.
-fn strict_edge(a: &Args, q: Option<&host_tools::doc::results::SwingQuality>) -> Result<()> {
+fn strict_edge(a: &Args, q: Option<&host_tools::doc::SwingQuality>) -> Result<()> {
     if let (true, Some(q)) = (a.strict, q) {
         if let Some((Some(b), [lo, hi])) = q.delay_search.as_ref().map(|d| (d.at_edge_s, d.window_s)) {
             bail!(
@@ -113,7 +113,7 @@ pub fn run(a: Args) -> Result<()> {
     }
     let rec = a.columns.read(&a.input)?;
     let (mut doc, fit, delay_s) =
-        compute::swing::swing_recording_with(&rec, &doc, delay, mode).with_context(|| format!("{}: swing fit", a.input.display()))?;
+        compute::swing_recording_with(&rec, &doc, delay, mode).with_context(|| format!("{}: swing fit", a.input.display()))?;
     warn_all(&doc);
     // What was used with --allow-weak goes into the document too (said on stderr above).
     if let Some(q) = doc.quality.swing.as_mut() {
@@ -194,7 +194,7 @@ fn run_compass(a: &Args, delay: Delay, mode: WaterCurrentMode) -> Result<()> {
 }
 
 /// "; held out: x° → y° RMS" when the fit has its held-out check.
-fn held_out_text(q: Option<&host_tools::doc::results::SwingQuality>) -> String {
+fn held_out_text(q: Option<&host_tools::doc::SwingQuality>) -> String {
     match q.and_then(|q| q.held_out) {
         Some(h) => format!("; held out (each half by the other's swing): {:.2}° → {:.2}° RMS over {} pairs", h.before_rms_deg, h.after_rms_deg, h.pairs),
         None => String::new(),

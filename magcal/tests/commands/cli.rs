@@ -9,7 +9,7 @@ use calib_core::conformance::SplitMix64;
 use calib_core::heading::{ned_field, ned_to_body, wrap_two_pi};
 use calib_core::ortho::{gamma, OrthoAngles};
 use host_tools::doc::CalDoc;
-use host_tools::data::recording::Recording;
+use host_tools::data::Recording;
 use super::{magcal};
 
 fn ok_json(out: &Output) -> serde_json::Value {
@@ -266,7 +266,7 @@ fn the_documented_chain_runs_on_simulated_field_tests() {
     }
     let o = magcal(&["simulate", "validation", "--seed", "13", "--rate-hz", "1", "--out", sess.join("validation_truth.csv").to_str().unwrap()]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let settings = host_tools::doc::results::SessionSettings { lat_deg: 36.9, lon_deg: 50.6, decimal_year: 2021.0, vehicle: "simulated".into(), firmware: "0.1.0".into(), reproduce: vec![] };
+    let settings = host_tools::doc::SessionSettings { lat_deg: 36.9, lon_deg: 50.6, decimal_year: 2021.0, vehicle: "simulated".into(), firmware: "0.1.0".into(), reproduce: vec![] };
     std::fs::write(sess.join("settings.json"), serde_json::to_string(&settings).unwrap()).unwrap();
     let rep = ok_json(&magcal(&["report", "--session", sess.to_str().unwrap(), "--json"]));
     assert_eq!(rep["card"]["against"], "truth (validation run)", "{rep}");
@@ -343,7 +343,7 @@ fn bad_data_catalogue() {
 
 mod arbitrary_bytes {
     use host_tools::doc::CalDoc;
-    use host_tools::data::recording::Recording;
+    use host_tools::data::Recording;
     use proptest::prelude::*;
     use std::path::Path;
 
@@ -390,7 +390,7 @@ fn fit_with_the_gyro_model_calibrates_broad05() {
     let optical: Vec<f64> = text.lines().skip(1).map(|l| l.split(',').nth(col).unwrap().parse().unwrap()).collect();
     let (roll, pitch) = (val.roll_deg.unwrap(), val.pitch_deg.unwrap());
     let headings = (0..val.mag.len()).map(|i| calib_core::heading::magnetic_heading_rad(cal.apply(val.mag[i]), roll[i].to_radians(), pitch[i].to_radians()));
-    let (rms, _) = host_tools::compute::truth::heading_rms_after_offset_deg(headings.zip(optical));
+    let (rms, _) = host_tools::compute::heading_rms_after_offset_deg(headings.zip(optical));
     // Measured: 1.67° (the true calibration: 2.22°).
     assert!(rms.rms < 2.22 + 0.5, "{}", rms.rms);
 }

@@ -8,7 +8,7 @@ use calib_core::cal::{FieldCal, ModelKind};
 use calib_core::conformance::SplitMix64;
 use calib_core::heading::{ned_field, ned_to_body};
 use host_tools::doc::CalDoc;
-use host_tools::data::recording::Recording;
+use host_tools::data::Recording;
 use super::{magcal, p};
 
 fn stderr(out: &Output) -> String {

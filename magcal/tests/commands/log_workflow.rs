@@ -11,7 +11,7 @@
 use std::path::Path;
 use std::process::{Command, Output};
 
-use host_tools::data::merge::MergeReport;
+use host_tools::data::MergeReport;
 use host_tools::doc::CalDoc;
 use magcal_sim::field_test::{self, paper_site, RunKind, RunParams, SensorModel};
 use magcal_sim::logs::{split, LogSplit, NavHeading};

@@ -7,7 +7,7 @@
 use std::path::Path;
 
 use host_tools::compute::{self, ChainOptions};
-use host_tools::data::merge::{merge, BoardLog, Clock, MergeReport, NavLog};
+use host_tools::data::{merge, BoardLog, Clock, MergeReport, NavLog};
 use host_tools::data::Recording;
 use magcal_sim::field_test::{self, paper_site, RunKind, RunParams, SensorModel, Simulation};
 use magcal_sim::logs::{self, LogSplit, NavHeading, NAV_T0_S};

@@ -59,7 +59,7 @@ impl Simulation {
             let rate = |v: &[f64], wrap: bool| {
                 let mut d = v[b] - v[a];
                 if wrap {
-                    d = host_tools::data::pairing::wrap180(d);
+                    d = host_tools::data::wrap180(d);
                 }
                 if span > 0.0 { d.to_radians() / span } else { 0.0 }
             };

@@ -48,7 +48,7 @@ mod simulation;
 mod swing;
 mod truth;
 
-use host_tools::data::recording::RecordingError;
+use host_tools::data::RecordingError;
 use host_tools::geomag::{GeomagError, Site};
 
 pub use gyro::GyroModel;

@@ -2,7 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
-use host_tools::data::recording::Recording;
+use host_tools::data::Recording;
 
 use super::{SimError, Truth};
 
@@ -62,7 +62,7 @@ impl Simulation {
     pub fn write(&self, path: &Path) -> Result<(), SimError> {
         let running: Vec<f64> = self.running.iter().map(|&r| if r { 1.0 } else { 0.0 }).collect();
         let mut extra: Vec<(&str, &[f64])> = vec![
-            (host_tools::data::table::col::TRUE_HEADING_DEG, &self.true_heading_deg),
+            (host_tools::data::col::TRUE_HEADING_DEG, &self.true_heading_deg),
             ("true_roll_deg", &self.true_roll_deg),
             ("true_pitch_deg", &self.true_pitch_deg),
             ("running", &running),

@@ -326,7 +326,7 @@ fn a_recording_with_all_effects_round_trips_with_its_truth() {
     let p = RunParams { leg_m: 800.0, ..RunParams::paper_like() };
     let sim = field_test::run_with(&SensorModel::paper_like(), &paper_site(), &p, 2, 1.0, RunKind::Run, &Effects::all()).unwrap();
     sim.write(&path).unwrap();
-    let rec = host_tools::data::recording::Recording::read(&path).unwrap();
+    let rec = host_tools::data::Recording::read(&path).unwrap();
     assert_eq!(rec.len(), sim.recording.len());
     for col in [&rec.motor_current_a, &rec.temp_c, &rec.speed_mps] {
         assert!(col.as_ref().is_some_and(|c| c.iter().all(|v| v.is_finite())));

@@ -4,7 +4,7 @@
 //! `cargo xtask test` builds both and passes their paths in
 //! `MAGCAL_FIRMWARE_ELF` and `MAGCAL_BIN`.
 
-use host_tools::board::qemu::{QemuBoard, QemuOptions};
+use host_tools::board::{QemuBoard, QemuOptions};
 use std::path::PathBuf;
 
 fn env_path(var: &str) -> PathBuf {

@@ -5,8 +5,8 @@ use std::process::{Command, Stdio};
 use std::time::Duration;
 
 use e2e_tests::{boot, magcal_bin};
-use host_tools::board::log::{LogEnd, LogSummary};
-use host_tools::data::merge::BoardLog;
+use host_tools::board::{LogEnd, LogSummary};
+use host_tools::data::BoardLog;
 
 /// The two tests time the board's stream: one QEMU at a time, so that they
 /// do not share the two cores with each other.

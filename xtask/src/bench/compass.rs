@@ -5,9 +5,9 @@
 
 use std::path::Path;
 
-use host_tools::compute::compass::swing_compass;
-use host_tools::compute::swing::{Delay, WaterCurrentMode};
-use host_tools::data::compass::CompassLog;
+use host_tools::compute::swing_compass;
+use host_tools::compute::{Delay, WaterCurrentMode};
+use host_tools::data::CompassLog;
 use serde_json::json;
 
 /// `reference.json`, the fields the bench shows.

@@ -11,10 +11,10 @@ use std::process::Command;
 use std::time::Instant;
 
 use calib_core::cal::ModelKind;
-use host_tools::compute::auto::fit_auto;
+use host_tools::compute::fit_auto;
 use host_tools::doc::Reference;
 use host_tools::compute::{fit_recording, FitOptions, GyroLag};
-use host_tools::data::intake::read_recording;
+use host_tools::data::read_recording;
 use host_tools::doc::CalDoc;
 use magcal_sim::field_test::{paper_site, swing, GyroModel, SensorModel, SWING_SEGMENTS_S};
 use serde_json::json;

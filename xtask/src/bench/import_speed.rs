@@ -10,7 +10,7 @@ use std::path::Path;
 use std::process::Command;
 use std::time::Instant;
 
-use host_tools::data::import::{import, Format, ImportOptions};
+use host_tools::data::{import, Format, ImportOptions};
 use serde_json::json;
 
 /// The fixtures timed: one or two a format, in the repository.

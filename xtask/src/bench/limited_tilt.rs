@@ -46,7 +46,7 @@ pub fn limited_tilt_simulated() -> (Vec<serde_json::Value>, String) {
 pub fn limited_tilt(root: &Path) -> (serde_json::Value, String) {
     use calib_core::cal::{FieldCal, ModelKind};
     use calib_core::heading::magnetic_heading_rad;
-    use host_tools::compute::{fit_recording, truth, FitOptions};
+    use host_tools::compute::{fit_recording, heading_rms_after_offset_deg, FitOptions};
     use host_tools::data::Recording;
 
     let (sim_rows, mut md) = limited_tilt_simulated();
@@ -55,11 +55,11 @@ pub fn limited_tilt(root: &Path) -> (serde_json::Value, String) {
     let (Ok(calib), Ok(validate)) = (Recording::read(&dir.join("05_calib.csv")), Recording::read(&dir.join("05_validate.csv"))) else {
         return (json!({"simulated": sim_rows, "broad05": "tests/data/broad-05 missing"}), md);
     };
-    let optical: Vec<f64> = host_tools::compute::card::read_reference_column(&dir.join("05_validate.csv"), "truth_heading_deg").ok().flatten().unwrap_or_default();
+    let optical: Vec<f64> = host_tools::compute::read_reference_column(&dir.join("05_validate.csv"), "truth_heading_deg").ok().flatten().unwrap_or_default();
     let heading = |cal: &FieldCal<f64>| {
         let (Some(roll), Some(pitch)) = (validate.roll_deg.as_ref(), validate.pitch_deg.as_ref()) else { return f64::NAN };
         let h = (0..validate.len()).map(|i| magnetic_heading_rad(cal.apply(validate.mag[i]), roll[i].to_radians(), pitch[i].to_radians()));
-        truth::heading_rms_after_offset_deg(h.zip(optical.iter().copied())).0.rms
+        heading_rms_after_offset_deg(h.zip(optical.iter().copied())).0.rms
     };
     let lab_field_nt = 44_204.0;
     let mut rows: Vec<(String, Option<f64>, String)> = Vec::new();

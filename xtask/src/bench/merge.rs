@@ -19,7 +19,7 @@ pub fn merge_rate(
     nav_heading: magcal_sim::logs::NavHeading,
     md: &mut String,
 ) -> serde_json::Value {
-    use host_tools::data::merge::{merge, Clock};
+    use host_tools::data::{merge, Clock};
     use magcal_sim::logs::{split, LogSplit};
     let estimate = Clock::Estimate { center_s: 0.0, max_offset_s: 120.0 };
     let (mut rows, mut errors) = (Vec::new(), Vec::new());
@@ -104,7 +104,7 @@ pub fn merge_shapes() -> (Vec<serde_json::Value>, String) {
 /// against the single-clock recordings they were cut from.
 pub fn merge_clocks() -> (serde_json::Value, String) {
     use host_tools::compute::{self, ChainOptions};
-    use host_tools::data::merge::{merge, Clock};
+    use host_tools::data::{merge, Clock};
     use magcal_sim::field_test::{self, paper_site, RunKind, RunParams, SensorModel};
     use magcal_sim::logs::{split, LogSplit, NavHeading};
     use magcal_sim::scenario::heading_rms_deg;

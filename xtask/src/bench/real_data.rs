@@ -11,8 +11,8 @@ use std::path::{Path, PathBuf};
 use calib_core::attitude_fit::{fit_attitude, AttitudeConfig};
 use calib_core::cal::{FieldCal, ModelKind};
 use calib_core::heading::{level, magnetic_heading_rad};
-use host_tools::compute::attitude::attitude_samples;
-use host_tools::compute::{fit_recording, truth, FitOptions};
+use host_tools::compute::attitude_samples;
+use host_tools::compute::{fit_recording, heading_rms_after_offset_deg, FitOptions};
 use host_tools::doc::Reference;
 use host_tools::data::Recording;
 use host_tools::geomag::Site;
@@ -27,7 +27,7 @@ const MODELS: [ModelKind; ModelKind::ALL.len()] = ModelKind::ALL;
 /// A numeric column read apart (the recording reader ignores it), by the
 /// product's one table reader.
 fn column(path: &Path, name: &str) -> Option<Vec<f64>> {
-    host_tools::compute::card::read_reference_column(path, name).ok().flatten()
+    host_tools::compute::read_reference_column(path, name).ok().flatten()
 }
 
 /// What the bench reads of a trial's `*.truth.json` or a glider's stored
@@ -136,7 +136,7 @@ fn broad(dir: &Path, n: &str) -> Option<Dataset> {
     let judge = move |cal: &FieldCal<f64>| {
         let (Some(roll), Some(pitch)) = (val.roll_deg.as_ref(), val.pitch_deg.as_ref()) else { return (f64::NAN, String::new()) };
         let h = (0..val.len()).map(|i| (magnetic_heading_rad(cal.apply(val.mag[i]), roll[i].to_radians(), pitch[i].to_radians()), optical[i]));
-        let rms = truth::heading_rms_after_offset_deg(h).0.rms;
+        let rms = heading_rms_after_offset_deg(h).0.rms;
         (rms, format!("heading {rms:.2}°"))
     };
     let name = dir.file_name().map_or(n.to_string(), |f| f.to_string_lossy().into_owned());
@@ -185,7 +185,7 @@ fn broad_series(dir: &Path, n: &str, magnet: bool) -> Option<Dataset> {
     let judge = move |cal: &FieldCal<f64>| {
         let (Some(roll), Some(pitch)) = (val.roll_deg.as_ref(), val.pitch_deg.as_ref()) else { return (f64::NAN, String::new()) };
         let h = (0..val.len()).map(|i| (magnetic_heading_rad(cal.apply(val.mag[i]), roll[i].to_radians(), pitch[i].to_radians()), optical[i]));
-        let rms = truth::heading_rms_after_offset_deg(h).0.rms;
+        let rms = host_tools::compute::heading_rms_after_offset_deg(h).0.rms;
         (rms, format!("heading {rms:.2}° (second half)"))
     };
     let floor_is = magnet.then_some("no floor (a magnet): the calibration without it gives");
@@ -206,7 +206,7 @@ fn without_reference(root: &Path, name: &str, rel: &str, map: &str) -> Option<Da
         });
         Recording { mag: mag.collect(), ..Recording::default() }
     } else {
-        host_tools::data::intake::read_recording(&path, &map.parse().ok()?).ok()?.recording
+        host_tools::data::read_recording(&path, &map.parse().ok()?).ok()?.recording
     };
     let judge = |_: &FieldCal<f64>| (f64::NAN, "no reference: held out only".to_string());
     Some(Dataset { name: name.into(), calib, field_nt: 50_000.0, reference: None, site_only_for_auto: None, numpy_dip_held: None, judge: Box::new(judge), floor: FieldCal::identity(), floor_is: Some("no reference") })
@@ -272,7 +272,7 @@ fn attitude_leave_one_out(sets: &[Dataset], md: &mut String) -> serde_json::Valu
 /// not `ok` after the first 10 s, and the heading RMS on the `ok` rows
 /// after one offset.
 fn wrong_calibrations(root: &Path, md: &mut String) -> serde_json::Value {
-    use host_tools::compute::apply::{apply_recording, score, ApplyOptions};
+    use host_tools::compute::{apply_recording, score, ApplyOptions};
     use host_tools::doc::Quality;
     use host_tools::doc::CalDoc;
     let _ = writeln!(md, "\n`apply` with wrong calibrations (judged against the lab's inclination; rows after the first 10 s):\n\n| trial | calibration | not ok | ok rows' heading RMS |\n|---|---|---|---|");
@@ -338,7 +338,7 @@ pub fn real_data_with(root: &Path, every_model: bool) -> (serde_json::Value, Str
             rows.push(json!({"dataset": d.name, "model": format!("{}{label}", model.name()), "verdict": verdict, "result": result, "floor": floor, "predicted": predicted}));
         }
     }
-    let _ = writeln!(md, "\n`fit` without `--model` (auto: every allowed model, the attitude fit also with the dip held at IGRF's where the site is known, judged on {} held-out time blocks of the calibration part, the least held-out error kept; expected: the larger of the held-out error and the covariance's prediction ⊕ the heading's white noise; the gliders' floor column adds the dip-held scipy fit, `xtask/python/glider_dip_held.py`; the BROAD trials also with the lab's site, whose dip is 1.6° off IGRF-14):\n\n| dataset | kept | result on the validation part | floor | expected | held-out table | the constraint that shaped the dip |\n|---|---|---|---|---|---|---|", host_tools::compute::auto::FOLDS);
+    let _ = writeln!(md, "\n`fit` without `--model` (auto: every allowed model, the attitude fit also with the dip held at IGRF's where the site is known, judged on {} held-out time blocks of the calibration part, the least held-out error kept; expected: the larger of the held-out error and the covariance's prediction ⊕ the heading's white noise; the gliders' floor column adds the dip-held scipy fit, `xtask/python/glider_dip_held.py`; the BROAD trials also with the lab's site, whose dip is 1.6° off IGRF-14):\n\n| dataset | kept | result on the validation part | floor | expected | held-out table | the constraint that shaped the dip |\n|---|---|---|---|---|---|---|", host_tools::compute::FOLDS);
     let more = auto_only_datasets(root);
     let auto_runs = sets.iter().chain(&more).flat_map(|d| std::iter::once((d, d.reference.clone(), "")).chain(d.site_only_for_auto.clone().map(|r| (d, Some(r), " (lab's site)"))));
     for (d, reference, label) in auto_runs {
@@ -353,7 +353,7 @@ pub fn real_data_with(root: &Path, every_model: bool) -> (serde_json::Value, Str
         let field_nt = reference.as_ref().filter(|_| !label.is_empty()).map_or(d.field_nt, |r| r.field_nt);
         let opts = FitOptions { model: ModelKind::Attitude, field_nt, saturation: None, allow_weak: false, gyro_lag: host_tools::compute::GyroLag::Given(0.0), reference };
         let mut score = f64::NAN;
-        let (kept, result, predicted, table, constraint) = match host_tools::compute::auto::fit_auto(&d.calib, &opts) {
+        let (kept, result, predicted, table, constraint) = match host_tools::compute::fit_auto(&d.calib, &opts) {
             Ok((doc, choice)) => (
                 choice.chosen.clone(),
                 {
@@ -362,7 +362,7 @@ pub fn real_data_with(root: &Path, every_model: bool) -> (serde_json::Value, Str
                     text
                 },
                 doc.quality.expected_heading_rms_deg.map_or("—".into(), |p| format!("{p:.2}°")),
-                host_tools::compute::auto::table_text(&choice.candidates.iter().filter(|c| c.held_out_deg.is_some()).cloned().collect::<Vec<_>>()),
+                host_tools::compute::table_text(&choice.candidates.iter().filter(|c| c.held_out_deg.is_some()).cloned().collect::<Vec<_>>()),
                 doc.reference.as_ref().and_then(|r| r.constraint.as_ref()).map_or("—".into(), |c| c.text.clone()),
             ),
             Err(e) => ("refused".into(), e.to_string(), "—".into(), String::new(), "—".into()),

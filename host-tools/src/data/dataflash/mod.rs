@@ -49,7 +49,7 @@ mod reader;
 
 use collect::{collect, rows};
 pub(crate) use correction::{compass_matrix, solve3};
-pub use reader::{read_messages, Format, Message, SkipCounts, Value, FMT_TYPE};
+pub use reader::{read_messages, Message, SkipCounts, FMT_TYPE};
 
 /// Why a log could not be read or imported.
 #[derive(Debug, thiserror::Error)]

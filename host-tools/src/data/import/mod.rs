@@ -15,13 +15,13 @@
 //! The format is found from the content ([`Format::detect`]: magic bytes,
 //! the first line) or named ([`Format::from_name`]).
 
-pub mod mcap;
-pub mod nmea2000;
-pub mod ros2;
-pub mod rules;
-pub mod sqlite3;
-pub mod tlog;
-pub mod ulog;
+pub(crate) mod mcap;
+pub(crate) mod nmea2000;
+pub(crate) mod ros2;
+pub(crate) mod rules;
+pub(crate) mod sqlite3;
+pub(crate) mod tlog;
+pub(crate) mod ulog;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -291,11 +291,6 @@ impl Builder {
         Self { format, t_s, columns: Vec::new(), report }
     }
 
-    /// Rows.
-    pub fn rows(&self) -> usize {
-        self.t_s.len()
-    }
-
     /// Adds a column (a registry name, one value a row). A column with no
     /// finite value is left out; one of another length than `t` or a name
     /// not in the registry is an [`ImportError::Column`] (a fault of the
@@ -314,11 +309,6 @@ impl Builder {
             self.columns.push((Column { name, values }, ColumnSource { from: from.into(), role }));
         }
         Ok(())
-    }
-
-    /// Counts one message of `kind` read.
-    pub fn read(&mut self, kind: &str) {
-        *self.report.messages.entry(kind.to_string()).or_default() += 1;
     }
 
     /// Counts `n` refusals of `kind` (nothing when `n` is 0).

@@ -9,10 +9,6 @@ use crate::data::pairing::{bracket, Bracket};
 /// An angle difference on −180…180° (the project's one).
 pub use crate::data::pairing::wrap180;
 
-/// nT per gauss (PX4's `sensor_mag`, `vehicle_magnetometer`).
-pub const NT_PER_GAUSS: f64 = 1e5;
-/// nT per milligauss (ArduPilot's `MAG`, MAVLink's `RAW_IMU.xmag`).
-pub const NT_PER_MILLIGAUSS: f64 = 100.0;
 /// nT per tesla (ROS's `sensor_msgs/MagneticField`).
 pub const NT_PER_TESLA: f64 = 1e9;
 
@@ -74,11 +70,6 @@ impl<const K: usize> Series<K> {
                 }
             }
         }
-    }
-
-    /// Samples held.
-    pub fn len(&self) -> usize {
-        self.t_s.len()
     }
 
     /// Whether no sample is held.

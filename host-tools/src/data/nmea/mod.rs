@@ -112,7 +112,6 @@ use super::table::{write_table, TableError};
 
 pub use date::Date;
 pub use importer::{import, import_file, import_reader};
-pub use sentence::{parse_line, Line, Outcome, Partial, Sentence};
 
 /// The longest line read, bytes: NMEA 0183 allows 82 characters; this leaves
 /// room for a logger's prefix and long proprietary sentences. Longer lines

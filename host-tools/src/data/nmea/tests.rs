@@ -1,5 +1,6 @@
 //! The reader against pynmea2 and hand-written logs.
 
+use super::sentence::{parse_line, Line, Outcome, Partial, Sentence};
 use super::*;
 use serde_json::Value;
 

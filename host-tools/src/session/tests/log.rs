@@ -203,7 +203,7 @@ fn the_logged_integrity_states_are_counted_and_judged_by_the_sessions_rule() {
 /// ends: applied now, or applied (again) since the start, counts.
 #[test]
 fn the_hard_iron_over_a_log_is_read_from_the_boards_health() {
-    use crate::board::log::hard_iron_over_log;
+    use crate::board::log::logger::hard_iron_over_log;
     let base = Device::new(Boot { stored: None, challenge: 42 }).health(1000, &BoardCounters::default());
     assert_eq!(hard_iron_over_log(Some(&base), &base), (Some(false), None));
     let end = magcal_protocol::Health { uptime_ms: 9000, hard_iron_nt: Some([800.0, -50.0, 0.5]), hard_iron_applications: 1, ..base };

@@ -180,7 +180,7 @@ fn a_declination_change_beyond_the_limit_is_refused_unless_allowed() {
 
 // ---- merge ----
 
-use host_tools::data::merge::{BoardLog, MergeReport, NavLog};
+use host_tools::data::{BoardLog, MergeReport, NavLog};
 use magcal_sim::field_test::{self, paper_site, SensorModel};
 use magcal_sim::logs::{self, LogSplit, NavHeading};
 

@@ -17,7 +17,7 @@ mod import_drive;
 /// there.
 #[test]
 fn every_import_fuzz_input_replays_without_a_panic() {
-    use host_tools::data::import::Format;
+    use host_tools::data::Format;
     let fuzz = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../fuzz");
     let mut formats = std::collections::BTreeSet::new();
     for dir in [fuzz.join("seeds/import"), fuzz.join("artifacts/import")] {

@@ -81,8 +81,8 @@
 //! `course_deg`, `gps_speed_mps` (129026, true course only), `lat_deg`,
 //! `lon_deg` (129025). A 127250 deviation is reported, never applied.
 
-pub mod pgn;
-pub mod text;
+pub(crate) mod pgn;
+pub(crate) mod text;
 
 use std::collections::BTreeMap;
 

@@ -74,7 +74,7 @@ mod definition;
 mod frames;
 
 pub use bag::Bag;
-pub use cdr::{Cdr, CdrError, MsgType, Sample};
+pub use cdr::{MsgType, Sample};
 pub use definition::{check_definition, Definition};
 pub use frames::{enu_flu_to_ned_frd_euler_deg, flu_to_frd};
 

@@ -1,5 +1,6 @@
 //! The decoding, the definitions' check, the frames and a bag by hand.
 
+use super::cdr::CdrError;
 use super::frames::qmul;
 use super::*;
 use crate::data::import::rules;
