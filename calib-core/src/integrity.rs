@@ -68,7 +68,9 @@ mod verdict;
 pub(crate) use inclination::cos_of_sin;
 pub use inclination::INCLINATION_BLOCK;
 pub(crate) use monitor::positive_dt;
-pub use monitor::{IntegrityError, Monitor};
+pub use monitor::{
+    IntegrityError, Monitor, CONFIRM_GATE_REL, CONFIRM_VAR_REL,
+};
 pub use tuning::{
     Reference, Tuning, DEFAULT_FIELD_SIGMA_REL, INCLINATION_ALLOWANCE_DEG, MAX_MISFIT_STEP,
     REANCHOR_TURN_DEG, RECOVER_S,
