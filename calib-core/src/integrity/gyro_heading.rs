@@ -58,14 +58,18 @@ impl<T: Real> GyroHeading<T> {
 
     /// Propagates the heading over `dt_s` with the yaw rate (the step's
     /// mean rate: [`GyroHeading::step_rate`]).
+    /// Returns the step's turn `|ψ̇ Δt|`, rad.
     #[inline(always)]
-    pub(super) fn predict(&mut self, yaw_rate_rad_s: T, dt_s: T, tuning: &Tuning<T>) {
+    pub(super) fn predict(&mut self, yaw_rate_rad_s: T, dt_s: T, tuning: &Tuning<T>) -> T {
+        let turn = (yaw_rate_rad_s * dt_s).abs();
         self.heading_rad = wrap_near(self.heading_rad + (yaw_rate_rad_s - self.bias_rad_s) * dt_s);
-        self.p00 += dt_s * (dt_s * self.p11 - T::from_f64(2.0) * self.p01)
+        // 2·p01 as p01 + p01 (the same bits, one constant fewer).
+        self.p00 += dt_s * (dt_s * self.p11 - (self.p01 + self.p01))
             + tuning.heading_walk_rad2_s * dt_s
-            + tuning.scale_var_per_rad * (yaw_rate_rad_s * dt_s).abs();
+            + tuning.scale_var_per_rad * turn;
         self.p01 -= dt_s * self.p11;
         self.p11 += tuning.bias_walk_rad2_s3 * dt_s;
+        turn
     }
 
     /// The mean yaw rate over the step that ends with a sample of yaw rate

@@ -99,6 +99,11 @@ pub struct Monitor<T> {
     /// ([`Monitor::gyro_confirms`]): not while an on-line hard iron is
     /// applied (the corrected field is itself on trial then).
     vouch: bool,
+    /// The calibration's own heading variance, rad² (the reference's
+    /// `heading_sigma_rad` squared once, not per sample).
+    cal_var_rad2: T,
+    /// The gyro gate squared, σ² (`Tuning::gyro_gate_sigma`, once).
+    gyro_gate2: T,
     /// The inclination in use, and its learner.
     incl: Inclination<T>,
 }
@@ -164,6 +169,8 @@ impl<T: Real> Monitor<T> {
             disturbed: false,
             cal_invalid: false,
             vouch: true,
+            cal_var_rad2: reference.heading_sigma_rad * reference.heading_sigma_rad,
+            gyro_gate2: tuning.gyro_gate_sigma * tuning.gyro_gate_sigma,
         })
     }
 
@@ -231,7 +238,7 @@ impl<T: Real> Monitor<T> {
     #[inline(always)]
     pub(crate) fn sample_var(&self, hh_nt: T) -> T {
         let s = self.reference.noise_nt / hh_nt.max(self.reference.noise_nt);
-        s * s + self.reference.heading_sigma_rad * self.reference.heading_sigma_rad
+        s * s + self.cal_var_rad2
     }
 
     /// Judges one sample: the calibrated field (nT, body frame), the heading
@@ -322,8 +329,7 @@ impl<T: Real> Monitor<T> {
             Some(w) => {
                 let yaw_rate = self.gyro.step_rate(tilt.yaw_rate(w));
                 if self.gyro.anchored && dt <= self.tuning.max_gap_s {
-                    self.gyro.predict(yaw_rate, dt, &self.tuning);
-                    (yaw_rate * dt).abs()
+                    self.gyro.predict(yaw_rate, dt, &self.tuning)
                 } else {
                     self.gyro.anchored = false;
                     T::ZERO
@@ -345,13 +351,7 @@ impl<T: Real> Monitor<T> {
         };
         // |innovation| / √s < g, without the square root.
         let field_ok = field_z.abs() < g && dip_z.abs() < g;
-        let gg = self.tuning.gyro_gate_sigma;
-        let gyro_ok = innovation * innovation < gg * gg * s;
-        let pass = field_ok && gyro_ok;
-        // A field off the reference whose heading the gyro confirms passes
-        // the time logic too (not the misfit, the filter or the dip).
-        let confirmed = pass
-            || (gyro_ok && anchored && self.gyro_confirms(field_z, dip_z, g, var_m));
+        let pass = field_ok && innovation * innovation < self.gyro_gate2 * s;
         let fraction = self.track_misfit(!field_ok, dt);
         let turn = rate_rad_s.map(|_| turn);
         self.track_gyro(turn, field_ok, pass, heading_rad, var_m, dt);
@@ -361,7 +361,9 @@ impl<T: Real> Monitor<T> {
         if pass && !self.disturbed && fraction < self.tuning.misfit_exit {
             self.incl.learn(sin_dip, &self.reference, &self.tuning);
         }
-        if confirmed {
+        // A field off the reference whose heading the gyro confirms passes
+        // the time logic too (not the misfit, the filter or the dip).
+        if pass || (anchored && self.gyro_confirms(field_z, dip_z, var_m, innovation, s)) {
             self.pass_s += dt;
             if self.pass_s > self.tuning.exit_s {
                 self.disturbed = false;
@@ -387,11 +389,13 @@ impl<T: Real> Monitor<T> {
         }
     }
 
-    /// Whether the gyro vouches for the heading of a sample whose field
-    /// misfits (`field_z`, `dip_z` against the field gate `g`) but whose
-    /// innovation passed: the field within [`CONFIRM_GATE_REL`] of the
-    /// gate, and the gyro's prediction at least as sure as the sample
-    /// (its variance within [`CONFIRM_VAR_REL`] of the sample's `var_m`).
+    /// Whether the gyro vouches for the heading of a sample not passing
+    /// (`field_z`, `dip_z`: its field's residuals; `var_m` its heading
+    /// variance; `innovation` and its variance `s` against the anchored
+    /// prediction): its innovation within the gyro gate, its field within
+    /// [`CONFIRM_GATE_REL`] of the field gate (with body rates), and the
+    /// gyro's prediction at least as sure as the sample (its variance
+    /// within [`CONFIRM_VAR_REL`] of `var_m`).
     ///
     /// The magnitude and the dip see a disturbance along the field and
     /// across it in the vertical plane; the heading error is its part
@@ -402,9 +406,10 @@ impl<T: Real> Monitor<T> {
     /// before, not updated by such samples) measures directly. A wrong
     /// calibration's misfit still counts towards `cal_invalid`.
     #[inline(never)]
-    fn gyro_confirms(&self, field_z: T, dip_z: T, g: T, var_m: T) -> bool {
-        let wide = g * T::from_f64(CONFIRM_GATE_REL);
+    fn gyro_confirms(&self, field_z: T, dip_z: T, var_m: T, innovation: T, s: T) -> bool {
+        let wide = self.tuning.gate_sigma * T::from_f64(CONFIRM_GATE_REL);
         self.vouch
+            && innovation * innovation < self.gyro_gate2 * s
             && field_z.abs() < wide
             && dip_z.abs() < wide
             && self.gyro.p00 <= T::from_f64(CONFIRM_VAR_REL) * var_m
