@@ -50,7 +50,7 @@
 //! No allocation; the state is about 160 bytes in `f32`
 //! (`size_of::<Monitor<f32>>()`, tested); the levelled field is the
 //! heading's (`OnlineIntegrity::process` levels once), so with
-//! `OnlineIntegrity`'s bookkeeping the integrity adds about 345 Cortex-M4F
+//! `OnlineIntegrity`'s bookkeeping the integrity adds about 348 Cortex-M4F
 //! instructions to a usual sample's heading (`cargo xtask bench`).
 //!
 //! The module's rooms: `verdict` holds the vocabulary (the states,
@@ -68,7 +68,9 @@ mod verdict;
 pub(crate) use inclination::cos_of_sin;
 pub use inclination::INCLINATION_BLOCK;
 pub(crate) use monitor::positive_dt;
-pub use monitor::{IntegrityError, Monitor};
+pub use monitor::{
+    IntegrityError, Monitor, CONFIRM_GATE_REL, CONFIRM_VAR_REL,
+};
 pub use tuning::{
     Reference, Tuning, DEFAULT_FIELD_SIGMA_REL, INCLINATION_ALLOWANCE_DEG, MAX_MISFIT_STEP,
     REANCHOR_TURN_DEG, RECOVER_S,

@@ -498,6 +498,7 @@ impl<T: Real> OnlineIntegrity<T> {
         self.stored_agree_s = T::ZERO;
         self.confirm.open = false;
         self.monitor.switch_field(self.stored_misfit);
+        self.monitor.set_gyro_vouches(true);
         self.restart_estimate();
     }
 
@@ -630,8 +631,10 @@ impl<T: Real> OnlineIntegrity<T> {
         // The stored field was judged invalid: its misfit starts whole.
         self.stored_misfit = T::ONE;
         self.stored_seen_s = T::ZERO;
-        // The monitor goes on with the corrected field's misfit fraction.
+        // The monitor goes on with the corrected field's misfit fraction;
+        // that field is on trial, so the gyro vouches for none of its misfits.
         self.monitor.switch_field(self.shadow_misfit);
+        self.monitor.set_gyro_vouches(false);
         self.shadow_seen_s = T::ZERO;
     }
 
@@ -670,6 +673,7 @@ impl<T: Real> OnlineIntegrity<T> {
     fn withdraw(&mut self) {
         self.applied = false;
         self.monitor.switch_field(T::ONE);
+        self.monitor.set_gyro_vouches(true);
         self.restart_estimate();
     }
 

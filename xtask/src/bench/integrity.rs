@@ -670,13 +670,12 @@ pub fn targets(v: &serde_json::Value) -> Vec<super::targets::Target> {
 }
 
 /// The missed targets, held at what the shipped tuning measured (trial,
-/// figure, bound, why): broad-30 48.1 % flagged, broad-28 78.7 % of good
-/// rows `ok`, broad-06 81.25 % of rows `ok` (`cargo xtask bench --ci`,
-/// 2026-11-27).
-const HELD: [(&str, &str, super::targets::Bound, &str); 3] = [
-    ("broad-30", "bad_not_ok_pct", super::targets::Bound::AtLeast(48.0), "rows 5–8° off whose field fits pass: the stored calibration's own error tail"),
-    ("broad-28", "good_ok_pct", super::targets::Bound::AtLeast(78.5), "the magnet's first pass leaves the calibration invalid for 6 s more"),
-    ("broad-06", "ok_pct", super::targets::Bound::AtLeast(81.0), "its field is 5–6 % off the calibration's for 4 s: a local anomaly the monitor flags"),
+/// figure, bound, why): broad-30 27.2 % flagged, broad-28 79.9 % of good
+/// rows `ok` (`magcal apply` with the lab's inclination, the bench's rule;
+/// `xtask/python/integrity_loo.py` ports the monitor exactly, 2026-11-27).
+const HELD: [(&str, &str, super::targets::Bound, &str); 2] = [
+    ("broad-30", "bad_not_ok_pct", super::targets::Bound::AtLeast(27.0), "rows 5–8° off whose field fits and whose heading change the gyro confirms: the stored calibration's own error tail after the file's gaps"),
+    ("broad-28", "good_ok_pct", super::targets::Bound::AtLeast(79.5), "the magnet's first pass, at the file's start, leaves the calibration invalid for 3 s more (the misfit exit is a safety floor)"),
 ];
 
 #[cfg(test)]
