@@ -44,14 +44,19 @@ fn motion_turning(t: f64, zigzag: bool) -> ([f64; 3], [f64; 3]) {
     } else {
         (0.3 + rate * t, rate)
     };
-    // ZYX Euler-angle rates → body rates.
+    ([roll, pitch, yaw], body_rates(roll, pitch, [roll_dot, pitch_dot, yaw_dot]))
+}
+
+/// ZYX Euler-angle rates `[roll_dot, pitch_dot, yaw_dot]` (rad/s) at
+/// `roll`, `pitch` (rad) → body rates `[p, q, r]` (rad/s).
+fn body_rates(roll: f64, pitch: f64, euler_dot: [f64; 3]) -> [f64; 3] {
+    let [roll_dot, pitch_dot, yaw_dot] = euler_dot;
     let (sr, cr, sp, cp) = (roll.sin(), roll.cos(), pitch.sin(), pitch.cos());
-    let w = [
+    [
         roll_dot - sp * yaw_dot,
         cr * pitch_dot + sr * cp * yaw_dot,
         -sr * pitch_dot + cr * cp * yaw_dot,
-    ];
-    ([roll, pitch, yaw], w)
+    ]
 }
 
 /// The stored calibration of the path tests: identity (raw in nT).

@@ -20,13 +20,7 @@ fn dip_rad() -> f64 {
 fn attitude(t: f64, yaw: f64, yaw_dot: f64) -> ([f64; 3], [f64; 3]) {
     let (roll, roll_dot) = (0.2 * (0.9 * t).sin(), 0.2 * 0.9 * (0.9 * t).cos());
     let (pitch, pitch_dot) = (0.15 * (0.6 * t).sin(), 0.15 * 0.6 * (0.6 * t).cos());
-    let (sr, cr, sp, cp) = (roll.sin(), roll.cos(), pitch.sin(), pitch.cos());
-    let w = [
-        roll_dot - sp * yaw_dot,
-        cr * pitch_dot + sr * cp * yaw_dot,
-        -sr * pitch_dot + cr * cp * yaw_dot,
-    ];
-    ([roll, pitch, yaw], w)
+    ([roll, pitch, yaw], super::body_rates(roll, pitch, [roll_dot, pitch_dot, yaw_dot]))
 }
 
 /// Runs `n` samples of the motion `motion(t) → (attitude, rates)` with
