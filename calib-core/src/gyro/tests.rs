@@ -1,3 +1,4 @@
+use super::batch::{normalization_of, WindowChain};
 use super::*;
 use crate::conformance::SplitMix64;
 use crate::heading::{magnetic_heading_rad, ned_field, ned_to_body, wrap_pi};
