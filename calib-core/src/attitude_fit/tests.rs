@@ -127,16 +127,20 @@ fn bad_attitudes_are_down_weighted() {
     assert!(robust.downweighted >= 150, "{}", robust.downweighted);
 }
 
-#[test]
-fn f32_gives_the_f64_heading() {
-    let (s, _) = samples(1500, 4.0, 0);
-    let s32: Vec<AttitudeSample<f32>> = s
-        .iter()
+/// The samples rounded to `f32`, as the board holds them.
+fn to_f32(s: &[AttitudeSample<f64>]) -> Vec<AttitudeSample<f32>> {
+    s.iter()
         .map(|a| AttitudeSample {
             raw: a.raw.map(|v| v as f32),
             tilt: Tilt { sin_roll: a.tilt.sin_roll as f32, cos_roll: a.tilt.cos_roll as f32, sin_pitch: a.tilt.sin_pitch as f32, cos_pitch: a.tilt.cos_pitch as f32 },
         })
-        .collect();
+        .collect()
+}
+
+#[test]
+fn f32_gives_the_f64_heading() {
+    let (s, _) = samples(1500, 4.0, 0);
+    let s32 = to_f32(&s);
     let e32 = fit_attitude(&s32, FIELD_NT as f32, &AttitudeConfig::new()).unwrap();
     let cal = FieldCal { bias: e32.cal.bias.map(f64::from), matrix: e32.cal.matrix.map(|r| r.map(f64::from)) };
     let h = heading_rms_deg(&cal);
@@ -176,13 +180,7 @@ fn working_memory_changes_nothing() {
     let mut scratch = vec![0.0; scratch_len(s.len())];
     assert_eq!(fit_attitude_in(&s, FIELD_NT, &cfg, &mut scratch).unwrap(), without);
     assert_eq!(fit_attitude_in(&s, FIELD_NT, &cfg, &mut scratch[..10]).unwrap(), without);
-    let s32: Vec<AttitudeSample<f32>> = s
-        .iter()
-        .map(|a| AttitudeSample {
-            raw: a.raw.map(|v| v as f32),
-            tilt: Tilt { sin_roll: a.tilt.sin_roll as f32, cos_roll: a.tilt.cos_roll as f32, sin_pitch: a.tilt.sin_pitch as f32, cos_pitch: a.tilt.cos_pitch as f32 },
-        })
-        .collect();
+    let s32 = to_f32(&s);
     let mut scratch32 = vec![0.0f32; scratch_len(s32.len())];
     assert_eq!(fit_attitude_in(&s32, FIELD_NT as f32, &AttitudeConfig::new(), &mut scratch32).unwrap(), fit_attitude(&s32, FIELD_NT as f32, &AttitudeConfig::new()).unwrap());
 }
