@@ -411,15 +411,13 @@ fn fit_candidate(rec: &Recording, model: ModelKind, opts: &FitOptions) -> Result
 /// left trial 02's cut kept at 5.09° when 02 was held out.
 pub const HEADING_GAP_WIDENING: f64 = 2.0;
 
-/// The largest arc of headings (degrees) that `cal` gives none of `rec`'s
+/// The largest arc of headings (degrees) that `doc` gives none of `rec`'s
 /// rows (360 when no row has a heading).
-pub fn heading_gap_deg(cal: &FieldCal<f64>, rec: &Recording) -> f64 {
-    let (Some(roll), Some(pitch)) = (rec.roll_deg.as_ref(), rec.pitch_deg.as_ref()) else { return 360.0 };
-    let mut headings: Vec<f64> = rec
-        .mag
-        .iter()
-        .zip(roll.iter().zip(pitch))
-        .map(|(raw, (r, p))| magnetic_heading_rad(cal.apply(*raw), r.to_radians(), p.to_radians()).to_degrees().rem_euclid(360.0))
+fn heading_gap_deg(doc: &CalDoc, rec: &Recording) -> f64 {
+    let mut headings: Vec<f64> = super::swing::magnetic_headings(rec, doc)
+        .unwrap_or_default()
+        .into_iter()
+        .map(|h| h.to_degrees().rem_euclid(360.0))
         .filter(|h| h.is_finite())
         .collect();
     headings.sort_by(f64::total_cmp);
@@ -435,7 +433,7 @@ pub fn heading_gap_deg(cal: &FieldCal<f64>, rec: &Recording) -> f64 {
 /// 1.92°), it bounds the error outside the headings seen, it does not
 /// predict it.
 fn widened_for_heading_gap(doc: &CalDoc, rec: &Recording) -> Option<(f64, f64)> {
-    let gap_deg = heading_gap_deg(&doc.field_cal(), rec);
+    let gap_deg = heading_gap_deg(doc, rec);
     doc.quality.expected_heading_rms_deg.map(|e| (e * (1.0 + HEADING_GAP_WIDENING * gap_deg / 360.0), gap_deg))
 }
 
