@@ -73,10 +73,20 @@ struct Dataset {
     numpy_dip_held: Option<String>,
     judge: Judge,
     floor: FieldCal<f64>,
-    /// What the floor column holds where it is not a floor (the BROAD
-    /// disturbed trials: the IMU's calibration without the magnet), or that
-    /// there is no reference at all.
-    floor_is: Option<&'static str>,
+    /// What the floor column holds.
+    floor_is: FloorIs,
+}
+
+/// What a dataset's floor column holds.
+#[derive(Clone, Copy, PartialEq)]
+enum FloorIs {
+    /// The true calibration's result: a floor.
+    Floor,
+    /// The IMU's calibration without the magnet (the BROAD disturbed
+    /// trials): a reference, not a floor.
+    WithoutMagnet,
+    /// Nothing: the dataset has no reference.
+    NoReference,
 }
 
 fn std_dev(v: &[f64]) -> f64 {
@@ -114,7 +124,7 @@ fn glider(dir: &Path, name: &str, (calib_csv, judge_csv): (&str, &str), peer: &s
     };
     let reference = Some(Reference::world_model(site, &world));
     let numpy_dip_held = numpy_dip_held(&cpath, &vpath, igrf_dip, world.total_nt());
-    Some(Dataset { name: name.to_string(), calib, field_nt: world.total_nt(), reference, site_only_for_auto: None, numpy_dip_held, judge: Box::new(judge), floor, floor_is: None })
+    Some(Dataset { name: name.to_string(), calib, field_nt: world.total_nt(), reference, site_only_for_auto: None, numpy_dip_held, judge: Box::new(judge), floor, floor_is: FloorIs::Floor })
 }
 
 /// The dip-held scipy fit's dip scatter and mean against IGRF on the
@@ -142,7 +152,7 @@ fn broad(dir: &Path, n: &str) -> Option<Dataset> {
     let name = dir.file_name().map_or(n.to_string(), |f| f.to_string_lossy().into_owned());
     // The lab's site (its README): IGRF-14 at TU Berlin, 2020-06-01.
     let site_only_for_auto = Site::new(52.51, 13.32, "2020-06-01").ok().and_then(|s| Some(Reference::world_model(s, &s.field().ok()?)));
-    Some(Dataset { name, calib, field_nt: t.field_nt?, reference: None, site_only_for_auto, numpy_dip_held: None, judge: Box::new(judge), floor: t.cal(), floor_is: None })
+    Some(Dataset { name, calib, field_nt: t.field_nt?, reference: None, site_only_for_auto, numpy_dip_held: None, judge: Box::new(judge), floor: t.cal(), floor_is: FloorIs::Floor })
 }
 
 /// The datasets present under `tests/data`.
@@ -188,7 +198,7 @@ fn broad_series(dir: &Path, n: &str, magnet: bool) -> Option<Dataset> {
         let rms = host_tools::compute::heading_rms_after_offset_deg(h).0.rms;
         (rms, format!("heading {rms:.2}° (second half)"))
     };
-    let floor_is = magnet.then_some("no floor (a magnet): the calibration without it gives");
+    let floor_is = if magnet { FloorIs::WithoutMagnet } else { FloorIs::Floor };
     Some(Dataset { name: format!("broad-{n} (first half → second half)"), calib, field_nt: t.field_nt?, reference: None, site_only_for_auto: None, numpy_dip_held: None, judge: Box::new(judge), floor: t.cal(), floor_is })
 }
 
@@ -209,7 +219,7 @@ fn without_reference(root: &Path, name: &str, rel: &str, map: &str) -> Option<Da
         host_tools::data::read_recording(&path, &map.parse().ok()?).ok()?.recording
     };
     let judge = |_: &FieldCal<f64>| (f64::NAN, "no reference: held out only".to_string());
-    Some(Dataset { name: name.into(), calib, field_nt: 50_000.0, reference: None, site_only_for_auto: None, numpy_dip_held: None, judge: Box::new(judge), floor: FieldCal::identity(), floor_is: Some("no reference") })
+    Some(Dataset { name: name.into(), calib, field_nt: 50_000.0, reference: None, site_only_for_auto: None, numpy_dip_held: None, judge: Box::new(judge), floor: FieldCal::identity(), floor_is: FloorIs::NoReference })
 }
 
 /// The datasets only `fit` without `--model` is run on (not the table of
@@ -345,9 +355,9 @@ pub fn real_data_with(root: &Path, every_model: bool) -> (serde_json::Value, Str
         let (floor_score, own) = (d.judge)(&d.floor);
         let floor = match (d.numpy_dip_held.as_ref(), d.floor_is) {
             (Some(n), _) => format!("own: {own}; scipy dip-held: {n}"),
-            (None, Some("no reference")) => "no reference".to_string(),
-            (None, Some(what)) => format!("{what} {own}"),
-            (None, None) => own,
+            (None, FloorIs::NoReference) => "no reference".to_string(),
+            (None, FloorIs::WithoutMagnet) => format!("no floor (a magnet): the calibration without it gives {own}"),
+            (None, FloorIs::Floor) => own,
         };
         // With a site the intensity is the world model's (as `fit --lat --lon --date`).
         let field_nt = reference.as_ref().filter(|_| !label.is_empty()).map_or(d.field_nt, |r| r.field_nt);
