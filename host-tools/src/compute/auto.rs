@@ -280,6 +280,10 @@ pub fn fit_auto_judged(rec: &Recording, opts: &FitOptions, judge: &YawJudge) -> 
                             let said = format!("its expected error widened to {e:.2}° for the {gap_deg:.0}° of headings it never saw");
                             row.note = Some(row.note.take().map_or(said.clone(), |n| format!("{n}; {said}")));
                         }
+                        if !doc.quality.allowed_weak.is_empty() {
+                            let said = format!("does not qualify: {}", doc.quality.allowed_weak.join("; "));
+                            row.note = Some(row.note.take().map_or(said.clone(), |n| format!("{n}; {said}")));
+                        }
                         judged.push((h, widened.map_or(own, |(e, _)| e), doc));
                     }
                 }
@@ -287,7 +291,9 @@ pub fn fit_auto_judged(rec: &Recording, opts: &FitOptions, judge: &YawJudge) -> 
         }
         rows.push(row);
     }
-    let scores: Vec<(f64, f64)> = judged.iter().map(|(h, e, _)| (*h, *e)).collect();
+    // A candidate whose own fit failed a check (kept only as weak results
+    // were allowed) never qualifies, whatever its numbers.
+    let scores: Vec<Score> = judged.iter().map(|(h, e, doc)| Score { held_out_deg: *h, expected_deg: *e, sound: doc.quality.allowed_weak.is_empty() && doc.reference_disagreement().is_none() }).collect();
     let (pick, kept_weak) = match choose(&scores, opts.allow_weak) {
         Choice::None => return Err(ComputeError::NoModel { limit_deg: MAX_HELD_OUT_DEG, table: table_text(&rows) }),
         Choice::Refused(i) => {
@@ -296,6 +302,9 @@ pub fn fit_auto_judged(rec: &Recording, opts: &FitOptions, judge: &YawJudge) -> 
             return Err(ComputeError::NoModelQualifies { why: why.to_string(), table: table_text(&rows) });
         }
         Choice::Kept(i) => (i, None),
+        // Numbers below the limit: what made it weak is the document's own
+        // mark (`quality.allowed_weak`, `reference.check`), which travels.
+        Choice::KeptWeak(i) if scores[i].held_out_deg < MAX_HELD_OUT_DEG && scores[i].expected_deg < MAX_HELD_OUT_DEG => (i, None),
         Choice::KeptWeak(i) => {
             let (h, e, doc) = &judged[i];
             let why = WeakWhy { model: super::dip_held::chosen_name(doc), held_out_deg: *h, expected_deg: *e, basis };
@@ -326,13 +335,24 @@ enum Choice {
     Refused(usize),
 }
 
-/// The choice among `(held-out, own expected)` errors, degrees: the least
-/// held-out error among the candidates with both below
-/// [`MAX_HELD_OUT_DEG`]; when none, the least held-out error overall is
-/// kept weak (`allow_weak`) or refused.
-fn choose(scores: &[(f64, f64)], allow_weak: bool) -> Choice {
-    let qualifies = |&(h, e): &(f64, f64)| h < MAX_HELD_OUT_DEG && e < MAX_HELD_OUT_DEG;
-    let least = |only_qualified: bool| scores.iter().enumerate().filter(|(_, s)| !only_qualified || qualifies(s)).min_by(|a, b| a.1 .0.total_cmp(&b.1 .0)).map(|(i, _)| i);
+/// What [`choose`] weighs of a judged candidate.
+#[derive(Debug, Clone, Copy)]
+struct Score {
+    /// Its held-out error, degrees.
+    held_out_deg: f64,
+    /// Its own expected error, degrees.
+    expected_deg: f64,
+    /// Its fit passed every check of its own (nothing in
+    /// `quality.allowed_weak`, its reference check agrees).
+    sound: bool,
+}
+
+/// The choice among the judged candidates: the least held-out error among
+/// the sound ones with both errors below [`MAX_HELD_OUT_DEG`]; when none,
+/// the least held-out error overall is kept weak (`allow_weak`) or refused.
+fn choose(scores: &[Score], allow_weak: bool) -> Choice {
+    let qualifies = |s: &Score| s.sound && s.held_out_deg < MAX_HELD_OUT_DEG && s.expected_deg < MAX_HELD_OUT_DEG;
+    let least = |only_qualified: bool| scores.iter().enumerate().filter(|(_, s)| !only_qualified || qualifies(s)).min_by(|a, b| a.1.held_out_deg.total_cmp(&b.1.held_out_deg)).map(|(i, _)| i);
     match (least(true), least(false)) {
         (Some(i), _) => Choice::Kept(i),
         (None, Some(i)) if allow_weak => Choice::KeptWeak(i),
@@ -462,15 +482,21 @@ mod tests {
     /// neither qualifies.
     #[test]
     fn a_candidate_qualifies_only_with_both_errors_below_the_limit() {
-        let finding = [(2.50, 6.64), (13.2, 2.9)];
+        let sound = |held_out_deg, expected_deg| Score { held_out_deg, expected_deg, sound: true };
+        let finding = [sound(2.50, 6.64), sound(13.2, 2.9)];
         assert_eq!(choose(&finding, false), Choice::Refused(0));
         assert_eq!(choose(&finding, true), Choice::KeptWeak(0));
         // The one that qualifies wins over a smaller held-out error that does not.
-        assert_eq!(choose(&[(1.0, 5.0), (3.0, 4.9)], false), Choice::Kept(1));
-        assert_eq!(choose(&[(2.0, 1.5), (1.9, 2.2)], false), Choice::Kept(1));
+        assert_eq!(choose(&[sound(1.0, 5.0), sound(3.0, 4.9)], false), Choice::Kept(1));
+        assert_eq!(choose(&[sound(2.0, 1.5), sound(1.9, 2.2)], false), Choice::Kept(1));
         assert_eq!(choose(&[], true), Choice::None);
         // NaN never qualifies.
-        assert_eq!(choose(&[(f64::NAN, 1.0)], false), Choice::Refused(0));
+        assert_eq!(choose(&[sound(f64::NAN, 1.0)], false), Choice::Refused(0));
+        // A fit that failed its own gate (kept as weak results were
+        // allowed) never qualifies, however small its errors.
+        let gate_failed = Score { held_out_deg: 0.5, expected_deg: 0.6, sound: false };
+        assert_eq!(choose(&[gate_failed, sound(3.0, 4.9)], true), Choice::Kept(1));
+        assert_eq!(choose(&[gate_failed, sound(3.0, 6.0)], true), Choice::KeptWeak(0));
         let why = WeakWhy { model: "attitude".into(), held_out_deg: 2.5, expected_deg: 6.64, basis: HeldOutBasis::GyroYaw };
         let text = ComputeError::NoModelQualifies { why: why.to_string(), table: String::new() }.to_string();
         assert!(text.contains("2.50°") && text.contains("6.64°") && text.contains("below 5°") && text.contains("gyro yaw") && text.contains("--allow-weak"), "{text}");

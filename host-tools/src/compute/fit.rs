@@ -132,12 +132,16 @@ pub(crate) fn fit_with(rec: &Recording, opts: &FitOptions, checks: Checks) -> Re
         warnings.push(format!("magnitudes scatter by {:.1} % in sample: judged on held-out data instead", q.residual_rms_pct));
         gates.max_residual_pct = f64::INFINITY;
     }
+    // A failed gate kept (weak results allowed) is marked in the document,
+    // so every reader refuses it unless weak results are allowed there too.
+    let mut allowed_weak = Vec::new();
     if let Err(e) = gates.check(&q) {
         let e = with_advice(e, rec);
         if !opts.allow_weak {
             return Err(e);
         }
         warnings.push(format!("quality gate failed, kept because weak results were allowed: {e}"));
+        allowed_weak.push(format!("{} fit: quality gate failed: {e}", opts.model.name()));
     }
     cal.validate(crate::doc::caldoc::MAX_BIAS_ABS).map_err(|e| ComputeError::Unusable(crate::doc::caldoc::cal_error_text(e)))?;
     let mut reference = judge_against_reference(&cal, rec, opts, fit_dip, &mut warnings)?;
@@ -156,7 +160,7 @@ pub(crate) fn fit_with(rec: &Recording, opts: &FitOptions, checks: Checks) -> Re
     let radius = opts.field_nt / ((cal.matrix[0][0].abs() + cal.matrix[1][1].abs() + cal.matrix[2][2].abs()) / 3.0);
     let units = units_guess(radius, opts.field_nt);
     let predicted_heading_rms_deg = gyro_quality.as_ref().map(|g| g.predicted_heading_rms_deg).or(attitude_predicted_deg);
-    let quality = ResultsQuality { fit: Some(fit_quality(&q, skipped, warnings, units)), gyro: gyro_quality, predicted_heading_rms_deg, ..Default::default() };
+    let quality = ResultsQuality { fit: Some(fit_quality(&q, skipped, warnings, units)), gyro: gyro_quality, predicted_heading_rms_deg, allowed_weak, ..Default::default() };
     let mut doc = CalDoc::new(kind, &cal, opts.field_nt, quality);
     doc.reference = Some(reference);
     doc.quality.expected_heading_rms_deg = super::apply::expected_heading_rms_deg(&doc);

@@ -88,6 +88,17 @@ pub enum CalDocError {
         /// The kept model's held-out and own expected errors against the limit, in words.
         numbers: String,
     },
+    /// The document failed a check when it, or a document it was made
+    /// from, was written, and was kept only because weak results were
+    /// allowed (`quality.allowed_weak`); the command using it did not
+    /// allow them.
+    #[error("{path}: this calibration was kept only because weak results were allowed when it was written: {what}")]
+    AllowedWeak {
+        /// The file.
+        path: PathBuf,
+        /// The document's `quality.allowed_weak`, joined.
+        what: String,
+    },
 }
 
 /// The range of the geomagnetic field's intensity at the Earth's surface
@@ -470,7 +481,8 @@ impl CalDoc {
     }
 
     /// The one check of a document a command is about to use:
-    /// [`CalDoc::validate`], then refused unless `allow_weak`: a failed
+    /// [`CalDoc::validate`], then refused unless `allow_weak`: a check
+    /// failed when it was written ([`CalDocError::AllowedWeak`]), a failed
     /// reference check ([`CalDocError::WeakReference`]) and a model `fit`
     /// (auto) kept though it did not qualify ([`CalDocError::KeptWeak`]).
     /// Returns what the command must say about the document (on stderr and
@@ -478,6 +490,13 @@ impl CalDoc {
     pub fn check(&self, path: &Path, allow_weak: bool) -> Result<Vec<String>, CalDocError> {
         self.validate(path)?;
         let mut said = Vec::new();
+        if !self.quality.allowed_weak.is_empty() {
+            let what = self.quality.allowed_weak.join("; ");
+            if !allow_weak {
+                return Err(CalDocError::AllowedWeak { path: path.into(), what });
+            }
+            said.push(format!("{}: a weak calibration ({what}); used because weak results were allowed", path.display()));
+        }
         if let Some(numbers) = self.kept_weak() {
             if !allow_weak {
                 return Err(CalDocError::KeptWeak { path: path.into(), numbers });

@@ -41,6 +41,14 @@ pub struct Quality {
     /// `fit --model auto`: the candidates, their held-out errors and the choice.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub auto: Option<super::auto::AutoChoice>,
+    /// Every check this document, or a document it was made from, failed
+    /// and was kept only because weak results were allowed (`--allow-weak`):
+    /// one line each, in words (a fit's failed quality gate; a weak
+    /// calibration a later step was run from). A reader refuses the
+    /// document unless weak results are allowed again ([`super::CalDoc::check`]),
+    /// and a step run from it carries these lines into its own output.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub allowed_weak: Vec<String>,
 }
 
 /// What the gyro-aided fit determined, and how well.

@@ -83,7 +83,7 @@ pub fn run(a: Args) -> Result<()> {
     // The one document check (a step-1 calibration fitted to a field in
     // other units — µT typed for nT — is refused there: nothing after it
     // could be right).
-    let (doc, mut warnings) = CalDoc::load_with(&a.cal, a.allow_weak).map_err(|e| hinted(e, super::weak_hint))?;
+    let (doc, warnings) = CalDoc::load_with(&a.cal, a.allow_weak).map_err(|e| hinted(e, super::weak_hint))?;
     for w in &warnings {
         eprintln!("warning: {w}");
     }
@@ -93,6 +93,9 @@ pub fn run(a: Args) -> Result<()> {
         (None, Some(lat), Some(lon)) => check_positions(&rec, &a.input, lat, lon)?,
         _ => {}
     }
+    // The checks this run failed and kept (--allow-weak): marked in the
+    // document it writes, so its readers refuse it unless allowed too.
+    let mut allowed_weak = Vec::new();
     if let RunReference::Given { h_nt, z_nt } = reference {
         // Against physics (refused), the world model where the document's
         // site gives a date, and the dip the run shows through the
@@ -101,7 +104,7 @@ pub fn run(a: Args) -> Result<()> {
         let (data_dip, _) = shown(&doc.field_cal(), &rec);
         let words = check_given_field(h_nt, z_nt, world.as_ref(), data_dip).map_err(|e| anyhow::anyhow!("--field-h-nt {h_nt} --field-z-nt {z_nt}: {e}"))?;
         if !words.is_empty() {
-            super::weak_or_refused(&mut warnings, a.allow_weak, Err(anyhow::anyhow!("--field-h-nt {h_nt} --field-z-nt {z_nt}: {}", words.join("; "))))?;
+            super::weak_or_refused(&mut allowed_weak, a.allow_weak, Err(anyhow::anyhow!("--field-h-nt {h_nt} --field-z-nt {z_nt}: {}", words.join("; "))))?;
         }
     }
     let mut opts = BackstepOptions::new(reference);
@@ -145,7 +148,9 @@ pub fn run(a: Args) -> Result<()> {
     // What was kept with --allow-weak goes into the document too.
     if let Some(f) = out_doc.quality.fit.as_mut() {
         f.warnings.extend(warnings);
+        f.warnings.extend(allowed_weak.iter().cloned());
     }
+    out_doc.quality.allowed_weak.extend(allowed_weak.into_iter().map(|w| format!("backstep: {w}")));
     check_field_nt(report.after.f_nt, &format!("{}: the run's mean field through the back-stepped calibration", a.input.display()))?;
     let summary = format!(
         "back-stepping ({}) around the turnaround at {:.0} s: step {:.1} → {:.1} nT, |F − IGRF| RMS {:.1} → {:.1} nT",

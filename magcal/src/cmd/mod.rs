@@ -293,7 +293,7 @@ pub fn number_in(range: std::ops::RangeInclusive<f64>, unit: &'static str) -> im
 
 /// The hint for a weak document refused.
 pub fn weak_hint(e: &host_tools::doc::CalDocError) -> Option<&'static str> {
-    matches!(e, host_tools::doc::CalDocError::WeakReference { .. } | host_tools::doc::CalDocError::KeptWeak { .. }).then_some("give --allow-weak to use it anyway (it is then said in the output)")
+    matches!(e, host_tools::doc::CalDocError::WeakReference { .. } | host_tools::doc::CalDocError::KeptWeak { .. } | host_tools::doc::CalDocError::AllowedWeak { .. }).then_some("give --allow-weak to use it anyway (it is then said in the output)")
 }
 
 /// A check's refusal: returned, or with `allow_weak` kept as a warning
@@ -312,7 +312,7 @@ pub fn weak_or_refused(warnings: &mut Vec<String>, allow_weak: bool, checked: Re
 }
 
 /// A field calibration document through the one document check, with
-/// `--allow-weak` (a document whose own reference check failed is refused
+/// `--allow-weak` (a weak document, [`CalDoc::check`], is refused
 /// without it, and said on stderr with it).
 pub fn load_field_doc(path: &Path, allow_weak: bool) -> Result<CalDoc> {
     let (doc, said) = CalDoc::load_with(path, allow_weak).map_err(|e| hinted(e, weak_hint))?;

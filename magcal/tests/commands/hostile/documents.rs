@@ -271,6 +271,17 @@ fn backsteps_field_given_by_hand_is_held_to_physics_the_world_model_and_the_runs
     // refused even with --allow-weak.
     let e = refused(&backstep("0", "48000", &["--allow-weak"]));
     assert!(e.contains("horizontal intensity of 0 nT"), "{e}");
+    // The flipped vertical kept with --allow-weak: the document says so in
+    // `quality.allowed_weak`, and its readers refuse it in their turn
+    // (before: only a warning line in the document, and `apply` used it).
+    let e = accepted(&backstep("27303", "-40632", &["--allow-weak"]));
+    assert!(e.contains("(kept: --allow-weak)"), "{e}");
+    let doc: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(d("cal2.json")).unwrap()).unwrap();
+    let marks = doc["quality"]["allowed_weak"].as_array().expect("the mark");
+    assert!(marks.iter().any(|m| m.as_str().unwrap().starts_with("backstep: --field-h-nt 27303 --field-z-nt -40632")), "{marks:?}");
+    let e = refused(&magcal(&["apply", "--input", p(&d("run.csv")), "--cal", p(&d("cal2.json")), "--out", p(&d("applied.csv"))]));
+    assert!(e.contains("cal2.json") && e.contains("only because weak results were allowed") && e.contains("--field-z-nt -40632"), "{e}");
+    std::fs::remove_file(d("cal2.json")).unwrap();
     // The right values are used.
     accepted(&backstep("27303", "40632", &[]));
 }
