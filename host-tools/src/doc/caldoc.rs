@@ -630,6 +630,26 @@ mod tests {
         assert_eq!(CalDoc::load(&p).unwrap(), d);
     }
 
+    /// Coefficients read back bit for bit: the firmware's conformance and
+    /// the board's upload rest on it. The numbers are serde_json's own
+    /// reported misreads without its `float_roundtrip` feature (serde-rs/json
+    /// issues 937 and 1336: one unit in the last place off, e.g.
+    /// 0x3ff9_3e93_e93e_863b read as …863a); Rust's `str::parse` is the
+    /// reference.
+    #[test]
+    fn coefficients_are_read_back_bit_for_bit() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("cal.json");
+        let texts = ["0.09144338512092887", "0.9146155235219107", "1.5777777777770001"];
+        let v: Vec<f64> = texts.iter().map(|t| t.parse().unwrap()).collect();
+        let cal = FieldCal { bias: [v[0], v[1], v[2]], matrix: [[v[2], v[0], 0.0], [v[0], v[1], 0.0], [0.0, 0.0, v[2]]] };
+        let d = CalDoc::new(ModelKind::Full, &cal, 48_730.0, Quality::default());
+        d.save(&p).unwrap();
+        let back = CalDoc::load(&p).unwrap();
+        assert_eq!(back.bias.map(f64::to_bits), cal.bias.map(f64::to_bits));
+        assert_eq!(back.matrix.map(|r| r.map(f64::to_bits)), cal.matrix.map(|r| r.map(f64::to_bits)));
+    }
+
     #[test]
     fn bad_documents_are_refused_with_a_reason() {
         let dir = tempfile::tempdir().unwrap();
