@@ -103,7 +103,7 @@ pub fn run(a: Args) -> Result<()> {
     let doc_site = doc.reference.as_ref().and_then(|r| r.site);
     if let Some(site) = given_site.or(doc_site) {
         let whose = if given_site.is_some() { "the site given" } else { "the document's reference site" };
-        super::weak_or_refused(&mut warnings, a.allow_weak, super::check_site(&rec, &a.input, &site, false).with_context(|| format!("{}: against {whose}", a.cal.display())))?;
+        super::weak_or_refused(&mut warnings, a.allow_weak, super::check_site(&rec, &a.input, &site, false).map(|_| ()).with_context(|| format!("{}: against {whose}", a.cal.display())))?;
     }
     for w in given_values_disagree(&a, &doc, &rec, given_site.or(doc_site)) {
         super::weak_or_refused(&mut warnings, a.allow_weak, Err(anyhow::anyhow!("{w}: the value given would judge the recording against another field; check it")))?;

@@ -88,14 +88,13 @@ pub fn run(a: Args) -> Result<()> {
         eprintln!("warning: {w}");
     }
     let rec = a.columns.read(&a.input)?;
-    match (a.site.site()?, a.site.lat, a.site.lon) {
-        (Some(site), _, _) => super::check_site(&rec, &a.input, &site, a.allow_weak)?,
-        (None, Some(lat), Some(lon)) => check_positions(&rec, &a.input, lat, lon)?,
-        _ => {}
-    }
     // The checks this run failed and kept (--allow-weak): marked in the
     // document it writes, so its readers refuse it unless allowed too.
-    let mut allowed_weak = Vec::new();
+    let mut allowed_weak = match (a.site.site()?, a.site.lat, a.site.lon) {
+        (Some(site), _, _) => super::check_site(&rec, &a.input, &site, a.allow_weak)?,
+        (None, Some(lat), Some(lon)) => check_positions(&rec, &a.input, lat, lon).map(|()| Vec::new())?,
+        _ => Vec::new(),
+    };
     if let RunReference::Given { h_nt, z_nt } = reference {
         // Against physics (refused), the world model where the document's
         // site gives a date, and the dip the run shows through the

@@ -93,11 +93,11 @@ pub fn run(a: Args) -> Result<()> {
         None => None,
     };
     let rec = a.columns.read(&a.input)?;
-    match (&site, a.site.lat, a.site.lon) {
+    let site_weak = match (&site, a.site.lat, a.site.lon) {
         (Some(s), _, _) => super::check_site(&rec, &a.input, s, a.allow_weak)?,
-        (None, Some(lat), Some(lon)) => check_positions(&rec, &a.input, lat, lon)?,
-        _ => {}
-    }
+        (None, Some(lat), Some(lon)) => check_positions(&rec, &a.input, lat, lon).map(|()| Vec::new())?,
+        _ => Vec::new(),
+    };
     let opts = FitOptions { model: match a.model { ModelArg::Kind(m) => m, ModelArg::Auto => ModelKind::Attitude }, field_nt: reference.total_nt(), saturation: a.saturation, allow_weak: a.allow_weak, gyro_lag: if a.estimate_gyro_lag { GyroLag::Estimate } else { GyroLag::Given(a.gyro_lag_s) }, reference: world };
     let working = super::working(&format!("fitting {} rows", rec.len()), a.json);
     let mut doc = match a.model {
@@ -123,6 +123,8 @@ pub fn run(a: Args) -> Result<()> {
     if a.site.lat.is_some() {
         doc.declination_deg = Some(reference.declination_deg());
     }
+    // The site check kept with --allow-weak travels with the document.
+    doc.quality.allowed_weak.extend(site_weak.into_iter().map(|w| format!("fit: {w}")));
     warn_all(&doc);
     print_environment_columns(&rec);
     let summary = match &doc.quality.fit {

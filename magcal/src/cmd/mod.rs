@@ -181,27 +181,34 @@ pub fn check_out(flag: &str, out: &Path, inputs: &[&Path]) -> Result<()> {
 /// [`data::SITE_REFUSE_KM`], naming both. Without a date the declination
 /// is not compared (see [`check_site`]).
 pub fn check_positions(rec: &Recording, path: &Path, lat_deg: f64, lon_deg: f64) -> Result<()> {
-    site_checked(data::check_positions(rec, path, lat_deg, lon_deg, None, false), lat_deg, lon_deg)
+    site_checked(data::check_positions(rec, path, lat_deg, lon_deg, None, false), lat_deg, lon_deg).map(|_| ())
 }
 
 /// [`check_positions`] against a site with its date: the declination at the
 /// farthest position against the site's too, refused beyond
 /// [`data::DECLINATION_CHANGE_LIMIT_DEG`] unless `allow_weak` (then said
-/// on stderr).
-pub fn check_site(rec: &Recording, path: &Path, site: &Site, allow_weak: bool) -> Result<()> {
+/// on stderr, and returned: what a document written from this recording
+/// carries in `quality.allowed_weak`).
+pub fn check_site(rec: &Recording, path: &Path, site: &Site, allow_weak: bool) -> Result<Vec<String>> {
     site_checked(data::check_positions(rec, path, site.lat_deg, site.lon_deg, Some(site.decimal_year), allow_weak), site.lat_deg, site.lon_deg)
 }
 
 /// The warnings of a site check on stderr, or its refusal with its hint;
-/// both name the site as given on the command line.
-fn site_checked(found: std::result::Result<Vec<data::SiteWarning>, IntakeError>, lat_deg: f64, lon_deg: f64) -> Result<()> {
+/// both name the site as given on the command line. Returns the warnings
+/// that were refusals kept only as weak results were allowed.
+fn site_checked(found: std::result::Result<Vec<data::SiteWarning>, IntakeError>, lat_deg: f64, lon_deg: f64) -> Result<Vec<String>> {
     let site = format!("--lat {lat_deg} --lon {lon_deg}");
     match found {
         Ok(warnings) => {
+            let mut weak = Vec::new();
             for w in warnings {
-                eprintln!("warning: {w} (the site: {site})");
+                let said = format!("{w} (the site: {site})");
+                eprintln!("warning: {said}");
+                if matches!(w, data::SiteWarning::Declination { .. }) {
+                    weak.push(said);
+                }
             }
-            Ok(())
+            Ok(weak)
         }
         Err(e @ IntakeError::FarFromSite(_)) => bail!("{e}: check {site} (the sign of each)"),
         Err(e @ IntakeError::DeclinationChange { .. }) => bail!("{e}: check {site}, or give --allow-weak to keep it (said in the output)"),

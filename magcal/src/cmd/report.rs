@@ -146,6 +146,7 @@ pub fn run(a: Args) -> Result<()> {
         let recordings = [(&run_path, run.as_ref()), (&swing_path, swing.as_ref()), (&validation_path, validation.as_ref().map(|(r, _)| r))];
         for (path, rec) in recordings {
             if let (Some(p), Some(r)) = (path, rec) {
+                // Said on stderr; the report writes no calibration to mark.
                 super::check_site(r, p, s, a.allow_weak)?;
             }
         }

@@ -166,8 +166,16 @@ fn a_declination_change_beyond_the_limit_is_refused_unless_allowed() {
     });
     let e = refused(&magcal(&[&["fit", "--input", p(&north), "--model", "axis"][..], &SITE[..]].concat()));
     assert!(e.contains("the declination there is 0.6") && e.contains("0.5° allowed") && e.contains("--allow-weak"), "{e}");
-    let e = ok(&magcal(&[&["fit", "--input", p(&north), "--model", "axis", "--allow-weak"][..], &SITE[..]].concat()));
+    let cal = dir.path().join("north.json");
+    let e = ok(&magcal(&[&["fit", "--input", p(&north), "--model", "axis", "--allow-weak", "--out", p(&cal)][..], &SITE[..]].concat()));
     assert!(e.contains("warning: ") && e.contains("kept as weak results are allowed"), "{e}");
+    // Kept, it travels with the document (before: said on stderr only, and
+    // `apply` used the document without a word).
+    let doc: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&cal).unwrap()).unwrap();
+    let marks = doc["quality"]["allowed_weak"].as_array().expect("the mark");
+    assert!(marks.len() == 1 && marks[0].as_str().unwrap().starts_with("fit: ") && marks[0].as_str().unwrap().contains("the declination there is 0.6"), "{marks:?}");
+    let e = refused(&magcal(&["apply", "--input", p(&north), "--cal", p(&cal), "--out", p(&dir.path().join("north-applied.csv"))]));
+    assert!(e.contains("north.json") && e.contains("only because weak results were allowed") && e.contains("declination there is 0.6") && e.contains("--allow-weak"), "{e}");
     // 1° north (111 km, 0.32°): a warning of the distance only.
     let near = swing(dir.path(), "near.csv", |r| {
         let n = r.len();
