@@ -5,7 +5,10 @@
 //! RMS and the observed/predicted ratio.
 //!
 //! `cargo run --release -p magcal-sim --example effects_variants [scenario|effect+effect…] [seeds…]`
-//! (`VARIANTS=full`: the full chain only)
+//! (`VARIANTS=full`: the full chain only; `VARIANTS=cmp`: beside it the
+//! current term off). The "local decl." column is the validation RMS with
+//! the crustal anomaly's declination taken out (the calibration's own
+//! error, [`magcal_sim::scenario::heading_rms_local_declination_deg`]).
 
 use magcal_sim::scenario::{effects_data, effects_scenarios, evaluate_variant, Variant};
 use magcal_sim::SensorModel;
@@ -17,6 +20,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let seeds = if seeds.is_empty() { vec![1, 2, 3, 4, 5] } else { seeds };
     let variants: Vec<Variant> = match std::env::var("VARIANTS").ok().as_deref() {
         Some("full") => vec![Variant::Full],
+        Some("cmp") => vec![Variant::Full, Variant::NoCurrentTerm],
         _ => Variant::ALL.to_vec(),
     };
     // A scenario's name, or effects joined by `+` (`thrusters+temperature`).
@@ -24,8 +28,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Some((_, e)) => e,
         None => magcal_sim::Effects::parse(&scenario.replace('+', ","))?,
     };
-    println!("| scenario | variant | seed | heading RMS ° | noise ° | systematic ° | |F| err true nT | |F| err IGRF nT | current vec err % | gain err %/°C | predicted ° (cal, run noise) | obs/pred | delay s |");
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("| scenario | variant | seed | heading RMS ° | local decl. ° | noise ° | systematic ° | |F| err true nT | |F| err IGRF nT | current vec err % | gain err %/°C | predicted ° (cal, run noise) | obs/pred | delay s |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let f = |v: Option<f64>, p: usize| v.map_or("–".to_string(), |x| format!("{x:.p$}"));
     for &seed in &seeds {
         let data = effects_data(&SensorModel::paper_like(), seed, &effects)?;
@@ -34,9 +38,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 Ok(o) => {
                     let predicted = format!("{} ({}, {})", f(o.predicted_heading_rms_deg, 3), f(o.predicted_calibration_deg, 3), f(o.run_heading_noise_deg, 3));
                     println!(
-                    "| {scenario} | {} | {seed} | {:.3} | {:.3} | {:.3} | {} | {:.1} | {} | {} | {} | {} | {:.2} |",
+                    "| {scenario} | {} | {seed} | {:.3} | {} | {:.3} | {:.3} | {} | {:.1} | {} | {} | {} | {} | {:.2} |",
                     v.label(),
                     o.heading_rms_deg,
+                    f(o.heading_rms_local_declination_deg, 3),
                     o.heading_noise_deg,
                     o.heading_systematic_deg,
                     f(o.field_error_true_nt, 1),

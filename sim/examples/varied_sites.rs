@@ -24,8 +24,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         e.list()
     });
     let f = |v: Option<f64>, p: usize| v.map_or("–".to_string(), |x| format!("{x:.p$}"));
-    println!("| site | variant | seed | heading RMS ° | noise ° | predicted ° | obs/pred | |F| err true nT | current err % | gain err %/°C | delay s |");
-    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("| site | variant | seed | heading RMS ° | local decl. ° | noise ° | predicted ° | obs/pred | |F| err true nT | current err % | gain err %/°C | delay s |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
     for named in varied_sites().iter().filter(|s| which == "all" || s.name == which) {
         for &seed in &seeds {
             let mut effects = varied_effects(&named.site, seed)?;
@@ -60,10 +60,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             for &v in &variants {
                 match evaluate_variant(&data, v) {
                     Ok(o) => println!(
-                        "| {} | {} | {seed} | {:.3} | {:.3} | {} | {} | {} | {} | {} | {:.2} |",
+                        "| {} | {} | {seed} | {:.3} | {} | {:.3} | {} | {} | {} | {} | {} | {:.2} |",
                         named.name,
                         v.label(),
                         o.heading_rms_deg,
+                        f(o.heading_rms_local_declination_deg, 3),
                         o.heading_noise_deg,
                         f(o.predicted_heading_rms_deg, 3),
                         f(o.observed_over_predicted, 2),

@@ -72,6 +72,47 @@ pub fn field_error_true_nt(doc: &CalDoc, sim: &Simulation) -> Option<f64> {
     (r.samples > 0).then_some(r.rms)
 }
 
+/// The crustal anomaly's declination along a simulated run (the true local
+/// field's against IGRF's at each row), rad; `None` without the simulator's
+/// true-field columns.
+fn anomaly_declination_rad(sim: &Simulation) -> Option<Vec<f64>> {
+    let (n, e) = (sim.effect_column("true_field_n_nt")?, sim.effect_column("true_field_e_nt")?);
+    let rec = &sim.recording;
+    let lat = sim.effect_column("true_lat_deg").or(rec.lat_deg.as_deref())?;
+    let lon = sim.effect_column("true_lon_deg").or(rec.lon_deg.as_deref())?;
+    let year = sim.truth.site.decimal_year;
+    (0..n.len().min(e.len()).min(lat.len()).min(lon.len()))
+        .map(|i| {
+            let f = host_tools::geomag::igrf14(lat[i], lon[i], 0.0, year).ok()?;
+            Some(calib_core::heading::wrap_pi(e[i].atan2(n[i]) - f.east_nt.atan2(f.north_nt)))
+        })
+        .collect()
+}
+
+/// The validation true-heading RMS with the crustal anomaly's declination
+/// taken out, °: each row's error plus the anomaly's declination there,
+/// minus its mean over the calibration run (which the swing fit against
+/// the run's GPS course takes into the heading offset). This is the
+/// calibration's own error: a magnetometer cannot see the declination, so
+/// even the true calibration has the rest, the anomaly's declination along
+/// the validation track beyond the run's mean, in its true-heading error.
+/// `None` without the anomaly's true-field columns.
+pub fn heading_rms_local_declination_deg(doc: &CalDoc, run: &Simulation, validation: &Simulation) -> Option<f64> {
+    let on_run = anomaly_declination_rad(run)?;
+    let run_mean = on_run.iter().sum::<f64>() / on_run.len().max(1) as f64;
+    let on_val = anomaly_declination_rad(validation)?;
+    let headings = compute::true_headings_rad(doc, &validation.recording);
+    let (mut ss, mut n) = (0.0, 0usize);
+    for ((h, t), d) in headings.iter().zip(&validation.true_heading_deg).zip(&on_val) {
+        let e = calib_core::heading::wrap_pi(h - t.to_radians() + d - run_mean);
+        if e.is_finite() {
+            ss += e * e;
+            n += 1;
+        }
+    }
+    (n > 0).then(|| (ss / n as f64).sqrt().to_degrees())
+}
+
 /// What the chain achieved on one simulated field test.
 #[derive(Debug, Clone, Copy, serde::Serialize)]
 pub struct Outcome {
@@ -295,6 +336,10 @@ impl Variant {
 pub struct EffectsOutcome {
     /// Validation true-heading RMS, °.
     pub heading_rms_deg: f64,
+    /// The same with the crustal anomaly's declination along the tracks
+    /// taken out ([`heading_rms_local_declination_deg`]): the calibration's
+    /// own error, °. `None` without the anomaly.
+    pub heading_rms_local_declination_deg: Option<f64>,
     /// The validation heading error's white-noise part, °: from the
     /// differences of consecutive errors (`RMS(e_i − e_{i−1})/√2`), what no
     /// calibration removes (sensor and AHRS noise sample by sample).
@@ -397,6 +442,7 @@ pub fn evaluate_options(data: &EffectsData, options: &ChainOptions) -> Result<Ef
     let predicted_heading_rms_deg = chain.predicted_heading_rms_deg.filter(|p| p.is_finite() && *p > 0.0);
     Ok(EffectsOutcome {
         heading_rms_deg,
+        heading_rms_local_declination_deg: heading_rms_local_declination_deg(&chain.final_doc, &data.run, &data.validation),
         heading_noise_deg,
         heading_systematic_deg: (heading_rms_deg.powi(2) - heading_noise_deg.powi(2)).max(0.0).sqrt(),
         field_error_true_nt: field_error_true_nt(&chain.backstepped, &data.validation),

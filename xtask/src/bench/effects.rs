@@ -26,7 +26,7 @@ pub fn effects_with(seeds: &[u64], other_chains: bool) -> (serde_json::Value, St
     let opt = |v: Option<f64>, digits: usize| v.map_or("–".to_string(), |x| format!("{x:.digits$}"));
     let mut rows = Vec::new();
     let mut md = String::from(
-        "| effects | chain | seed | heading RMS (°) | of which white noise (°) | \\|F\\| error vs true field (nT) | \\|F\\| − IGRF (nT) | current vector error (%) | gain error (%/°C) | predicted heading RMS (°) (covariance, run's noise) | observed / predicted | GPS delay (s) |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+        "| effects | chain | seed | heading RMS (°) | with the anomaly's declination taken out (°) | of which white noise (°) | \\|F\\| error vs true field (nT) | \\|F\\| − IGRF (nT) | current vector error (%) | gain error (%/°C) | predicted heading RMS (°) (covariance, run's noise) | observed / predicted | GPS delay (s) |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     let mut full_all: Vec<EffectsOutcome> = Vec::new();
     let scenarios = effects_scenarios();
@@ -46,9 +46,10 @@ pub fn effects_with(seeds: &[u64], other_chains: bool) -> (serde_json::Value, St
                     Ok(o) => {
                         let _ = writeln!(
                             md,
-                            "| {name} | {} | {seed} | {:.3} | {:.3} | {} | {:.0} | {} | {} | {} ({}, {}) | {} | {:.2} |",
+                            "| {name} | {} | {seed} | {:.3} | {} | {:.3} | {} | {:.0} | {} | {} | {} ({}, {}) | {} | {:.2} |",
                             v.label(),
                             o.heading_rms_deg,
+                            opt(o.heading_rms_local_declination_deg, 3),
                             o.heading_noise_deg,
                             opt(o.field_error_true_nt, 0),
                             o.field_error_igrf_nt,
