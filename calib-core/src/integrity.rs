@@ -51,10 +51,10 @@
 //! calibration knows better, [`Reference::noise_nt`]); a sample not ok adds
 //! its innovation and the size of its field misfit across `H_h`.
 //!
-//! No allocation; the state is about 160 bytes in `f32`
+//! No allocation; the state is about 184 bytes in `f32`
 //! (`size_of::<Monitor<f32>>()`, tested); the levelled field is the
 //! heading's (`OnlineIntegrity::process` levels once), so with
-//! `OnlineIntegrity`'s bookkeeping the integrity adds about 348 Cortex-M4F
+//! `OnlineIntegrity`'s bookkeeping the integrity adds about 349 Cortex-M4F
 //! instructions to a usual sample's heading (`cargo xtask bench`).
 //!
 //! The module's rooms: `verdict` holds the vocabulary (the states,
