@@ -36,7 +36,11 @@
 //! samples, time constant `Tuning::misfit_tau_s`, above
 //! `Tuning::misfit_enter`) means the stored calibration no longer fits the
 //! vehicle: [`IntegrityState::CalInvalid`], until the fraction falls below
-//! `Tuning::misfit_exit` — also while an on-line hard iron is applied: the
+//! `Tuning::misfit_exit` or, for a calibration judged invalid at start-up
+//! (before one time constant was averaged: a magnet passed as the
+//! recording starts weighs as a sustained misfit then), until the fraction
+//! is no longer above the entry and every sample has passed with the gyro
+//! agreeing for [`STARTUP_HOLD_S`] — also while an on-line hard iron is applied: the
 //! stored field is still checked, and takes over again once its own misfit
 //! fraction is below the exit and its headings have agreed with the gyro
 //! for `Tuning::recover_s` (`crate::online`).
@@ -47,10 +51,10 @@
 //! calibration knows better, [`Reference::noise_nt`]); a sample not ok adds
 //! its innovation and the size of its field misfit across `H_h`.
 //!
-//! No allocation; the state is about 160 bytes in `f32`
+//! No allocation; the state is about 184 bytes in `f32`
 //! (`size_of::<Monitor<f32>>()`, tested); the levelled field is the
 //! heading's (`OnlineIntegrity::process` levels once), so with
-//! `OnlineIntegrity`'s bookkeeping the integrity adds about 348 Cortex-M4F
+//! `OnlineIntegrity`'s bookkeeping the integrity adds about 349 Cortex-M4F
 //! instructions to a usual sample's heading (`cargo xtask bench`).
 //!
 //! The module's rooms: `verdict` holds the vocabulary (the states,
@@ -73,7 +77,7 @@ pub use monitor::{
 };
 pub use tuning::{
     Reference, Tuning, DEFAULT_FIELD_SIGMA_REL, INCLINATION_ALLOWANCE_DEG, MAX_MISFIT_STEP,
-    REANCHOR_TURN_DEG, RECOVER_S,
+    REANCHOR_TURN_DEG, RECOVER_S, STARTUP_HOLD_S,
 };
 pub(crate) use monitor::Judgement;
 pub use verdict::{decide, Evidence, HardIronEvidence, IntegrityState, Verdict};

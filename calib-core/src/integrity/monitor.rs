@@ -4,7 +4,7 @@
 
 use super::gyro_heading::{wrap_near, GyroHeading};
 use super::inclination::{cos_of_sin, Inclination};
-use super::tuning::{Reference, Tuning, MAX_MISFIT_STEP};
+use super::tuning::{Reference, Tuning, MAX_MISFIT_STEP, STARTUP_HOLD_S, STARTUP_WEIGHT};
 use super::verdict::{decide, Evidence, HardIronEvidence, Verdict};
 use crate::heading::{Tilt, Vec3};
 use crate::Real;
@@ -93,6 +93,13 @@ pub struct Monitor<T> {
     gyro_fail_turn_rad: T,
     /// Passing time since the last failure, s.
     pass_s: T,
+    /// While the calibration is judged invalid: how long every sample has
+    /// passed with the gyro's anchored prediction agreeing, without a
+    /// break, s (the start-up recovery's clock, [`Monitor::still_invalid`]).
+    agree_s: T,
+    /// The calibration was judged invalid at start-up: before one misfit
+    /// time constant had been averaged.
+    invalid_at_startup: bool,
     disturbed: bool,
     cal_invalid: bool,
     /// Whether the gyro may vouch for a misfitting field's heading
@@ -166,6 +173,8 @@ impl<T: Real> Monitor<T> {
             gyro_fail_s: T::ZERO,
             gyro_fail_turn_rad: T::ZERO,
             pass_s: T::ZERO,
+            agree_s: T::ZERO,
+            invalid_at_startup: false,
             disturbed: false,
             cal_invalid: false,
             vouch: true,
@@ -205,6 +214,8 @@ impl<T: Real> Monitor<T> {
         self.gyro_fail_s = T::ZERO;
         self.gyro_fail_turn_rad = T::ZERO;
         self.pass_s = T::ZERO;
+        self.agree_s = T::ZERO;
+        self.invalid_at_startup = false;
         self.disturbed = true;
     }
 
@@ -288,7 +299,7 @@ impl<T: Real> Monitor<T> {
             (field_nt[0] * field_nt[0] + field_nt[1] * field_nt[1] + field_nt[2] * field_nt[2])
                 .sqrt();
         let field_z = (mag - self.reference.field_nt) / self.reference.field_sigma_nt;
-        self.track_misfit(!(field_z.abs() < self.tuning.no_gyro_gate_sigma), dt);
+        self.track_misfit(!(field_z.abs() < self.tuning.no_gyro_gate_sigma), false, dt);
         self.gyro.anchored = false;
         Judgement {
             evidence: self.evidence(false, false),
@@ -352,7 +363,7 @@ impl<T: Real> Monitor<T> {
         // |innovation| / √s < g, without the square root.
         let field_ok = field_z.abs() < g && dip_z.abs() < g;
         let pass = field_ok && innovation * innovation < self.gyro_gate2 * s;
-        let fraction = self.track_misfit(!field_ok, dt);
+        let fraction = self.track_misfit(!field_ok, pass, dt);
         let turn = rate_rad_s.map(|_| turn);
         self.track_gyro(turn, field_ok, pass, heading_rad, var_m, dt);
         if pass && anchored {
@@ -426,9 +437,10 @@ impl<T: Real> Monitor<T> {
         (var_m + innovation * innovation + e_nt / (hh * hh)).sqrt()
     }
 
-    /// The sustained-misfit fraction and the calibration's validity.
+    /// The sustained-misfit fraction and the calibration's validity
+    /// (`pass`: the sample passed every test, [`Monitor::still_invalid`]).
     #[inline(always)]
-    fn track_misfit(&mut self, misfit: bool, dt: T) -> T {
+    fn track_misfit(&mut self, misfit: bool, pass: bool, dt: T) -> T {
         let tau = self.tuning.misfit_tau_s;
         let a = (dt / tau).min(T::from_f64(MAX_MISFIT_STEP));
         // At least one sample's weight, so the first samples count.
@@ -441,10 +453,52 @@ impl<T: Real> Monitor<T> {
         let seen = self.misfit_weight > T::from_f64(0.28);
         if !self.cal_invalid && fraction > self.tuning.misfit_enter && seen {
             self.cal_invalid = true;
-        } else if self.cal_invalid && fraction < self.tuning.misfit_exit {
-            self.cal_invalid = false;
+            // At start-up or not ([`Monitor::still_invalid`]), its
+            // recovery clock at zero.
+            self.invalid_at_startup = self.misfit_weight < T::from_f64(STARTUP_WEIGHT);
+            self.agree_s = T::ZERO;
+        } else if self.cal_invalid {
+            // Read-only, so nothing the caller holds of `self` is stale.
+            let (invalid, agree_s) = self.still_invalid(pass, dt);
+            self.cal_invalid = invalid;
+            self.agree_s = agree_s;
         }
         fraction
+    }
+
+    /// Whether a calibration judged invalid stays so. It is valid again once
+    /// the misfit fraction is below `Tuning::misfit_exit`; one judged
+    /// invalid at start-up (before one misfit time constant had been
+    /// averaged) also once the fraction is no longer above
+    /// `Tuning::misfit_enter` and every sample has passed the field's
+    /// tests and agreed with the gyro's anchored prediction for longer than
+    /// [`STARTUP_HOLD_S`] without a break (the clock restarts at
+    /// any other sample; `pass`: the sample passed every test): it stays
+    /// invalid only while the evidence lasts.
+    ///
+    /// At start-up the fraction has nothing but the first samples to
+    /// average, so a magnet passed then weighs as a sustained misfit and
+    /// the exit (a tenth, a safety floor) takes seconds of samples that
+    /// fit; later the fraction holds a time constant of the calibration's
+    /// own history, and only the exit ends it. A wrong calibration's
+    /// field rarely fits, and where it happens to, its heading's change
+    /// does not follow the gyro. Inlined: a call here costs the usual
+    /// sample's path registers.
+    /// Returns whether it stays invalid and the recovery clock's new value.
+    #[inline(always)]
+    fn still_invalid(&self, pass: bool, dt: T) -> (bool, T) {
+        // The prediction is anchored here as it was when `pass` was judged
+        // (`track_gyro` runs after).
+        let agree_s = if pass && self.gyro.anchored {
+            self.agree_s + dt
+        } else {
+            T::ZERO
+        };
+        let fraction = self.misfit_fraction();
+        let evidence_ended = self.invalid_at_startup
+            && agree_s > T::from_f64(STARTUP_HOLD_S)
+            && fraction <= self.tuning.misfit_enter;
+        (!(fraction < self.tuning.misfit_exit || evidence_ended), agree_s)
     }
 
     /// Anchors the gyro heading when it is not, and re-anchors it when the

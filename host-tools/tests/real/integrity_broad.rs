@@ -125,20 +125,20 @@ fn trial_28_another_magnet_in_the_room_not_tuned_on() {
         "broad-25-28-34/broad_28.truth.json",
     );
     assert_eq!(s.rows, 970);
-    // Measured: 64.0 % of the 175 rows off by more than 5° not ok, 98.7 %
-    // of the 77 off by more than 10°; 79.9 % of the 423 rows within 2° ok
-    // (78.7 % before the gyro's step mean and its vouching for fields off
-    // the reference; the magnet's first pass, at the file's start, leaves
-    // the calibration invalid for 3 s more: the misfit exit is a safety
-    // floor, not tuned); ok rows 3.00° RMS (1.50 × predicted). An "A"
-    // trial: its dip is 0.6–1° off the lab's, inside the reference's
-    // allowance.
+    // Measured: 61.1 % of the 175 rows off by more than 5° not ok, 98.7 %
+    // of the 77 off by more than 10°; 89.1 % of the 423 rows within 2° ok
+    // (79.9 % before the start-up recovery: the magnet's first pass, at the
+    // file's start, left the calibration invalid until the misfit fraction
+    // fell below a tenth, 3.3 s of a right heading; 78.7 % before the
+    // gyro's step mean and its vouching for fields off the reference); ok
+    // rows 2.98° RMS (1.49 × predicted). An "A" trial: its dip is 0.6–1°
+    // off the lab's, inside the reference's allowance.
     check(
         &s,
         Want {
             flagged: 0.58,
             gross_flagged: 0.95,
-            good_ok: 0.77,
+            good_ok: 0.87,
         },
     );
 }

@@ -278,7 +278,8 @@ impl Knobs {
 /// 111 rows up to 10.2° off, `calib_core` test
 /// `the_guard_refuses_an_estimate_that_does_not_explain_the_misfit`; the
 /// BROAD trials alone would choose 0.3, or 1 s: trial 28's good rows
-/// 84–85 % `ok` instead of 79 %), and
+/// 84–85 % `ok` instead of 79 % before the start-up recovery,
+/// `calib_core::integrity::STARTUP_HOLD_S`, which gives it 89 %), and
 /// a re-anchoring turn of at least 45° (without one, any disturbance
 /// across the meridian that lasts longer than the re-anchoring time is
 /// taken as the truth — test
@@ -670,12 +671,11 @@ pub fn targets(v: &serde_json::Value) -> Vec<super::targets::Target> {
 }
 
 /// The missed targets, held at what the shipped tuning measured (trial,
-/// figure, bound, why): broad-30 27.2 % flagged, broad-28 79.9 % of good
-/// rows `ok` (`magcal apply` with the lab's inclination, the bench's rule;
-/// `xtask/python/integrity_loo.py` ports the monitor exactly, 2026-11-27).
-const HELD: [(&str, &str, super::targets::Bound, &str); 2] = [
+/// figure, bound, why): broad-30 27.2 % flagged (`magcal apply` with the
+/// lab's inclination, the bench's rule; `xtask/python/integrity_loo.py`
+/// ports the monitor exactly, 2026-11-27).
+const HELD: [(&str, &str, super::targets::Bound, &str); 1] = [
     ("broad-30", "bad_not_ok_pct", super::targets::Bound::AtLeast(27.0), "rows 5–8° off whose field fits and whose heading change the gyro confirms: the stored calibration's own error tail after the file's gaps"),
-    ("broad-28", "good_ok_pct", super::targets::Bound::AtLeast(79.5), "the magnet's first pass, at the file's start, leaves the calibration invalid for 3 s more (the misfit exit is a safety floor)"),
 ];
 
 #[cfg(test)]
