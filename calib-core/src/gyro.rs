@@ -515,7 +515,7 @@ fn predicted_heading_rms<T: Real>(x: &[T; UNKNOWNS], n: &Normalised<T>, rms: T, 
 }
 
 mod batch;
-pub use batch::{fit_gyro_batch, GyroBatch};
+pub use batch::{fit_gyro_batch, GyroBatch, WindowChain};
 
 #[cfg(test)]
 mod tests;

@@ -117,10 +117,10 @@ fn finite_sample<T: Real>(s: &GyroSample<T>) -> bool {
 /// older part is rebuilt once — about three matrix products a sample
 /// instead of one a window step. The same windows and the same rotation
 /// to rounding (the products are grouped differently: within 2e-15 on
-/// the unit test's 32-step windows), for the batch fit; the MCU's
-/// [`GyroFit::push`] keeps [`Chain`].
+/// the unit test's 32-step windows), for the batch fit and the host's
+/// robust refinement; the MCU's [`GyroFit::push`] keeps [`Chain`].
 #[derive(Debug, Clone)]
-pub(super) struct WindowChain<T> {
+pub struct WindowChain<T> {
     raw: [Vec3<T>; MAX_WINDOW_STEPS + 1],
     /// The step into each sample, by the sample's index in the chain.
     step: [Mat3<T>; MAX_WINDOW_STEPS + 1],
@@ -135,23 +135,34 @@ pub(super) struct WindowChain<T> {
     previous: Option<(T, Vec3<T>)>,
 }
 
+impl<T: Real> Default for WindowChain<T> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 impl<T: Real> WindowChain<T> {
-    pub(super) fn new() -> Self {
+    /// No samples yet.
+    pub fn new() -> Self {
         Self { raw: [[T::ZERO; 3]; MAX_WINDOW_STEPS + 1], step: [identity3(); MAX_WINDOW_STEPS + 1], back: [identity3(); MAX_WINDOW_STEPS + 1], front: None, m: 1, count: 0, previous: None }
     }
 
     /// Breaks the chain, as a new one would start (the stores are written
     /// before they are read again, so they are left as they are: a broken
     /// chain costs nothing to restart).
-    pub(super) fn reset(&mut self) {
+    pub fn reset(&mut self) {
         self.front = None;
         self.m = 1;
         self.count = 0;
         self.previous = None;
     }
 
-    /// As [`Chain::push`].
-    pub(super) fn push(&mut self, s: &GyroSample<T>, raw: Vec3<T>, cfg: &GyroConfig<T>) -> Option<ChainStep<T>> {
+    /// Adds a finite sample (normalised reading `raw`): once the chain holds
+    /// a window of `cfg.window_steps` steps (at most [`MAX_WINDOW_STEPS`]),
+    /// the reading at its start, `raw`, and the rotation from the start's
+    /// body frame to this one. A step of no time or longer than
+    /// `cfg.max_step_s` starts a new chain at this sample.
+    pub fn push(&mut self, s: &GyroSample<T>, raw: Vec3<T>, cfg: &GyroConfig<T>) -> Option<(Vec3<T>, Vec3<T>, Mat3<T>)> {
         let cap = MAX_WINDOW_STEPS + 1;
         let step = match self.previous {
             Some((t0, w0)) => {
