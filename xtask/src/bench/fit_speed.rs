@@ -70,10 +70,13 @@ fn ours(csv: &Path, opts: &FitOptions, auto: bool) -> Result<(f64, CalDoc), Stri
 
 /// The stated target: `fit` (auto) no slower than scipy's single fit of
 /// one model (ratio ≤ 1). Missed today, so held: no row's ratio may exceed
-/// this. Measured (release, 2 cores shared with other builds, load ≈ 2, so
-/// auto had about one core): 1.96 at 10⁴ rows, 2.63 at 66 500, 3.76 at
-/// 10⁵, 4.49 at 10⁶; auto takes 6.2 CPU-s at 66 500 rows (11.5 before the
-/// host's opt-level 3 and the cheaper iterations), scipy about 1.3.
+/// this. Measured (release, 2 cores shared with other builds, load 1–2):
+/// 0.77 at 10⁴ rows, 1.39 at 66 500, 1.65 at 10⁵, 3.06 at 10⁶ (the run
+/// before: 0.64, 1.35, 2.44, 4.02). Auto is linear, 63–68 µs a row at
+/// every size (4.2 s at 66 500 rows, 63 s at 10⁶); the ratio grows because
+/// scipy's cost a row falls with size (84, 45, 41, 21 µs a row in the same
+/// run: numpy's fixed cost a call spread over more rows) and scipy's time
+/// varies twofold from run to run on the shared machine (10⁶ rows: 16–32 s).
 pub const AUTO_RATIO_HELD: f64 = 5.0;
 
 /// The section's targets: at every row count, `fit` auto ÷ scipy's fit ≤ 1
