@@ -70,13 +70,14 @@ fn ours(csv: &Path, opts: &FitOptions, auto: bool) -> Result<(f64, CalDoc), Stri
 
 /// The stated target: `fit` (auto) no slower than scipy's single fit of
 /// one model (ratio ≤ 1). Missed today, so held: no row's ratio may exceed
-/// this. Measured (release, 2 cores shared with other builds, load 1–2):
-/// 0.77 at 10⁴ rows, 1.39 at 66 500, 1.65 at 10⁵, 3.06 at 10⁶ (the run
-/// before: 0.64, 1.35, 2.44, 4.02). Auto is linear, 63–68 µs a row at
-/// every size (4.2 s at 66 500 rows, 63 s at 10⁶); the ratio grows because
-/// scipy's cost a row falls with size (84, 45, 41, 21 µs a row in the same
-/// run: numpy's fixed cost a call spread over more rows) and scipy's time
-/// varies twofold from run to run on the shared machine (10⁶ rows: 16–32 s).
+/// this. Measured (release, 2 cores shared with other builds): on a quiet
+/// machine (load ≈ 1) 2.03 at 10⁴ rows, 2.14 at 66 500, 2.54 at 10⁵, 2.51
+/// at 10⁶ (auto 2.31 s at 66 500 rows, 34 µs a row at every size; scipy
+/// 1.08 s); under load (≈ 2) 0.64–0.77, 1.35–1.39, 1.65–2.44, 3.06–4.02,
+/// scipy's time varying twofold from run to run (10⁶ rows: 13–32 s). Auto
+/// is linear in the rows; the ratio grows with size because scipy's cost a
+/// row falls (17, 16, 14, 13 µs a row on the quiet run: numpy's fixed cost
+/// a call spread over more rows).
 pub const AUTO_RATIO_HELD: f64 = 5.0;
 
 /// The section's targets: at every row count, `fit` auto ÷ scipy's fit ≤ 1
