@@ -183,6 +183,18 @@ fn rows<T: Real>(x: &[T; UNKNOWNS], dip: (T, T), u: Vec3<T>, c: &Mat3<T>) -> Opt
     Some([(jv, l[2] - sd), (jh, hmag - cd)])
 }
 
+/// The two residuals of [`rows`] without their gradients (the same
+/// operations, so the same values): what the robust scale reads.
+fn residuals<T: Real>(x: &[T; UNKNOWNS], dip: (T, T), u: Vec3<T>, c: &Mat3<T>) -> Option<[T; 2]> {
+    let l = mul_mat_vec(c, model(x, u));
+    let hmag = (l[0] * l[0] + l[1] * l[1]).sqrt();
+    if !(hmag > T::ZERO) {
+        return None;
+    }
+    let (sd, cd) = dip;
+    Some([l[2] - sd, hmag - cd])
+}
+
 /// Huber's weight of a residual `r` at threshold `k`.
 fn huber<T: Real>(r: T, k: T) -> T {
     if r.abs() <= k { T::ONE } else { k / r.abs() }
@@ -262,8 +274,8 @@ impl<T: Real> Prepared<'_, T> {
     fn for_each(&self, x: &[T; UNKNOWNS], mut f: impl FnMut(T)) {
         let dip = dip_sin_cos(x);
         for s in self.usable() {
-            if let Some(rows) = rows(x, dip, self.norm.apply(s.raw), &level_matrix(&s.tilt)) {
-                for (_, r) in rows {
+            if let Some(rs) = residuals(x, dip, self.norm.apply(s.raw), &level_matrix(&s.tilt)) {
+                for r in rs {
                     f(r);
                 }
             }

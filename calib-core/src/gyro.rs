@@ -40,7 +40,7 @@ use crate::fit::{FitError, Normalization};
 use crate::heading::{Tilt, Vec3};
 use crate::linalg::{det3, identity3, inverse3, mul_mat, mul_mat_vec, Mat3};
 use crate::lsq::lm::{self, Acceptance, Damping, LmOptions, LmProblem, Linearisation};
-use crate::lsq::QrRls;
+use crate::lsq::{Information, QrRls};
 use crate::Real;
 
 /// Longest integration window, in steps (the ring buffer's size).
@@ -237,12 +237,15 @@ struct Normalised<T> {
 }
 
 /// Gyro-aided recursive fit (see the module documentation). One instance
-/// per recording or session; runs in `f32` on the MCU.
+/// per recording or session; runs in `f32` on the MCU with the
+/// square-root accumulator `L` ([`QrRls`]); the host's batch reference
+/// accumulates the same equations in the normal equations
+/// ([`crate::lsq::NormalEquations`], `f64`).
 #[derive(Debug, Clone)]
-pub struct GyroFit<T> {
+pub struct GyroFit<T, L = QrRls<T, UNKNOWNS>> {
     norm: Normalization<T>,
     cfg: GyroConfig<T>,
-    rls: QrRls<T, UNKNOWNS>,
+    rls: L,
     chain: Chain<T>,
     /// Σr, Σr·rᵀ and the count of the normalised samples (for the scale).
     sum: Vec3<T>,
@@ -282,10 +285,17 @@ impl<T: Real> GyroFit<T> {
     /// A fit whose raw samples are normalised with `norm` (centre near the
     /// hard iron, scale about the field's radius in raw units).
     pub fn new(norm: Normalization<T>, cfg: GyroConfig<T>) -> Self {
+        Self::with_accumulator(norm, cfg)
+    }
+}
+
+impl<T: Real, L: Information<T, UNKNOWNS>> GyroFit<T, L> {
+    /// [`GyroFit::new`] with the accumulator `L`.
+    pub fn with_accumulator(norm: Normalization<T>, cfg: GyroConfig<T>) -> Self {
         Self {
             norm,
             cfg,
-            rls: QrRls::new(),
+            rls: L::default(),
             chain: Chain::new(),
             sum: [T::ZERO; 3],
             sum_sq: [[T::ZERO; 3]; 3],
@@ -388,7 +398,7 @@ impl<T: Real> GyroFit<T> {
         if self.kinematic_windows < 4 {
             return Err(FitError::TooFewSamples { have: self.kinematic_windows, need: 4 });
         }
-        let x = self.rls.solve()?;
+        let x = self.rls.solve_all()?;
         let a = matrix_of(&x);
         // A must keep the field's handedness: A₀₀ = 1 fixes the sign, and a
         // real sensor has no axis that reads the field backwards.
@@ -440,11 +450,11 @@ impl<T: Real> GyroFit<T> {
         let bias = [0, 1, 2].map(|i| self.norm.centre[i] + s * b_norm[i]);
         let rows = self.kinematic_windows.saturating_mul(3).saturating_add(self.attitude_rows);
         let dof = T::from_f64(f64::from(rows.saturating_sub(UNKNOWNS as u32).max(1)));
-        let sigma2 = self.rls.residual_sum_of_squares() / dof;
+        let sigma2 = self.rls.residual_sum_of_squares_at(&x) / dof;
         let residual_rms_nt = sigma2.sqrt() * k;
         let (mut bias_sigma_raw, mut matrix_sigma_rel, mut predicted) = ([T::NAN; 3], [T::NAN; MATRIX_UNKNOWNS], T::NAN);
         let m = MATRIX_UNKNOWNS;
-        if let Some(cov) = self.rls.covariance() {
+        if let Some(cov) = self.rls.unscaled_covariance() {
             // bias = centre + s·A⁻¹c: σ from c's covariance through A⁻¹.
             for (i, sigma) in bias_sigma_raw.iter_mut().enumerate() {
                 let mut v = T::ZERO;
@@ -505,7 +515,7 @@ fn predicted_heading_rms<T: Real>(x: &[T; UNKNOWNS], n: &Normalised<T>, rms: T, 
 }
 
 mod batch;
-pub use batch::{fit_gyro_batch, GyroBatch};
+pub use batch::{fit_gyro_batch, GyroBatch, WindowChain};
 
 #[cfg(test)]
 mod tests;

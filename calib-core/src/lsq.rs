@@ -235,6 +235,66 @@ impl<T: Real, const N: usize> LeastSquares<T, N> for NormalEquations<T, N> {
     }
 }
 
+/// What a fit reads back from its accumulator besides the estimate: the
+/// unscaled covariance and the residual sum of squares. [`QrRls`] (the
+/// MCU's, any precision) and [`NormalEquations`] (the host's batch fits in
+/// `f64`, where the condition number squared is far inside the precision).
+pub trait Information<T, const N: usize>: LeastSquares<T, N> + Default {
+    /// The estimate of every parameter, refused where [`QrRls::solve`]
+    /// refuses it (too few samples, a direction with too little
+    /// information); the normal equations may refuse more (their Cholesky
+    /// fails first), never less.
+    fn solve_all(&self) -> Result<[T; N], SolveError>;
+    /// `(ΦᵀΦ)⁻¹`, or `None` when a direction has no information.
+    fn unscaled_covariance(&self) -> Option<[[T; N]; N]>;
+    /// `Σ(y − φ·x)²` at the least-squares solution `x`.
+    fn residual_sum_of_squares_at(&self, x: &[T; N]) -> T;
+}
+
+impl<T: Real, const N: usize> Information<T, N> for QrRls<T, N> {
+    fn solve_all(&self) -> Result<[T; N], SolveError> {
+        self.solve()
+    }
+    fn unscaled_covariance(&self) -> Option<[[T; N]; N]> {
+        self.covariance()
+    }
+    fn residual_sum_of_squares_at(&self, _x: &[T; N]) -> T {
+        self.residual_sum_of_squares()
+    }
+}
+
+impl<T: Real, const N: usize> Information<T, N> for NormalEquations<T, N> {
+    fn solve_all(&self) -> Result<[T; N], SolveError> {
+        let x = self.solve()?;
+        // The square-root form's diagonal, |R_ii| = L_ii of ΦᵀΦ's Cholesky
+        // factor, held to the same rank tolerance.
+        let d = self.square_root_diagonal().ok_or(SolveError::IllConditioned { index: 0 })?;
+        let max = d.iter().fold(T::ZERO, |m, &v| m.max(v));
+        let tol = max * rank_tolerance::<T>();
+        match d.iter().position(|v| !(*v > tol)) {
+            Some(i) => Err(SolveError::IllConditioned { index: i as u8 }),
+            None => Ok(x),
+        }
+    }
+    fn unscaled_covariance(&self) -> Option<[[T; N]; N]> {
+        self.covariance()
+    }
+    fn residual_sum_of_squares_at(&self, x: &[T; N]) -> T {
+        // yᵀy − 2xᵀΦᵀy + xᵀΦᵀΦx, the upper triangle doubled.
+        let mut quad = T::ZERO;
+        let mut cross = T::ZERO;
+        for i in 0..N {
+            let mut row = T::ZERO;
+            for j in i + 1..N {
+                row += self.ata[i][j] * x[j];
+            }
+            quad += x[i] * (self.ata[i][i] * x[i] + T::from_f64(2.0) * row);
+            cross += x[i] * self.atb[i];
+        }
+        (self.btb - T::from_f64(2.0) * cross + quad).max(T::ZERO)
+    }
+}
+
 /// `√(a² + b²)` without overflow for large inputs.
 fn hypot<T: Real>(a: T, b: T) -> T {
     let (a, b) = (a.abs(), b.abs());
@@ -345,6 +405,29 @@ impl<T: Real, const N: usize> NormalEquations<T, N> {
         cov.iter().flatten().all(|v| v.is_finite()).then_some(cov)
     }
 
+    /// `|R_ii|` of the square-root form (the diagonal of ΦᵀΦ's Cholesky
+    /// factor, found through the Jacobi-scaled matrix); `None` when it is
+    /// not positive definite.
+    fn square_root_diagonal(&self) -> Option<[T; N]> {
+        let mut d = [T::ONE; N];
+        for (i, di) in d.iter_mut().enumerate() {
+            let a = self.ata[i][i];
+            if !(a > T::ZERO) {
+                return None;
+            }
+            *di = a.sqrt();
+        }
+        let mut a = self.ata;
+        for i in 0..N {
+            for j in 0..N {
+                let v = if j >= i { self.ata[i][j] } else { self.ata[j][i] };
+                a[i][j] = v / (d[i] * d[j]);
+            }
+        }
+        let l = crate::linalg::cholesky(&a).ok()?;
+        Some(core::array::from_fn(|i| l[i][i] * d[i]))
+    }
+
     /// The estimate of the model made of the first `k` columns only.
     pub fn solve_leading(&self, k: usize) -> Result<[T; N], SolveError> {
         let k = k.min(N);
@@ -434,6 +517,40 @@ mod tests {
             flat.update(&[1.0, 0.0], 1.0);
         }
         assert!(flat.covariance().is_none());
+    }
+
+    /// The normal equations read back as the square-root form: the same
+    /// estimate, residual sum of squares and refusals as [`QrRls`] (an
+    /// independent factorisation) on noisy random rows.
+    #[test]
+    fn the_normal_equations_read_back_as_the_square_root_form() {
+        let (mut qr, mut ne) = (QrRls::<f64, 5>::new(), NormalEquations::<f64, 5>::new());
+        let mut seed = 5;
+        for _ in 0..300 {
+            let phi = [lcg(&mut seed), 2.0 * lcg(&mut seed), lcg(&mut seed), 0.05 * lcg(&mut seed), 1.0];
+            let y = 0.3 * phi[0] - 1.5 * phi[1] + 0.01 * lcg(&mut seed);
+            qr.update(&phi, y);
+            ne.update(&phi, y);
+        }
+        let (xq, xn) = (Information::solve_all(&qr).unwrap(), Information::solve_all(&ne).unwrap());
+        for i in 0..5 {
+            // Measured: 5e-15.
+            assert!((xq[i] - xn[i]).abs() < 1e-13, "{i}: {} {}", xq[i], xn[i]);
+        }
+        let (rq, rn) = (qr.residual_sum_of_squares_at(&xq), ne.residual_sum_of_squares_at(&xn));
+        // The noise's RSS is about 300 · 0.01² / 3 = 0.01 (0.0105); the two
+        // agree to 3.5e-11 relative (the normal equations' cancellation).
+        assert!((rq - rn).abs() < 2e-10 * rq, "{rq} {rn}");
+        // A column with a millionth of the others' information left (the
+        // square-root form's |R_ii| under its rank tolerance): both refuse it.
+        let (mut qr, mut ne) = (QrRls::<f64, 2>::new(), NormalEquations::<f64, 2>::new());
+        for t in [0.0, 1.0, 2.0, 3.0] {
+            let phi = [1.0 + t, 1.0 + t + 1e-15 * t * t];
+            qr.update(&phi, t);
+            ne.update(&phi, t);
+        }
+        assert!(matches!(Information::solve_all(&qr), Err(SolveError::IllConditioned { .. })));
+        assert!(matches!(Information::solve_all(&ne), Err(SolveError::IllConditioned { .. })));
     }
 
     #[test]

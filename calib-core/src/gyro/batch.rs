@@ -4,6 +4,7 @@
 //! sub-sample lag behind it, and the two-stack window chain that feeds it.
 
 use super::*;
+use crate::lsq::NormalEquations;
 /// Most Gauss–Newton passes for the gyro bias and lag per alternation.
 const TIMING_PASSES: u32 = 2;
 /// Most alternations between the linear field solve and the gyro-bias step.
@@ -28,10 +29,30 @@ pub struct GyroBatch<T> {
 /// magnetometer's lag behind it (field fixed, same windows), and returns
 /// the final estimate with the bias (rad/s) and the lag (s), both starting
 /// from the configuration's.
+///
+/// In `f64` the linear solves accumulate the normal equations (the
+/// information matrix's condition number squared is far inside `f64`'s
+/// precision; several times cheaper than the square-root form a sample),
+/// their covariance the inverse information; where they fail (a solve
+/// refused, no covariance) the whole alternation is done again in the
+/// square-root form, which then decides. In `f32` every solve is the
+/// square-root form's.
 pub fn fit_gyro_batch<T: Real>(samples: &[GyroSample<T>], cfg: &GyroConfig<T>, field_nt: T) -> Result<GyroBatch<T>, FitError> {
     let norm = normalization_of(samples).ok_or(FitError::TooFewSamples { have: samples.len() as u32, need: 2 })?;
+    if T::EPSILON < T::from_f64(1e-10) {
+        if let Ok((batch, true)) = alternate::<T, NormalEquations<T, UNKNOWNS>>(samples, norm, cfg, field_nt) {
+            return Ok(batch);
+        }
+    }
+    alternate::<T, QrRls<T, UNKNOWNS>>(samples, norm, cfg, field_nt).map(|(batch, _)| batch)
+}
+
+/// The alternation of [`fit_gyro_batch`] with the accumulator `L`, and
+/// whether the final fit has a covariance (without one the estimate's σ
+/// are NaN, [`GyroFit::estimate`]).
+fn alternate<T: Real, L: Information<T, UNKNOWNS>>(samples: &[GyroSample<T>], norm: Normalization<T>, cfg: &GyroConfig<T>, field_nt: T) -> Result<(GyroBatch<T>, bool), FitError> {
     let mut cfg = *cfg;
-    let mut fit = run(samples, norm, &cfg);
+    let mut fit = run::<T, L>(samples, norm, &cfg);
     // The linear solve absorbs part of a gyro bias into A and c, so the
     // alternation converges linearly: on the unit tests' data 3 rounds left
     // 6e-4 rad/s and 0.18° of heading, 12 rounds 2e-5 rad/s.
@@ -54,19 +75,21 @@ pub fn fit_gyro_batch<T: Real>(samples: &[GyroSample<T>], cfg: &GyroConfig<T>, f
         let lag_moved = (lag - cfg.gyro_lag_s).abs();
         cfg.gyro_bias_rad_s = [bx, by, bz];
         cfg.gyro_lag_s = lag;
-        fit = run(samples, norm, &cfg);
+        fit = run::<T, L>(samples, norm, &cfg);
         if moved < T::from_f64(BIAS_TOLERANCE_RAD_S) && lag_moved < T::from_f64(LAG_TOLERANCE_S) {
             break;
         }
     }
-    Ok(GyroBatch { estimate: fit.estimate(field_nt)?, gyro_bias_rad_s: cfg.gyro_bias_rad_s, gyro_lag_s: cfg.gyro_lag_s })
+    let estimate = fit.estimate(field_nt)?;
+    let has_covariance = fit.rls.unscaled_covariance().is_some();
+    Ok((GyroBatch { estimate, gyro_bias_rad_s: cfg.gyro_bias_rad_s, gyro_lag_s: cfg.gyro_lag_s }, has_covariance))
 }
 
 /// The samples through a [`GyroFit`] as [`GyroFit::push`] takes them, the
 /// windows' rotations from a [`WindowChain`] (the batch's: a few matrix
 /// products a sample instead of one a window step).
-fn run<T: Real>(samples: &[GyroSample<T>], norm: Normalization<T>, cfg: &GyroConfig<T>) -> GyroFit<T> {
-    let mut fit = GyroFit::new(norm, *cfg);
+fn run<T: Real, L: Information<T, UNKNOWNS>>(samples: &[GyroSample<T>], norm: Normalization<T>, cfg: &GyroConfig<T>) -> GyroFit<T, L> {
+    let mut fit = GyroFit::<T, L>::with_accumulator(norm, *cfg);
     let mut chain = WindowChain::new();
     for s in samples {
         if !finite_sample(s) {
@@ -94,10 +117,10 @@ fn finite_sample<T: Real>(s: &GyroSample<T>) -> bool {
 /// older part is rebuilt once — about three matrix products a sample
 /// instead of one a window step. The same windows and the same rotation
 /// to rounding (the products are grouped differently: within 2e-15 on
-/// the unit test's 32-step windows), for the batch fit; the MCU's
-/// [`GyroFit::push`] keeps [`Chain`].
+/// the unit test's 32-step windows), for the batch fit and the host's
+/// robust refinement; the MCU's [`GyroFit::push`] keeps [`Chain`].
 #[derive(Debug, Clone)]
-pub(super) struct WindowChain<T> {
+pub struct WindowChain<T> {
     raw: [Vec3<T>; MAX_WINDOW_STEPS + 1],
     /// The step into each sample, by the sample's index in the chain.
     step: [Mat3<T>; MAX_WINDOW_STEPS + 1],
@@ -112,23 +135,34 @@ pub(super) struct WindowChain<T> {
     previous: Option<(T, Vec3<T>)>,
 }
 
+impl<T: Real> Default for WindowChain<T> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 impl<T: Real> WindowChain<T> {
-    pub(super) fn new() -> Self {
+    /// No samples yet.
+    pub fn new() -> Self {
         Self { raw: [[T::ZERO; 3]; MAX_WINDOW_STEPS + 1], step: [identity3(); MAX_WINDOW_STEPS + 1], back: [identity3(); MAX_WINDOW_STEPS + 1], front: None, m: 1, count: 0, previous: None }
     }
 
     /// Breaks the chain, as a new one would start (the stores are written
     /// before they are read again, so they are left as they are: a broken
     /// chain costs nothing to restart).
-    pub(super) fn reset(&mut self) {
+    pub fn reset(&mut self) {
         self.front = None;
         self.m = 1;
         self.count = 0;
         self.previous = None;
     }
 
-    /// As [`Chain::push`].
-    pub(super) fn push(&mut self, s: &GyroSample<T>, raw: Vec3<T>, cfg: &GyroConfig<T>) -> Option<ChainStep<T>> {
+    /// Adds a finite sample (normalised reading `raw`): once the chain holds
+    /// a window of `cfg.window_steps` steps (at most [`MAX_WINDOW_STEPS`]),
+    /// the reading at its start, `raw`, and the rotation from the start's
+    /// body frame to this one. A step of no time or longer than
+    /// `cfg.max_step_s` starts a new chain at this sample.
+    pub fn push(&mut self, s: &GyroSample<T>, raw: Vec3<T>, cfg: &GyroConfig<T>) -> Option<(Vec3<T>, Vec3<T>, Mat3<T>)> {
         let cap = MAX_WINDOW_STEPS + 1;
         let step = match self.previous {
             Some((t0, w0)) => {

@@ -42,11 +42,12 @@ use calib_core::heading::{level, magnetic_heading_rad};
 use rayon::prelude::*;
 
 use super::error::ComputeError;
-use super::fit::{fit_with, Checks, FitOptions};
+use super::fit::{fit_with, fit_with_plain_gyro, Checks, FitOptions};
 use super::heading_judge::GyroYaw;
 use super::truth::heading_rms_after_offset_deg;
 use crate::data::Recording;
 use crate::doc::auto::{AutoChoice, CandidateRow, HeldOutBasis, MAX_HELD_OUT_DEG};
+use crate::doc::results::GyroQuality;
 use crate::doc::CalDoc;
 
 /// The gyro yaw judges only when at least this share of the rows lies in
@@ -237,9 +238,12 @@ impl Default for YawJudge {
 /// [`fit_auto`] with the gyro-yaw judge's constants `judge` (for choosing them).
 pub fn fit_auto_judged(rec: &Recording, opts: &FitOptions, judge: &YawJudge) -> Result<(CalDoc, AutoChoice), ComputeError> {
     let mut basis = basis_of(rec);
+    // The plain gyro fit of the whole recording: the gyro-yaw judge's bias,
+    // and the gyro candidate's start (fitted once for both).
+    let plain_gyro = (basis == HeldOutBasis::GyroYaw).then(|| super::gyro::fit_gyro_recording(rec, opts.field_nt, opts.gyro_lag).ok()).flatten();
     // A gyro logged too sparsely to integrate (no stretch of a few rows
     // without a break over most of the recording) leaves the field's judge.
-    let yaw = if basis == HeldOutBasis::GyroYaw { gyro_yaw(rec, opts, judge.max_stretch_s).filter(|y| y.usable_share() >= judge.min_share) } else { None };
+    let yaw = if basis == HeldOutBasis::GyroYaw { gyro_yaw(rec, plain_gyro.as_ref(), judge.max_stretch_s).filter(|y| y.usable_share() >= judge.min_share) } else { None };
     if basis == HeldOutBasis::GyroYaw && yaw.is_none() {
         basis = HeldOutBasis::FieldAndDip;
     }
@@ -249,6 +253,7 @@ pub fn fit_auto_judged(rec: &Recording, opts: &FitOptions, judge: &YawJudge) -> 
     let mut rows = Vec::new();
     // (held-out, own expected, document) of every judged candidate.
     let mut judged: Vec<(f64, f64, CalDoc)> = Vec::new();
+    let (top_field_nt, top_gyro_lag) = (opts.field_nt, opts.gyro_lag);
     // Each levelled model also with the dip held at the world model's.
     for (model, opts) in super::dip_held::with_held(candidates(), opts) {
         let opts = &opts;
@@ -261,7 +266,8 @@ pub fn fit_auto_judged(rec: &Recording, opts: &FitOptions, judge: &YawJudge) -> 
         }
         // The full fit and the held-out folds side by side (the folds'
         // judgement is only read when the full fit is accepted).
-        let (full, held_out) = rayon::join(|| fit_candidate(rec, model, opts), || held_out_deg(model, rec, opts, basis, yaw.as_ref()));
+        let plain = plain_gyro.as_ref().filter(|_| opts.field_nt == top_field_nt && opts.gyro_lag == top_gyro_lag);
+        let (full, held_out) = rayon::join(|| fit_candidate(rec, model, opts, plain), || held_out_deg(model, rec, opts, basis, yaw.as_ref()));
         match full {
             Err(e) => row.refused = Some(e.to_string()),
             Ok((doc, note)) => {
@@ -393,10 +399,11 @@ pub fn basis_text(basis: HeldOutBasis) -> &'static str {
 }
 
 /// The gyro yaw track of the held-out judge, the gyro's bias removed as
-/// the gyro-aided fit of the whole recording estimates it (none when that
-/// fit fails: a bias of 0.005 rad/s then bends a 2 s stretch by 0.6°).
-fn gyro_yaw(rec: &Recording, opts: &FitOptions, max_stretch_s: f64) -> Option<GyroYaw> {
-    let bias = super::gyro::fit_gyro_recording(rec, opts.field_nt, opts.gyro_lag).map_or([0.0; 3], |(_, q)| q.gyro_bias_rad_s);
+/// `plain`, the plain gyro-aided fit of the whole recording, estimates it
+/// (none when that fit fails: a bias of 0.005 rad/s then bends a 2 s
+/// stretch by 0.6°).
+fn gyro_yaw(rec: &Recording, plain: Option<&(FieldCal<f64>, GyroQuality)>, max_stretch_s: f64) -> Option<GyroYaw> {
+    let bias = plain.map_or([0.0; 3], |(_, q)| q.gyro_bias_rad_s);
     GyroYaw::with_stretch(rec, bias, max_stretch_s)
 }
 
@@ -408,9 +415,9 @@ fn gyro_yaw(rec: &Recording, opts: &FitOptions, max_stretch_s: f64) -> Option<Gy
 /// note). Every other refusal stands (coverage, the world model's
 /// disagreement, unusable coefficients); the attitude columns' units were
 /// checked once for all ([`fit_auto`]).
-fn fit_candidate(rec: &Recording, model: ModelKind, opts: &FitOptions) -> Result<(CalDoc, Option<String>), ComputeError> {
+fn fit_candidate(rec: &Recording, model: ModelKind, opts: &FitOptions, plain_gyro: Option<&(FieldCal<f64>, GyroQuality)>) -> Result<(CalDoc, Option<String>), ComputeError> {
     let magnitude_gate = !super::models::entry(model).levelled;
-    let doc = fit_with(rec, &FitOptions { model, ..opts.clone() }, Checks { attitude_units: false, magnitude_gate })?;
+    let doc = fit_with_plain_gyro(rec, &FitOptions { model, ..opts.clone() }, Checks { attitude_units: false, magnitude_gate }, plain_gyro)?;
     let note = doc.quality.fit.as_ref().and_then(|f| f.warnings.iter().find(|w| w.contains("judged on held-out data instead")).cloned());
     Ok((doc, note))
 }

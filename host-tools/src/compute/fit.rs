@@ -3,7 +3,7 @@
 //! gates that refuse a weak calibration.
 
 use calib_core::attitude_fit::AttitudeConfig;
-use calib_core::cal::ModelKind;
+use calib_core::cal::{FieldCal, ModelKind};
 use calib_core::fit::{fit_batch, Axis, FitError, Full, Sphere};
 use calib_core::ortho;
 use calib_core::quality::{assess, Quality};
@@ -11,7 +11,7 @@ use calib_core::quality::{assess, Quality};
 use super::gyro::GyroLag;
 use super::units::units_guess;
 use super::error::ComputeError;
-use crate::doc::results::{FitQuality, Quality as ResultsQuality};
+use crate::doc::results::{FitQuality, GyroQuality, Quality as ResultsQuality};
 use crate::data::Recording;
 use crate::doc::CalDoc;
 use crate::doc::reference::{DipConstraint, Reference, ReferenceSource, HELD_DIP_SIGMA_DEG};
@@ -75,6 +75,14 @@ pub fn fit_recording(rec: &Recording, opts: &FitOptions) -> Result<CalDoc, Compu
 
 /// [`fit_recording`] with the checks `checks` leaves on.
 pub(crate) fn fit_with(rec: &Recording, opts: &FitOptions, checks: Checks) -> Result<CalDoc, ComputeError> {
+    fit_with_plain_gyro(rec, opts, checks, None)
+}
+
+/// [`fit_with`]; for the gyro model, `plain` is the plain gyro fit of
+/// `rec` with `opts`' field and lag when the caller has it already
+/// ([`super::gyro::fit_gyro_recording`]'s result, which it then is not
+/// asked for again).
+pub(crate) fn fit_with_plain_gyro(rec: &Recording, opts: &FitOptions, checks: Checks, plain: Option<&(FieldCal<f64>, GyroQuality)>) -> Result<CalDoc, ComputeError> {
     if !(opts.field_nt > 0.0 && opts.field_nt.is_finite()) {
         return Err(ComputeError::NoReference);
     }
@@ -98,7 +106,10 @@ pub(crate) fn fit_with(rec: &Recording, opts: &FitOptions, checks: Checks) -> Re
         ModelKind::Axis => fit_batch::<Axis, 6, f64>(&samples, opts.field_nt),
         ModelKind::Full | ModelKind::Triangular => fit_batch::<Full, 9, f64>(&samples, opts.field_nt),
         ModelKind::Gyro => {
-            let (plain, q) = super::gyro::fit_gyro_recording(rec, opts.field_nt, opts.gyro_lag)?;
+            let (plain, q) = match plain {
+                Some(given) => given.clone(),
+                None => super::gyro::fit_gyro_recording(rec, opts.field_nt, opts.gyro_lag)?,
+            };
             // Huber-reweighted from the plain solution, with its gyro bias
             // and lag (an estimated lag: the rates read at all of it).
             let given_lag_s = match opts.gyro_lag {

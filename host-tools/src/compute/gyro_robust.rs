@@ -9,7 +9,7 @@
 
 use calib_core::cal::FieldCal;
 use calib_core::fit::Normalization;
-use calib_core::gyro::{body_step_rotation, GyroConfig, GyroSample};
+use calib_core::gyro::{GyroConfig, GyroSample, WindowChain};
 use calib_core::heading::Tilt;
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
@@ -22,53 +22,35 @@ pub const HUBER_K: f64 = 1.345;
 /// Reweighting passes.
 pub const PASSES: usize = 8;
 
-/// One equation group: rows of `Φ` and targets, and which kind.
+/// One equation group: rows of `Φ` and targets (the first `len`), and which kind.
 struct Group {
-    rows: Vec<([f64; N], f64)>,
+    rows: [([f64; N], f64); 3],
+    len: usize,
     kinematic: bool,
 }
 
-/// The groups of every window and attitude row of `samples`, normalised with `norm`.
+impl Group {
+    fn rows(&self) -> &[([f64; N], f64)] {
+        &self.rows[..self.len]
+    }
+}
+
+/// The groups of every window and attitude row of `samples`, normalised
+/// with `norm`; the windows' rotations from calib-core's [`WindowChain`]
+/// (the batch fit's: a few matrix products a sample instead of one a
+/// window step).
 fn groups(samples: &[GyroSample<f64>], norm: &Normalization<f64>, cfg: &GyroConfig<f64>) -> Vec<Group> {
-    let k = cfg.window_steps.max(1);
-    let mut out = Vec::new();
-    // The unbroken stretch so far: normalised raw and the step rotation into each.
-    let mut raw: Vec<[f64; 3]> = Vec::new();
-    let mut steps: Vec<Matrix3<f64>> = Vec::new();
-    let mut prev: Option<(f64, [f64; 3])> = None;
+    let mut out = Vec::with_capacity(2 * samples.len());
+    let mut chain = WindowChain::new();
     for s in samples {
         let finite = s.t_s.is_finite() && s.raw.iter().chain(s.rate_rad_s.iter()).all(|v| v.is_finite());
         if !finite {
-            raw.clear();
-            steps.clear();
-            prev = None;
+            chain.reset();
             continue;
         }
         let r = norm.apply(s.raw);
-        match prev {
-            Some((t0, w0)) if s.t_s - t0 > 0.0 && s.t_s - t0 <= cfg.max_step_s => {
-                let dt = s.t_s - t0;
-                let theta = [0, 1, 2].map(|a| ((w0[a] + s.rate_rad_s[a]) * 0.5 - cfg.gyro_bias_rad_s[a]) * dt - cfg.gyro_lag_s * (s.rate_rad_s[a] - w0[a]));
-                let m = body_step_rotation(theta);
-                steps.push(Matrix3::from_fn(|i, j| m[i][j]));
-                raw.push(r);
-            }
-            _ => {
-                raw.clear();
-                steps.clear();
-                raw.push(r);
-                steps.push(Matrix3::identity());
-            }
-        }
-        prev = Some((s.t_s, s.rate_rad_s));
-        let n = raw.len();
-        if n > k {
-            let mut rot = Matrix3::identity();
-            for st in &steps[n - k..] {
-                rot = st * rot;
-            }
-            let (ri, rj) = (raw[n - 1 - k], raw[n - 1]);
-            // Column for unknown (row, col) of A: E·r_j − R·E·r_i.
+        if let Some((ri, rj, rot)) = chain.push(s, r, cfg) {
+            let rot = Matrix3::from_fn(|i, j| rot[i][j]);
             let col = |row: usize, c: usize| -> Vector3<f64> {
                 let mut ej = Vector3::zeros();
                 ej[row] = rj[c];
@@ -77,8 +59,8 @@ fn groups(samples: &[GyroSample<f64>], norm: &Normalization<f64>, cfg: &GyroConf
                 ej - rot * ei
             };
             let u0 = col(0, 0);
-            let mut rows = Vec::with_capacity(3);
-            for m in 0..3 {
+            let mut rows = [([0.0; N], 0.0); 3];
+            for (m, out_row) in rows.iter_mut().enumerate() {
                 let mut phi = [0.0; N];
                 for (idx, (row, c)) in ENTRIES.iter().enumerate() {
                     phi[idx] = col(*row, *c)[m];
@@ -87,9 +69,9 @@ fn groups(samples: &[GyroSample<f64>], norm: &Normalization<f64>, cfg: &GyroConf
                     let i_minus_r = if m == nn { 1.0 } else { 0.0 } - rot[(m, nn)];
                     phi[8 + nn] = -i_minus_r;
                 }
-                rows.push((phi, -u0[m]));
+                *out_row = (phi, -u0[m]);
             }
-            out.push(Group { rows, kinematic: true });
+            out.push(Group { rows, len: 3, kinematic: true });
         }
         let w = cfg.attitude_weight;
         if s.roll_rad.is_finite() && s.pitch_rad.is_finite() && w > 0.0 {
@@ -102,7 +84,9 @@ fn groups(samples: &[GyroSample<f64>], norm: &Normalization<f64>, cfg: &GyroConf
                 phi[8 + nn] = -w * l[nn];
             }
             phi[11] = -w;
-            out.push(Group { rows: vec![(phi, -w * l[0] * r[0])], kinematic: false });
+            let mut rows = [([0.0; N], 0.0); 3];
+            rows[0] = (phi, -w * l[0] * r[0]);
+            out.push(Group { rows, len: 1, kinematic: false });
         }
     }
     out
@@ -113,7 +97,7 @@ const ENTRIES: [(usize, usize); 8] = [(0, 1), (0, 2), (1, 0), (1, 1), (1, 2), (2
 
 /// The residual norm of a group at `x`.
 fn residual(g: &Group, x: &SVector<f64, N>) -> f64 {
-    g.rows.iter().map(|(phi, y)| (SVector::<f64, N>::from_column_slice(phi).dot(x) - y).powi(2)).sum::<f64>().sqrt()
+    g.rows().iter().map(|(phi, y)| (SVector::<f64, N>::from_column_slice(phi).dot(x) - y).powi(2)).sum::<f64>().sqrt()
 }
 
 /// The unknowns of a calibration `h = M·(raw − b)` in `norm`'s units
@@ -159,7 +143,7 @@ pub fn refine(samples: &[GyroSample<f64>], cfg: &GyroConfig<f64>, field_nt: f64,
     let mut res = vec![0.0; gs.len()];
     for _ in 0..PASSES {
         for (r, g) in res.iter_mut().zip(&gs) {
-            *r = residual(g, &x) / (g.rows.len() as f64).sqrt();
+            *r = residual(g, &x) / (g.rows().len() as f64).sqrt();
         }
         // Robust scale of each kind: 1.4826 × the median residual norm
         // (per row of the group).
@@ -178,7 +162,7 @@ pub fn refine(samples: &[GyroSample<f64>], cfg: &GyroConfig<f64>, field_nt: f64,
                 Some(s) if s > 0.0 && r > HUBER_K * s => HUBER_K * s / r,
                 _ => 1.0,
             };
-            for (phi, y) in &g.rows {
+            for (phi, y) in g.rows() {
                 for i in 0..N {
                     let wp = w * phi[i];
                     for j in 0..=i {
