@@ -364,22 +364,7 @@ impl<T: Real, const N: usize> NormalEquations<T, N> {
         if (self.count as usize) < N {
             return None;
         }
-        let mut d = [T::ONE; N];
-        for (i, di) in d.iter_mut().enumerate() {
-            let a = self.ata[i][i];
-            if !(a > T::ZERO) {
-                return None;
-            }
-            *di = T::ONE / a.sqrt();
-        }
-        let mut a = self.ata;
-        for i in 0..N {
-            for j in 0..N {
-                let v = if j >= i { self.ata[i][j] } else { self.ata[j][i] };
-                a[i][j] = v * d[i] * d[j];
-            }
-        }
-        let l = crate::linalg::cholesky(&a).ok()?;
+        let (d, l) = self.scaled_cholesky()?;
         // L⁻¹ (lower triangular) by forward substitution, then
         // (ΦᵀΦ)⁻¹ = D·L⁻ᵀL⁻¹·D.
         let mut inv = [[T::ZERO; N]; N];
@@ -409,23 +394,30 @@ impl<T: Real, const N: usize> NormalEquations<T, N> {
     /// factor, found through the Jacobi-scaled matrix); `None` when it is
     /// not positive definite.
     fn square_root_diagonal(&self) -> Option<[T; N]> {
+        let (d, l) = self.scaled_cholesky()?;
+        Some(core::array::from_fn(|i| l[i][i] / d[i]))
+    }
+
+    /// The Jacobi scaling `D = diag(1/√(ΦᵀΦ)ᵢᵢ)` and the Cholesky factor of
+    /// `D·ΦᵀΦ·D` (the upper triangle read); `None` when a direction has no
+    /// information or the scaled matrix is not positive definite.
+    fn scaled_cholesky(&self) -> Option<([T; N], [[T; N]; N])> {
         let mut d = [T::ONE; N];
         for (i, di) in d.iter_mut().enumerate() {
             let a = self.ata[i][i];
             if !(a > T::ZERO) {
                 return None;
             }
-            *di = a.sqrt();
+            *di = T::ONE / a.sqrt();
         }
         let mut a = self.ata;
         for i in 0..N {
             for j in 0..N {
                 let v = if j >= i { self.ata[i][j] } else { self.ata[j][i] };
-                a[i][j] = v / (d[i] * d[j]);
+                a[i][j] = v * d[i] * d[j];
             }
         }
-        let l = crate::linalg::cholesky(&a).ok()?;
-        Some(core::array::from_fn(|i| l[i][i] * d[i]))
+        crate::linalg::cholesky(&a).ok().map(|l| (d, l))
     }
 
     /// The estimate of the model made of the first `k` columns only.
