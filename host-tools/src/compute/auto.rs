@@ -253,7 +253,6 @@ pub fn fit_auto_judged(rec: &Recording, opts: &FitOptions, judge: &YawJudge) -> 
     let mut rows = Vec::new();
     // (held-out, own expected, document) of every judged candidate.
     let mut judged: Vec<(f64, f64, CalDoc)> = Vec::new();
-    let (top_field_nt, top_gyro_lag) = (opts.field_nt, opts.gyro_lag);
     // Each levelled model also with the dip held at the world model's.
     for (model, opts) in super::dip_held::with_held(candidates(), opts) {
         let opts = &opts;
@@ -266,8 +265,9 @@ pub fn fit_auto_judged(rec: &Recording, opts: &FitOptions, judge: &YawJudge) -> 
         }
         // The full fit and the held-out folds side by side (the folds'
         // judgement is only read when the full fit is accepted).
-        let plain = plain_gyro.as_ref().filter(|_| opts.field_nt == top_field_nt && opts.gyro_lag == top_gyro_lag);
-        let (full, held_out) = rayon::join(|| fit_candidate(rec, model, opts, plain), || held_out_deg(model, rec, opts, basis, yaw.as_ref()));
+        // The held candidates differ only in their reference, so the plain
+        // gyro fit (field and lag) is every candidate's.
+        let (full, held_out) = rayon::join(|| fit_candidate(rec, model, opts, plain_gyro.as_ref()), || held_out_deg(model, rec, opts, basis, yaw.as_ref()));
         match full {
             Err(e) => row.refused = Some(e.to_string()),
             Ok((doc, note)) => {
@@ -283,12 +283,10 @@ pub fn fit_auto_judged(rec: &Recording, opts: &FitOptions, judge: &YawJudge) -> 
                         // turn the noise into heading): the held-out one.
                         let own = doc.quality.expected_heading_rms_deg.unwrap_or(h);
                         if let Some((e, gap_deg)) = widened {
-                            let said = format!("its expected error widened to {e:.2}° for the {gap_deg:.0}° of headings it never saw");
-                            row.note = Some(row.note.take().map_or(said.clone(), |n| format!("{n}; {said}")));
+                            add_note(&mut row.note, format!("its expected error widened to {e:.2}° for the {gap_deg:.0}° of headings it never saw"));
                         }
                         if !doc.quality.allowed_weak.is_empty() {
-                            let said = format!("does not qualify: {}", doc.quality.allowed_weak.join("; "));
-                            row.note = Some(row.note.take().map_or(said.clone(), |n| format!("{n}; {said}")));
+                            add_note(&mut row.note, format!("does not qualify: {}", doc.quality.allowed_weak.join("; ")));
                         }
                         judged.push((h, widened.map_or(own, |(e, _)| e), doc));
                     }
@@ -310,7 +308,7 @@ pub fn fit_auto_judged(rec: &Recording, opts: &FitOptions, judge: &YawJudge) -> 
         Choice::Kept(i) => (i, None),
         // Numbers below the limit: what made it weak is the document's own
         // mark (`quality.allowed_weak`, `reference.check`), which travels.
-        Choice::KeptWeak(i) if scores[i].held_out_deg < MAX_HELD_OUT_DEG && scores[i].expected_deg < MAX_HELD_OUT_DEG => (i, None),
+        Choice::KeptWeak(i) if scores[i].within_limit() => (i, None),
         Choice::KeptWeak(i) => {
             let (h, e, doc) = &judged[i];
             let why = WeakWhy { model: super::dip_held::chosen_name(doc), held_out_deg: *h, expected_deg: *e, basis };
@@ -353,11 +351,26 @@ struct Score {
     sound: bool,
 }
 
+impl Score {
+    /// Both errors below [`MAX_HELD_OUT_DEG`] (NaN never is).
+    fn within_limit(&self) -> bool {
+        self.held_out_deg < MAX_HELD_OUT_DEG && self.expected_deg < MAX_HELD_OUT_DEG
+    }
+}
+
+/// A candidate row's note with `said` added after what it holds.
+fn add_note(note: &mut Option<String>, said: String) {
+    *note = Some(match note.take() {
+        Some(n) => format!("{n}; {said}"),
+        None => said,
+    });
+}
+
 /// The choice among the judged candidates: the least held-out error among
 /// the sound ones with both errors below [`MAX_HELD_OUT_DEG`]; when none,
 /// the least held-out error overall is kept weak (`allow_weak`) or refused.
 fn choose(scores: &[Score], allow_weak: bool) -> Choice {
-    let qualifies = |s: &Score| s.sound && s.held_out_deg < MAX_HELD_OUT_DEG && s.expected_deg < MAX_HELD_OUT_DEG;
+    let qualifies = |s: &Score| s.sound && s.within_limit();
     let least = |only_qualified: bool| scores.iter().enumerate().filter(|(_, s)| !only_qualified || qualifies(s)).min_by(|a, b| a.1.held_out_deg.total_cmp(&b.1.held_out_deg)).map(|(i, _)| i);
     match (least(true), least(false)) {
         (Some(i), _) => Choice::Kept(i),
