@@ -8,7 +8,7 @@ use host_tools::compute::{self, BackstepOptions, RunReference, SwingMagnitudes};
 use host_tools::doc::BackstepMethod;
 use host_tools::doc::CalDoc;
 
-use super::{check_field_nt, check_out, check_positions, emit, hinted, SiteArgs};
+use super::{check_field_nt, check_out, emit, hinted, SiteArgs};
 use host_tools::compute::{check_given_field, shown, world_field_for};
 use host_tools::compute::ComputeError;
 
@@ -90,11 +90,7 @@ pub fn run(a: Args) -> Result<()> {
     let rec = a.columns.read(&a.input)?;
     // The checks this run failed and kept (--allow-weak): marked in the
     // document it writes, so its readers refuse it unless allowed too.
-    let mut allowed_weak = match (a.site.site()?, a.site.lat, a.site.lon) {
-        (Some(site), _, _) => super::check_site(&rec, &a.input, &site, a.allow_weak)?,
-        (None, Some(lat), Some(lon)) => check_positions(&rec, &a.input, lat, lon).map(|()| Vec::new())?,
-        _ => Vec::new(),
-    };
+    let mut allowed_weak = a.site.check_recording(&rec, &a.input, a.allow_weak)?;
     if let RunReference::Given { h_nt, z_nt } = reference {
         // Against physics (refused), the world model where the document's
         // site gives a date, and the dip the run shows through the

@@ -9,7 +9,7 @@ use host_tools::compute::{self, FitOptions, GyroLag};
 use host_tools::doc::model_kind;
 use host_tools::data::Recording;
 
-use super::{check_out, check_positions, emit, hinted, reference_field, warn_all, SiteArgs};
+use super::{check_out, emit, hinted, reference_field, warn_all, SiteArgs};
 use host_tools::compute::{ComputeError, GyroError};
 use host_tools::doc::HeldOutBasis;
 use host_tools::doc::Reference;
@@ -93,11 +93,7 @@ pub fn run(a: Args) -> Result<()> {
         None => None,
     };
     let rec = a.columns.read(&a.input)?;
-    let site_weak = match (&site, a.site.lat, a.site.lon) {
-        (Some(s), _, _) => super::check_site(&rec, &a.input, s, a.allow_weak)?,
-        (None, Some(lat), Some(lon)) => check_positions(&rec, &a.input, lat, lon).map(|()| Vec::new())?,
-        _ => Vec::new(),
-    };
+    let site_weak = a.site.check_recording(&rec, &a.input, a.allow_weak)?;
     let opts = FitOptions { model: match a.model { ModelArg::Kind(m) => m, ModelArg::Auto => ModelKind::Attitude }, field_nt: reference.total_nt(), saturation: a.saturation, allow_weak: a.allow_weak, gyro_lag: if a.estimate_gyro_lag { GyroLag::Estimate } else { GyroLag::Given(a.gyro_lag_s) }, reference: world };
     let working = super::working(&format!("fitting {} rows", rec.len()), a.json);
     let mut doc = match a.model {

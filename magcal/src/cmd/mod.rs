@@ -109,6 +109,18 @@ impl SiteArgs {
             _ => Ok(None),
         }
     }
+
+    /// The recording's positions against what was given: the site with its
+    /// date ([`check_site`]), or a latitude and longitude alone
+    /// ([`check_positions`]). Returns the refusals kept only as weak results
+    /// were allowed, for the document the command writes.
+    pub fn check_recording(&self, rec: &Recording, path: &Path, allow_weak: bool) -> Result<Vec<String>> {
+        match (self.site()?, self.lat, self.lon) {
+            (Some(site), _, _) => check_site(rec, path, &site, allow_weak),
+            (None, Some(lat), Some(lon)) => check_positions(rec, path, lat, lon).map(|()| Vec::new()),
+            _ => Ok(Vec::new()),
+        }
+    }
 }
 
 /// Where and when, required.
