@@ -413,8 +413,9 @@ pub const NEWTON_FROM: f64 = 1e-6;
 
 /// In `f64`, the iterations stop once a step moves no unknown (normalised:
 /// the field 1, the gains about 1, the dip in radians) by more than this:
-/// the Gauss–Newton iteration with its re-estimated robust scale converges
-/// linearly (about ×0.4 an iteration on a 66 500-row swing), so the
+/// the reweighted iteration with its re-estimated robust scale converges
+/// linearly (about ×0.4 an iteration on a 66 500-row swing), the
+/// [`newton_step`]s that take over near the solution about ×0.04, so the
 /// coefficients end within about this of where the full count of
 /// iterations takes them.
 pub const STEP_TOLERANCE: f64 = 1e-12;
