@@ -295,17 +295,21 @@ fn start<T: Real>(data: &Prepared<'_, T>, cfg: &AttitudeConfig<T>) -> [T; UNKNOW
     }
     x[DIP] = match cfg.dip_prior {
         Some((dip, _)) => dip,
-        None => {
-            let (mut v, mut h) = (T::ZERO, T::ZERO);
-            for s in data.usable() {
-                let l = s.tilt.level(model(&x, data.norm.apply(s.raw)));
-                v += l[2];
-                h += (l[0] * l[0] + l[1] * l[1]).sqrt();
-            }
-            v.atan2(h)
-        }
+        None => levelled_dip(&x, data),
     };
     x
+}
+
+/// The dip of the levelled field at `x`: the mean vertical against the
+/// mean horizontal intensity.
+fn levelled_dip<T: Real>(x: &[T; UNKNOWNS], data: &Prepared<'_, T>) -> T {
+    let (mut v, mut h) = (T::ZERO, T::ZERO);
+    for s in data.usable() {
+        let l = s.tilt.level(model(x, data.norm.apply(s.raw)));
+        v += l[2];
+        h += (l[0] * l[0] + l[1] * l[1]).sqrt();
+    }
+    v.atan2(h)
 }
 
 /// A sphere's gain and centre in normalised units, `g = gain·(u − centre)`
@@ -405,11 +409,12 @@ fn newton_step<T: Real>(x: &[T; UNKNOWNS], data: &Prepared<'_, T>, cfg: &Attitud
     ne.solve().ok()
 }
 
-/// In `f64`, once a reweighted step moves no unknown by more than this,
-/// the iterations take [`newton_step`]s (the reweighting's last steps, the
-/// covariance's, stay [`step`]'s): far from the solution the reweighting
-/// is the safer, near it the two share their fixed point.
-pub const NEWTON_FROM: f64 = 1e-6;
+/// In `f64`, once a step moves no unknown by more than this, the
+/// iterations take [`newton_step`]s (the steps that give a covariance stay
+/// [`step`]'s, and a Newton step longer than the one before ends them):
+/// far from the solution the reweighting is the safer, near it the two
+/// share their fixed point.
+pub const NEWTON_FROM: f64 = 1e-3;
 
 /// In `f64`, the iterations stop once a step moves no unknown (normalised:
 /// the field 1, the gains about 1, the dip in radians) by more than this:
@@ -440,6 +445,41 @@ pub fn scratch_len(samples: usize) -> usize {
 /// counting over the data 60 times; shorter, by counting. The result is the
 /// same, bit for bit, either way.
 pub fn fit_attitude_in<T: Real>(samples: &[AttitudeSample<T>], field_nt: T, cfg: &AttitudeConfig<T>, scratch: &mut [T]) -> Result<AttitudeEstimate<T>, FitError> {
+    fit_attitude_started(samples, field_nt, cfg, scratch, None)
+}
+
+/// [`fit_attitude_in`] started at `near`, a calibration close to this
+/// data's (the whole recording's fit, for a fit of most of its samples):
+/// the iterations begin robust, at the step where the dip prior's weight
+/// is set, from `near`'s coefficients and the dip the data give there, and
+/// converge to the point the fit from its own start converges to (within
+/// [`STEP_TOLERANCE`], where the fit of `near` is close enough that the
+/// robust loss's down-weighting and the dip prior's weighting agree) in
+/// fewer steps. Where `near` cannot be read as a start (a singular
+/// matrix, non-finite values) the fit starts as [`fit_attitude_in`] does.
+pub fn fit_attitude_near<T: Real>(samples: &[AttitudeSample<T>], field_nt: T, cfg: &AttitudeConfig<T>, scratch: &mut [T], near: &FieldCal<T>) -> Result<AttitudeEstimate<T>, FitError> {
+    fit_attitude_started(samples, field_nt, cfg, scratch, Some(near))
+}
+
+/// The unknowns of a calibration in raw units under `norm` (the inverse
+/// of [`finish`]'s map): `A = M·s/F`, `d = A·(b − c)/s`; the dip left 0.
+fn unknowns_of<T: Real>(cal: &FieldCal<T>, norm: &Normalization<T>, field_nt: T) -> Option<[T; UNKNOWNS]> {
+    let mut x = [T::ZERO; UNKNOWNS];
+    let k = norm.scale / field_nt;
+    for i in 0..3 {
+        for j in 0..3 {
+            x[3 * i + j] = cal.matrix[i][j] * k;
+        }
+    }
+    let a: Mat3<T> = [[x[0], x[1], x[2]], [x[3], x[4], x[5]], [x[6], x[7], x[8]]];
+    inverse3(&a)?;
+    let d = mul_mat_vec(&a, [(cal.bias[0] - norm.centre[0]) / norm.scale, (cal.bias[1] - norm.centre[1]) / norm.scale, (cal.bias[2] - norm.centre[2]) / norm.scale]);
+    x[9..12].copy_from_slice(&d);
+    x.iter().all(|v| v.is_finite()).then_some(x)
+}
+
+/// [`fit_attitude_in`] from its own start, or from `near` ([`fit_attitude_near`]).
+fn fit_attitude_started<T: Real>(samples: &[AttitudeSample<T>], field_nt: T, cfg: &AttitudeConfig<T>, scratch: &mut [T], near: Option<&FieldCal<T>>) -> Result<AttitudeEstimate<T>, FitError> {
     if !(field_nt > T::ZERO && field_nt.is_finite()) {
         return Err(FitError::BadReference);
     }
@@ -449,7 +489,16 @@ pub fn fit_attitude_in<T: Real>(samples: &[AttitudeSample<T>], field_nt: T, cfg:
     }
     let norm = Normalization::from_raw_iter(samples.iter().filter(|s| Prepared::usable_sample(s)).map(|s| s.raw)).ok_or(FitError::TooFewSamples { have: 0, need: UNKNOWNS as u32 })?;
     let data = Prepared { samples, norm };
-    let mut x = start(&data, cfg);
+    // From `near`: robust from the first step (no plain steps to clear a
+    // start's gross errors), the dip prior's weight set at the same step
+    // as from the fit's own start, where both have converged without it.
+    let (mut x, first) = match near.and_then(|cal| unknowns_of(cal, &data.norm, field_nt)) {
+        Some(mut x) => {
+            x[DIP] = levelled_dip(&x, &data);
+            (x, ROBUST_FROM)
+        }
+        None => (start(&data, cfg), 0),
+    };
     // The first iterations are plain least squares at a nominal 1 % scale,
     // until the start's gross errors are gone; then the robust loss.
     //
@@ -470,12 +519,13 @@ pub fn fit_attitude_in<T: Real>(samples: &[AttitudeSample<T>], field_nt: T, cfg:
     let mut settled = false;
     // The largest move of the step before.
     let mut last_step: Option<T> = None;
+    let mut contracting = true;
     // The dip prior's weight is set from the data's scatter at
     // [`INFLATION_AT`], from the square-root form's covariance of the
     // iteration before; until then the iterations do not stop.
     let inflates = cfg.dip_prior.is_some() && cfg.dip_blocks >= 2;
-    for it in 0..cfg.iterations {
-        let robust = it >= 3;
+    for it in first..cfg.iterations {
+        let robust = it >= ROBUST_FROM;
         if robust {
             sigma = (median_abs_residual(&x, &data, scratch) / T::from_f64(0.6745)).max(T::EPSILON);
         }
@@ -492,10 +542,13 @@ pub fn fit_attitude_in<T: Real>(samples: &[AttitudeSample<T>], field_nt: T, cfg:
         // inverse information, to rounding the square-root form's); the
         // square-root form where they fail.
         let wants_covariance = final_iteration || needs_covariance;
-        // Near the solution (and past the dip prior's weighting), Newton's
-        // steps; where they fail, reweighting's.
-        let newton = fast && robust && !wants_covariance && !(inflates && it < INFLATION_AT) && last_step.is_some_and(|m| m <= T::from_f64(NEWTON_FROM));
-        let normal = match newton.then(|| newton_step(&x, &data, cfg, sigma, inflation)).flatten() {
+        // Near the solution (after a short step, or from the first step
+        // when started near), Newton's steps; where they fail,
+        // reweighting's.
+        let newton = fast && robust && contracting && !wants_covariance && last_step.map_or(first > 0, |m| m <= T::from_f64(NEWTON_FROM));
+        let newton_dx = newton.then(|| newton_step(&x, &data, cfg, sigma, inflation)).flatten();
+        let newton = newton_dx.is_some();
+        let normal = match newton_dx {
             Some(dx) => Some(dx),
             None if fast => {
             let (ne, down) = step::<T, NormalEquations<T, UNKNOWNS>>(&x, &data, cfg, sigma, robust, inflation);
@@ -528,7 +581,11 @@ pub fn fit_attitude_in<T: Real>(samples: &[AttitudeSample<T>], field_nt: T, cfg:
         if final_iteration && last.is_some() {
             break;
         }
-        last_step = Some(dx.iter().fold(T::ZERO, |m, d| m.max(d.abs())));
+        let moved = dx.iter().fold(T::ZERO, |m, d| m.max(d.abs()));
+        // A Newton step longer than the step before it is not converging:
+        // reweighting's steps for the rest.
+        contracting &= !(newton && last_step.is_some_and(|m| moved > m));
+        last_step = Some(moved);
         settled = fast && !(inflates && it < INFLATION_AT) && dx.iter().all(|d| d.abs() <= T::from_f64(STEP_TOLERANCE));
     }
     let (cov, downweighted) = last.ok_or(FitError::TooFewSamples { have: 0, need: UNKNOWNS as u32 })?;
@@ -539,6 +596,11 @@ pub fn fit_attitude_in<T: Real>(samples: &[AttitudeSample<T>], field_nt: T, cfg:
     est.dip_data_inflation = inflation;
     Ok(est)
 }
+
+/// The first iteration with the robust loss (the ones before are plain
+/// least squares at a nominal 1 % scale, clearing the start's gross
+/// errors).
+const ROBUST_FROM: u32 = 3;
 
 /// The iteration at which the data's scatter sets the dip prior's weight
 /// (the robust loss starts at 3; the step is below 1e-6 of the field by
