@@ -2,7 +2,8 @@
 //! a vehicle with an AHRS (roll, pitch) and no gyro that cannot tumble.
 //! Reads `roll_deg, pitch_deg`; says which parameters the data leave weak.
 
-use calib_core::attitude_fit::{fit_attitude_in, scratch_len, AttitudeConfig, AttitudeEstimate, AttitudeSample};
+use calib_core::attitude_fit::{fit_attitude_in, fit_attitude_near, scratch_len, AttitudeConfig, AttitudeEstimate, AttitudeSample};
+use calib_core::cal::FieldCal;
 
 use super::error::ComputeError;
 use crate::data::intake::levelled_samples;
@@ -51,16 +52,14 @@ pub fn weakly_determined(est: &AttitudeEstimate<f64>, field_nt: f64) -> Vec<Stri
     weak
 }
 
-/// Fits the attitude-aided calibration; the magnitude is scaled to `field_nt`.
-pub fn fit_attitude_recording(rec: &Recording, field_nt: f64, cfg: &AttitudeConfig<f64>) -> Result<AttitudeEstimate<f64>, ComputeError> {
+/// Fits the attitude-aided calibration; the magnitude is scaled to
+/// `field_nt`. From `near` where given (a calibration close to this
+/// recording's: [`calib_core::attitude_fit::fit_attitude_near`]).
+pub fn fit_attitude_recording(rec: &Recording, field_nt: f64, cfg: &AttitudeConfig<f64>, near: Option<&FieldCal<f64>>) -> Result<AttitudeEstimate<f64>, ComputeError> {
     let samples = attitude_samples(rec)?;
-    Ok(fit_in(&samples, field_nt, cfg)?)
-}
-
-/// [`calib_core::attitude_fit::fit_attitude`] with its working memory (the
-/// same result, bit for bit, without counting over the data for every
-/// robust scale).
-pub fn fit_in(samples: &[AttitudeSample<f64>], field_nt: f64, cfg: &AttitudeConfig<f64>) -> Result<AttitudeEstimate<f64>, calib_core::fit::FitError> {
     let mut scratch = vec![0.0; scratch_len(samples.len())];
-    fit_attitude_in(samples, field_nt, cfg, &mut scratch)
+    Ok(match near {
+        Some(near) => fit_attitude_near(&samples, field_nt, cfg, &mut scratch, near),
+        None => fit_attitude_in(&samples, field_nt, cfg, &mut scratch),
+    }?)
 }

@@ -42,7 +42,7 @@ use calib_core::heading::{level, magnetic_heading_rad};
 use rayon::prelude::*;
 
 use super::error::ComputeError;
-use super::fit::{fit_with, fit_with_plain_gyro, Checks, FitOptions};
+use super::fit::{fit_with_given, Checks, FitOptions, Given};
 use super::heading_judge::GyroYaw;
 use super::truth::heading_rms_after_offset_deg;
 use crate::data::Recording;
@@ -136,8 +136,10 @@ fn held_out_errors(cal: &FieldCal<f64>, rec: &Recording, lo: usize, hi: usize, b
     }
 }
 
-/// The held-out RMS of a candidate, degrees; why not, when a fold's fit is refused.
-fn held_out_deg(model: ModelKind, rec: &Recording, opts: &FitOptions, basis: HeldOutBasis, yaw: Option<&GyroYaw>) -> Result<f64, String> {
+/// The held-out RMS of a candidate, degrees; why not, when a fold's fit is
+/// refused. `near`: the whole recording's attitude fit, where each fold's
+/// iterations start ([`Given::attitude_near`]).
+fn held_out_deg(model: ModelKind, rec: &Recording, opts: &FitOptions, basis: HeldOutBasis, yaw: Option<&GyroYaw>, near: Option<&FieldCal<f64>>) -> Result<f64, String> {
     let n = rec.len();
     // The folds are independent: fitted side by side, their errors taken
     // in fold order (the first refused fold named, as one by one).
@@ -147,7 +149,8 @@ fn held_out_deg(model: ModelKind, rec: &Recording, opts: &FitOptions, basis: Hel
             let (lo, hi) = (k * n / FOLDS, (k + 1) * n / FOLDS);
             let train = without_block(rec, lo, hi);
             let fold_opts = FitOptions { model, allow_weak: true, ..opts.clone() };
-            let doc = fit_with(&train, &fold_opts, Checks { attitude_units: false, magnitude_gate: false }).map_err(|e| format!("fold {} of {FOLDS}: {e}", k + 1))?;
+            let given = Given { attitude_near: near, ..Given::default() };
+            let doc = fit_with_given(&train, &fold_opts, Checks { attitude_units: false, magnitude_gate: false }, given).map_err(|e| format!("fold {} of {FOLDS}: {e}", k + 1))?;
             let (mut pairs, mut squares) = (Vec::new(), Vec::new());
             let dip = doc.reference.as_ref().and_then(|r| r.inclination_deg);
             match (basis, yaw) {
@@ -250,50 +253,17 @@ pub fn fit_auto_judged(rec: &Recording, opts: &FitOptions, judge: &YawJudge) -> 
     // Roll and pitch in radians refuse every levelling candidate: checked
     // once here, not in each candidate's and fold's fit.
     let units = crate::data::intake::check_attitude_units(rec, opts.field_nt).map_err(|e| e.to_string());
+    // Each levelled model also with the dip held at the world model's;
+    // the candidates side by side, their rows in the table's order.
+    let judged_rows: Vec<(CandidateRow, Option<Judged>)> = super::dip_held::with_held(candidates(), opts)
+        .into_par_iter()
+        .map(|(model, opts)| judge_candidate(rec, model, &opts, basis, yaw.as_ref(), plain_gyro.as_ref(), &units))
+        .collect();
     let mut rows = Vec::new();
-    // (held-out, own expected, document) of every judged candidate.
-    let mut judged: Vec<(f64, f64, CalDoc)> = Vec::new();
-    // Each levelled model also with the dip held at the world model's.
-    for (model, opts) in super::dip_held::with_held(candidates(), opts) {
-        let opts = &opts;
-        let mut row = CandidateRow { model: super::dip_held::row_name(model, opts), held_out_deg: None, predicted_deg: None, expected_deg: None, refused: None, note: None };
-        let levelling = super::models::entry(model).levelled;
-        if let Err(why) = allowed(model, rec).and(if levelling { units.clone() } else { Ok(()) }) {
-            row.refused = Some(why);
-            rows.push(row);
-            continue;
-        }
-        // The full fit and the held-out folds side by side (the folds'
-        // judgement is only read when the full fit is accepted).
-        // The held candidates differ only in their reference, so the plain
-        // gyro fit (field and lag) is every candidate's.
-        let (full, held_out) = rayon::join(|| fit_candidate(rec, model, opts, plain_gyro.as_ref()), || held_out_deg(model, rec, opts, basis, yaw.as_ref()));
-        match full {
-            Err(e) => row.refused = Some(e.to_string()),
-            Ok((doc, note)) => {
-                row.note = note;
-                let widened = (model == ModelKind::Attitude).then(|| widened_for_heading_gap(&doc, rec)).flatten();
-                row.predicted_deg = doc.quality.predicted_heading_rms_deg;
-                row.expected_deg = doc.quality.expected_heading_rms_deg;
-                match held_out {
-                    Err(why) => row.refused = Some(format!("not judged on held-out data: {why}")),
-                    Ok(h) => {
-                        row.held_out_deg = Some(h);
-                        // No expected error of its own (no inclination to
-                        // turn the noise into heading): the held-out one.
-                        let own = doc.quality.expected_heading_rms_deg.unwrap_or(h);
-                        if let Some((e, gap_deg)) = widened {
-                            add_note(&mut row.note, format!("its expected error widened to {e:.2}° for the {gap_deg:.0}° of headings it never saw"));
-                        }
-                        if !doc.quality.allowed_weak.is_empty() {
-                            add_note(&mut row.note, format!("does not qualify: {}", doc.quality.allowed_weak.join("; ")));
-                        }
-                        judged.push((h, widened.map_or(own, |(e, _)| e), doc));
-                    }
-                }
-            }
-        }
+    let mut judged: Vec<Judged> = Vec::new();
+    for (row, j) in judged_rows {
         rows.push(row);
+        judged.extend(j);
     }
     // A candidate whose own fit failed a check (kept only as weak results
     // were allowed) never qualifies, whatever its numbers.
@@ -324,6 +294,65 @@ pub fn fit_auto_judged(rec: &Recording, opts: &FitOptions, judge: &YawJudge) -> 
     let choice = AutoChoice { chosen: super::dip_held::chosen_name(&doc), basis, candidates: rows, kept_weak };
     doc.quality.auto = Some(choice.clone());
     Ok((doc, choice))
+}
+
+/// A judged candidate: its held-out error and its own expected error
+/// (degrees), and its document.
+type Judged = (f64, f64, CalDoc);
+
+/// Fits one candidate on the whole recording and on its held-out folds
+/// (started from the whole recording's fit where the model can start from
+/// one), and judges it: its table row, and what was judged.
+fn judge_candidate(rec: &Recording, model: ModelKind, opts: &FitOptions, basis: HeldOutBasis, yaw: Option<&GyroYaw>, plain_gyro: Option<&(FieldCal<f64>, GyroQuality)>, units: &Result<(), String>) -> (CandidateRow, Option<Judged>) {
+    let mut row = CandidateRow { model: super::dip_held::row_name(model, opts), held_out_deg: None, predicted_deg: None, expected_deg: None, refused: None, note: None };
+    let levelling = super::models::entry(model).levelled;
+    if let Err(why) = allowed(model, rec).and(if levelling { units.clone() } else { Ok(()) }) {
+        row.refused = Some(why);
+        return (row, None);
+    }
+    // The held candidates differ only in their reference, so the plain
+    // gyro fit (field and lag) is every candidate's. The attitude fit's
+    // folds start from its whole-recording fit; the others' folds run
+    // beside it (their judgement is only read when the full fit is
+    // accepted).
+    let (full, held_out) = if model == ModelKind::Attitude {
+        let full = fit_candidate(rec, model, opts, plain_gyro);
+        let near = full.as_ref().ok().map(|(doc, _)| doc.field_cal());
+        let held_out = match &near {
+            Some(near) => held_out_deg(model, rec, opts, basis, yaw, Some(near)),
+            None => Err(String::new()),
+        };
+        (full, held_out)
+    } else {
+        rayon::join(|| fit_candidate(rec, model, opts, plain_gyro), || held_out_deg(model, rec, opts, basis, yaw, None))
+    };
+    let mut judged = None;
+    match full {
+        Err(e) => row.refused = Some(e.to_string()),
+        Ok((doc, note)) => {
+            row.note = note;
+            let widened = (model == ModelKind::Attitude).then(|| widened_for_heading_gap(&doc, rec)).flatten();
+            row.predicted_deg = doc.quality.predicted_heading_rms_deg;
+            row.expected_deg = doc.quality.expected_heading_rms_deg;
+            match held_out {
+                Err(why) => row.refused = Some(format!("not judged on held-out data: {why}")),
+                Ok(h) => {
+                    row.held_out_deg = Some(h);
+                    // No expected error of its own (no inclination to
+                    // turn the noise into heading): the held-out one.
+                    let own = doc.quality.expected_heading_rms_deg.unwrap_or(h);
+                    if let Some((e, gap_deg)) = widened {
+                        add_note(&mut row.note, format!("its expected error widened to {e:.2}° for the {gap_deg:.0}° of headings it never saw"));
+                    }
+                    if !doc.quality.allowed_weak.is_empty() {
+                        add_note(&mut row.note, format!("does not qualify: {}", doc.quality.allowed_weak.join("; ")));
+                    }
+                    judged = Some((h, widened.map_or(own, |(e, _)| e), doc));
+                }
+            }
+        }
+    }
+    (row, judged)
 }
 
 /// What [`choose`] decided, by index into the judged candidates.
@@ -430,7 +459,8 @@ fn gyro_yaw(rec: &Recording, plain: Option<&(FieldCal<f64>, GyroQuality)>, max_s
 /// checked once for all ([`fit_auto`]).
 fn fit_candidate(rec: &Recording, model: ModelKind, opts: &FitOptions, plain_gyro: Option<&(FieldCal<f64>, GyroQuality)>) -> Result<(CalDoc, Option<String>), ComputeError> {
     let magnitude_gate = !super::models::entry(model).levelled;
-    let doc = fit_with_plain_gyro(rec, &FitOptions { model, ..opts.clone() }, Checks { attitude_units: false, magnitude_gate }, plain_gyro)?;
+    let given = Given { plain_gyro, ..Given::default() };
+    let doc = fit_with_given(rec, &FitOptions { model, ..opts.clone() }, Checks { attitude_units: false, magnitude_gate }, given)?;
     let note = doc.quality.fit.as_ref().and_then(|f| f.warnings.iter().find(|w| w.contains("judged on held-out data instead")).cloned());
     Ok((doc, note))
 }

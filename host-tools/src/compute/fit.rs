@@ -75,14 +75,26 @@ pub fn fit_recording(rec: &Recording, opts: &FitOptions) -> Result<CalDoc, Compu
 
 /// [`fit_recording`] with the checks `checks` leaves on.
 pub(crate) fn fit_with(rec: &Recording, opts: &FitOptions, checks: Checks) -> Result<CalDoc, ComputeError> {
-    fit_with_plain_gyro(rec, opts, checks, None)
+    fit_with_given(rec, opts, checks, Given::default())
 }
 
-/// [`fit_with`]; for the gyro model, `plain` is the plain gyro fit of
-/// `rec` with `opts`' field and lag when the caller has it already
-/// ([`super::gyro::fit_gyro_recording`]'s result, which it then is not
-/// asked for again).
-pub(crate) fn fit_with_plain_gyro(rec: &Recording, opts: &FitOptions, checks: Checks, plain: Option<&(FieldCal<f64>, GyroQuality)>) -> Result<CalDoc, ComputeError> {
+/// What a caller already has that a fit of `rec` can use instead of
+/// finding it again (`fit --model auto`: each candidate's folds).
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct Given<'a> {
+    /// For the gyro model: the plain gyro fit of `rec` with the options'
+    /// field and lag ([`super::gyro::fit_gyro_recording`]'s result, which
+    /// is then not asked for again).
+    pub plain_gyro: Option<&'a (FieldCal<f64>, GyroQuality)>,
+    /// For the attitude model: a calibration near `rec`'s (the whole
+    /// recording's fit, for a fold of most of its rows), where the
+    /// iterations start ([`calib_core::attitude_fit::fit_attitude_near`]:
+    /// the same point, fewer steps).
+    pub attitude_near: Option<&'a FieldCal<f64>>,
+}
+
+/// [`fit_with`] with what the caller has already ([`Given`]).
+pub(crate) fn fit_with_given(rec: &Recording, opts: &FitOptions, checks: Checks, given: Given<'_>) -> Result<CalDoc, ComputeError> {
     if !(opts.field_nt > 0.0 && opts.field_nt.is_finite()) {
         return Err(ComputeError::NoReference);
     }
@@ -106,7 +118,7 @@ pub(crate) fn fit_with_plain_gyro(rec: &Recording, opts: &FitOptions, checks: Ch
         ModelKind::Axis => fit_batch::<Axis, 6, f64>(&samples, opts.field_nt),
         ModelKind::Full | ModelKind::Triangular => fit_batch::<Full, 9, f64>(&samples, opts.field_nt),
         ModelKind::Gyro => {
-            let (plain, q) = match plain {
+            let (plain, q) = match given.plain_gyro {
                 Some(given) => given.clone(),
                 None => super::gyro::fit_gyro_recording(rec, opts.field_nt, opts.gyro_lag)?,
             };
@@ -128,7 +140,7 @@ pub(crate) fn fit_with_plain_gyro(rec: &Recording, opts: &FitOptions, checks: Ch
             // against what the data can tell, or held where asked.
             let world = opts.reference.as_ref().filter(|r| r.independent_inclination()).and_then(|r| Some((r.inclination_deg?, r.inclination_sigma_deg?, r.dip_held())));
             cfg.dip_prior = world.map(|(i, s, held)| (i.to_radians(), if held { HELD_DIP_SIGMA_DEG } else { s }.to_radians()));
-            let est = super::attitude::fit_attitude_recording(rec, opts.field_nt, &cfg)?;
+            let est = super::attitude::fit_attitude_recording(rec, opts.field_nt, &cfg, given.attitude_near)?;
             fit_dip = Some((est.dip_rad.to_degrees(), est.dip_sigma_rad.to_degrees()));
             constraint = world.map(|(i, s, held)| DipConstraint::shaped(held, est.dip_prior_share, est.dip_data_inflation, est.dip_rad.to_degrees(), i, s));
             warnings.extend(super::attitude::weakly_determined(&est, opts.field_nt));
