@@ -136,21 +136,27 @@ fn held_out_errors(cal: &FieldCal<f64>, rec: &Recording, lo: usize, hi: usize, b
     }
 }
 
+/// A fold's held-out errors: the field's (dip, horizontal intensity)
+/// pairs and the gyro yaw's squares.
+type FoldErrors = (Vec<(f64, f64)>, Vec<f64>);
+
 /// The held-out RMS of a candidate, degrees; why not, when a fold's fit is
 /// refused. `near`: the whole recording's attitude fit, where each fold's
 /// iterations start ([`Given::attitude_near`]).
-fn held_out_deg(model: ModelKind, rec: &Recording, opts: &FitOptions, basis: HeldOutBasis, yaw: Option<&GyroYaw>, near: Option<&FieldCal<f64>>) -> Result<f64, String> {
+fn held_out_deg(shared: &Shared<'_>, model: ModelKind, opts: &FitOptions, near: Option<&FieldCal<f64>>) -> Result<f64, String> {
+    let Shared { rec, basis, .. } = *shared;
+    let yaw = shared.yaw.as_ref();
     let n = rec.len();
     // The folds are independent: fitted side by side, their errors taken
     // in fold order (the first refused fold named, as one by one).
-    let folds: Vec<Result<(Vec<(f64, f64)>, Vec<f64>), String>> = (0..FOLDS)
+    let folds: Vec<Result<FoldErrors, String>> = (0..FOLDS)
         .into_par_iter()
         .map(|k| {
             let (lo, hi) = (k * n / FOLDS, (k + 1) * n / FOLDS);
-            let train = without_block(rec, lo, hi);
+            let train = shared.trains.get(k).ok_or_else(|| format!("fold {} of {FOLDS}: no training rows", k + 1))?;
             let fold_opts = FitOptions { model, allow_weak: true, ..opts.clone() };
             let given = Given { attitude_near: near, ..Given::default() };
-            let doc = fit_with_given(&train, &fold_opts, Checks { attitude_units: false, magnitude_gate: false }, given).map_err(|e| format!("fold {} of {FOLDS}: {e}", k + 1))?;
+            let doc = fit_with_given(train, &fold_opts, Checks { attitude_units: false, magnitude_gate: false }, given).map_err(|e| format!("fold {} of {FOLDS}: {e}", k + 1))?;
             let (mut pairs, mut squares) = (Vec::new(), Vec::new());
             let dip = doc.reference.as_ref().and_then(|r| r.inclination_deg);
             match (basis, yaw) {
@@ -193,7 +199,7 @@ fn held_out_deg(model: ModelKind, rec: &Recording, opts: &FitOptions, basis: Hel
         super::dip_held::remove_common_offset(&mut pairs);
     }
     Ok(match basis {
-        HeldOutBasis::ReferenceHeading => heading_rms_after_offset_deg(pairs.into_iter()).0.rms,
+        HeldOutBasis::ReferenceHeading => heading_rms_after_offset_deg(pairs).0.rms,
         // The dip's error and the horizontal intensity's (the part of a
         // calibration error that turns the heading) in quadrature.
         HeldOutBasis::FieldAndDip => trimmed_rms(pairs.iter().map(|(d, h)| d * d + h * h).collect()).to_degrees(),
@@ -253,11 +259,14 @@ pub fn fit_auto_judged(rec: &Recording, opts: &FitOptions, judge: &YawJudge) -> 
     // Roll and pitch in radians refuse every levelling candidate: checked
     // once here, not in each candidate's and fold's fit.
     let units = crate::data::intake::check_attitude_units(rec, opts.field_nt).map_err(|e| e.to_string());
+    let n = rec.len();
+    let trains = (0..FOLDS).map(|k| without_block(rec, k * n / FOLDS, (k + 1) * n / FOLDS)).collect();
+    let shared = Shared { rec, trains, basis, yaw, plain_gyro, units };
     // Each levelled model also with the dip held at the world model's;
     // the candidates side by side, their rows in the table's order.
     let judged_rows: Vec<(CandidateRow, Option<Judged>)> = super::dip_held::with_held(candidates(), opts)
         .into_par_iter()
-        .map(|(model, opts)| judge_candidate(rec, model, &opts, basis, yaw.as_ref(), plain_gyro.as_ref(), &units))
+        .map(|(model, opts)| judge_candidate(&shared, model, &opts))
         .collect();
     let mut rows = Vec::new();
     let mut judged: Vec<Judged> = Vec::new();
@@ -296,6 +305,23 @@ pub fn fit_auto_judged(rec: &Recording, opts: &FitOptions, judge: &YawJudge) -> 
     Ok((doc, choice))
 }
 
+/// What every candidate's judgement shares.
+struct Shared<'a> {
+    /// The recording.
+    rec: &'a Recording,
+    /// Each fold's training recording (its held-out block's readings
+    /// blanked), made once for every candidate.
+    trains: Vec<Recording>,
+    /// What judges the held-out blocks.
+    basis: HeldOutBasis,
+    /// The integrated gyro yaw, for [`HeldOutBasis::GyroYaw`].
+    yaw: Option<GyroYaw>,
+    /// The plain gyro fit of the whole recording.
+    plain_gyro: Option<(FieldCal<f64>, GyroQuality)>,
+    /// Whether roll and pitch are in degrees (why not).
+    units: Result<(), String>,
+}
+
 /// A judged candidate: its held-out error and its own expected error
 /// (degrees), and its document.
 type Judged = (f64, f64, CalDoc);
@@ -303,7 +329,9 @@ type Judged = (f64, f64, CalDoc);
 /// Fits one candidate on the whole recording and on its held-out folds
 /// (started from the whole recording's fit where the model can start from
 /// one), and judges it: its table row, and what was judged.
-fn judge_candidate(rec: &Recording, model: ModelKind, opts: &FitOptions, basis: HeldOutBasis, yaw: Option<&GyroYaw>, plain_gyro: Option<&(FieldCal<f64>, GyroQuality)>, units: &Result<(), String>) -> (CandidateRow, Option<Judged>) {
+fn judge_candidate(shared: &Shared<'_>, model: ModelKind, opts: &FitOptions) -> (CandidateRow, Option<Judged>) {
+    let Shared { rec, ref units, .. } = *shared;
+    let plain_gyro = shared.plain_gyro.as_ref();
     let mut row = CandidateRow { model: super::dip_held::row_name(model, opts), held_out_deg: None, predicted_deg: None, expected_deg: None, refused: None, note: None };
     let levelling = super::models::entry(model).levelled;
     if let Err(why) = allowed(model, rec).and(if levelling { units.clone() } else { Ok(()) }) {
@@ -319,12 +347,12 @@ fn judge_candidate(rec: &Recording, model: ModelKind, opts: &FitOptions, basis: 
         let full = fit_candidate(rec, model, opts, plain_gyro);
         let near = full.as_ref().ok().map(|(doc, _)| doc.field_cal());
         let held_out = match &near {
-            Some(near) => held_out_deg(model, rec, opts, basis, yaw, Some(near)),
+            Some(near) => held_out_deg(shared, model, opts, Some(near)),
             None => Err(String::new()),
         };
         (full, held_out)
     } else {
-        rayon::join(|| fit_candidate(rec, model, opts, plain_gyro), || held_out_deg(model, rec, opts, basis, yaw, None))
+        rayon::join(|| fit_candidate(rec, model, opts, plain_gyro), || held_out_deg(shared, model, opts, None))
     };
     let mut judged = None;
     match full {
