@@ -383,30 +383,109 @@ fn step<T: Real, L: LeastSquares<T, UNKNOWNS> + Default>(x: &[T; UNKNOWNS], data
     (ls, downweighted)
 }
 
-/// One Newton step on Huber's loss at residual scale `sigma`, in the
-/// normal equations: the curvature of the residuals within Huber's
-/// threshold, the gradient of every residual (`ψ(r) = r` within, `±k`
-/// beyond). Its fixed point is [`step`]'s (both solve `Σ ψ(rᵢ)·∇rᵢ = 0`
-/// with the priors), but where [`step`]'s reweighting gains only about
-/// the share of residuals beyond the threshold a step (×0.4 at Huber's
-/// 0.8σ), this one converges in a few. `None` where the normal equations
-/// cannot be solved (the caller reweights instead).
+/// One Newton step on Huber's loss at residual scale `sigma`: the
+/// curvature of the residuals within Huber's threshold, the gradient of
+/// every residual (`ψ(r) = r` within, `±k` beyond). Its fixed point is
+/// [`step`]'s (both solve `Σ ψ(rᵢ)·∇rᵢ = 0` with the priors), but where
+/// [`step`]'s reweighting gains only about the share of residuals beyond
+/// the threshold a step (×0.4 at Huber's 0.8σ), this one converges in a
+/// few. `None` where the equations cannot be solved (the caller reweights
+/// instead).
 fn newton_step<T: Real>(x: &[T; UNKNOWNS], data: &Prepared<'_, T>, cfg: &AttitudeConfig<T>, sigma: T, inflation: T) -> Option<[T; UNKNOWNS]> {
-    let mut ne = NormalEquations::<T, UNKNOWNS>::new();
     let k = cfg.huber_k * sigma;
-    let inv_sigma = T::ONE / sigma;
-    for_each_row(x, data, |j, r| {
-        let phi = scaled(j, inv_sigma);
-        if r.abs() <= k {
-            ne.update(&phi, -r * inv_sigma);
-            false
-        } else {
-            ne.add_gradient(&phi, -(if r > T::ZERO { k } else { -k }) * inv_sigma);
-            true
-        }
-    });
+    let (mut ne, _) = normal_pass(x, data, sigma, |r| if r.abs() <= k { (T::ONE, r, false) } else { (T::ZERO, if r > T::ZERO { k } else { -k }, true) });
     add_priors(&mut ne, x, cfg, inflation);
     ne.solve().ok()
+}
+
+/// [`step`]'s reweighted equations in the normal form ([`normal_pass`]).
+fn reweighted_pass<T: Real>(x: &[T; UNKNOWNS], data: &Prepared<'_, T>, cfg: &AttitudeConfig<T>, sigma: T, robust: bool, inflation: T) -> (NormalEquations<T, UNKNOWNS>, u32) {
+    let k = cfg.huber_k * sigma;
+    let (mut ne, down) = normal_pass(x, data, sigma, |r| {
+        let w = if robust { huber(r, k) } else { T::ONE };
+        (w, w * r, w < T::ONE)
+    });
+    add_priors(&mut ne, x, cfg, inflation);
+    (ne, down)
+}
+
+/// One pass's normal equations, each sample's two residuals entered
+/// through their structure: both gradients are `(c⊗u, −c, ∓dip)` with the
+/// same normalised reading `u` (`c` the levelling's vertical row for the
+/// vertical residual, the horizontal direction's for the horizontal), so
+/// the 9×9 block of the matrix's entries is `W ⊗ u·uᵀ` with `W` the two
+/// `c·cᵀ` weighted, about half the products of adding the two rows' outer
+/// products (the same sums to rounding). `weigh(r)` gives a residual's
+/// curvature weight `a`, its gradient value `g` and whether it counts as
+/// down-weighted: the equations gain `a·∇r∇rᵀ/σ²` and `−g·∇r/σ²`
+/// (reweighting: `a = w`, `g = w·r`; Newton: `a` 1 or 0, `g = ψ(r)`).
+/// Returns the equations and the down-weighted count.
+fn normal_pass<T: Real>(x: &[T; UNKNOWNS], data: &Prepared<'_, T>, sigma: T, weigh: impl Fn(T) -> (T, T, bool)) -> (NormalEquations<T, UNKNOWNS>, u32) {
+    let mut ata = [[T::ZERO; UNKNOWNS]; UNKNOWNS];
+    let mut atb = [T::ZERO; UNKNOWNS];
+    let mut btb = T::ZERO;
+    let mut count = 0u32;
+    let mut downweighted = 0u32;
+    let s2 = T::ONE / (sigma * sigma);
+    let (sd, cd) = dip_sin_cos(x);
+    for s in data.usable() {
+        let u = data.norm.apply(s.raw);
+        let c = level_matrix(&s.tilt);
+        let l = mul_mat_vec(&c, model(x, u));
+        let hmag = (l[0] * l[0] + l[1] * l[1]).sqrt();
+        if !(hmag > T::ZERO) {
+            continue;
+        }
+        let (nx, ny) = (l[0] / hmag, l[1] / hmag);
+        let (rv, rh) = (l[2] - sd, hmag - cd);
+        let ((av, gv, dv), (ah, gh, dh)) = (weigh(rv), weigh(rh));
+        let (av, ah, gv, gh) = (av * s2, ah * s2, -gv * s2, -gh * s2);
+        if ![av, ah, gv, gh, rv, rh].iter().all(|v| v.is_finite()) || !u.iter().all(|v| v.is_finite()) {
+            continue;
+        }
+        let cv = c[2];
+        let ch: Vec3<T> = core::array::from_fn(|i| nx * c[0][i] + ny * c[1][i]);
+        let mut w = [[T::ZERO; 3]; 3];
+        let mut q = [T::ZERO; 3];
+        let mut p = [T::ZERO; 3];
+        for i in 0..3 {
+            let (a_cv, a_ch) = (av * cv[i], ah * ch[i]);
+            for l in 0..3 {
+                w[i][l] = a_cv * cv[l] + a_ch * ch[l];
+            }
+            q[i] = -a_cv * cd + a_ch * sd;
+            p[i] = gv * cv[i] + gh * ch[i];
+        }
+        for i in 0..3 {
+            for j in 0..3 {
+                let row = &mut ata[3 * i + j];
+                for l in i..3 {
+                    let wu = w[i][l] * u[j];
+                    let m0 = if l == i { j } else { 0 };
+                    for m in m0..3 {
+                        row[3 * l + m] += wu * u[m];
+                    }
+                    row[9 + l] -= wu;
+                }
+                for l in 0..i {
+                    row[9 + l] -= w[i][l] * u[j];
+                }
+                row[DIP] += q[i] * u[j];
+                atb[3 * i + j] += p[i] * u[j];
+            }
+            for l in i..3 {
+                ata[9 + i][9 + l] += w[i][l];
+            }
+            ata[9 + i][DIP] -= q[i];
+            atb[9 + i] -= p[i];
+        }
+        ata[DIP][DIP] += av * cd * cd + ah * sd * sd;
+        atb[DIP] += -gv * cd + gh * sd;
+        btb += av * rv * rv + ah * rh * rh;
+        count = count.saturating_add(2);
+        downweighted += u32::from(dv || dh);
+    }
+    (NormalEquations::from_sums(ata, atb, btb, count), downweighted)
 }
 
 /// In `f64`, once a step moves no unknown by more than this, the
@@ -551,7 +630,7 @@ fn fit_attitude_started<T: Real>(samples: &[AttitudeSample<T>], field_nt: T, cfg
         let normal = match newton_dx {
             Some(dx) => Some(dx),
             None if fast => {
-            let (ne, down) = step::<T, NormalEquations<T, UNKNOWNS>>(&x, &data, cfg, sigma, robust, inflation);
+            let (ne, down) = reweighted_pass(&x, &data, cfg, sigma, robust, inflation);
             match (ne.solve().ok(), wants_covariance) {
                 (Some(dx), false) => Some(dx),
                 (Some(dx), true) => ne.covariance().map(|cov| {

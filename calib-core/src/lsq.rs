@@ -351,18 +351,12 @@ impl<T: Real, const N: usize> NormalEquations<T, N> {
         true
     }
 
-    /// Adds `φ·y` to `Φᵀz` alone, not `φφᵀ` to `ΦᵀΦ`: a term of the
-    /// gradient without curvature (a robust loss's linear branch in a
-    /// Newton step, [`crate::attitude_fit`]). Non-finite input is refused
-    /// (`false`). Not counted as a sample.
-    pub fn add_gradient(&mut self, phi: &[T; N], y: T) -> bool {
-        if !y.is_finite() || !phi.iter().all(|v| v.is_finite()) {
-            return false;
-        }
-        for (b, p) in self.atb.iter_mut().zip(phi) {
-            *b += *p * y;
-        }
-        true
+    /// The equations from their sums: `ΦᵀΦ` (its upper triangle is read),
+    /// `Φᵀz`, `zᵀz` and the number of equations, for a caller that sums
+    /// them in a form of its own ([`crate::attitude_fit`]: each sample's
+    /// rows through their structure).
+    pub fn from_sums(ata_upper: [[T; N]; N], atb: [T; N], btb: T, count: u32) -> Self {
+        Self { ata: ata_upper, atb, btb, count }
     }
 
     /// `x̂ = (ΦᵀΦ)⁻¹ Φᵀz`.
@@ -528,25 +522,6 @@ mod tests {
     /// The normal equations read back as the square-root form: the same
     /// estimate, residual sum of squares and refusals as [`QrRls`] (an
     /// independent factorisation) on noisy random rows.
-    /// A Newton step on Huber's loss, by hand: the location of {0, 1, 10}
-    /// at threshold 1.5 from 1. The residuals are 1, 0, −9; the first two
-    /// are within the threshold (curvature 1 each), the third gives only
-    /// its clipped gradient −1.5: the step is −(1 + 0 − 1.5)/2 = +0.25, to
-    /// 1.25, where ψ sums to 1.25 + 0.25 − 1.5 = 0 (Huber's estimate, one
-    /// step, as a piecewise quadratic's Newton step is exact once its
-    /// pieces are known).
-    #[test]
-    fn a_gradient_without_curvature_gives_hubers_newton_step() {
-        let mut ne: NormalEquations<f64, 1> = NormalEquations::new();
-        assert!(ne.update(&[1.0], -1.0));
-        assert!(ne.update(&[1.0], -0.0));
-        assert!(ne.add_gradient(&[1.0], 1.5));
-        assert!(!ne.add_gradient(&[f64::NAN], 1.0));
-        assert_eq!(ne.count(), 2);
-        let dx = ne.solve().unwrap()[0];
-        assert!((dx - 0.25).abs() < 1e-15, "{dx}");
-    }
-
     #[test]
     fn the_normal_equations_read_back_as_the_square_root_form() {
         let (mut qr, mut ne) = (QrRls::<f64, 5>::new(), NormalEquations::<f64, 5>::new());

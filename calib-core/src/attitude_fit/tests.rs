@@ -217,3 +217,36 @@ fn a_fit_started_near_ends_where_it_ends_from_its_own_start() {
     let singular = FieldCal { bias: [0.0; 3], matrix: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 0.0]] };
     assert_eq!(fit_attitude_near(&fold, FIELD_NT, &cfg, &mut scratch, &singular).unwrap(), own);
 }
+
+/// The normal equations summed through the rows' structure are the rows'
+/// outer products summed one by one (the square-root form's rows, added to
+/// the normal equations): the same step and covariance to rounding, plain
+/// and reweighted, at a point away from the solution. Measured: 4e-14 of
+/// the step, 1e-13 of the covariance (relative to its diagonal).
+#[test]
+fn the_structured_normal_equations_are_the_rows_summed() {
+    let (s, _) = samples(1500, 4.0, 10);
+    let cfg = AttitudeConfig { dip_prior: Some((DIP_DEG.to_radians(), 1f64.to_radians())), ..AttitudeConfig::new() };
+    let norm = Normalization::from_raw_iter(s.iter().map(|a| a.raw)).unwrap();
+    let data = Prepared { samples: &s, norm };
+    let x = start(&data, &cfg);
+    let sigma = median_abs_residual(&x, &data, &mut []) / 0.6745;
+    for robust in [false, true] {
+        let (rows, down_rows) = step::<f64, NormalEquations<f64, UNKNOWNS>>(&x, &data, &cfg, sigma, robust, 1.3);
+        let (structured, down) = reweighted_pass(&x, &data, &cfg, sigma, robust, 1.3);
+        assert_eq!(down, down_rows);
+        let (a, b) = (rows.solve().unwrap(), structured.solve().unwrap());
+        let step = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let apart = a.iter().zip(&b).fold(0.0f64, |m, (p, q)| m.max((p - q).abs()));
+        let (ca, cb) = (rows.covariance().unwrap(), structured.covariance().unwrap());
+        let cov_apart = (0..UNKNOWNS).flat_map(|i| (0..UNKNOWNS).map(move |j| (i, j))).fold(0.0f64, |m, (i, j)| m.max((ca[i][j] - cb[i][j]).abs() / (ca[i][i] * ca[j][j]).sqrt()));
+        eprintln!("robust {robust}: step {step:.1e}, apart {:.1e} of it; covariance {cov_apart:.1e}", apart / step);
+        assert!(step > 1e-4 && apart < 1e-12 * step, "{step} {apart}");
+        assert!(cov_apart < 1e-12, "{cov_apart}");
+    }
+    // Newton's with every residual within the threshold is the plain step.
+    let wide = AttitudeConfig { huber_k: 1e12, ..cfg };
+    let (plain, _) = reweighted_pass(&x, &data, &wide, sigma, false, 1.3);
+    let (a, b) = (plain.solve().unwrap(), newton_step(&x, &data, &wide, sigma, 1.3).unwrap());
+    assert!(a.iter().zip(&b).all(|(p, q)| (p - q).abs() < 1e-12 * p.abs().max(1e-6)), "{a:?} {b:?}");
+}
