@@ -67,6 +67,7 @@ mod gyro_heading;
 mod inclination;
 mod monitor;
 mod tuning;
+mod two_cycle;
 mod verdict;
 
 pub(crate) use inclination::cos_of_sin;
@@ -79,6 +80,7 @@ pub use tuning::{
     Reference, Tuning, DEFAULT_FIELD_SIGMA_REL, INCLINATION_ALLOWANCE_DEG, MAX_MISFIT_STEP,
     REANCHOR_TURN_DEG, RECOVER_S, STARTUP_HOLD_S,
 };
+pub use two_cycle::{TWO_CYCLE_BLOCK, TWO_CYCLE_KEEP, TWO_CYCLE_LIMIT_DEG, TWO_CYCLE_Z};
 pub(crate) use monitor::Judgement;
 pub use verdict::{decide, Evidence, HardIronEvidence, IntegrityState, Verdict};
 

@@ -25,6 +25,10 @@ DATA = 'tests/data/'
 LAB_INCLINATION_DEG = 68.968
 # `calib_core::integrity::STARTUP_HOLD_S` (None: before it, the misfit exit only)
 STARTUP_HOLD_S = 0.5
+# `calib_core::integrity`'s two-cycle test (TWO_CYCLE_BLOCK, _KEEP, _Z,
+# _LIMIT_DEG): block samples, the older sums' kept fraction per block,
+# standard errors, amplitude limit ° (None: before it).
+TWO_CYCLE = (8, 0.9, 3.0, 3.0)
 # name, recording, truth calibration, kind (the bench's TRIALS)
 TRIALS = [
     ('broad-30', 'broad-30/broad_30.csv', 'broad-30/broad_30.truth.json', 'S'),
@@ -48,7 +52,7 @@ def wrap(a):
     return a
 
 
-def run(rows, cal, trapezoid=True, gate_rel=1.5, var_rel=0.5, hold_s=STARTUP_HOLD_S, inject=None, startup=True):
+def run(rows, cal, trapezoid=True, gate_rel=1.5, var_rel=0.5, hold_s=STARTUP_HOLD_S, inject=None, startup=True, two=TWO_CYCLE, trace=None):
     """The monitor over `rows` with `Tuning::standard()`: per row (state, heading deg).
 
     `hold_s`: the start-up recovery's hold (`None`: only the misfit exit;
@@ -66,6 +70,10 @@ def run(rows, cal, trapezoid=True, gate_rel=1.5, var_rel=0.5, hold_s=STARTUP_HOL
     h = b = p01 = p00 = 0.0; p11 = (0.5 * DEG) ** 2; anch = False; last = 0.0
     misfit = mw = fail_s = fail_turn = pass_s = agree_s = 0.0; dist = inval = False; t_first = None; held = True
     out = []; prev = None
+    # The horizontal intensity's two-cycle test (`two`: block samples, the
+    # kept fraction of the older blocks, the least information, the
+    # amplitude's limit in degrees; None: none).
+    blk = [0.0] * 9; tot = [0.0] * 9; two_bad = False
     for r in rows:
         t = float(r['t']); dt = t - prev if prev is not None else float('nan'); prev = t
         dt = dt if (dt == dt and dt > 0) else 0.0
@@ -143,9 +151,49 @@ def run(rows, cal, trapezoid=True, gate_rel=1.5, var_rel=0.5, hold_s=STARTUP_HOL
                 dist = False
         else:
             pass_s = 0.0; dist = True
-        state = 'cal_invalid' if inval else ('disturbed' if (dist or not frac <= enter) else 'ok')
+        # The two-cycle test's samples: within CONFIRM_GATE_REL (1.5) × the gate.
+        if two is not None and abs(zF) < gate * 1.5 and abs(zI) < gate * 1.5 and hh > noise:
+            inv = 1.0 / (hh * hh); c2 = (l[0] * l[0] - l[1] * l[1]) * inv; s2 = (l[0] + l[0]) * l[1] * inv
+            for k, v in enumerate((1.0, c2, s2, c2 * c2, c2 * s2, hh, hh * c2, hh * s2, hh * hh)):
+                blk[k] += v
+            if blk[0] >= two[0]:
+                tot = [two[1] * a + b_ for a, b_ in zip(tot, blk)]; blk = [0.0] * 9
+                verdict = two_cycle(tot, two[2], two[3] * DEG)
+                if verdict is not None:
+                    two_bad = verdict
+        if trace is not None:
+            trace.append((field_ok, passed, dist, frac, inval, zF, zI))
+        state = 'cal_invalid' if (inval or two_bad) else ('disturbed' if (dist or not frac <= enter) else 'ok')
         out.append((state, hd / DEG))
     return out
+
+
+def two_cycle(t, z, limit_rad):
+    """`calib_core::integrity::two_cycle::judge`: the fit of the sums `t`
+    (n, Σc, Σs, Σc², Σcs, Σy, Σyc, Σys, Σy²; c, s = cos, sin 2ψ; y = H_h):
+    True (the amplitude less `z` standard errors above `limit_rad` × c₀),
+    False (plus them, below), None (undecided: the last finding stands)."""
+    n, sc, ss, scc, scs, sy, syc, sys_, syy = t
+    if not n > 3:
+        return None
+    cm, sm, ym = sc / n, ss / n, sy / n
+    m00 = scc - sc * cm; m01 = scs - sc * sm; m11 = (n - scc) - ss * sm
+    v0 = syc - sc * ym; v1 = sys_ - ss * ym
+    half = 0.5 * (m00 + m11); det = m00 * m11 - m01 * m01
+    lam = half - math.sqrt(max(half * half - det, 0.0))
+    if not (lam > 0 and det > 0):
+        return None
+    a = (m11 * v0 - m01 * v1) / det; b = (m00 * v1 - m01 * v0) / det
+    c0 = ym - a * cm - b * sm
+    rss = (syy - sy * ym) - (a * v0 + b * v1)
+    var = max(rss, 0.0) / (n - 3)
+    amp = math.sqrt(a * a + b * b)
+    margin = z * math.sqrt(var / lam)
+    if amp - margin > limit_rad * c0:
+        return True
+    if amp + margin < limit_rad * c0:
+        return False
+    return None
 
 
 def score(rows, out):
