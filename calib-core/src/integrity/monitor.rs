@@ -349,12 +349,6 @@ impl<T: Real> Monitor<T> {
         // 0 before an inclination is known (the gain is 0 then).
         let dip_z = (sin_dip - self.incl.sin_incl) * self.incl.dip_gain;
         let var_m = self.sample_var(hh);
-        // The two-cycle test's samples: within the wider gate (a stricter
-        // one keeps out the headings where a gain error raises |F| most).
-        let wide = g * T::from_f64(CONFIRM_GATE_REL);
-        if field_z.abs() < wide && dip_z.abs() < wide && hh > self.reference.noise_nt {
-            self.two_cycle.add(l[0], l[1], hh);
-        }
         // The gyro prediction, and the turn it integrated.
         let turn = match rate_rad_s {
             Some(w) => {
@@ -412,6 +406,14 @@ impl<T: Real> Monitor<T> {
         } else {
             self.misfit_sigma(var_m, innovation, mag, dip_z, hh)
         };
+        // The two-cycle test's samples: within the wider gate (a stricter
+        // one keeps out the headings where a gain error raises |F| most).
+        // Last, so little else is held across it; its finding counts from
+        // the next sample.
+        let wide = g * T::from_f64(CONFIRM_GATE_REL);
+        if field_z.abs() < wide && dip_z.abs() < wide && hh > self.reference.noise_nt {
+            self.two_cycle.add(l[0], l[1], hh);
+        }
         Judgement {
             evidence,
             heading_sigma_rad,

@@ -487,8 +487,8 @@ fn the_guard_refuses_an_estimate_that_does_not_explain_the_misfit() {
     // A soft-iron change (30 % gain on x), not an offset: the estimate is
     // applied now and then where the offset happens to fit (measured: 2
     // applications, 33 rows), never confirmed by the gyro, so no row is
-    // ok with it; the stored calibration is ok on 3 rows after 5 s, 2.7°
-    // off at worst. (A misfit exit of 0.2 instead of 0.1: 43 rows ok up
+    // ok with it; the stored calibration is ok on no row after 5 s (3
+    // rows, 2.7° off at worst, before the two-cycle test). (A misfit exit of 0.2 instead of 0.1: 43 rows ok up
     // to 6.4° off; a misfit time constant of 1 s instead of 2: 111 rows,
     // 10.2° off: so both are fixed, not tuned on the BROAD trials.)
     let cal = identity_cal();

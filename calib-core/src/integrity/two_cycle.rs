@@ -46,13 +46,13 @@ pub const TWO_CYCLE_Z: f64 = 3.0;
 /// amplitude it makes, degrees.
 pub const TWO_CYCLE_LIMIT_DEG: f64 = 3.0;
 
-/// The sums of the fit: per block and in total. Index: 0 the count, 1 Σc,
-/// 2 Σs, 3 Σc², 4 Σcs, 5 Σy, 6 Σyc, 7 Σys, 8 Σy² (`c = cos 2ψ`,
-/// `s = sin 2ψ`, `y = H_h`, nT; `Σs² = n − Σc²`).
+/// The sums of the fit. The totals: 0 the count, 1 Σc, 2 Σs, 3 Σc², 4 Σcs,
+/// 5 Σy, 6 Σyc, 7 Σys, 8 Σy² (`c = cos 2ψ`, `s = sin 2ψ`, `y = H_h`, nT;
+/// `Σs² = n − Σc²`); the block's, the same without the count (`pending`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub(super) struct TwoCycle<T> {
-    block: [T; 9],
+    block: [T; 8],
     pub(super) total: [T; 9],
     pending: u8,
     /// The calibration is judged invalid by the test.
@@ -64,7 +64,7 @@ impl<T: Real> TwoCycle<T> {
     #[inline(always)]
     pub(super) fn new() -> Self {
         Self {
-            block: [T::ZERO; 9],
+            block: [T::ZERO; 8],
             total: [T::ZERO; 9],
             pending: 0,
             found: false,
@@ -87,15 +87,14 @@ impl<T: Real> TwoCycle<T> {
         let c = (l0 * l0 - l1 * l1) * inv;
         let s = (l0 + l0) * l1 * inv;
         let b = &mut self.block;
-        b[0] += T::ONE;
-        b[1] += c;
-        b[2] += s;
-        b[3] += c * c;
-        b[4] += c * s;
-        b[5] += hh;
-        b[6] += hh * c;
-        b[7] += hh * s;
-        b[8] += hh * hh;
+        b[0] += c;
+        b[1] += s;
+        b[2] += c * c;
+        b[3] += c * s;
+        b[4] += hh;
+        b[5] += hh * c;
+        b[6] += hh * s;
+        b[7] += hh * hh;
         self.pending += 1;
         if self.pending >= TWO_CYCLE_BLOCK {
             self.fold();
@@ -106,7 +105,9 @@ impl<T: Real> TwoCycle<T> {
     #[inline(never)]
     fn fold(&mut self) {
         let keep = T::from_f64(TWO_CYCLE_KEEP);
-        for (t, b) in self.total.iter_mut().zip(self.block.iter_mut()) {
+        let [n, sums @ ..] = &mut self.total;
+        *n = keep * *n + T::from_u32(u32::from(self.pending));
+        for (t, b) in sums.iter_mut().zip(self.block.iter_mut()) {
             *t = keep * *t + *b;
             *b = T::ZERO;
         }
@@ -159,7 +160,7 @@ pub(super) fn fit<T: Real>(t: &[T; 9]) -> Option<(T, T, T)> {
 /// finding stands).
 pub(super) fn judge<T: Real>(t: &[T; 9]) -> Option<bool> {
     let (amp, margin, c0) = fit(t)?;
-    let limit = T::from_f64(TWO_CYCLE_LIMIT_DEG * core::f64::consts::PI / 180.0) * c0;
+    let limit = T::from_f64(TWO_CYCLE_LIMIT_DEG * (core::f64::consts::PI / 180.0)) * c0;
     if amp - margin > limit {
         Some(true)
     } else if amp + margin < limit {

@@ -289,13 +289,8 @@ fn x_gain_rows_flagged(csv: &str, truth_json: &str, gain: f64) -> (usize, f64) {
         .map(|(r, tr)| r.heading_deg.map(|h| h - tr))
         .collect();
     let all: Vec<f64> = errors.iter().flatten().copied().collect();
-    // One robust offset: the circular mean, then the median about it.
+    let offset = host_tools::compute::robust_offset_deg(&all);
     let wrap = |e: f64| (e + 540.0).rem_euclid(360.0) - 180.0;
-    let (s, c) = all.iter().fold((0.0, 0.0), |(s, c), e| (s + e.to_radians().sin(), c + e.to_radians().cos()));
-    let mean = f64::atan2(s, c).to_degrees();
-    let mut about: Vec<f64> = all.iter().map(|e| wrap(e - mean)).collect();
-    about.sort_by(f64::total_cmp);
-    let offset = mean + about[about.len() / 2];
     let bad: Vec<bool> = errors
         .iter()
         .zip(&applied.rows)
