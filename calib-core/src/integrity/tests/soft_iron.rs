@@ -98,3 +98,15 @@ fn a_gain_error_on_x_is_found_by_the_horizontal_intensitys_two_cycle_variation()
         }
     }
 }
+
+#[test]
+fn the_fit_of_sums_from_outside_data_never_panics_and_decides_nothing() {
+    use crate::integrity::two_cycle::judge;
+    // No samples, too few, a single heading (no spread), and sums that are
+    // not finite: undecided, the last finding stands.
+    let one_heading = [8.0, 8.0, 0.0, 8.0, 0.0, 8.0e4, 8.0e4, 0.0, 8.0e8];
+    for t in [[0.0; 9], [3.0, 0.0, 0.0, 1.5, 0.0, 3.0e4, 0.0, 0.0, 3.0e8], one_heading, [f64::NAN; 9], [f64::INFINITY; 9]] {
+        assert_eq!(judge(&t), None, "{t:?}");
+    }
+    assert_eq!(judge(&[f32::NAN; 9]), None);
+}
