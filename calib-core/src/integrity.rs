@@ -100,7 +100,9 @@ pub use tuning::{
     Reference, Tuning, DEFAULT_FIELD_SIGMA_REL, INCLINATION_ALLOWANCE_DEG, MAX_MISFIT_STEP,
     REANCHOR_TURN_DEG, RECOVER_S, STARTUP_HOLD_S,
 };
-pub use two_cycle::{TWO_CYCLE_BLOCK, TWO_CYCLE_KEEP, TWO_CYCLE_LIMIT_DEG, TWO_CYCLE_Z};
+pub use two_cycle::{
+    TWO_CYCLE_BLOCK, TWO_CYCLE_GATE_SIGMA, TWO_CYCLE_KEEP, TWO_CYCLE_LIMIT_DEG, TWO_CYCLE_Z,
+};
 pub(crate) use monitor::Judgement;
 pub use verdict::{decide, Evidence, HardIronEvidence, IntegrityState, Verdict};
 

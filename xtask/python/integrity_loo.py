@@ -160,9 +160,9 @@ def run(rows, cal, trapezoid=True, gate_rel=1.5, var_rel=0.5, hold_s=STARTUP_HOL
         else:
             pass_s = 0.0; dist = True
         state = 'cal_invalid' if (inval or two_bad) else ('disturbed' if (dist or not frac <= enter) else 'ok')
-        # The two-cycle test's samples (within CONFIRM_GATE_REL, 1.5, × the gate),
+        # The two-cycle test's samples (within TWO_CYCLE_GATE_SIGMA, 7.5),
         # last: its finding counts from the next row.
-        if two is not None and abs(zF) < gate * 1.5 and abs(zI) < gate * 1.5 and hh > noise:
+        if two is not None and abs(zF) < 7.5 and abs(zI) < 7.5 and hh > noise:
             inv = 1.0 / (hh * hh); c2 = (l[0] * l[0] - l[1] * l[1]) * inv; s2 = (l[0] + l[0]) * l[1] * inv
             for k, v in enumerate((1.0, c2, s2, c2 * c2, c2 * s2, hh, hh * c2, hh * s2, hh * hh)):
                 blk[k] += v
@@ -172,7 +172,7 @@ def run(rows, cal, trapezoid=True, gate_rel=1.5, var_rel=0.5, hold_s=STARTUP_HOL
                 if verdict is not None:
                     two_bad = verdict
         if trace is not None:
-            trace.append((l[0], l[1], hh, abs(zF) < gate * 1.5 and abs(zI) < gate * 1.5 and hh > noise))
+            trace.append((l[0], l[1], hh, abs(zF) < 7.5 and abs(zI) < 7.5 and hh > noise))
         out.append((state, hd / DEG))
     return out
 

@@ -5,7 +5,7 @@
 use super::gyro_heading::{wrap_near, GyroHeading};
 use super::inclination::{cos_of_sin, Inclination};
 use super::tuning::{Reference, Tuning, MAX_MISFIT_STEP, STARTUP_HOLD_S, STARTUP_WEIGHT};
-use super::two_cycle::TwoCycle;
+use super::two_cycle::{TwoCycle, TWO_CYCLE_GATE_SIGMA};
 use super::verdict::{decide, Evidence, HardIronEvidence, Verdict};
 use crate::heading::{Tilt, Vec3};
 use crate::Real;
@@ -406,11 +406,11 @@ impl<T: Real> Monitor<T> {
         } else {
             self.misfit_sigma(var_m, innovation, mag, dip_z, hh)
         };
-        // The two-cycle test's samples: within the wider gate (a stricter
-        // one keeps out the headings where a gain error raises |F| most).
-        // Last, so little else is held across it; its finding counts from
-        // the next sample.
-        let wide = g * T::from_f64(CONFIRM_GATE_REL);
+        // The two-cycle test's samples: within its own, wider gate (the
+        // field gate keeps out the headings where a gain error raises |F|
+        // most). Last, so little else is held across it; its finding counts
+        // from the next sample.
+        let wide = T::from_f64(TWO_CYCLE_GATE_SIGMA);
         if field_z.abs() < wide && dip_z.abs() < wide && hh > self.reference.noise_nt {
             self.two_cycle.add(l[0], l[1], hh);
         }
