@@ -71,7 +71,7 @@
 //! No allocation; the state is about 260 bytes in `f32`
 //! (`size_of::<Monitor<f32>>()`, tested); the levelled field is the
 //! heading's (`OnlineIntegrity::process` levels once), so with
-//! `OnlineIntegrity`'s bookkeeping the integrity adds about 435 Cortex-M4F
+//! `OnlineIntegrity`'s bookkeeping the integrity adds about 430 Cortex-M4F
 //! instructions to a usual sample's heading (`cargo xtask bench`; 349
 //! before the two-cycle test: its gate and sums about 55 a sample, its fit
 //! about 110 every eighth, the rest the registers they hold).
