@@ -25,6 +25,23 @@
 //!   disturbance perpendicular to the magnetic meridian, the one that moves
 //!   the heading most; the gyro does.
 //!
+//! Over the recent samples, a fourth: the **horizontal intensity's
+//! two-cycle variation** with heading. A soft-iron error (a wrong gain or
+//! cross term in the horizontal plane) makes `H_h` vary as `cos 2ψ`,
+//! `sin 2ψ`, its amplitude over the mean the heading error's amplitude;
+//! |F| and the dip move too little on a level recording, and the gyro's
+//! allowance for its own scale error over a turn is wider. A least-squares
+//! fit of `H_h` on `1, cos 2ψ, sin 2ψ` (sums kept per sample, judged every
+//! [`TWO_CYCLE_BLOCK`] samples, the older sums kept at [`TWO_CYCLE_KEEP`]
+//! a block) judges the calibration invalid while the amplitude is above
+//! [`TWO_CYCLE_LIMIT_DEG`] by [`TWO_CYCLE_Z`] standard errors, valid again
+//! once below by as many; in between, or before the headings seen spread
+//! enough, the last finding stands. A field fixed in the room moves `H_h`
+//! by where the vehicle is, a new hard iron by one cycle: neither is
+//! taken for it. Its samples are `cal_invalid`
+//! ([`Monitor::two_cycle_found`]); the on-line hard iron neither runs for
+//! it nor answers it, and restarts it when applied or withdrawn.
+//!
 //! Time: a failing sample starts a disturbance, which ends after
 //! `Tuning::exit_s` of passing samples (hysteresis). When the field passes
 //! but the gyro prediction keeps disagreeing for `Tuning::reanchor_s` while
@@ -51,22 +68,26 @@
 //! calibration knows better, [`Reference::noise_nt`]); a sample not ok adds
 //! its innovation and the size of its field misfit across `H_h`.
 //!
-//! No allocation; the state is about 184 bytes in `f32`
+//! No allocation; the state is about 260 bytes in `f32`
 //! (`size_of::<Monitor<f32>>()`, tested); the levelled field is the
 //! heading's (`OnlineIntegrity::process` levels once), so with
-//! `OnlineIntegrity`'s bookkeeping the integrity adds about 349 Cortex-M4F
-//! instructions to a usual sample's heading (`cargo xtask bench`).
+//! `OnlineIntegrity`'s bookkeeping the integrity adds about 430 Cortex-M4F
+//! instructions to a usual sample's heading (`cargo xtask bench`; 349
+//! before the two-cycle test: its gate and sums about 55 a sample, its fit
+//! about 110 every eighth, the rest the registers they hold).
 //!
 //! The module's rooms: `verdict` holds the vocabulary (the states,
 //! the judgement of a sample), `tuning` what the monitor judges against and
 //! how strictly, `gyro_heading` the gyro heading's Kalman filter,
-//! `inclination` the dip's learner, `monitor` the tests and their time
-//! logic. Everything public is re-exported here.
+//! `inclination` the dip's learner, `two_cycle` the horizontal intensity's
+//! fit, `monitor` the tests and their time logic. Everything public is
+//! re-exported here.
 
 mod gyro_heading;
 mod inclination;
 mod monitor;
 mod tuning;
+mod two_cycle;
 mod verdict;
 
 pub(crate) use inclination::cos_of_sin;
@@ -78,6 +99,9 @@ pub use monitor::{
 pub use tuning::{
     Reference, Tuning, DEFAULT_FIELD_SIGMA_REL, INCLINATION_ALLOWANCE_DEG, MAX_MISFIT_STEP,
     REANCHOR_TURN_DEG, RECOVER_S, STARTUP_HOLD_S,
+};
+pub use two_cycle::{
+    TWO_CYCLE_BLOCK, TWO_CYCLE_GATE_SIGMA, TWO_CYCLE_KEEP, TWO_CYCLE_LIMIT_DEG, TWO_CYCLE_Z,
 };
 pub(crate) use monitor::Judgement;
 pub use verdict::{decide, Evidence, HardIronEvidence, IntegrityState, Verdict};

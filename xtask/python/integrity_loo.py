@@ -16,6 +16,14 @@ wrong calibrations and a 30 % soft-iron error as the admissibility check
 (`--hold --every-invalid`: the hold for every invalid calibration, not only
 at start-up). `--before-hold`: every trial without the hold.
 
+With `--two-cycle`: the horizontal intensity's two-cycle test
+(`calib_core::integrity::TWO_CYCLE_*`) leave-one-trial-out: each trial with
+its true calibration and with a 30 % gain error on x (its rows > 5° off after
+the first 10 s, the bench's rule for a wrong calibration, to be flagged);
+four more soft-iron errors reported at the shipped values. The other modes
+(`--old`, `--before-hold`, the vouching grid) run without the test, as they
+were chosen.
+
 Run from the workspace: `python3 xtask/python/integrity_loo.py`.
 """
 import csv, json, math, statistics, sys
@@ -25,6 +33,10 @@ DATA = 'tests/data/'
 LAB_INCLINATION_DEG = 68.968
 # `calib_core::integrity::STARTUP_HOLD_S` (None: before it, the misfit exit only)
 STARTUP_HOLD_S = 0.5
+# `calib_core::integrity`'s two-cycle test (TWO_CYCLE_BLOCK, _KEEP, _Z,
+# _LIMIT_DEG): block samples, the older sums' kept fraction per block,
+# standard errors, amplitude limit ° (None: before it).
+TWO_CYCLE = (8, 0.9, 3.0, 3.0)
 # name, recording, truth calibration, kind (the bench's TRIALS)
 TRIALS = [
     ('broad-30', 'broad-30/broad_30.csv', 'broad-30/broad_30.truth.json', 'S'),
@@ -48,7 +60,7 @@ def wrap(a):
     return a
 
 
-def run(rows, cal, trapezoid=True, gate_rel=1.5, var_rel=0.5, hold_s=STARTUP_HOLD_S, inject=None, startup=True):
+def run(rows, cal, trapezoid=True, gate_rel=1.5, var_rel=0.5, hold_s=STARTUP_HOLD_S, inject=None, startup=True, two=TWO_CYCLE, trace=None):
     """The monitor over `rows` with `Tuning::standard()`: per row (state, heading deg).
 
     `hold_s`: the start-up recovery's hold (`None`: only the misfit exit;
@@ -66,6 +78,10 @@ def run(rows, cal, trapezoid=True, gate_rel=1.5, var_rel=0.5, hold_s=STARTUP_HOL
     h = b = p01 = p00 = 0.0; p11 = (0.5 * DEG) ** 2; anch = False; last = 0.0
     misfit = mw = fail_s = fail_turn = pass_s = agree_s = 0.0; dist = inval = False; t_first = None; held = True
     out = []; prev = None
+    # The horizontal intensity's two-cycle test (`two`: block samples, the
+    # kept fraction of the older blocks, the least information, the
+    # amplitude's limit in degrees; None: none).
+    blk = [0.0] * 9; tot = [0.0] * 9; two_bad = False
     for r in rows:
         t = float(r['t']); dt = t - prev if prev is not None else float('nan'); prev = t
         dt = dt if (dt == dt and dt > 0) else 0.0
@@ -143,9 +159,50 @@ def run(rows, cal, trapezoid=True, gate_rel=1.5, var_rel=0.5, hold_s=STARTUP_HOL
                 dist = False
         else:
             pass_s = 0.0; dist = True
-        state = 'cal_invalid' if inval else ('disturbed' if (dist or not frac <= enter) else 'ok')
+        state = 'cal_invalid' if (inval or two_bad) else ('disturbed' if (dist or not frac <= enter) else 'ok')
+        # The two-cycle test's samples (within TWO_CYCLE_GATE_SIGMA, 7.5),
+        # last: its finding counts from the next row.
+        if two is not None and abs(zF) < 7.5 and abs(zI) < 7.5 and hh > noise:
+            inv = 1.0 / (hh * hh); c2 = (l[0] * l[0] - l[1] * l[1]) * inv; s2 = (l[0] + l[0]) * l[1] * inv
+            for k, v in enumerate((1.0, c2, s2, c2 * c2, c2 * s2, hh, hh * c2, hh * s2, hh * hh)):
+                blk[k] += v
+            if blk[0] >= two[0]:
+                tot = [two[1] * a + b_ for a, b_ in zip(tot, blk)]; blk = [0.0] * 9
+                verdict = two_cycle(tot, two[2], two[3] * DEG)
+                if verdict is not None:
+                    two_bad = verdict
+        if trace is not None:
+            trace.append((l[0], l[1], hh, abs(zF) < 7.5 and abs(zI) < 7.5 and hh > noise))
         out.append((state, hd / DEG))
     return out
+
+
+def two_cycle(t, z, limit_rad):
+    """`calib_core::integrity::two_cycle::judge`: the fit of the sums `t`
+    (n, Σc, Σs, Σc², Σcs, Σy, Σyc, Σys, Σy²; c, s = cos, sin 2ψ; y = H_h):
+    True (the amplitude less `z` standard errors above `limit_rad` × c₀),
+    False (plus them, below), None (undecided: the last finding stands)."""
+    n, sc, ss, scc, scs, sy, syc, sys_, syy = t
+    if not n > 3:
+        return None
+    cm, sm, ym = sc / n, ss / n, sy / n
+    m00 = scc - sc * cm; m01 = scs - sc * sm; m11 = (n - scc) - ss * sm
+    v0 = syc - sc * ym; v1 = sys_ - ss * ym
+    half = 0.5 * (m00 + m11); det = m00 * m11 - m01 * m01
+    lam = half - math.sqrt(max(half * half - det, 0.0))
+    if not (lam > 0 and det > 0):
+        return None
+    a = (m11 * v0 - m01 * v1) / det; b = (m00 * v1 - m01 * v0) / det
+    c0 = ym - a * cm - b * sm
+    rss = (syy - sy * ym) - (a * v0 + b * v1)
+    var = max(rss, 0.0) / (n - 3)
+    amp = math.sqrt(a * a + b * b)
+    margin = z * math.sqrt(var / lam)
+    if amp - margin > limit_rad * c0:
+        return True
+    if amp + margin < limit_rad * c0:
+        return False
+    return None
 
 
 def score(rows, out):
@@ -180,17 +237,19 @@ def main():
     fmt = lambda s: f"ok {s['ok']:.1f} %, good ok {s['good_ok']:.1f} %, > 5° flagged {s['flagged']:.1f} %, > 10° flagged {s['gross_flagged']:.1f} % ({s['gross']})"
     if '--hold' in sys.argv:
         return hold_loo(data, fmt)
+    if '--two-cycle' in sys.argv:
+        return two_cycle_loo(data)
     if '--before-hold' in sys.argv:
         for name, kind, rows, cal in data:
-            print(name, fmt(score(rows, run(rows, cal, hold_s=None))))
+            print(name, fmt(score(rows, run(rows, cal, hold_s=None, two=None))))
         return
     if '--old' in sys.argv:
         for name, kind, rows, cal in data:
-            print(name, fmt(score(rows, run(rows, cal, trapezoid=False, gate_rel=0.0, hold_s=None))))
+            print(name, fmt(score(rows, run(rows, cal, trapezoid=False, gate_rel=0.0, hold_s=None, two=None))))
         return
     grid = [(0.0, 0.5)] + [(g, v) for g in (1.5, 2.0, 3.0) for v in (0.5, 1.0, 2.0)]
     # As chosen: before the recovery hold (it changes no trial but 28's start).
-    scores = {p: [score(rows, run(rows, cal, gate_rel=p[0], var_rel=p[1], hold_s=None)) for _, _, rows, cal in data] for p in grid}
+    scores = {p: [score(rows, run(rows, cal, gate_rel=p[0], var_rel=p[1], hold_s=None, two=None)) for _, _, rows, cal in data] for p in grid}
     total = lambda p, skip: sum(shortfall(data[u][1], scores[p][u]) for u in range(len(data)) if u != skip)
     print('grid (gate × field gate, variance × sample\'s): shortfall per trial')
     for p in grid:
@@ -270,6 +329,103 @@ def hold_loo(data, fmt):
     for u, (name, kind, _, _, _) in enumerate(cases):
         h = min(admissible, key=lambda h: key(h, u))
         print(f'  {name}: chosen {h}: {fmt(scores[h][u])}  | before: {fmt(scores[None][u])}')
+
+
+# The two-cycle test's grid (`--two-cycle`): TWO_CYCLE_BLOCK, _KEEP, _Z,
+# _LIMIT_DEG.
+TWO_GRID = [(b, k, z, lim) for b in (8, 16) for k in (0.7, 0.8, 0.9) for z in (1.0, 2.0, 3.0) for lim in (3.0, 3.5, 4.0, 4.5)]
+# The trials whose optical heading covers the whole circle (the others:
+# 25 47–119°, 02 52–108°, 06 27–132°).
+TURNING = ('broad-30', 'broad-28', 'broad-33', 'broad-34', 'broad-03', 'broad-05', 'broad-09')
+
+
+def soft_irons(cal):
+    """Soft-iron errors: the target's (x gain ×1.3) and four reported beside it."""
+    M = cal['matrix']
+    row = lambda i, k: [k * v for v in M[i]]
+    return [('x gain ×1.3', dict(cal, matrix=[row(0, 1.3), M[1], M[2]])),
+            ('y gain ×1.3', dict(cal, matrix=[M[0], row(1, 1.3), M[2]])),
+            ('x gain ÷1.3', dict(cal, matrix=[row(0, 1 / 1.3), M[1], M[2]])),
+            ('x gain ×1.2', dict(cal, matrix=[row(0, 1.2), M[1], M[2]])),
+            ('xy 0.15', dict(cal, matrix=[[M[0][j] + 0.15 * M[1][j] for j in range(3)],
+                                          [M[1][j] + 0.15 * M[0][j] for j in range(3)], M[2]]))]
+
+
+def two_cycle_flags(trace, two):
+    """Per row, whether the two-cycle test has found the error (the monitor
+    without it gave `trace`: the levelled components, H_h, and whether the
+    row is the test's sample). The test does not feed back into the rest."""
+    blk = [0.0] * 9; tot = [0.0] * 9; bad = False; out = []
+    for l0, l1, hh, fed in trace:
+        out.append(bad)
+        if fed:
+            inv = 1.0 / (hh * hh); c2 = (l0 * l0 - l1 * l1) * inv; s2 = (l0 + l0) * l1 * inv
+            for k, v in enumerate((1.0, c2, s2, c2 * c2, c2 * s2, hh, hh * c2, hh * s2, hh * hh)):
+                blk[k] += v
+            if blk[0] >= two[0]:
+                tot = [two[1] * a + b for a, b in zip(tot, blk)]; blk = [0.0] * 9
+                v = two_cycle(tot, two[2], two[3] * DEG)
+                if v is not None:
+                    bad = v
+    return out
+
+
+def after_10s(rows, out):
+    """Of the rows after the first 10 s off by more than 5° (after one robust
+    offset over the whole trial): how many, and the % not ok."""
+    wd = lambda a: (a + 180) % 360 - 180
+    errs = [wd(hd - float(r['truth_heading_deg'])) for r, (_, hd) in zip(rows, out)]
+    m = math.atan2(sum(math.sin(e * DEG) for e in errs), sum(math.cos(e * DEG) for e in errs)) / DEG
+    off = m + statistics.median([wd(e - m) for e in errs])
+    t0 = float(rows[0]['t'])
+    bad = [st != 'ok' for r, (st, _), e in zip(rows, out, errs) if float(r['t']) >= t0 + 10 and abs(wd(e - off)) > 5]
+    return len(bad), 100 * sum(bad) / max(1, len(bad))
+
+
+def two_cycle_loo(data):
+    """The two-cycle test's constants leave-one-trial-out: each trial with its
+    true calibration (scored as the bench: `shortfall`, ten times, the
+    targets) and with a 30 % gain error on x (the % of its rows > 5° off
+    after 10 s not ok, short of 95); a fold leaves out both of a trial's
+    cases. Ties go to the earlier grid point."""
+    base = {}
+    for name, kind, rows, cal in data:
+        for label, c in [('true', cal)] + soft_irons(cal):
+            tr = []
+            base[name, label] = (run(rows, c, two=None, trace=tr), tr)
+    def scored(p, name, label, rows):
+        out, tr = base[name, label]
+        st = [('cal_invalid' if f else s, hd) for (s, hd), f in zip(out, two_cycle_flags(tr, p))]
+        return score(rows, st), after_10s(rows, st)
+    table = {p: {(name, label): scored(p, name, label, rows) for name, kind, rows, cal in data
+                 for label in ('true', 'x gain ×1.3')} for p in TWO_GRID}
+    kinds = {name: kind for name, kind, _, _ in data}
+    def short(p, name):
+        s, _ = table[p][name, 'true']; _, f = table[p][name, 'x gain ×1.3']
+        return 10 * shortfall(kinds[name], s) + max(0.0, (95 - f[1]) / 100)
+    total = lambda p, skip: sum(short(p, name) for name in kinds if name != skip)
+    fmt2 = lambda s, f: (f"true: ok {s['ok']:.1f} %, good ok {s['good_ok']:.1f} %, > 5° flagged {s['flagged']:.1f} %,"
+                         f" > 10° flagged {s['gross_flagged']:.1f} %; x gain ×1.3: {f[1]:.1f} % of {f[0]} rows > 5° off after 10 s flagged")
+    chosen_all = min(TWO_GRID, key=lambda p: total(p, None))
+    print('chosen on all trials:', chosen_all, f'shortfall {total(chosen_all, None):.4f}')
+    print('leave one trial out (chosen on the others, scored on the one left out):')
+    for name in kinds:
+        p = min(TWO_GRID, key=lambda p: total(p, name))
+        s, _ = table[p][name, 'true']; _, f = table[p][name, 'x gain ×1.3']
+        print(f'  {name}: chosen {p}: {fmt2(s, table[p][name, "x gain ×1.3"][1])}')
+    print('without the test:')
+    for name, kind, rows, cal in data:
+        out, _ = base[name, 'true']; out13, _ = base[name, 'x gain ×1.3']
+        print(f'  {name}: {fmt2(score(rows, out), after_10s(rows, out13))}')
+    print(f'the other soft-iron errors at {TWO_CYCLE} (% of the rows > 5° off after 10 s flagged, rows; before → after):')
+    for name, kind, rows, cal in data:
+        cells = []
+        for label, _ in soft_irons(cal)[1:]:
+            out, tr = base[name, label]
+            st = [('cal_invalid' if f else s_, hd) for (s_, hd), f in zip(out, two_cycle_flags(tr, TWO_CYCLE))]
+            n, b = after_10s(rows, out); _, a = after_10s(rows, st)
+            cells.append(f'{label} {b:.0f} → {a:.0f} ({n})')
+        print(f'  {name}: ' + ', '.join(cells))
 
 
 if __name__ == '__main__':

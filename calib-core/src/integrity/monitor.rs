@@ -5,6 +5,7 @@
 use super::gyro_heading::{wrap_near, GyroHeading};
 use super::inclination::{cos_of_sin, Inclination};
 use super::tuning::{Reference, Tuning, MAX_MISFIT_STEP, STARTUP_HOLD_S, STARTUP_WEIGHT};
+use super::two_cycle::{TwoCycle, TWO_CYCLE_GATE_SIGMA};
 use super::verdict::{decide, Evidence, HardIronEvidence, Verdict};
 use crate::heading::{Tilt, Vec3};
 use crate::Real;
@@ -113,6 +114,8 @@ pub struct Monitor<T> {
     gyro_gate2: T,
     /// The inclination in use, and its learner.
     incl: Inclination<T>,
+    /// The horizontal intensity's two-cycle test (a soft-iron error).
+    pub(super) two_cycle: TwoCycle<T>,
 }
 
 impl<T: Real> Monitor<T> {
@@ -180,6 +183,7 @@ impl<T: Real> Monitor<T> {
             vouch: true,
             cal_var_rad2: reference.heading_sigma_rad * reference.heading_sigma_rad,
             gyro_gate2: tuning.gyro_gate_sigma * tuning.gyro_gate_sigma,
+            two_cycle: TwoCycle::new(),
         })
     }
 
@@ -217,6 +221,7 @@ impl<T: Real> Monitor<T> {
         self.agree_s = T::ZERO;
         self.invalid_at_startup = false;
         self.disturbed = true;
+        self.two_cycle.restart();
     }
 
     /// Lets the gyro vouch for a misfitting field's heading, or not (the
@@ -240,9 +245,18 @@ impl<T: Real> Monitor<T> {
         self.gyro.bias_rad_s
     }
 
-    /// Whether the stored calibration is judged invalid.
+    /// Whether the stored calibration is judged invalid by its field's
+    /// sustained misfit (what the on-line hard iron answers; the
+    /// two-cycle test's finding is [`Monitor::two_cycle_found`]).
     pub fn cal_invalid(&self) -> bool {
         self.cal_invalid
+    }
+
+    /// Whether the horizontal intensity's two-cycle test judges the
+    /// calibration invalid (a soft-iron error: `crate::integrity`'s
+    /// `two_cycle` room). Its samples are `cal_invalid` too.
+    pub fn two_cycle_found(&self) -> bool {
+        self.two_cycle.found
     }
 
     /// The heading variance of a sample with horizontal intensity `hh_nt`.
@@ -284,7 +298,7 @@ impl<T: Real> Monitor<T> {
             field: true,
             attitude,
             judged: true,
-            cal_invalid: self.cal_invalid,
+            cal_invalid: self.cal_invalid | self.two_cycle.found,
             disturbed,
             hard_iron: HardIronEvidence::NotApplied,
             independent_inclination: self.reference.inclination_rad.is_some(),
@@ -392,6 +406,14 @@ impl<T: Real> Monitor<T> {
         } else {
             self.misfit_sigma(var_m, innovation, mag, dip_z, hh)
         };
+        // The two-cycle test's samples: within its own, wider gate (the
+        // field gate keeps out the headings where a gain error raises |F|
+        // most). Last, so little else is held across it; its finding counts
+        // from the next sample.
+        let wide = T::from_f64(TWO_CYCLE_GATE_SIGMA);
+        if field_z.abs() < wide && dip_z.abs() < wide && hh > self.reference.noise_nt {
+            self.two_cycle.add(l[0], l[1], hh);
+        }
         Judgement {
             evidence,
             heading_sigma_rad,

@@ -21,8 +21,9 @@ pub enum IntegrityState {
     Ok = 0,
     /// This sample's field does not fit (a nearby magnetic object, passing).
     Disturbed = 1,
-    /// The field has not fitted for a sustained time: the stored
-    /// calibration no longer fits this vehicle (new hard iron, payload).
+    /// The field has not fitted for a sustained time, or its horizontal
+    /// intensity varies twice a turn: the stored calibration no longer fits
+    /// this vehicle (new hard iron, payload, a soft-iron error).
     CalInvalid = 2,
     /// No attitude (or no field): no heading.
     NoAttitude = 3,
@@ -124,7 +125,9 @@ pub struct Evidence {
     pub judged: bool,
     /// The field has misfitted for a sustained time (the misfit fraction
     /// above `Tuning::misfit_enter`, not yet back below
-    /// `Tuning::misfit_exit`): the stored calibration no longer fits.
+    /// `Tuning::misfit_exit`), or its horizontal intensity varies twice a
+    /// turn (a soft-iron error, `Monitor::two_cycle_found`): the stored
+    /// calibration no longer fits.
     pub cal_invalid: bool,
     /// The sample failed a test, or passed for no longer than
     /// `Tuning::exit_s` since one failed, or the misfit fraction is above

@@ -44,7 +44,7 @@ pub use ortho::{ortho_recording, OrthoSolver};
 pub use swing::{magnetic_headings, swing_recording, swing_recording_with, WaterCurrentMode, Delay};
 pub use units::{check_units, units_guess};
 pub use apply::{
-    apply_recording, choose_inclination, choose_north, document_inclination_deg, gate_curve, score, summarize, write_applied, Applied, ApplyError,
+    apply_recording, choose_inclination, choose_north, document_inclination_deg, gate_curve, robust_offset_deg, score, summarize, write_applied, Applied, ApplyError,
     ApplyOptions, ApplySummary, InclinationSource, IntegrityScore,
 };
 pub use attitude::attitude_samples;
