@@ -106,8 +106,17 @@ pub fn markdown(mcu: &serde_json::Value) -> Result<String> {
     Ok(format!("## MCU cost (Cortex-M4F instructions, QEMU -icount; load at 168 MHz assuming 1 instruction per cycle)\n\n```\n{}\n```\n\n", serde_json::to_string_pretty(mcu)?))
 }
 
+/// The integrity's budget on a usual sample, instructions. 350 until the
+/// horizontal intensity's two-cycle test (a soft-iron gain error, which
+/// the field's and the gyro's checks let through) took it from 349 to 430:
+/// the test's gate and sums cost about 55 a sample, its fit every 8th
+/// sample about 14; the CPU stays 5.9 % busy at the pair rate (target ≤ 10
+/// %). 440 holds that with a little room, not a blank cheque.
+pub const INTEGRITY_INSTRUCTIONS_MAX: f64 = 440.0;
+
 /// The section's targets: the per-sample path ≤ 300 instructions, the
-/// integrity ≤ +350 on a usual sample, the CPU ≤ 10 % busy at the pair rate,
+/// integrity ≤ +[`INTEGRITY_INSTRUCTIONS_MAX`] on a usual sample, the CPU
+/// ≤ 10 % busy at the pair rate,
 /// the watchdog ≥ 2× the worst flash stall, the image within its flash
 /// budget. `mcu` is [`mcu_costs`] with [`cpu_budget`] and the size merged in.
 pub fn targets(mcu: &serde_json::Value) -> Vec<super::targets::Target> {
@@ -117,7 +126,7 @@ pub fn targets(mcu: &serde_json::Value) -> Vec<super::targets::Target> {
     let watchdog = get("watchdog_timeout_ms").zip(get("worst_store_stall_ms")).map(|(w, s)| w / s);
     vec![
         Target::new("mcu", "instructions per output sample: apply with the current and temperature terms + heading", get("apply_env_heading_instructions"), Bound::AtMost(300.0)),
-        Target::new("mcu", "instructions the integrity adds to a usual output sample", integrity, Bound::AtMost(350.0)),
+        Target::new("mcu", "instructions the integrity adds to a usual output sample", integrity, Bound::AtMost(INTEGRITY_INSTRUCTIONS_MAX)),
         Target::new("mcu", "CPU busy at the pair rate, %", get("cpu_busy_pct_at_pair_rate"), Bound::AtMost(10.0)),
         Target::new("mcu", "watchdog timeout over the worst flash stall", watchdog, Bound::AtLeast(2.0)),
         Target::new("mcu", "board image flash, bytes", get("flash_bytes"), Bound::AtMost(crate::size::FLASH_BUDGET_BYTES as f64)),
