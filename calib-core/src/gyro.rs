@@ -342,6 +342,28 @@ impl<T: Real, L: Information<T, UNKNOWNS>> GyroFit<T, L> {
         true
     }
 
+    /// A window's three rows, `A·r_j − R·A·r_i − (I − R)·c = 0`: `u[k]` is
+    /// the coefficient of the matrix's `k`-th entry in each row (`k = 0`,
+    /// the fixed one, the target's); the window is counted when all three
+    /// are absorbed.
+    fn add_window_rows(&mut self, u: &[Vec3<T>; 9], rot: &Mat3<T>) {
+        let mut all = true;
+        for m in 0..3 {
+            let mut phi = [T::ZERO; UNKNOWNS];
+            for k in 1..9 {
+                phi[k - 1] = u[k][m];
+            }
+            for n in 0..3 {
+                let i_minus_r = if m == n { T::ONE } else { T::ZERO } - rot[m][n];
+                phi[MATRIX_UNKNOWNS + n] = -i_minus_r;
+            }
+            all &= self.rls.update(&phi, -u[0][m]);
+        }
+        if all {
+            self.kinematic_windows = self.kinematic_windows.saturating_add(1);
+        }
+    }
+
     /// Absorbs one finite sample (normalised reading `r`) with the window
     /// its chain yields.
     fn absorb(&mut self, s: &GyroSample<T>, r: Vec3<T>, window: Option<ChainStep<T>>) {
@@ -352,21 +374,7 @@ impl<T: Real, L: Information<T, UNKNOWNS>> GyroFit<T, L> {
                 let rei = mul_mat_vec(&rot, basis_times(k, ri));
                 [ej[0] - rei[0], ej[1] - rei[1], ej[2] - rei[2]]
             });
-            let mut all = true;
-            for m in 0..3 {
-                let mut phi = [T::ZERO; UNKNOWNS];
-                for k in 1..9 {
-                    phi[k - 1] = u[k][m];
-                }
-                for n in 0..3 {
-                    let i_minus_r = if m == n { T::ONE } else { T::ZERO } - rot[m][n];
-                    phi[MATRIX_UNKNOWNS + n] = -i_minus_r;
-                }
-                all &= self.rls.update(&phi, -u[0][m]);
-            }
-            if all {
-                self.kinematic_windows = self.kinematic_windows.saturating_add(1);
-            }
+            self.add_window_rows(&u, &rot);
         }
         let w = self.cfg.attitude_weight;
         if s.roll_rad.is_finite() && s.pitch_rad.is_finite() && w > T::ZERO {

@@ -121,21 +121,7 @@ impl<T: Real, L: Information<T, UNKNOWNS>> GyroFit<T, L> {
                 let (row, col) = ENTRIES[k];
                 core::array::from_fn(|m| if m == row { rj[col] } else { T::ZERO } - rot[m][row] * ri[col])
             });
-            let mut all = true;
-            for m in 0..3 {
-                let mut phi = [T::ZERO; UNKNOWNS];
-                for k in 1..9 {
-                    phi[k - 1] = u[k][m];
-                }
-                for n in 0..3 {
-                    let i_minus_r = if m == n { T::ONE } else { T::ZERO } - rot[m][n];
-                    phi[MATRIX_UNKNOWNS + n] = -i_minus_r;
-                }
-                all &= self.rls.update(&phi, -u[0][m]);
-            }
-            if all {
-                self.kinematic_windows = self.kinematic_windows.saturating_add(1);
-            }
+            self.add_window_rows(&u, &rot);
         }
         // The attitude row and the moments, as `absorb` adds them.
         self.absorb(s, r, None);
