@@ -163,14 +163,7 @@ def run(rows, cal, trapezoid=True, gate_rel=1.5, var_rel=0.5, hold_s=STARTUP_HOL
         # The two-cycle test's samples (within TWO_CYCLE_GATE_SIGMA, 7.5),
         # last: its finding counts from the next row.
         if two is not None and abs(zF) < 7.5 and abs(zI) < 7.5 and hh > noise:
-            inv = 1.0 / (hh * hh); c2 = (l[0] * l[0] - l[1] * l[1]) * inv; s2 = (l[0] + l[0]) * l[1] * inv
-            for k, v in enumerate((1.0, c2, s2, c2 * c2, c2 * s2, hh, hh * c2, hh * s2, hh * hh)):
-                blk[k] += v
-            if blk[0] >= two[0]:
-                tot = [two[1] * a + b_ for a, b_ in zip(tot, blk)]; blk = [0.0] * 9
-                verdict = two_cycle(tot, two[2], two[3] * DEG)
-                if verdict is not None:
-                    two_bad = verdict
+            two_bad = two_cycle_feed(blk, tot, two_bad, l[0], l[1], hh, two)
         if trace is not None:
             trace.append((l[0], l[1], hh, abs(zF) < 7.5 and abs(zI) < 7.5 and hh > noise))
         out.append((state, hd / DEG))
@@ -351,6 +344,21 @@ def soft_irons(cal):
                                           [M[1][j] + 0.15 * M[0][j] for j in range(3)], M[2]]))]
 
 
+def two_cycle_feed(blk, tot, found, l0, l1, hh, two):
+    """One sample into the two-cycle test (two_cycle.rs): its sums join the
+    block `blk`; a full block folds into the totals `tot` (both updated in
+    place) and is judged. Returns the finding (`found` unless judged)."""
+    inv = 1.0 / (hh * hh); c2 = (l0 * l0 - l1 * l1) * inv; s2 = (l0 + l0) * l1 * inv
+    for k, v in enumerate((1.0, c2, s2, c2 * c2, c2 * s2, hh, hh * c2, hh * s2, hh * hh)):
+        blk[k] += v
+    if blk[0] >= two[0]:
+        tot[:] = [two[1] * a + b for a, b in zip(tot, blk)]; blk[:] = [0.0] * 9
+        verdict = two_cycle(tot, two[2], two[3] * DEG)
+        if verdict is not None:
+            return verdict
+    return found
+
+
 def two_cycle_flags(trace, two):
     """Per row, whether the two-cycle test has found the error (the monitor
     without it gave `trace`: the levelled components, H_h, and whether the
@@ -359,14 +367,7 @@ def two_cycle_flags(trace, two):
     for l0, l1, hh, fed in trace:
         out.append(bad)
         if fed:
-            inv = 1.0 / (hh * hh); c2 = (l0 * l0 - l1 * l1) * inv; s2 = (l0 + l0) * l1 * inv
-            for k, v in enumerate((1.0, c2, s2, c2 * c2, c2 * s2, hh, hh * c2, hh * s2, hh * hh)):
-                blk[k] += v
-            if blk[0] >= two[0]:
-                tot = [two[1] * a + b for a, b in zip(tot, blk)]; blk = [0.0] * 9
-                v = two_cycle(tot, two[2], two[3] * DEG)
-                if v is not None:
-                    bad = v
+            bad = two_cycle_feed(blk, tot, bad, l0, l1, hh, two)
     return out
 
 
