@@ -219,14 +219,19 @@ fn the_integrity_section_shows_a_disturbance_on_the_validation_run() {
     assert!(!out.missing.iter().any(|m| m.starts_with("integrity")), "{:?}", out.missing);
     assert!(section.contains("Heading error by integrity state") && section.contains("±1σ predicted"));
     assert_eq!(section.matches("<svg").count(), 1);
-    // Rows per state: the 40 disturbed rows are not ok (the state may
-    // linger a few rows after), the rest ok.
+    // Rows per state: the 40 disturbed rows are not ok, and after them the
+    // horizontal intensity's two-cycle test holds the calibration
+    // `cal_invalid` until it has seen enough good headings to clear: the
+    // hull's field, held in the body for 20 s over a 40° arc, raises the
+    // horizontal intensity there as a gain error would over that arc.
+    // Measured: 2 disturbed, 182 cal_invalid (40–60 not ok before the
+    // two-cycle test); a finding that never cleared would give 300.
     let count = |state: &str| -> usize {
         let cell = section.split(&format!("<td class=\"l\">{state}</td><td>")).nth(1).unwrap();
         cell.split('<').next().unwrap().parse().unwrap()
     };
     let not_ok = count("disturbed") + count("cal_invalid");
-    assert!((40..=60).contains(&not_ok), "{not_ok}");
+    assert!((40..=200).contains(&not_ok), "{not_ok}");
     assert_eq!(count("ok") + not_ok + count("no_attitude"), 600);
     assert_eq!(count("no_attitude"), 0);
     // The disturbed rows' dots are orange (the state's colour) in the figure.
@@ -235,12 +240,14 @@ fn the_integrity_section_shows_a_disturbance_on_the_validation_run() {
     // The curve over the gates, the board's point marked.
     let board = section.split("(board)</b></td>").nth(1).expect("the board's row").split("</tr>").next().unwrap();
     let cells: Vec<&str> = board.split("<td>").skip(1).map(|c| c.split('<').next().unwrap()).collect();
-    // Measured: 35 rows off by more than 5°, all flagged; 98.6 % of the
-    // 560 good rows ok; 0.00° on the ok rows (noise-free).
+    // Measured: 35 rows off by more than 5°, all flagged; 74.3 % of the
+    // 560 good rows ok (98.6 % before the two-cycle test: its finding
+    // after the hull, above, costs 144 good rows); 0.00° on the ok rows
+    // (noise-free).
     assert_eq!(cells.first().copied(), Some("35"), "{cells:?}");
     assert_eq!(cells.get(1).copied(), Some("100.0 %"), "{cells:?}");
     let good_ok: f64 = cells.get(3).and_then(|c| c.trim_end_matches(" %").parse().ok()).unwrap_or(f64::NAN);
-    assert!(good_ok > 95.0, "{cells:?}");
+    assert!(good_ok > 70.0, "{cells:?}");
     assert_eq!(section.matches("<tr><td class=\"l\">").count() - 5, 7, "seven points and five states");
 }
 
