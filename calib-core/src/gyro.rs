@@ -109,10 +109,12 @@ impl<T: Real> GyroConfig<T> {
     }
 }
 
-/// `exp(−[θ]×)`: the rotation that carries body-frame vectors of a constant
-/// world vector across a step in which the body turned by `θ` (rad, body
-/// frame). Rodrigues' formula, with its series near zero.
-pub fn body_step_rotation<T: Real>(theta_rad: Vec3<T>) -> Mat3<T> {
+/// The terms of Rodrigues' formula for [`body_step_rotation`]: `K = [−θ]×`,
+/// `K²`, `sin a / a`, `(1 − cos a) / a²` (their series near zero) and
+/// `a² = |θ|²`; the rotation is `I + s·K + c·K²`. Inlined always, so the
+/// board's code is what it was when the rotation formed them itself.
+#[inline(always)]
+pub(crate) fn rodrigues_terms<T: Real>(theta_rad: Vec3<T>) -> (Mat3<T>, Mat3<T>, T, T, T) {
     let [x, y, z] = theta_rad;
     let a2 = x * x + y * y + z * z;
     let a = a2.sqrt();
@@ -121,9 +123,16 @@ pub fn body_step_rotation<T: Real>(theta_rad: Vec3<T>) -> Mat3<T> {
     } else {
         (a.sin() / a, (T::ONE - a.cos()) / a2)
     };
-    // K = [−θ]×, R = I + s·K + c·K².
     let k: Mat3<T> = [[T::ZERO, z, -y], [-z, T::ZERO, x], [y, -x, T::ZERO]];
     let k2 = mul_mat(&k, &k);
+    (k, k2, s, c, a2)
+}
+
+/// `exp(−[θ]×)`: the rotation that carries body-frame vectors of a constant
+/// world vector across a step in which the body turned by `θ` (rad, body
+/// frame). Rodrigues' formula, with its series near zero.
+pub fn body_step_rotation<T: Real>(theta_rad: Vec3<T>) -> Mat3<T> {
+    let (k, k2, s, c, _) = rodrigues_terms(theta_rad);
     let mut r = identity3();
     for i in 0..3 {
         for j in 0..3 {

@@ -259,24 +259,6 @@ impl<T: Real> Sensitive<T> {
     }
 }
 
-/// The terms of Rodrigues' formula as [`body_step_rotation`] forms them:
-/// `K = [−θ]×`, `K²`, `sin a / a`, `(1 − cos a) / a²` (their series near
-/// zero) and `a² = |θ|²`; the rotation is `I + s·K + c·K²`. (Written again
-/// here rather than shared, so the MCU's code stays as it is.)
-fn rodrigues_terms<T: Real>(theta_rad: Vec3<T>) -> (Mat3<T>, Mat3<T>, T, T, T) {
-    let [x, y, z] = theta_rad;
-    let a2 = x * x + y * y + z * z;
-    let a = a2.sqrt();
-    let (s, c) = if a < T::from_f64(1e-4) {
-        (T::ONE - a2 / T::from_f64(6.0), T::from_f64(0.5) - a2 / T::from_f64(24.0))
-    } else {
-        (a.sin() / a, (T::ONE - a.cos()) / a2)
-    };
-    let k: Mat3<T> = [[T::ZERO, z, -y], [-z, T::ZERO, x], [y, -x, T::ZERO]];
-    let k2 = mul_mat(&k, &k);
-    (k, k2, s, c, a2)
-}
-
 /// The two stacks of [`WindowChain`] over any [`WindowElement`].
 #[derive(Debug, Clone)]
 pub(super) struct Stacks<T, E> {
