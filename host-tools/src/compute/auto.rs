@@ -140,23 +140,34 @@ fn held_out_errors(cal: &FieldCal<f64>, rec: &Recording, lo: usize, hi: usize, b
 /// pairs and the gyro yaw's squares.
 type FoldErrors = (Vec<(f64, f64)>, Vec<f64>);
 
-/// The held-out RMS of a candidate, degrees; why not, when a fold's fit is
-/// refused. `near`: the whole recording's attitude fit, where each fold's
-/// iterations start ([`Given::attitude_near`]).
-fn held_out_deg(shared: &Shared<'_>, model: ModelKind, opts: &FitOptions, near: Option<&FieldCal<f64>>) -> Result<f64, String> {
-    let Shared { rec, basis, .. } = *shared;
-    let yaw = shared.yaw.as_ref();
-    let n = rec.len();
-    // The folds are independent: fitted side by side, their errors taken
-    // in fold order (the first refused fold named, as one by one).
-    let folds: Vec<Result<FoldErrors, String>> = (0..FOLDS)
+/// Each fold's fit of a candidate, in fold order: the document, or why the
+/// fit was refused. `near`: the whole recording's attitude fit, where each
+/// fold's iterations start ([`Given::attitude_near`]).
+fn fold_fits(shared: &Shared<'_>, model: ModelKind, opts: &FitOptions, near: Option<&FieldCal<f64>>) -> Vec<Result<CalDoc, String>> {
+    // The folds are independent: fitted side by side.
+    (0..FOLDS)
         .into_par_iter()
         .map(|k| {
-            let (lo, hi) = (k * n / FOLDS, (k + 1) * n / FOLDS);
             let train = shared.trains.get(k).ok_or_else(|| format!("fold {} of {FOLDS}: no training rows", k + 1))?;
             let fold_opts = FitOptions { model, allow_weak: true, ..opts.clone() };
             let given = Given { attitude_near: near, ..Given::default() };
-            let doc = fit_with_given(train, &fold_opts, Checks { attitude_units: false, magnitude_gate: false }, given).map_err(|e| format!("fold {} of {FOLDS}: {e}", k + 1))?;
+            fit_with_given(train, &fold_opts, Checks { attitude_units: false, magnitude_gate: false, document: false }, given).map_err(|e| format!("fold {} of {FOLDS}: {e}", k + 1))
+        })
+        .collect()
+}
+
+/// The held-out RMS of a candidate from its folds' fits ([`fold_fits`]),
+/// degrees; why not, when a fold's fit was refused (the first refused fold
+/// named).
+fn held_out_deg(judge: &Judge<'_>, opts: &FitOptions, folds: &[Result<CalDoc, String>]) -> Result<f64, String> {
+    let Judge { rec, basis, yaw } = *judge;
+    let n = rec.len();
+    let judged: Vec<Result<FoldErrors, String>> = folds
+        .par_iter()
+        .enumerate()
+        .map(|(k, doc)| {
+            let doc = doc.as_ref().map_err(String::clone)?;
+            let (lo, hi) = (k * n / FOLDS, (k + 1) * n / FOLDS);
             let (mut pairs, mut squares) = (Vec::new(), Vec::new());
             let dip = doc.reference.as_ref().and_then(|r| r.inclination_deg);
             match (basis, yaw) {
@@ -173,7 +184,7 @@ fn held_out_deg(shared: &Shared<'_>, model: ModelKind, opts: &FitOptions, near: 
         })
         .collect();
     let (mut pairs, mut squares) = (Vec::new(), Vec::new());
-    for fold in folds {
+    for fold in judged {
         let (p, q) = fold?;
         pairs.extend(p);
         squares.extend(q);
@@ -247,27 +258,45 @@ impl Default for YawJudge {
 /// [`fit_auto`] with the gyro-yaw judge's constants `judge` (for choosing them).
 pub fn fit_auto_judged(rec: &Recording, opts: &FitOptions, judge: &YawJudge) -> Result<(CalDoc, AutoChoice), ComputeError> {
     let mut basis = basis_of(rec);
-    // The plain gyro fit of the whole recording: the gyro-yaw judge's bias,
-    // and the gyro candidate's start (fitted once for both).
-    let plain_gyro = (basis == HeldOutBasis::GyroYaw).then(|| super::gyro::fit_gyro_recording(rec, opts.field_nt, opts.gyro_lag).ok()).flatten();
+    // Roll and pitch in radians refuse every levelling candidate: checked
+    // once here, not in each candidate's and fold's fit.
+    let units = crate::data::intake::check_attitude_units(rec, opts.field_nt).map_err(|e| e.to_string());
+    let n = rec.len();
+    let trains = (0..FOLDS).map(|k| without_block(rec, k * n / FOLDS, (k + 1) * n / FOLDS)).collect();
+    let shared = Shared { rec, trains, units };
+    // Each levelled model also with the dip held at the world model's.
+    let list = super::dip_held::with_held(candidates(), opts);
+    // Every fit first, the judgement after. Beside the candidates' fits:
+    // the plain gyro fit of the whole recording (the gyro-yaw judge's bias,
+    // and the gyro candidates' start, fitted once for all), then the gyro
+    // candidates' whole-recording fits, which start from it.
+    let ((plain_gyro, gyro_fulls), mut fitted) = rayon::join(
+        || {
+            let plain_gyro = (basis == HeldOutBasis::GyroYaw).then(|| super::gyro::fit_gyro_recording(rec, opts.field_nt, opts.gyro_lag).ok()).flatten();
+            let fulls: Vec<(usize, FullFit)> = list
+                .par_iter()
+                .enumerate()
+                .filter(|(_, (model, _))| takes_plain_gyro(*model) && shared.precheck(*model).is_ok())
+                .map(|(i, (model, opts))| (i, fit_candidate(rec, *model, opts, plain_gyro.as_ref())))
+                .collect();
+            (plain_gyro, fulls)
+        },
+        || list.par_iter().map(|(model, opts)| fit_phase(&shared, *model, opts)).collect::<Vec<Fitted>>(),
+    );
+    for (i, full) in gyro_fulls {
+        if let Some(f) = fitted.get_mut(i) {
+            f.full = Some(full);
+        }
+    }
     // A gyro logged too sparsely to integrate (no stretch of a few rows
     // without a break over most of the recording) leaves the field's judge.
     let yaw = if basis == HeldOutBasis::GyroYaw { gyro_yaw(rec, plain_gyro.as_ref(), judge.max_stretch_s).filter(|y| y.usable_share() >= judge.min_share) } else { None };
     if basis == HeldOutBasis::GyroYaw && yaw.is_none() {
         basis = HeldOutBasis::FieldAndDip;
     }
-    // Roll and pitch in radians refuse every levelling candidate: checked
-    // once here, not in each candidate's and fold's fit.
-    let units = crate::data::intake::check_attitude_units(rec, opts.field_nt).map_err(|e| e.to_string());
-    let n = rec.len();
-    let trains = (0..FOLDS).map(|k| without_block(rec, k * n / FOLDS, (k + 1) * n / FOLDS)).collect();
-    let shared = Shared { rec, trains, basis, yaw, plain_gyro, units };
-    // Each levelled model also with the dip held at the world model's;
-    // the candidates side by side, their rows in the table's order.
-    let judged_rows: Vec<(CandidateRow, Option<Judged>)> = super::dip_held::with_held(candidates(), opts)
-        .into_par_iter()
-        .map(|(model, opts)| judge_candidate(&shared, model, &opts))
-        .collect();
+    let judge = Judge { rec, basis, yaw: yaw.as_ref() };
+    // The candidates side by side, their rows in the table's order.
+    let judged_rows: Vec<(CandidateRow, Option<Judged>)> = list.par_iter().zip(fitted.into_par_iter()).map(|((model, opts), fitted)| judge_candidate(&judge, *model, opts, fitted)).collect();
     let mut rows = Vec::new();
     let mut judged: Vec<Judged> = Vec::new();
     for (row, j) in judged_rows {
@@ -305,21 +334,56 @@ pub fn fit_auto_judged(rec: &Recording, opts: &FitOptions, judge: &YawJudge) -> 
     Ok((doc, choice))
 }
 
-/// What every candidate's judgement shares.
+/// Whether a model's whole-recording fit starts from the plain gyro fit
+/// ([`Given::plain_gyro`]).
+fn takes_plain_gyro(model: ModelKind) -> bool {
+    model == ModelKind::Gyro
+}
+
+/// What every candidate's fits share.
 struct Shared<'a> {
     /// The recording.
     rec: &'a Recording,
     /// Each fold's training recording (its held-out block's readings
     /// blanked), made once for every candidate.
     trains: Vec<Recording>,
+    /// Whether roll and pitch are in degrees (why not).
+    units: Result<(), String>,
+}
+
+impl Shared<'_> {
+    /// Why a model is not fitted at all: the recording's columns do not
+    /// allow it, or it levels with roll and pitch that are not in degrees.
+    fn precheck(&self, model: ModelKind) -> Result<(), String> {
+        let levelling = super::models::entry(model).levelled;
+        allowed(model, self.rec).and(if levelling { self.units.clone() } else { Ok(()) })
+    }
+}
+
+/// What every candidate's judgement shares.
+#[derive(Clone, Copy)]
+struct Judge<'a> {
+    /// The recording.
+    rec: &'a Recording,
     /// What judges the held-out blocks.
     basis: HeldOutBasis,
     /// The integrated gyro yaw, for [`HeldOutBasis::GyroYaw`].
-    yaw: Option<GyroYaw>,
-    /// The plain gyro fit of the whole recording.
-    plain_gyro: Option<(FieldCal<f64>, GyroQuality)>,
-    /// Whether roll and pitch are in degrees (why not).
-    units: Result<(), String>,
+    yaw: Option<&'a GyroYaw>,
+}
+
+/// A candidate's whole-recording fit: the document and its row's note.
+type FullFit = Result<(CalDoc, Option<String>), ComputeError>;
+
+/// A candidate's fits, before they are judged.
+struct Fitted {
+    /// Why it was not fitted at all ([`Shared::precheck`]).
+    refused: Option<String>,
+    /// The whole recording's fit (for a model that starts from the plain
+    /// gyro fit, filled in beside it).
+    full: Option<FullFit>,
+    /// Each fold's fit; `None` when the folds were not fitted (the whole
+    /// recording's attitude fit, where they start, failed).
+    folds: Option<Vec<Result<CalDoc, String>>>,
 }
 
 /// A judged candidate: its held-out error and its own expected error
@@ -328,40 +392,50 @@ type Judged = (f64, f64, CalDoc);
 
 /// Fits one candidate on the whole recording and on its held-out folds
 /// (started from the whole recording's fit where the model can start from
-/// one), and judges it: its table row, and what was judged.
-fn judge_candidate(shared: &Shared<'_>, model: ModelKind, opts: &FitOptions) -> (CandidateRow, Option<Judged>) {
-    let Shared { rec, ref units, .. } = *shared;
-    let plain_gyro = shared.plain_gyro.as_ref();
+/// one). The attitude fit's folds start from its whole-recording fit; the
+/// others' folds run beside it (their judgement is only read when the full
+/// fit is accepted). A model whose whole fit starts from the plain gyro
+/// fit leaves it to [`fit_auto_judged`].
+fn fit_phase(shared: &Shared<'_>, model: ModelKind, opts: &FitOptions) -> Fitted {
+    if let Err(why) = shared.precheck(model) {
+        return Fitted { refused: Some(why), full: None, folds: None };
+    }
+    let rec = shared.rec;
+    if model == ModelKind::Attitude {
+        let full = fit_candidate(rec, model, opts, None);
+        let near = full.as_ref().ok().map(|(doc, _)| doc.field_cal());
+        let folds = near.as_ref().map(|near| fold_fits(shared, model, opts, Some(near)));
+        Fitted { refused: None, full: Some(full), folds }
+    } else if takes_plain_gyro(model) {
+        Fitted { refused: None, full: None, folds: Some(fold_fits(shared, model, opts, None)) }
+    } else {
+        let (full, folds) = rayon::join(|| fit_candidate(rec, model, opts, None), || fold_fits(shared, model, opts, None));
+        Fitted { refused: None, full: Some(full), folds: Some(folds) }
+    }
+}
+
+/// Judges one fitted candidate on its held-out blocks: its table row, and
+/// what was judged.
+fn judge_candidate(judge: &Judge<'_>, model: ModelKind, opts: &FitOptions, fitted: Fitted) -> (CandidateRow, Option<Judged>) {
     let mut row = CandidateRow { model: super::dip_held::row_name(model, opts), held_out_deg: None, predicted_deg: None, expected_deg: None, refused: None, note: None };
-    let levelling = super::models::entry(model).levelled;
-    if let Err(why) = allowed(model, rec).and(if levelling { units.clone() } else { Ok(()) }) {
+    let Fitted { refused, full, folds } = fitted;
+    if let Some(why) = refused {
         row.refused = Some(why);
         return (row, None);
     }
-    // The held candidates differ only in their reference, so the plain
-    // gyro fit (field and lag) is every candidate's. The attitude fit's
-    // folds start from its whole-recording fit; the others' folds run
-    // beside it (their judgement is only read when the full fit is
-    // accepted).
-    let (full, held_out) = if model == ModelKind::Attitude {
-        let full = fit_candidate(rec, model, opts, plain_gyro);
-        let near = full.as_ref().ok().map(|(doc, _)| doc.field_cal());
-        let held_out = match &near {
-            Some(near) => held_out_deg(shared, model, opts, Some(near)),
-            None => Err(String::new()),
-        };
-        (full, held_out)
-    } else {
-        rayon::join(|| fit_candidate(rec, model, opts, plain_gyro), || held_out_deg(shared, model, opts, None))
+    let Some(full) = full else {
+        row.refused = Some("not fitted".into());
+        return (row, None);
     };
     let mut judged = None;
     match full {
         Err(e) => row.refused = Some(e.to_string()),
         Ok((doc, note)) => {
             row.note = note;
-            let widened = (model == ModelKind::Attitude).then(|| widened_for_heading_gap(&doc, rec)).flatten();
+            let widened = (model == ModelKind::Attitude).then(|| widened_for_heading_gap(&doc, judge.rec)).flatten();
             row.predicted_deg = doc.quality.predicted_heading_rms_deg;
             row.expected_deg = doc.quality.expected_heading_rms_deg;
+            let held_out = folds.map_or_else(|| Err(String::new()), |folds| held_out_deg(judge, opts, &folds));
             match held_out {
                 Err(why) => row.refused = Some(format!("not judged on held-out data: {why}")),
                 Ok(h) => {
@@ -382,6 +456,7 @@ fn judge_candidate(shared: &Shared<'_>, model: ModelKind, opts: &FitOptions) -> 
     }
     (row, judged)
 }
+
 
 /// What [`choose`] decided, by index into the judged candidates.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -488,7 +563,7 @@ fn gyro_yaw(rec: &Recording, plain: Option<&(FieldCal<f64>, GyroQuality)>, max_s
 fn fit_candidate(rec: &Recording, model: ModelKind, opts: &FitOptions, plain_gyro: Option<&(FieldCal<f64>, GyroQuality)>) -> Result<(CalDoc, Option<String>), ComputeError> {
     let magnitude_gate = !super::models::entry(model).levelled;
     let given = Given { plain_gyro, ..Given::default() };
-    let doc = fit_with_given(rec, &FitOptions { model, ..opts.clone() }, Checks { attitude_units: false, magnitude_gate }, given)?;
+    let doc = fit_with_given(rec, &FitOptions { model, ..opts.clone() }, Checks { attitude_units: false, magnitude_gate, document: true }, given)?;
     let note = doc.quality.fit.as_ref().and_then(|f| f.warnings.iter().find(|w| w.contains("judged on held-out data instead")).cloned());
     Ok((doc, note))
 }

@@ -61,11 +61,19 @@ pub(crate) struct Checks {
     pub attitude_units: bool,
     /// Refuse an in-sample magnitude scatter above the model's gate.
     pub magnitude_gate: bool,
+    /// Write the whole document. Off for a held-out fold fitted with weak
+    /// results allowed, of which only the calibration and the reference's
+    /// inclination are read: the in-sample quality, the gates (which could
+    /// only warn) and the expected heading error are left out, and so is the
+    /// reference check where the reference already gives the inclination
+    /// (without one the check supplies it). Every other check, and the
+    /// calibration, are the same.
+    pub document: bool,
 }
 
 impl Checks {
     /// Every check: what [`fit_recording`] makes.
-    pub const ALL: Checks = Checks { attitude_units: true, magnitude_gate: true };
+    pub const ALL: Checks = Checks { attitude_units: true, magnitude_gate: true, document: true };
 }
 
 /// Fits a field calibration to a recording.
@@ -149,6 +157,9 @@ pub(crate) fn fit_with_given(rec: &Recording, opts: &FitOptions, checks: Checks,
         }
     }
     .map_err(|e| with_advice(explain_failure(e, &samples, opts), rec))?;
+    if !checks.document && opts.allow_weak {
+        return fold_document(cal, rec, opts, fit_dip, constraint);
+    }
     let q = assess(&cal, &samples, opts.field_nt);
     let mut gates = super::models::gates(opts.model);
     if !checks.magnitude_gate && q.residual_rms_pct > gates.max_residual_pct {
@@ -187,6 +198,27 @@ pub(crate) fn fit_with_given(rec: &Recording, opts: &FitOptions, checks: Checks,
     let mut doc = CalDoc::new(kind, &cal, opts.field_nt, quality);
     doc.reference = Some(reference);
     doc.quality.expected_heading_rms_deg = super::apply::expected_heading_rms_deg(&doc);
+    Ok(doc)
+}
+
+/// [`fit_with_given`]'s document for a held-out fold ([`Checks::document`]
+/// off): the calibration validated and in the model's form, with its
+/// reference (checked only where the check must supply the inclination).
+fn fold_document(cal: calib_core::cal::FieldCal<f64>, rec: &Recording, opts: &FitOptions, fit_dip: Option<(f64, f64)>, constraint: Option<DipConstraint>) -> Result<CalDoc, ComputeError> {
+    cal.validate(crate::doc::caldoc::MAX_BIAS_ABS).map_err(|e| ComputeError::Unusable(crate::doc::caldoc::cal_error_text(e)))?;
+    let mut reference = match &opts.reference {
+        Some(r) if r.inclination_deg.is_some() => r.clone(),
+        _ => judge_against_reference(&cal, rec, opts, fit_dip, &mut Vec::new())?,
+    };
+    reference.constraint = constraint;
+    let (kind, cal) = if opts.model == ModelKind::Triangular {
+        let (tri, gain) = ortho::from_field_cal(&cal)?;
+        (ModelKind::Triangular, ortho::to_field_cal(&tri, gain, cal.bias))
+    } else {
+        (opts.model, cal)
+    };
+    let mut doc = CalDoc::new(kind, &cal, opts.field_nt, ResultsQuality::default());
+    doc.reference = Some(reference);
     Ok(doc)
 }
 
