@@ -157,16 +157,19 @@ impl<T: Real> TwoCycle<T> {
     fn fold(&mut self, l0: T, l1: T) {
         let keep = T::from_f64(TWO_CYCLE_KEEP);
         let count = T::from_u32(u32::from(self.pending));
+        let [q0, q1, q2, q3] = &mut self.quadrant;
+        let [qn, qsums @ ..] = match quadrant(l0, l1) {
+            0 => q0,
+            1 => q1,
+            2 => q2,
+            _ => q3,
+        };
         let [n, sums @ ..] = &mut self.total;
         *n = keep * *n + count;
-        if let Some([qn, qsums @ ..]) = self.quadrant.get_mut(quadrant(l0, l1)) {
-            *qn = keep * *qn + count;
-            for (u, b) in qsums.iter_mut().zip(self.block.iter()) {
-                *u = keep * *u + *b;
-            }
-        }
-        for (t, b) in sums.iter_mut().zip(self.block.iter_mut()) {
+        *qn = keep * *qn + count;
+        for ((t, u), b) in sums.iter_mut().zip(qsums.iter_mut()).zip(self.block.iter_mut()) {
             *t = keep * *t + *b;
+            *u = keep * *u + *b;
             *b = T::ZERO;
         }
         self.pending = 0;
