@@ -205,11 +205,12 @@ impl<T: Real> TwoCycle<T> {
 }
 
 /// The quadrant of `ψ`, the direction of the levelled horizontal field
-/// `(l0, l1)` in the body: 0 for `[0, 90°)`, 1 `[90°, 180°)`, 2
-/// `[180°, 270°)`, 3 `[270°, 360°)` (so quadrants `h` and `h + 1` mod 4 are
-/// a half-circle of headings); NaN counts as non-negative.
+/// `(l0, l1)` in the body, by the components' signs: 0 both non-negative
+/// (`ψ` in 0–90°), 1 `l0` negative (90–180°), 2 both negative
+/// (180–270°), 3 `l1` negative (270–360°); quadrants `h` and `h + 1` mod 4
+/// are a half-circle of headings. NaN counts as non-negative.
 #[inline(always)]
-pub(super) fn quadrant<T: Real>(l0: T, l1: T) -> usize {
+fn quadrant<T: Real>(l0: T, l1: T) -> usize {
     match (l0 < T::ZERO, l1 < T::ZERO) {
         (false, false) => 0,
         (true, false) => 1,
