@@ -38,7 +38,13 @@
 //! once below by as many; in between, or before the headings seen spread
 //! enough, the last finding stands. A field fixed in the room moves `H_h`
 //! by where the vehicle is, a new hard iron by one cycle: neither is
-//! taken for it. Its samples are `cal_invalid`
+//! taken for it. A soft-iron error depends on the heading alone and
+//! repeats every half turn, so a finding also needs that no half-circle of
+//! headings (two adjacent quadrants of `ψ`, each keeping its own sums)
+//! judges the amplitude below the limit: a field held in the body for a
+//! while, which raises `H_h` over the arc turned meanwhile as a gain error
+//! would there, is not taken for one once the vehicle has pointed the
+//! other way. Its samples are `cal_invalid`
 //! ([`Monitor::two_cycle_found`]); the on-line hard iron neither runs for
 //! it nor answers it, and restarts it when applied or withdrawn.
 //!
@@ -68,13 +74,15 @@
 //! calibration knows better, [`Reference::noise_nt`]); a sample not ok adds
 //! its innovation and the size of its field misfit across `H_h`.
 //!
-//! No allocation; the state is about 260 bytes in `f32`
+//! No allocation; the state is about 400 bytes in `f32`
 //! (`size_of::<Monitor<f32>>()`, tested); the levelled field is the
 //! heading's (`OnlineIntegrity::process` levels once), so with
-//! `OnlineIntegrity`'s bookkeeping the integrity adds about 430 Cortex-M4F
+//! `OnlineIntegrity`'s bookkeeping the integrity adds about 435 Cortex-M4F
 //! instructions to a usual sample's heading (`cargo xtask bench`; 349
 //! before the two-cycle test: its gate and sums about 55 a sample, its fit
-//! about 110 every eighth, the rest the registers they hold).
+//! about 110 every eighth, the rest the registers they hold; the
+//! quadrants' sums about 5 a sample, their half-circles fitted only while
+//! the error is found).
 //!
 //! The module's rooms: `verdict` holds the vocabulary (the states,
 //! the judgement of a sample), `tuning` what the monitor judges against and

@@ -110,3 +110,68 @@ fn the_fit_of_sums_from_outside_data_never_panics_and_decides_nothing() {
     }
     assert_eq!(judge(&[f32::NAN; 9]), None);
 }
+
+/// A level turn of the true calibration (`k` = 1) at `rate_deg_s` sampled
+/// every `dt_s`, with a field of `extra_nt` along body x (a hull or a magnet
+/// held in the body) from sample `start` for `len` samples, uniform noise
+/// of RMS `noise_nt` per axis, without a gyro
+/// (as the report's validation run); each sample's
+/// state and whether the two-cycle test had found an error.
+fn turn_with_a_body_fixed_transient(rate_deg_s: f64, dt_s: f64, n: usize, start: usize, len: usize, extra_nt: f64, noise_nt: f64) -> std::vec::Vec<(IntegrityState, bool)> {
+    let sigma = 0.012 * F_NT;
+    let reference = Reference {
+        field_nt: F_NT,
+        field_sigma_nt: sigma,
+        noise_nt: sigma,
+        inclination_rad: Some(DIP_RAD),
+        heading_sigma_rad: 0.0,
+    };
+    let mut m = Monitor::new(reference, Tuning::standard()).unwrap();
+    let mut noise = Noise(11);
+    let ned = ned_field(F_NT, DIP_RAD, 0.0);
+    let tilt = Tilt::new(0.0, 0.0);
+    let rate = rate_deg_s.to_radians();
+    (0..n)
+        .map(|i| {
+            let psi = 0.3 + rate * i as f64 * dt_s;
+            let b = ned_to_body(ned, 0.0, 0.0, psi);
+            let x = if (start..start + len).contains(&i) { extra_nt } else { 0.0 };
+            let h = [b[0] + x, b[1], b[2]].map(|v| v + super::NOISE * noise_nt * noise.next());
+            let heading = heading_of_levelled(tilt.level(h));
+            // No gyro, as the report's validation run.
+            let state = m.step(h, heading, Some(&tilt), None, dt_s).state;
+            (state, m.two_cycle_found())
+        })
+        .collect()
+}
+
+#[test]
+fn a_field_held_in_the_body_over_one_arc_is_not_taken_for_a_soft_iron_error() {
+    // The report's case on the simulator's field: a level turn at 1° a
+    // sample (2°/s at 2 Hz), and 5000 nT along x (23 % of H = 21 774 nT)
+    // for 20 s over 40° of it (ψ 300–340°, x near the field's direction),
+    // after the vehicle has turned 283°: the horizontal intensity rises by
+    // 2500–5000 nT over that arc only. A gain error would make H_h vary the
+    // same way at the opposite headings; there the half-circles seen before
+    // show no variation (k = 1: amplitude 0), so the test must never find
+    // it, and the rows after the transient are ok again once the misfit
+    // fraction's exit has passed (τ ln 10 = 4.6 s). Without noise (as the
+    // report's run) and with 100 nT per axis.
+    let (dt_s, start, len) = (0.5, 283, 40);
+    for noise_nt in [0.0, 100.0] {
+        let states = turn_with_a_body_fixed_transient(2.0, dt_s, 600, start, len, 5000.0, noise_nt);
+        let found = states.iter().filter(|(_, f)| *f).count();
+        let exit = start + len + (4.6 / dt_s).ceil() as usize + 1;
+        let not_ok_after = states[exit..].iter().filter(|(s, _)| *s != IntegrityState::Ok).count();
+        let not_ok_during = states[start..start + len].iter().filter(|(s, _)| *s != IntegrityState::Ok).count();
+        std::println!("noise {noise_nt} nT: found on {found} samples, {not_ok_during} of {len} transient samples not ok, {not_ok_after} not ok after the exit");
+        // Measured: never found, no row not ok after the exit. Before the
+        // half-circles' veto: found on 154 and 152 samples, 140 and 139
+        // rows not ok after the exit.
+        assert_eq!(found, 0, "noise {noise_nt}");
+        assert_eq!(not_ok_after, 0, "noise {noise_nt}");
+        // The transient itself is flagged by the field's gates (measured:
+        // all 40).
+        assert!(not_ok_during * 10 >= len * 9, "noise {noise_nt}: {not_ok_during} of {len}");
+    }
+}
