@@ -108,10 +108,12 @@ pub fn markdown(mcu: &serde_json::Value) -> Result<String> {
 
 /// The integrity's budget on a usual sample, instructions. 350 until the
 /// horizontal intensity's two-cycle test (a soft-iron gain error, which
-/// the field's and the gyro's checks let through) took it from 349 to 430:
-/// the test's gate and sums cost about 55 a sample, its fit every 8th
-/// sample about 14; the CPU stays 5.9 % busy at the pair rate (target ≤ 10
-/// %). 440 holds that with a little room, not a blank cheque.
+/// the field's and the gyro's checks let through) took it from 349 to 430
+/// (the test's gate and sums about 55 a sample, its fit every 8th sample
+/// about 14), and its half-circles' veto (a field held in the body not
+/// taken for soft iron; the quadrant's sums a sample) to 435; the CPU stays
+/// 5.9 % busy at the pair rate (target ≤ 10 %). 440 holds that with a
+/// little room, not a blank cheque.
 pub const INTEGRITY_INSTRUCTIONS_MAX: f64 = 440.0;
 
 /// The section's targets: the per-sample path ≤ 300 instructions, the
