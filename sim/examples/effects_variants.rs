@@ -9,6 +9,8 @@
 //! current term off). The "local decl." column is the validation RMS with
 //! the crustal anomaly's declination taken out (the calibration's own
 //! error, [`magcal_sim::scenario::heading_rms_local_declination_deg`]).
+//! The "floor" column is what the true calibration scores there, with
+//! its declination part ([`magcal_sim::scenario::heading_floor`]).
 
 use magcal_sim::scenario::{effects_data, effects_scenarios, evaluate_variant, Variant};
 use magcal_sim::SensorModel;
@@ -28,21 +30,24 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Some((_, e)) => e,
         None => magcal_sim::Effects::parse(&scenario.replace('+', ","))?,
     };
-    println!("| scenario | variant | seed | heading RMS ° | local decl. ° | noise ° | systematic ° | |F| err true nT | |F| err IGRF nT | current vec err % | gain err %/°C | predicted ° (cal, run noise) | obs/pred | delay s |");
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("| scenario | variant | seed | heading RMS ° | local decl. ° | noise ° | floor ° (decl.) | systematic ° | |F| err true nT | |F| err IGRF nT | current vec err % | gain err %/°C | predicted ° (cal, run noise) | obs/pred | delay s |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let f = |v: Option<f64>, p: usize| v.map_or("–".to_string(), |x| format!("{x:.p$}"));
     for &seed in &seeds {
         let data = effects_data(&SensorModel::paper_like(), seed, &effects)?;
+        let floor = data.floor();
         for &v in &variants {
             match evaluate_variant(&data, v) {
                 Ok(o) => {
                     let predicted = format!("{} ({}, {})", f(o.predicted_heading_rms_deg, 3), f(o.predicted_calibration_deg, 3), f(o.run_heading_noise_deg, 3));
                     println!(
-                    "| {scenario} | {} | {seed} | {:.3} | {} | {:.3} | {:.3} | {} | {:.1} | {} | {} | {} | {} | {:.2} |",
+                    "| {scenario} | {} | {seed} | {:.3} | {} | {:.3} | {:.3} ({:.3}) | {:.3} | {} | {:.1} | {} | {} | {} | {} | {:.2} |",
                     v.label(),
                     o.heading_rms_deg,
                     f(o.heading_rms_local_declination_deg, 3),
                     o.heading_noise_deg,
+                    floor.floor_deg,
+                    floor.declination_deg,
                     o.heading_systematic_deg,
                     f(o.field_error_true_nt, 1),
                     o.field_error_igrf_nt,

@@ -1,5 +1,6 @@
 //! The five effects at other sites and with drawn magnitudes: the chain's validation heading RMS per site and seed, with the
-//! white-noise part, the prediction and |F| against the true local field.
+//! white-noise part, the true-heading floor ([`magcal_sim::scenario::heading_floor`]), the prediction and |F| against the
+//! true local field.
 //!
 //! `cargo run --release -p magcal-sim --example varied_sites [site|all] [seeds…]`
 //! (`VARIANTS=all`: every chain variant of [`Variant::ALL`]; `EFFECTS=`
@@ -24,8 +25,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         e.list()
     });
     let f = |v: Option<f64>, p: usize| v.map_or("–".to_string(), |x| format!("{x:.p$}"));
-    println!("| site | variant | seed | heading RMS ° | local decl. ° | noise ° | predicted ° | obs/pred | |F| err true nT | current err % | gain err %/°C | delay s |");
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("| site | variant | seed | heading RMS ° | local decl. ° | noise ° | floor ° (decl.) | predicted ° | obs/pred | |F| err true nT | current err % | gain err %/°C | delay s |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for named in varied_sites().iter().filter(|s| which == "all" || s.name == which) {
         for &seed in &seeds {
             let mut effects = varied_effects(&named.site, seed)?;
@@ -57,15 +58,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     );
                 }
             }
+            let floor = data.floor();
             for &v in &variants {
                 match evaluate_variant(&data, v) {
                     Ok(o) => println!(
-                        "| {} | {} | {seed} | {:.3} | {} | {:.3} | {} | {} | {} | {} | {} | {:.2} |",
+                        "| {} | {} | {seed} | {:.3} | {} | {:.3} | {:.3} ({:.3}) | {} | {} | {} | {} | {} | {:.2} |",
                         named.name,
                         v.label(),
                         o.heading_rms_deg,
                         f(o.heading_rms_local_declination_deg, 3),
                         o.heading_noise_deg,
+                        floor.floor_deg,
+                        floor.declination_deg,
                         f(o.predicted_heading_rms_deg, 3),
                         f(o.observed_over_predicted, 2),
                         f(o.field_error_true_nt, 1),

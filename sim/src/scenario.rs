@@ -89,6 +89,77 @@ fn anomaly_declination_rad(sim: &Simulation) -> Option<Vec<f64>> {
         .collect()
 }
 
+/// The crustal anomaly's mean declination along the calibration run, rad,
+/// and its declination at each row of the validation run, rad; `None`
+/// without the simulator's true-field columns.
+fn anomaly_declination_and_run_mean_rad(run: &Simulation, validation: &Simulation) -> Option<(f64, Vec<f64>)> {
+    let on_run = anomaly_declination_rad(run)?;
+    let run_mean = on_run.iter().sum::<f64>() / on_run.len().max(1) as f64;
+    Some((run_mean, anomaly_declination_rad(validation)?))
+}
+
+/// RMS over the validation run of the crustal anomaly's declination beyond
+/// its mean along the calibration run, °: the true-heading error no
+/// calibration removes (the swing fit against the run's GPS course takes
+/// the run's mean into the heading offset; a magnetometer cannot see the
+/// rest). From the simulator's true-field columns and IGRF at the true
+/// positions; `None` without the anomaly's columns (no anomaly: no local
+/// declination).
+pub fn anomaly_declination_beyond_run_mean_deg(run: &Simulation, validation: &Simulation) -> Option<f64> {
+    let (run_mean, on_val) = anomaly_declination_and_run_mean_rad(run, validation)?;
+    let (mut ss, mut n) = (0.0, 0usize);
+    for d in on_val.iter().map(|d| d - run_mean).filter(|d| d.is_finite()) {
+        ss += d * d;
+        n += 1;
+    }
+    (n > 0).then(|| (ss / n as f64).sqrt().to_degrees())
+}
+
+/// The true calibration of the running vehicle, from the simulator's truth
+/// of the calibration run: the sensor's own matrix (`D⁻¹`) and biases (the
+/// hull's and the running vehicle's), and the declination IGRF's at the
+/// site plus the crustal anomaly's mean along the run (what a swing fit
+/// against the run's GPS course takes into the heading offset). No current
+/// or temperature terms: on a run with those effects it is the static part.
+pub fn true_calibration_doc(run: &Simulation) -> CalDoc {
+    let truth = &run.truth;
+    let sensor = &truth.sensor;
+    let cal = calib_core::cal::FieldCal { bias: [0, 1, 2].map(|k| sensor.bias_raw[k] + sensor.running_bias_raw[k]), matrix: truth.ideal_matrix_nt_per_raw };
+    let mut doc = CalDoc::new(calib_core::cal::ModelKind::Full, &cal, truth.field_nt, Default::default());
+    let run_mean_deg = anomaly_declination_rad(run).map_or(0.0, |d| (d.iter().sum::<f64>() / d.len().max(1) as f64).to_degrees());
+    doc.declination_deg = Some(truth.declination_deg + run_mean_deg);
+    doc
+}
+
+/// The true-heading floor of a validation run: what the true calibration
+/// scores there ([`heading_floor`]).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct HeadingFloor {
+    /// The floor, °: `white_noise_deg ⊕ declination_deg` (in quadrature).
+    pub floor_deg: f64,
+    /// The validation heading error's white-noise part with the true
+    /// calibration ([`heading_noise_deg`] of [`true_calibration_doc`]), °.
+    pub white_noise_deg: f64,
+    /// The crustal anomaly's declination along the validation track beyond
+    /// its mean along the calibration run, RMS
+    /// ([`anomaly_declination_beyond_run_mean_deg`]), °; 0 without the anomaly.
+    pub declination_deg: f64,
+}
+
+/// The true-heading floor of a validation run, from the simulator's truth
+/// only (never from an estimator): the white heading noise
+/// ([`heading_noise_deg`] with [`true_calibration_doc`]) in quadrature with
+/// the RMS of the crustal anomaly's declination along the validation track
+/// beyond its mean along the calibration run
+/// ([`anomaly_declination_beyond_run_mean_deg`]; 0 without the anomaly).
+/// No calibration scores a lower true-heading RMS on that validation run
+/// except by errors that happen to cancel the declination.
+pub fn heading_floor(run: &Simulation, validation: &Simulation) -> HeadingFloor {
+    let white_noise_deg = heading_noise_deg(&true_calibration_doc(run), validation);
+    let declination_deg = anomaly_declination_beyond_run_mean_deg(run, validation).unwrap_or(0.0);
+    HeadingFloor { floor_deg: white_noise_deg.hypot(declination_deg), white_noise_deg, declination_deg }
+}
+
 /// The validation true-heading RMS with the crustal anomaly's declination
 /// taken out, °: each row's error plus the anomaly's declination there,
 /// minus its mean over the calibration run (which the swing fit against
@@ -98,9 +169,7 @@ fn anomaly_declination_rad(sim: &Simulation) -> Option<Vec<f64>> {
 /// the validation track beyond the run's mean, in its true-heading error.
 /// `None` without the anomaly's true-field columns.
 pub fn heading_rms_local_declination_deg(doc: &CalDoc, run: &Simulation, validation: &Simulation) -> Option<f64> {
-    let on_run = anomaly_declination_rad(run)?;
-    let run_mean = on_run.iter().sum::<f64>() / on_run.len().max(1) as f64;
-    let on_val = anomaly_declination_rad(validation)?;
+    let (run_mean, on_val) = anomaly_declination_and_run_mean_rad(run, validation)?;
     let headings = compute::true_headings_rad(doc, &validation.recording);
     let (mut ss, mut n) = (0.0, 0usize);
     for ((h, t), d) in headings.iter().zip(&validation.true_heading_deg).zip(&on_val) {
@@ -382,6 +451,14 @@ pub struct EffectsData {
     pub run: Simulation,
     /// The validation run.
     pub validation: Simulation,
+}
+
+impl EffectsData {
+    /// The validation run's true-heading floor ([`heading_floor`]): from
+    /// the truth only, the same whichever chain is run on the data.
+    pub fn floor(&self) -> HeadingFloor {
+        heading_floor(&self.run, &self.validation)
+    }
 }
 
 /// Simulates one effects scenario (the seeds as [`evaluate_effects`] uses them).
