@@ -18,9 +18,10 @@ use crate::doc::reference::{DipConstraint, Reference};
 pub const HELD_LABEL: &str = " (dip held at the world model's)";
 
 /// Whether a model's fit takes the reference's inclination as a
-/// measurement (and so can hold it): the attitude-aided fit.
+/// measurement (and so can hold it): the attitude-aided and the
+/// gyro-aided fits.
 pub fn takes_dip(model: ModelKind) -> bool {
-    model == ModelKind::Attitude
+    matches!(model, ModelKind::Attitude | ModelKind::Gyro)
 }
 
 /// The options with the dip held at the reference's inclination, when the
