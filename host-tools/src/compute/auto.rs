@@ -264,7 +264,7 @@ pub fn fit_auto_judged(rec: &Recording, opts: &FitOptions, judge: &YawJudge) -> 
     let shared = Shared { rec, trains, basis, yaw, plain_gyro, units };
     // Each levelled model also with the dip held at the world model's;
     // the candidates side by side, their rows in the table's order.
-    let judged_rows: Vec<(CandidateRow, Option<Judged>)> = super::dip_held::with_held(candidates(), opts)
+    let judged_rows: Vec<(CandidateRow, Option<Judged>)> = super::dip_held::with_held(candidates(), opts, |m| allowed(m, rec).is_ok())
         .into_par_iter()
         .map(|(model, opts)| judge_candidate(&shared, model, &opts))
         .collect();

@@ -32,9 +32,11 @@ pub fn held(model: ModelKind, opts: &FitOptions) -> Option<FitOptions> {
 }
 
 /// Every candidate `auto` tries, in its table's order: each model as it
-/// is, then held at the world model's dip where it can be.
-pub fn with_held(models: impl Iterator<Item = ModelKind>, opts: &FitOptions) -> Vec<(ModelKind, FitOptions)> {
-    models.flat_map(|m| std::iter::once((m, opts.clone())).chain(held(m, opts).map(|o| (m, o)))).collect()
+/// is, then held at the world model's dip where it can be and the
+/// recording's columns allow the model (`allowed`: a row that only repeats
+/// the free row's "needs …" says nothing).
+pub fn with_held(models: impl Iterator<Item = ModelKind>, opts: &FitOptions, allowed: impl Fn(ModelKind) -> bool) -> Vec<(ModelKind, FitOptions)> {
+    models.flat_map(|m| std::iter::once((m, opts.clone())).chain(held(m, opts).filter(|_| allowed(m)).map(|o| (m, o)))).collect()
 }
 
 /// The row name of a candidate: the model's, marked when its dip is held.

@@ -142,7 +142,7 @@ pub(crate) fn fit_with_given(rec: &Recording, opts: &FitOptions, checks: Checks,
             };
             if let (Some((i, s, held)), Some(d)) = (world, shaped) {
                 constraint = Some(DipConstraint::shaped(held, d.share, d.inflation, d.dip_rad.to_degrees(), i, s));
-                held_contradicted = held.then(|| contradicted_by_data(i, s, d.data_dip_rad.to_degrees(), d.data_sigma_rad.to_degrees())).flatten();
+                held_contradicted = held.then(|| contradicted_by_data(i, d.data_dip_rad.to_degrees(), d.data_sigma_rad.to_degrees())).flatten();
             } else if world.is_some() {
                 warnings.push("the world model's dip did not shape the gyro-aided fit (no roll and pitch to level with, or its robust refinement failed): the dip is the data's alone".to_string());
             }
@@ -213,19 +213,17 @@ pub(crate) fn fit_with_given(rec: &Recording, opts: &FitOptions, checks: Checks,
 
 /// Why a dip held at the reference's `inclination_deg` contradicts the
 /// data: they alone put it (`data_dip_deg`, 1σ `data_sigma_deg`, their
-/// scatter counted) beyond [`REFUSE_SIGMAS`] of their own σ from it, and
-/// within the world model's allowance (`allowance_deg`, 1σ) of it. Such a
-/// dip is a room's or a hull's real one (the BROAD lab, 1.6° off IGRF-14,
-/// which the gyro-aided fit tells to 0.1–0.3°), and holding the world
-/// model's bends the rest of the calibration. A dip the data put beyond
-/// the allowance is not believed (the reference check refuses it) and the
-/// held fit is the alternative, judged like the others: a thin recording
-/// biased beyond its own scatter.
-fn contradicted_by_data(inclination_deg: f64, allowance_deg: f64, data_dip_deg: f64, data_sigma_deg: f64) -> Option<String> {
+/// scatter counted) beyond [`REFUSE_SIGMAS`] of their own σ from it. A dip
+/// the data tell is theirs: a room's or a hull's real one (the BROAD lab,
+/// 1.6° off IGRF-14, which the gyro-aided fit tells to 0.1–0.3°), or a
+/// wrong site's world model (BROAD trial 02 with a site 12° of dip away:
+/// held there, its validation heading was 12° off). Holding the dip is the
+/// alternative only where the data cannot tell it.
+fn contradicted_by_data(inclination_deg: f64, data_dip_deg: f64, data_sigma_deg: f64) -> Option<String> {
     let apart = (data_dip_deg - inclination_deg).abs();
-    (apart > REFUSE_SIGMAS * data_sigma_deg && apart <= REFUSE_SIGMAS * allowance_deg).then(|| {
+    (!(apart <= REFUSE_SIGMAS * data_sigma_deg)).then(|| {
         format!(
-            "the dip is held at the reference's {inclination_deg:.2}°, where the data alone put it at {data_dip_deg:.2}° ± {data_sigma_deg:.2}° (1σ, their scatter counted): {:.1}σ apart and within the world model's allowance (± {allowance_deg:.2}°), so holding it contradicts them",
+            "the dip is held at the reference's {inclination_deg:.2}°, where the data alone put it at {data_dip_deg:.2}° ± {data_sigma_deg:.2}° (1σ, their scatter counted): {:.1}σ apart, so holding it contradicts them",
             apart / data_sigma_deg
         )
     })
@@ -300,17 +298,17 @@ fn explain_failure(e: FitError, samples: &[[f64; 3]], opts: &FitOptions) -> FitE
 mod held_dip_tests {
     use super::contradicted_by_data;
 
-    /// BROAD trial 02 with the lab's site (IGRF-14 67.94° ± 1.02°): the data
-    /// alone 69.73° ± 0.30°, 6σ of their own from IGRF's and 1.8σ of the
-    /// allowance: holding IGRF's contradicts them. The thin simulated swing
-    /// (IGRF 56.10°): the data alone 50.71° ± 0.57°, beyond 3σ of the
-    /// allowance, so the data are not believed and the held fit is tried.
-    /// Data within 3σ of their own: nothing to say.
+    /// BROAD trial 02 with the lab's site (IGRF-14 67.94°): the data alone
+    /// 69.73° ± 0.30°, 6σ of their own from IGRF's; with a wrong site
+    /// (56.10°), 46σ: holding either contradicts them. Data whose σ takes
+    /// the held dip within 3σ: nothing to say.
     #[test]
-    fn a_held_dip_is_refused_only_where_data_within_the_allowance_contradict_it() {
-        let why = contradicted_by_data(67.94, 1.02, 69.73, 0.30).expect("contradicted");
+    fn a_held_dip_is_refused_where_the_data_alone_put_it_elsewhere() {
+        let why = contradicted_by_data(67.94, 69.73, 0.30).expect("contradicted");
         assert!(why.contains("6.0σ apart") && why.contains("69.73°") && why.contains("67.94°"), "{why}");
-        assert!(contradicted_by_data(56.10, 1.02, 50.71, 0.57).is_none());
-        assert!(contradicted_by_data(67.94, 1.02, 68.50, 0.30).is_none());
+        assert!(contradicted_by_data(56.10, 69.73, 0.30).is_some());
+        assert!(contradicted_by_data(67.94, 68.50, 0.30).is_none());
+        assert!(contradicted_by_data(56.10, 50.71, 2.0).is_none());
+        assert!(contradicted_by_data(56.10, f64::NAN, 2.0).is_some());
     }
 }
