@@ -351,6 +351,12 @@ fn judge_candidate(shared: &Shared<'_>, model: ModelKind, opts: &FitOptions) -> 
             None => Err(String::new()),
         };
         (full, held_out)
+    } else if opts.reference.as_ref().is_some_and(|r| r.dip_held()) {
+        // A held dip the data contradict refuses the full fit: its folds
+        // are then not fitted.
+        let full = fit_candidate(rec, model, opts, plain_gyro);
+        let held_out = if full.is_ok() { held_out_deg(shared, model, opts, None) } else { Err(String::new()) };
+        (full, held_out)
     } else {
         rayon::join(|| fit_candidate(rec, model, opts, plain_gyro), || held_out_deg(shared, model, opts, None))
     };

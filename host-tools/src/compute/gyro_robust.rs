@@ -36,7 +36,8 @@ struct Equations {
     kinematic: Vec<[Row; 3]>,
     attitude: Vec<Row>,
     /// The index of the sample each window ends at, and of each attitude
-    /// row's sample (the blocks of the dip's inflation).
+    /// row's sample (the blocks of the dip's inflation; kept only for a
+    /// fit that weighs the dip).
     kinematic_at: Vec<usize>,
     attitude_at: Vec<usize>,
     /// Samples seen.
@@ -47,8 +48,9 @@ struct Equations {
 /// with `norm`; the windows' rotations from calib-core's [`WindowChain`]
 /// (the batch fit's: a few matrix products a sample instead of one a
 /// window step).
-fn equations(samples: &[GyroSample<f64>], norm: &Normalization<f64>, cfg: &GyroConfig<f64>) -> Equations {
-    let mut out = Equations { kinematic: Vec::with_capacity(samples.len()), attitude: Vec::with_capacity(samples.len()), kinematic_at: Vec::with_capacity(samples.len()), attitude_at: Vec::with_capacity(samples.len()), samples: samples.len() };
+fn equations(samples: &[GyroSample<f64>], norm: &Normalization<f64>, cfg: &GyroConfig<f64>, positions: bool) -> Equations {
+    let capacity = if positions { samples.len() } else { 0 };
+    let mut out = Equations { kinematic: Vec::with_capacity(samples.len()), attitude: Vec::with_capacity(samples.len()), kinematic_at: Vec::with_capacity(capacity), attitude_at: Vec::with_capacity(capacity), samples: samples.len() };
     let mut chain = WindowChain::new();
     for (at, s) in samples.iter().enumerate() {
         let finite = s.t_s.is_finite() && s.raw.iter().chain(s.rate_rad_s.iter()).all(|v| v.is_finite());
@@ -80,7 +82,9 @@ fn equations(samples: &[GyroSample<f64>], norm: &Normalization<f64>, cfg: &GyroC
                 *out_row = (phi, -u0[m]);
             }
             out.kinematic.push(rows);
-            out.kinematic_at.push(at);
+            if positions {
+                out.kinematic_at.push(at);
+            }
         }
         let w = cfg.attitude_weight;
         if s.roll_rad.is_finite() && s.pitch_rad.is_finite() && w > 0.0 {
@@ -94,7 +98,9 @@ fn equations(samples: &[GyroSample<f64>], norm: &Normalization<f64>, cfg: &GyroC
             }
             phi[11] = -w;
             out.attitude.push((phi, -w * l[0] * r[0]));
-            out.attitude_at.push(at);
+            if positions {
+                out.attitude_at.push(at);
+            }
         }
     }
     out
@@ -455,14 +461,15 @@ fn with_dip(pass: &mut Pass<'_>, x: SVector<f64, N>, moments: &Moments, dip: &Di
 pub fn refine(samples: &[GyroSample<f64>], cfg: &GyroConfig<f64>, field_nt: f64, start: &FieldCal<f64>, dip: Option<&DipMeasurement>) -> Option<Refined> {
     let finite: Vec<[f64; 3]> = samples.iter().map(|s| s.raw).filter(|r| r.iter().all(|v| v.is_finite())).collect();
     let norm = Normalization::from_raw_iter(finite.iter().copied())?;
-    let eq = equations(samples, &norm, cfg);
+    let dip = dip.filter(|d| d.sigma_rad > 0.0 && d.inclination_rad.is_finite());
+    let eq = equations(samples, &norm, cfg, dip.is_some());
     if eq.kinematic.len() < 4 {
         return None;
     }
     let mut pass = Pass::new(&eq);
     let mut x = passes(&mut pass, unknowns_of(start, &norm, samples)?, |_| None)?;
     let mut shaped = None;
-    if let Some(dip) = dip.filter(|d| d.sigma_rad > 0.0 && d.inclination_rad.is_finite()) {
+    if let Some(dip) = dip {
         if let Some((weighted, how)) = with_dip(&mut pass, x, &Moments::of(samples, &norm), dip) {
             x = weighted;
             shaped = Some(how);
