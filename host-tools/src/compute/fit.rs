@@ -30,7 +30,8 @@ pub struct FitOptions {
     /// Gyro model: the magnetometer's lag behind the gyro.
     pub gyro_lag: GyroLag,
     /// The world model's field at the site ([`Reference::world_model`]):
-    /// its inclination is the attitude-aided fit's prior, and the result is
+    /// its inclination is a measurement of the levelled fits' dip (the
+    /// attitude-aided and the gyro-aided fits'), and the result is
     /// checked against it (refused beyond the allowance unless `allow_weak`).
     /// `None`: only the intensity `field_nt` is known.
     pub reference: Option<Reference>,

@@ -6,6 +6,13 @@
 //! the gyro's bias and lag as the plain batch fit estimated them. Windows
 //! where the gyro and the field disagree (a fast turn's integration error,
 //! a disturbance in the room) lose weight instead of bending the fit.
+//!
+//! With the world model's inclination ([`DipMeasurement`]) the calibrated
+//! field's dip is one more equation, weighted as the attitude-aided fit
+//! weighs its dip prior: the world model's σ against the data's own
+//! information on the dip, raised by how far contiguous blocks of the
+//! recording scatter beyond it ([`calib_core::attitude_fit::world::block_inflation`]);
+//! a tiny σ holds the dip.
 
 use calib_core::cal::FieldCal;
 use calib_core::fit::Normalization;
