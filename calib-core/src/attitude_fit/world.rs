@@ -60,12 +60,45 @@ pub(super) fn dip_inflation<T: Real>(x: &[T; UNKNOWNS], data: &Prepared<'_, T>, 
             formal += g * g * w / s2;
         }
     }
-    let pulls = pulls.get(..blocks).unwrap_or(&[]);
-    let nb = T::from_f64(blocks as f64);
+    block_inflation(pulls.get(..blocks).unwrap_or(&[]), formal)
+}
+
+/// The variance of contiguous blocks' pulls on a fitted quantity over the
+/// variance the formal weighting predicts for their sum (`formal`), at
+/// least 1: the cluster-robust ("sandwich") variance over the formal one,
+/// `Σ_b (p_b − p̄)² · B/(B − 1) / formal` for `B` blocks. Each block's pull
+/// is `Σ gᵢ·wᵢ·rᵢ` over its rows (`g` the quantity's sensitivity to the
+/// row, `w` its weight, `r` its residual) and `formal = Σ gᵢ²·wᵢ·σ²`. 1
+/// when it cannot be told (fewer than two blocks, no formal information,
+/// a non-finite spread). Any levelled fit's prior on the world model's dip
+/// is weighted with it (this module, and the host's gyro-aided fit).
+pub fn block_inflation<T: Real>(pulls: &[T], formal: T) -> T {
+    if pulls.len() < 2 {
+        return T::ONE;
+    }
+    let nb = T::from_f64(pulls.len() as f64);
     let mean = pulls.iter().fold(T::ZERO, |a, p| a + *p) / nb;
     let spread = pulls.iter().fold(T::ZERO, |a, p| a + (*p - mean) * (*p - mean)) * nb / (nb - T::ONE);
     if !(formal > T::ZERO) || !spread.is_finite() {
         return T::ONE;
     }
     (spread / formal).max(T::ONE)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::block_inflation;
+
+    /// By hand: pulls 1, −1, 1, −1 have mean 0 and Σ(p − p̄)² = 4, so the
+    /// cluster variance is 4·4/3 = 16/3; over a formal variance of 1 that is
+    /// the inflation. Pulls that agree have no spread: never below 1.
+    #[test]
+    fn the_block_inflation_is_the_blocks_spread_over_the_formal_variance() {
+        assert!((block_inflation::<f64>(&[1.0, -1.0, 1.0, -1.0], 1.0) - 16.0 / 3.0).abs() < 1e-12);
+        assert!((block_inflation::<f64>(&[1.0, -1.0, 1.0, -1.0], 2.0) - 8.0 / 3.0).abs() < 1e-12);
+        assert_eq!(block_inflation::<f64>(&[0.5, 0.5, 0.5], 1.0), 1.0);
+        assert_eq!(block_inflation::<f64>(&[3.0], 1.0), 1.0);
+        assert_eq!(block_inflation::<f64>(&[1.0, -1.0], 0.0), 1.0);
+        assert_eq!(block_inflation::<f64>(&[1.0, f64::NAN], 1.0), 1.0);
+    }
 }

@@ -265,7 +265,7 @@ pub fn fit_auto_judged(rec: &Recording, opts: &FitOptions, judge: &YawJudge) -> 
     let trains = (0..FOLDS).map(|k| without_block(rec, k * n / FOLDS, (k + 1) * n / FOLDS)).collect();
     let shared = Shared { rec, trains, units };
     // Each levelled model also with the dip held at the world model's.
-    let list = super::dip_held::with_held(candidates(), opts);
+    let list = super::dip_held::with_held(candidates(), opts, |m| allowed(m, rec).is_ok());
     // Every fit first, the judgement after. Beside the candidates' fits:
     // the plain gyro fit of the whole recording (the gyro-yaw judge's bias,
     // and the gyro candidates' start, fitted once for all), then the gyro
@@ -273,19 +273,28 @@ pub fn fit_auto_judged(rec: &Recording, opts: &FitOptions, judge: &YawJudge) -> 
     let ((plain_gyro, gyro_fulls), mut fitted) = rayon::join(
         || {
             let plain_gyro = (basis == HeldOutBasis::GyroYaw).then(|| super::gyro::fit_gyro_recording(rec, opts.field_nt, opts.gyro_lag).ok()).flatten();
-            let fulls: Vec<(usize, FullFit)> = list
+            // A held dip the data contradict refuses the full fit: its
+            // folds are then not fitted.
+            let fulls: Vec<(usize, FullFit, Option<Vec<Result<CalDoc, String>>>)> = list
                 .par_iter()
                 .enumerate()
                 .filter(|(_, (model, _))| takes_plain_gyro(*model) && shared.precheck(*model).is_ok())
-                .map(|(i, (model, opts))| (i, fit_candidate(rec, *model, opts, plain_gyro.as_ref())))
+                .map(|(i, (model, opts))| {
+                    let full = fit_candidate(rec, *model, opts, plain_gyro.as_ref());
+                    let folds = (dip_held(opts) && full.is_ok()).then(|| fold_fits(&shared, *model, opts, None));
+                    (i, full, folds)
+                })
                 .collect();
             (plain_gyro, fulls)
         },
         || list.par_iter().map(|(model, opts)| fit_phase(&shared, *model, opts)).collect::<Vec<Fitted>>(),
     );
-    for (i, full) in gyro_fulls {
+    for (i, full, folds) in gyro_fulls {
         if let Some(f) = fitted.get_mut(i) {
             f.full = Some(full);
+            if folds.is_some() {
+                f.folds = folds;
+            }
         }
     }
     // A gyro logged too sparsely to integrate (no stretch of a few rows
@@ -332,6 +341,11 @@ pub fn fit_auto_judged(rec: &Recording, opts: &FitOptions, judge: &YawJudge) -> 
     let choice = AutoChoice { chosen: super::dip_held::chosen_name(&doc), basis, candidates: rows, kept_weak };
     doc.quality.auto = Some(choice.clone());
     Ok((doc, choice))
+}
+
+/// Whether a candidate's dip is held at the world model's.
+fn dip_held(opts: &FitOptions) -> bool {
+    opts.reference.as_ref().is_some_and(|r| r.dip_held())
 }
 
 /// Whether a model's whole-recording fit starts from the plain gyro fit
@@ -407,7 +421,10 @@ fn fit_phase(shared: &Shared<'_>, model: ModelKind, opts: &FitOptions) -> Fitted
         let folds = near.as_ref().map(|near| fold_fits(shared, model, opts, Some(near)));
         Fitted { refused: None, full: Some(full), folds }
     } else if takes_plain_gyro(model) {
-        Fitted { refused: None, full: None, folds: Some(fold_fits(shared, model, opts, None)) }
+        // Held at the world model's dip, its folds wait for its full fit
+        // ([`fit_auto_judged`]).
+        let folds = (!dip_held(opts)).then(|| fold_fits(shared, model, opts, None));
+        Fitted { refused: None, full: None, folds }
     } else {
         let (full, folds) = rayon::join(|| fit_candidate(rec, model, opts, None), || fold_fits(shared, model, opts, None));
         Fitted { refused: None, full: Some(full), folds: Some(folds) }

@@ -18,9 +18,10 @@ use crate::doc::reference::{DipConstraint, Reference};
 pub const HELD_LABEL: &str = " (dip held at the world model's)";
 
 /// Whether a model's fit takes the reference's inclination as a
-/// measurement (and so can hold it): the attitude-aided fit.
+/// measurement (and so can hold it): the attitude-aided and the
+/// gyro-aided fits.
 pub fn takes_dip(model: ModelKind) -> bool {
-    model == ModelKind::Attitude
+    matches!(model, ModelKind::Attitude | ModelKind::Gyro)
 }
 
 /// The options with the dip held at the reference's inclination, when the
@@ -31,9 +32,11 @@ pub fn held(model: ModelKind, opts: &FitOptions) -> Option<FitOptions> {
 }
 
 /// Every candidate `auto` tries, in its table's order: each model as it
-/// is, then held at the world model's dip where it can be.
-pub fn with_held(models: impl Iterator<Item = ModelKind>, opts: &FitOptions) -> Vec<(ModelKind, FitOptions)> {
-    models.flat_map(|m| std::iter::once((m, opts.clone())).chain(held(m, opts).map(|o| (m, o)))).collect()
+/// is, then held at the world model's dip where it can be and the
+/// recording's columns allow the model (`allowed`: a row that only repeats
+/// the free row's "needs …" says nothing).
+pub fn with_held(models: impl Iterator<Item = ModelKind>, opts: &FitOptions, allowed: impl Fn(ModelKind) -> bool) -> Vec<(ModelKind, FitOptions)> {
+    models.flat_map(|m| std::iter::once((m, opts.clone())).chain(held(m, opts).filter(|_| allowed(m)).map(|o| (m, o)))).collect()
 }
 
 /// The row name of a candidate: the model's, marked when its dip is held.

@@ -14,7 +14,7 @@ use super::error::ComputeError;
 use crate::doc::results::{FitQuality, GyroQuality, Quality as ResultsQuality};
 use crate::data::Recording;
 use crate::doc::CalDoc;
-use crate::doc::reference::{DipConstraint, Reference, ReferenceSource, HELD_DIP_SIGMA_DEG};
+use crate::doc::reference::{DipConstraint, Reference, ReferenceSource, HELD_DIP_SIGMA_DEG, REFUSE_SIGMAS};
 
 /// Options of a field fit.
 #[derive(Debug, Clone)]
@@ -30,7 +30,8 @@ pub struct FitOptions {
     /// Gyro model: the magnetometer's lag behind the gyro.
     pub gyro_lag: GyroLag,
     /// The world model's field at the site ([`Reference::world_model`]):
-    /// its inclination is the attitude-aided fit's prior, and the result is
+    /// its inclination is a measurement of the levelled fits' dip (the
+    /// attitude-aided and the gyro-aided fits'), and the result is
     /// checked against it (refused beyond the allowance unless `allow_weak`).
     /// `None`: only the intensity `field_nt` is known.
     pub reference: Option<Reference>,
@@ -121,6 +122,13 @@ pub(crate) fn fit_with_given(rec: &Recording, opts: &FitOptions, checks: Checks,
     let mut fit_dip: Option<(f64, f64)> = None;
     // How the reference's inclination shaped the fit.
     let mut constraint: Option<DipConstraint> = None;
+    // A dip held where the data alone say otherwise (why).
+    let mut held_contradicted: Option<String> = None;
+    // The world model's inclination, its 1σ and whether it is held: a
+    // measurement of every levelled fit's dip, weighted against what the
+    // data can tell, or held where asked.
+    let world = opts.reference.as_ref().filter(|r| r.independent_inclination()).and_then(|r| Some((r.inclination_deg?, r.inclination_sigma_deg?, r.dip_held())));
+    let dip_sigma_deg = |(_, s, held): (f64, f64, bool)| if held { HELD_DIP_SIGMA_DEG } else { s };
     let cal = match opts.model {
         ModelKind::Sphere => fit_batch::<Sphere, 4, f64>(&samples, opts.field_nt),
         ModelKind::Axis => fit_batch::<Axis, 6, f64>(&samples, opts.field_nt),
@@ -136,18 +144,25 @@ pub(crate) fn fit_with_given(rec: &Recording, opts: &FitOptions, checks: Checks,
                 super::gyro::GyroLag::Given(lag_s) => lag_s,
                 super::gyro::GyroLag::Estimate => q.gyro_lag_s,
             };
-            let cal = super::gyro_robust::refine_recording(rec, opts.field_nt, given_lag_s, &q, &plain).unwrap_or(plain);
-            fit_dip = Some((q.inclination_deg(opts.field_nt), 0.0));
+            let dip = world.map(|w| super::gyro_robust::DipMeasurement { inclination_rad: w.0.to_radians(), sigma_rad: dip_sigma_deg(w).to_radians() });
+            let (cal, shaped) = match super::gyro_robust::refine_recording(rec, opts.field_nt, given_lag_s, &q, &plain, dip.as_ref()) {
+                Some(refined) => (refined.cal, refined.dip),
+                None => (plain, None),
+            };
+            if let (Some((i, s, held)), Some(d)) = (world, shaped) {
+                constraint = Some(DipConstraint::shaped(held, d.share, d.inflation, d.dip_rad.to_degrees(), i, s));
+                held_contradicted = held.then(|| contradicted_by_data(i, d.data_dip_rad.to_degrees(), d.data_sigma_rad.to_degrees())).flatten();
+            } else if world.is_some() {
+                warnings.push("the world model's dip did not shape the gyro-aided fit (no roll and pitch to level with, or its robust refinement failed): the dip is the data's alone".to_string());
+            }
+            fit_dip = Some((shaped.map_or(q.inclination_deg(opts.field_nt), |d| d.dip_rad.to_degrees()), 0.0));
             warnings.extend(q.weakly_determined.iter().cloned());
             gyro_quality = Some(q);
             Ok(cal)
         }
         ModelKind::Attitude => {
             let mut cfg = AttitudeConfig::new();
-            // The world model's inclination as a measurement weighted
-            // against what the data can tell, or held where asked.
-            let world = opts.reference.as_ref().filter(|r| r.independent_inclination()).and_then(|r| Some((r.inclination_deg?, r.inclination_sigma_deg?, r.dip_held())));
-            cfg.dip_prior = world.map(|(i, s, held)| (i.to_radians(), if held { HELD_DIP_SIGMA_DEG } else { s }.to_radians()));
+            cfg.dip_prior = world.map(|w| (w.0.to_radians(), dip_sigma_deg(w).to_radians()));
             let est = super::attitude::fit_attitude_recording(rec, opts.field_nt, &cfg, given.attitude_near)?;
             fit_dip = Some((est.dip_rad.to_degrees(), est.dip_sigma_rad.to_degrees()));
             constraint = world.map(|(i, s, held)| DipConstraint::shaped(held, est.dip_prior_share, est.dip_data_inflation, est.dip_rad.to_degrees(), i, s));
@@ -176,6 +191,13 @@ pub(crate) fn fit_with_given(rec: &Recording, opts: &FitOptions, checks: Checks,
         }
         warnings.push(format!("quality gate failed, kept because weak results were allowed: {e}"));
         allowed_weak.push(format!("{} fit: quality gate failed: {e}", opts.model.name()));
+    }
+    if let Some(why) = held_contradicted {
+        if !opts.allow_weak {
+            return Err(ComputeError::Disagrees { disagreement: why });
+        }
+        warnings.push(format!("kept because weak results were allowed: {why}"));
+        allowed_weak.push(format!("{} fit: {why}", opts.model.name()));
     }
     cal.validate(crate::doc::caldoc::MAX_BIAS_ABS).map_err(|e| ComputeError::Unusable(crate::doc::caldoc::cal_error_text(e)))?;
     let mut reference = judge_against_reference(&cal, rec, opts, fit_dip, &mut warnings)?;
@@ -220,6 +242,24 @@ fn fold_document(cal: calib_core::cal::FieldCal<f64>, rec: &Recording, opts: &Fi
     let mut doc = CalDoc::new(kind, &cal, opts.field_nt, ResultsQuality::default());
     doc.reference = Some(reference);
     Ok(doc)
+}
+
+/// Why a dip held at the reference's `inclination_deg` contradicts the
+/// data: they alone put it (`data_dip_deg`, 1σ `data_sigma_deg`, their
+/// scatter counted) beyond [`REFUSE_SIGMAS`] of their own σ from it. A dip
+/// the data tell is theirs: a room's or a hull's real one (the BROAD lab,
+/// 1.6° off IGRF-14, which the gyro-aided fit tells to 0.1–0.3°), or a
+/// wrong site's world model (BROAD trial 02 with a site 12° of dip away:
+/// held there, its validation heading was 12° off). Holding the dip is the
+/// alternative only where the data cannot tell it.
+fn contradicted_by_data(inclination_deg: f64, data_dip_deg: f64, data_sigma_deg: f64) -> Option<String> {
+    let apart = (data_dip_deg - inclination_deg).abs();
+    (!(apart <= REFUSE_SIGMAS * data_sigma_deg)).then(|| {
+        format!(
+            "the dip is held at the reference's {inclination_deg:.2}°, where the data alone put it at {data_dip_deg:.2}° ± {data_sigma_deg:.2}° (1σ, their scatter counted): {:.1}σ apart, so holding it contradicts them",
+            apart / data_sigma_deg
+        )
+    })
 }
 
 /// The reference the fit is judged against and written with: the world
@@ -287,3 +327,21 @@ fn explain_failure(e: FitError, samples: &[[f64; 3]], opts: &FitOptions) -> FitE
     }
 }
 
+#[cfg(test)]
+mod held_dip_tests {
+    use super::contradicted_by_data;
+
+    /// BROAD trial 02 with the lab's site (IGRF-14 67.94°): the data alone
+    /// 69.73° ± 0.30°, 6σ of their own from IGRF's; with a wrong site
+    /// (56.10°), 46σ: holding either contradicts them. Data whose σ takes
+    /// the held dip within 3σ: nothing to say.
+    #[test]
+    fn a_held_dip_is_refused_where_the_data_alone_put_it_elsewhere() {
+        let why = contradicted_by_data(67.94, 69.73, 0.30).expect("contradicted");
+        assert!(why.contains("6.0σ apart") && why.contains("69.73°") && why.contains("67.94°"), "{why}");
+        assert!(contradicted_by_data(56.10, 69.73, 0.30).is_some());
+        assert!(contradicted_by_data(67.94, 68.50, 0.30).is_none());
+        assert!(contradicted_by_data(56.10, 50.71, 2.0).is_none());
+        assert!(contradicted_by_data(56.10, f64::NAN, 2.0).is_some());
+    }
+}

@@ -27,7 +27,7 @@ pub use auto::{AutoChoice, CandidateRow, HeldOutBasis, MAX_HELD_OUT_DEG};
 pub use caldoc::{field_nt_problem, CalDoc, CalDocError, DocForm, FIELD_NT_RANGE, FORMAT_VERSION, MAX_BIAS_ABS};
 pub use compass::{CompassDoc, Document};
 pub use integrity::{IntegrityCounts, StateCounts};
-pub use reference::{Reference, ReferenceCheck, ReferenceSource};
+pub use reference::{DipConstraint, Reference, ReferenceCheck, ReferenceSource};
 pub use results::{Quality, SessionSummary};
 pub use caldoc::model_kind;
 pub use integrity::{integrity_text, recalibrate_text};

@@ -6,6 +6,7 @@
 
 mod disturbances;
 mod effects;
+mod gyro_dip;
 mod logs;
 mod scenario;
 mod varied;
