@@ -287,7 +287,15 @@ pub fn fit_auto_judged(rec: &Recording, opts: &FitOptions, judge: &YawJudge) -> 
                 .collect();
             (plain_gyro, fulls)
         },
-        || list.par_iter().map(|(model, opts)| fit_phase(&shared, *model, opts)).collect::<Vec<Fitted>>(),
+        || {
+            // The costliest first (the gyro's folds, then the attitude
+            // fits), so that the last to finish are the short ones.
+            let mut order: Vec<usize> = (0..list.len()).collect();
+            order.sort_by_key(|&i| list.get(i).map_or(usize::MAX, |(model, opts)| fit_cost_rank(*model, opts)));
+            let mut out: Vec<(usize, Fitted)> = order.into_par_iter().with_max_len(1).filter_map(|i| list.get(i).map(|(model, opts)| (i, fit_phase(&shared, *model, opts)))).collect();
+            out.sort_by_key(|(i, _)| *i);
+            out.into_iter().map(|(_, f)| f).collect::<Vec<Fitted>>()
+        },
     );
     for (i, full, folds) in gyro_fulls {
         if let Some(f) = fitted.get_mut(i) {
@@ -341,6 +349,17 @@ pub fn fit_auto_judged(rec: &Recording, opts: &FitOptions, judge: &YawJudge) -> 
     let choice = AutoChoice { chosen: super::dip_held::chosen_name(&doc), basis, candidates: rows, kept_weak };
     doc.quality.auto = Some(choice.clone());
     Ok((doc, choice))
+}
+
+/// Where a candidate's fits start among the others (lowest first): the
+/// gyro-aided fit's folds (each a plain and a robust fit) cost the most,
+/// the attitude-aided fits next, the ellipsoids little.
+fn fit_cost_rank(model: ModelKind, opts: &FitOptions) -> usize {
+    match model {
+        ModelKind::Gyro if !dip_held(opts) => 0,
+        ModelKind::Attitude => 1,
+        _ => 2,
+    }
 }
 
 /// Whether a candidate's dip is held at the world model's.
