@@ -394,27 +394,35 @@ fn symmetric(ata: &[[f64; N]; N]) -> SMatrix<f64, N, N> {
 
 /// Reweighting passes from `x` until one moves no unknown by more than
 /// [`SETTLED`] (at most [`PASSES`]); `extra` adds rows at each pass's `x`
-/// (the dip measurement's, re-linearised).
-fn passes(pass: &mut Pass<'_>, mut x: SVector<f64, N>, extra: impl Fn(&SVector<f64, N>) -> Option<Row>) -> Option<SVector<f64, N>> {
+/// (the dip measurement's, re-linearised). Returns the solution and the
+/// data's weighted normal equations of the last pass (without `extra`'s
+/// rows; `pass` holds that pass's residuals and weights): within
+/// [`SETTLED`] of the solution, where the dip's information is read
+/// without another pass over the rows.
+fn passes(pass: &mut Pass<'_>, mut x: SVector<f64, N>, extra: impl Fn(&SVector<f64, N>) -> Option<Row>) -> Option<(SVector<f64, N>, [[f64; N]; N])> {
+    let mut last = None;
     for _ in 0..PASSES {
-        let (mut ata, mut atb) = pass.at(&x);
+        let (data_ata, mut atb) = pass.at(&x);
+        let mut ata = data_ata;
         if let Some(row) = extra(&x) {
             add_rows(&mut ata, &mut atb, core::slice::from_ref(&row), 1.0);
         }
         let next = symmetric(&ata).cholesky()?.solve(&atb);
         let moved = (next - x).amax();
         x = next;
+        last = Some(data_ata);
         if moved < SETTLED {
             break;
         }
     }
-    Some(x)
+    Some((x, last?))
 }
 
 /// The data's variance per unit-weight row (`Σ w·r² / (rows − unknowns)`),
 /// the inflation of their information on the dip over [`DIP_BLOCKS`]
-/// contiguous blocks of samples, and the dip's formal variance, at the
-/// `x` of the last [`Pass::at`] with its matrix `ata`:
+/// contiguous blocks of samples, and the dip's formal variance, at `x`
+/// with the weights and the matrix `ata` of the last [`Pass::at`] (the
+/// pass that settled on `x`, within [`SETTLED`] of it):
 /// `(σ², inflation, the dip's formal variance)`.
 fn dip_information(pass: &Pass<'_>, ata: &[[f64; N]; N], x: &SVector<f64, N>, gradient: &SVector<f64, N>) -> Option<(f64, f64, f64)> {
     let inverse = symmetric(ata).cholesky()?.inverse();
@@ -441,17 +449,16 @@ fn dip_information(pass: &Pass<'_>, ata: &[[f64; N]; N], x: &SVector<f64, N>, gr
 /// The passes from the settled free solution `x` with the dip measurement
 /// added ([`refine`]), and what it did; `None` where the dip is not
 /// defined (no attitude) or the equations fail.
-fn with_dip(pass: &mut Pass<'_>, x: SVector<f64, N>, moments: &Moments, dip: &DipMeasurement) -> Option<(SVector<f64, N>, DipShaped)> {
+fn with_dip(pass: &mut Pass<'_>, x: SVector<f64, N>, ata: &[[f64; N]; N], moments: &Moments, dip: &DipMeasurement) -> Option<(SVector<f64, N>, DipShaped)> {
     let (data_dip_rad, gradient) = dip_and_gradient(&x, moments)?;
-    let (ata, _) = pass.at(&x);
-    let (sigma2, inflation, formal) = dip_information(pass, &ata, &x, &gradient)?;
+    let (sigma2, inflation, formal) = dip_information(pass, ata, &x, &gradient)?;
     let data_sigma_rad = (formal * inflation).max(0.0).sqrt();
     let weight = (inflation * sigma2).sqrt();
-    let x = passes(pass, x, |x| dip_row(x, moments, dip, weight))?;
+    let (x, mut ata) = passes(pass, x, |x| dip_row(x, moments, dip, weight))?;
     // The share: the dip's variance with the measurement (at the last
     // pass's weights) against the measurement's own, as inflated.
     let (dip_rad, gradient) = dip_and_gradient(&x, moments)?;
-    let (mut ata, mut atb) = pass.at(&x);
+    let mut atb = SVector::<f64, N>::zeros();
     add_rows(&mut ata, &mut atb, core::slice::from_ref(&dip_row(&x, moments, dip, weight)?), 1.0);
     let variance = sigma2 * gradient.dot(&(symmetric(&ata).cholesky()?.inverse() * gradient));
     let share = (variance * inflation / (dip.sigma_rad * dip.sigma_rad)).clamp(0.0, 1.0);
@@ -474,10 +481,10 @@ pub fn refine(samples: &[GyroSample<f64>], cfg: &GyroConfig<f64>, field_nt: f64,
         return None;
     }
     let mut pass = Pass::new(&eq);
-    let mut x = passes(&mut pass, unknowns_of(start, &norm, samples)?, |_| None)?;
+    let (mut x, ata) = passes(&mut pass, unknowns_of(start, &norm, samples)?, |_| None)?;
     let mut shaped = None;
     if let Some(dip) = dip {
-        if let Some((weighted, how)) = with_dip(&mut pass, x, &Moments::of(samples, &norm), dip) {
+        if let Some((weighted, how)) = with_dip(&mut pass, x, &ata, &Moments::of(samples, &norm), dip) {
             x = weighted;
             shaped = Some(how);
         }
