@@ -150,7 +150,13 @@ fn fold_fits(shared: &Shared<'_>, model: ModelKind, opts: &FitOptions, near: Opt
         .map(|k| {
             let train = shared.trains.get(k).ok_or_else(|| format!("fold {} of {FOLDS}: no training rows", k + 1))?;
             let fold_opts = FitOptions { model, allow_weak: true, ..opts.clone() };
-            let given = Given { attitude_near: near, ..Given::default() };
+            // The plain gyro fit of the fold's rows is every gyro
+            // candidate's (the held ones differ only in their reference):
+            // fitted once, by whichever needs it first.
+            let plain_gyro = (model == ModelKind::Gyro)
+                .then(|| shared.fold_plain_gyro.get(k).and_then(|cell| cell.get_or_init(|| super::gyro::fit_gyro_recording(train, opts.field_nt, opts.gyro_lag).ok()).as_ref()))
+                .flatten();
+            let given = Given { attitude_near: near, plain_gyro };
             fit_with_given(train, &fold_opts, Checks { attitude_units: false, magnitude_gate: false, document: false }, given).map_err(|e| format!("fold {} of {FOLDS}: {e}", k + 1))
         })
         .collect()
@@ -263,7 +269,7 @@ pub fn fit_auto_judged(rec: &Recording, opts: &FitOptions, judge: &YawJudge) -> 
     let units = crate::data::intake::check_attitude_units(rec, opts.field_nt).map_err(|e| e.to_string());
     let n = rec.len();
     let trains = (0..FOLDS).map(|k| without_block(rec, k * n / FOLDS, (k + 1) * n / FOLDS)).collect();
-    let shared = Shared { rec, trains, units };
+    let shared = Shared { rec, trains, units, fold_plain_gyro: (0..FOLDS).map(|_| std::sync::OnceLock::new()).collect() };
     // Each levelled model also with the dip held at the world model's.
     let list = super::dip_held::with_held(candidates(), opts, |m| allowed(m, rec).is_ok());
     // Every fit first, the judgement after. Beside the candidates' fits:
@@ -382,6 +388,9 @@ struct Shared<'a> {
     trains: Vec<Recording>,
     /// Whether roll and pitch are in degrees (why not).
     units: Result<(), String>,
+    /// Each fold's plain gyro fit, once one gyro candidate has fitted it
+    /// (`None` inside: it failed, and each candidate's fold fit says why).
+    fold_plain_gyro: Vec<std::sync::OnceLock<Option<(FieldCal<f64>, GyroQuality)>>>,
 }
 
 impl Shared<'_> {
