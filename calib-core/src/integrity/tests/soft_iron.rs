@@ -28,19 +28,19 @@ const DIP_RAD: f64 = 1.1;
 const DT_S: f64 = 0.1;
 const RATE_RAD_S: f64 = 20.0 * core::f64::consts::PI / 180.0;
 
+/// The monitor of the level turns: the field `F_NT` at `DIP_RAD`, its
+/// allowance and noise `sigma_nt`, the standard tuning.
+fn level_turn_monitor(sigma_nt: f64) -> Monitor<f64> {
+    let reference = Reference { field_nt: F_NT, field_sigma_nt: sigma_nt, noise_nt: sigma_nt, inclination_rad: Some(DIP_RAD), heading_sigma_rad: 0.0 };
+    Monitor::new(reference, Tuning::standard()).unwrap()
+}
+
 /// Runs a level turn of `n` samples with the x gain `k` (uniform noise of
 /// RMS 576 nT per axis); returns the monitor and each sample's state and
 /// whether the two-cycle test had found the error.
 fn turn(k: f64, n: usize) -> (Monitor<f64>, std::vec::Vec<(IntegrityState, bool)>) {
     let sigma = 0.012 * F_NT;
-    let reference = Reference {
-        field_nt: F_NT,
-        field_sigma_nt: sigma,
-        noise_nt: sigma,
-        inclination_rad: Some(DIP_RAD),
-        heading_sigma_rad: 0.0,
-    };
-    let mut m = Monitor::new(reference, Tuning::standard()).unwrap();
+    let mut m = level_turn_monitor(sigma);
     let mut noise = Noise(11);
     let ned = ned_field(F_NT, DIP_RAD, 0.0);
     let tilt = Tilt::new(0.0, 0.0);
@@ -118,15 +118,7 @@ fn the_fit_of_sums_from_outside_data_never_panics_and_decides_nothing() {
 /// (as the report's validation run); each sample's
 /// state and whether the two-cycle test had found an error.
 fn turn_with_a_body_fixed_transient(rate_deg_s: f64, dt_s: f64, n: usize, start: usize, len: usize, extra_nt: f64, noise_nt: f64) -> std::vec::Vec<(IntegrityState, bool)> {
-    let sigma = 0.012 * F_NT;
-    let reference = Reference {
-        field_nt: F_NT,
-        field_sigma_nt: sigma,
-        noise_nt: sigma,
-        inclination_rad: Some(DIP_RAD),
-        heading_sigma_rad: 0.0,
-    };
-    let mut m = Monitor::new(reference, Tuning::standard()).unwrap();
+    let mut m = level_turn_monitor(0.012 * F_NT);
     let mut noise = Noise(11);
     let ned = ned_field(F_NT, DIP_RAD, 0.0);
     let tilt = Tilt::new(0.0, 0.0);
