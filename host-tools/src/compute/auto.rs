@@ -143,7 +143,7 @@ type FoldErrors = (Vec<(f64, f64)>, Vec<f64>);
 /// Each fold's fit of a candidate, in fold order: the document, or why the
 /// fit was refused. `near`: the whole recording's attitude fit, where each
 /// fold's iterations start ([`Given::attitude_near`]).
-fn fold_fits(shared: &Shared<'_>, model: ModelKind, opts: &FitOptions, near: Option<&FieldCal<f64>>) -> Vec<Result<CalDoc, String>> {
+fn fold_fits(shared: &Shared<'_>, model: ModelKind, opts: &FitOptions, near: Option<&FieldCal<f64>>) -> FoldFits {
     // The folds are independent: fitted side by side.
     (0..FOLDS)
         .into_par_iter()
@@ -281,7 +281,7 @@ pub fn fit_auto_judged(rec: &Recording, opts: &FitOptions, judge: &YawJudge) -> 
             let plain_gyro = (basis == HeldOutBasis::GyroYaw).then(|| super::gyro::fit_gyro_recording(rec, opts.field_nt, opts.gyro_lag).ok()).flatten();
             // A held dip the data contradict refuses the full fit: its
             // folds are then not fitted.
-            let fulls: Vec<(usize, FullFit, Option<Vec<Result<CalDoc, String>>>)> = list
+            let fulls: Vec<(usize, FullFit, Option<FoldFits>)> = list
                 .par_iter()
                 .enumerate()
                 .filter(|(_, (model, _))| takes_plain_gyro(*model) && shared.precheck(*model).is_ok())
@@ -390,7 +390,7 @@ struct Shared<'a> {
     units: Result<(), String>,
     /// Each fold's plain gyro fit, once one gyro candidate has fitted it
     /// (`None` inside: it failed, and each candidate's fold fit says why).
-    fold_plain_gyro: Vec<std::sync::OnceLock<Option<(FieldCal<f64>, GyroQuality)>>>,
+    fold_plain_gyro: Vec<std::sync::OnceLock<Option<PlainGyro>>>,
 }
 
 impl Shared<'_> {
@@ -416,6 +416,13 @@ struct Judge<'a> {
 /// A candidate's whole-recording fit: the document and its row's note.
 type FullFit = Result<(CalDoc, Option<String>), ComputeError>;
 
+/// Each fold's fit of a candidate, in fold order ([`fold_fits`]).
+type FoldFits = Vec<Result<CalDoc, String>>;
+
+/// A plain gyro fit: the calibration and its quality (with the gyro's
+/// bias and lag).
+type PlainGyro = (FieldCal<f64>, GyroQuality);
+
 /// A candidate's fits, before they are judged.
 struct Fitted {
     /// Why it was not fitted at all ([`Shared::precheck`]).
@@ -425,7 +432,7 @@ struct Fitted {
     full: Option<FullFit>,
     /// Each fold's fit; `None` when the folds were not fitted (the whole
     /// recording's attitude fit, where they start, failed).
-    folds: Option<Vec<Result<CalDoc, String>>>,
+    folds: Option<FoldFits>,
 }
 
 /// A judged candidate: its held-out error and its own expected error
