@@ -69,17 +69,16 @@ fn ours(csv: &Path, opts: &FitOptions, auto: bool) -> Result<(f64, CalDoc), Stri
 }
 
 /// The stated target: `fit` (auto) no slower than scipy's single fit of
-/// one model (ratio ≤ 1). Met from 10⁴ to 10⁵ rows, missed at 10⁶, so
-/// held: no row's ratio may exceed this. Measured (release, 2 cores, quiet,
-/// 22:50 UTC): 0.69 at 10⁴ rows, 0.85 at 66 500, 0.96 at 10⁵, 1.40 at 10⁶
-/// (auto 0.87 s at 66 500 rows, 12.5–17.5 µs a row; scipy 1.01 s); an
-/// earlier run of the same code 1.88 / 0.90 / 0.85 / 1.59, scipy's own
-/// time at 10⁴ rows moving 0.09–0.23 s between runs. Auto now fits seven
-/// candidates with a site (the gyro fit also with the dip held) and the
-/// gyro fit's dip measurement adds passes; at 10⁶ rows the gyro fits'
-/// stored equations (about 400 B a row each) and the five fold copies
-/// cost page faults, so auto is not yet linear there. Three stages ago
-/// 91–96 µs a row.
+/// one model (ratio ≤ 1). Met at 66 500 rows, about met at 10⁵, missed at
+/// 10⁶ and at 10⁴ when scipy runs fast, so held: no row's ratio may exceed
+/// this. Measured (release, 2 cores, quiet, three runs 22:36–23:02 UTC):
+/// 10⁴ rows 0.69–1.88 (auto 0.15–0.17 s; scipy's own 0.09–0.23 s), 66 500
+/// rows 0.85–0.90 (auto 0.85–0.89 s, 13 µs a row), 10⁵ 0.85–1.00, 10⁶
+/// 1.31–1.59 (17.5–20 µs a row). With a site auto fits seven candidates
+/// (the gyro fit also with the dip held) and the gyro fit's dip
+/// measurement adds passes; at 10⁶ rows (752 Hz) the gyro windows are cut
+/// at 32 steps and more of their rows are down-weighted, so auto is not
+/// yet linear there. Three stages ago 91–96 µs a row.
 pub const AUTO_RATIO_HELD: f64 = 2.5;
 
 /// The section's targets: at every row count, `fit` auto ÷ scipy's fit ≤ 1
