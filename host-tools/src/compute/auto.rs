@@ -153,7 +153,7 @@ fn fold_fits(shared: &Shared<'_>, model: ModelKind, opts: &FitOptions, near: Opt
             // The plain gyro fit of the fold's rows is every gyro
             // candidate's (the held ones differ only in their reference):
             // fitted once, by whichever needs it first.
-            let plain_gyro = (model == ModelKind::Gyro)
+            let plain_gyro = takes_plain_gyro(model)
                 .then(|| shared.fold_plain_gyro.get(k).and_then(|cell| cell.get_or_init(|| super::gyro::fit_gyro_recording(train, opts.field_nt, opts.gyro_lag).ok()).as_ref()))
                 .flatten();
             let given = Given { attitude_near: near, plain_gyro };
@@ -287,7 +287,7 @@ pub fn fit_auto_judged(rec: &Recording, opts: &FitOptions, judge: &YawJudge) -> 
                 .filter(|(_, (model, _))| takes_plain_gyro(*model) && shared.precheck(*model).is_ok())
                 .map(|(i, (model, opts))| {
                     let full = fit_candidate(rec, *model, opts, plain_gyro.as_ref());
-                    let folds = (dip_held(opts) && full.is_ok()).then(|| fold_fits(&shared, *model, opts, None));
+                    let folds = (super::dip_held::is_held(opts) && full.is_ok()).then(|| fold_fits(&shared, *model, opts, None));
                     (i, full, folds)
                 })
                 .collect();
@@ -362,15 +362,10 @@ pub fn fit_auto_judged(rec: &Recording, opts: &FitOptions, judge: &YawJudge) -> 
 /// the attitude-aided fits next, the ellipsoids little.
 fn fit_cost_rank(model: ModelKind, opts: &FitOptions) -> usize {
     match model {
-        ModelKind::Gyro if !dip_held(opts) => 0,
+        ModelKind::Gyro if !super::dip_held::is_held(opts) => 0,
         ModelKind::Attitude => 1,
         _ => 2,
     }
-}
-
-/// Whether a candidate's dip is held at the world model's.
-fn dip_held(opts: &FitOptions) -> bool {
-    opts.reference.as_ref().is_some_and(|r| r.dip_held())
 }
 
 /// Whether a model's whole-recording fit starts from the plain gyro fit
@@ -458,7 +453,7 @@ fn fit_phase(shared: &Shared<'_>, model: ModelKind, opts: &FitOptions) -> Fitted
     } else if takes_plain_gyro(model) {
         // Held at the world model's dip, its folds wait for its full fit
         // ([`fit_auto_judged`]).
-        let folds = (!dip_held(opts)).then(|| fold_fits(shared, model, opts, None));
+        let folds = (!super::dip_held::is_held(opts)).then(|| fold_fits(shared, model, opts, None));
         Fitted { refused: None, full: None, folds }
     } else {
         let (full, folds) = rayon::join(|| fit_candidate(rec, model, opts, None), || fold_fits(shared, model, opts, None));

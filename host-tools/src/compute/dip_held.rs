@@ -39,9 +39,14 @@ pub fn with_held(models: impl Iterator<Item = ModelKind>, opts: &FitOptions, all
     models.flat_map(|m| std::iter::once((m, opts.clone())).chain(held(m, opts).filter(|_| allowed(m)).map(|o| (m, o)))).collect()
 }
 
+/// Whether a candidate's options hold the dip at the reference's.
+pub fn is_held(opts: &FitOptions) -> bool {
+    opts.reference.as_ref().is_some_and(|r| r.dip_held())
+}
+
 /// The row name of a candidate: the model's, marked when its dip is held.
 pub fn row_name(model: ModelKind, opts: &FitOptions) -> String {
-    let held = opts.reference.as_ref().is_some_and(|r| r.dip_held());
+    let held = is_held(opts);
     format!("{}{}", model.name(), if held { HELD_LABEL } else { "" })
 }
 
