@@ -206,12 +206,7 @@ pub(crate) fn fit_with_given(rec: &Recording, opts: &FitOptions, checks: Checks,
     if skipped > 0 {
         warnings.push(format!("{skipped} rows without a complete mx, my, mz were skipped"));
     }
-    let (kind, cal) = if opts.model == ModelKind::Triangular {
-        let (tri, gain) = ortho::from_field_cal(&cal)?;
-        (ModelKind::Triangular, ortho::to_field_cal(&tri, gain, cal.bias))
-    } else {
-        (opts.model, cal)
-    };
+    let (kind, cal) = in_model_form(cal, opts.model)?;
     // Which units the raw data look like (the fit works in any).
     let radius = opts.field_nt / ((cal.matrix[0][0].abs() + cal.matrix[1][1].abs() + cal.matrix[2][2].abs()) / 3.0);
     let units = units_guess(radius, opts.field_nt);
@@ -221,6 +216,17 @@ pub(crate) fn fit_with_given(rec: &Recording, opts: &FitOptions, checks: Checks,
     doc.reference = Some(reference);
     doc.quality.expected_heading_rms_deg = super::apply::expected_heading_rms_deg(&doc);
     Ok(doc)
+}
+
+/// The fitted calibration in the model's form: the triangular model's
+/// through paper 001's factorisation, every other as fitted.
+fn in_model_form(cal: calib_core::cal::FieldCal<f64>, model: ModelKind) -> Result<(ModelKind, calib_core::cal::FieldCal<f64>), ComputeError> {
+    if model == ModelKind::Triangular {
+        let (tri, gain) = ortho::from_field_cal(&cal)?;
+        Ok((ModelKind::Triangular, ortho::to_field_cal(&tri, gain, cal.bias)))
+    } else {
+        Ok((model, cal))
+    }
 }
 
 /// [`fit_with_given`]'s document for a held-out fold ([`Checks::document`]
@@ -233,12 +239,7 @@ fn fold_document(cal: calib_core::cal::FieldCal<f64>, rec: &Recording, opts: &Fi
         _ => judge_against_reference(&cal, rec, opts, fit_dip, &mut Vec::new())?,
     };
     reference.constraint = constraint;
-    let (kind, cal) = if opts.model == ModelKind::Triangular {
-        let (tri, gain) = ortho::from_field_cal(&cal)?;
-        (ModelKind::Triangular, ortho::to_field_cal(&tri, gain, cal.bias))
-    } else {
-        (opts.model, cal)
-    };
+    let (kind, cal) = in_model_form(cal, opts.model)?;
     let mut doc = CalDoc::new(kind, &cal, opts.field_nt, ResultsQuality::default());
     doc.reference = Some(reference);
     Ok(doc)
