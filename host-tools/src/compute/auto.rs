@@ -44,6 +44,7 @@ use rayon::prelude::*;
 use super::error::ComputeError;
 use super::fit::{fit_with_given, Checks, FitOptions, Given};
 use super::heading_judge::GyroYaw;
+use super::gyro_robust::HeldShare;
 use super::truth::heading_rms_after_offset_deg;
 use crate::data::Recording;
 use crate::doc::auto::{AutoChoice, CandidateRow, HeldOutBasis, MAX_HELD_OUT_DEG};
@@ -156,7 +157,7 @@ fn fold_fits(shared: &Shared<'_>, model: ModelKind, opts: &FitOptions, near: Opt
             let plain_gyro = takes_plain_gyro(model)
                 .then(|| shared.fold_plain_gyro.get(k).and_then(|cell| cell.get_or_init(|| super::gyro::fit_gyro_recording(train, opts.field_nt, opts.gyro_lag).ok()).as_ref()))
                 .flatten();
-            let given = Given { attitude_near: near, plain_gyro };
+            let given = Given { attitude_near: near, plain_gyro, gyro_held: (model == ModelKind::Gyro).then(|| shared.fold_held_share(k, opts)).flatten() };
             fit_with_given(train, &fold_opts, Checks { attitude_units: false, magnitude_gate: false, document: false }, given).map_err(|e| format!("fold {} of {FOLDS}: {e}", k + 1))
         })
         .collect()
@@ -269,9 +270,10 @@ pub fn fit_auto_judged(rec: &Recording, opts: &FitOptions, judge: &YawJudge) -> 
     let units = crate::data::intake::check_attitude_units(rec, opts.field_nt).map_err(|e| e.to_string());
     let n = rec.len();
     let trains = (0..FOLDS).map(|k| without_block(rec, k * n / FOLDS, (k + 1) * n / FOLDS)).collect();
-    let shared = Shared { rec, trains, units, fold_plain_gyro: (0..FOLDS).map(|_| std::sync::OnceLock::new()).collect() };
     // Each levelled model also with the dip held at the world model's.
     let list = super::dip_held::with_held(candidates(), opts, |m| allowed(m, rec).is_ok());
+    let held_gyro = list.iter().any(|(model, opts)| *model == ModelKind::Gyro && super::dip_held::is_held(opts));
+    let shared = Shared { rec, trains, units, fold_plain_gyro: (0..FOLDS).map(|_| std::sync::OnceLock::new()).collect(), held_gyro, fold_gyro_held: (0..FOLDS).map(|_| std::sync::OnceLock::new()).collect(), held_gyro_kept: std::sync::OnceLock::new() };
     // Every fit first, the judgement after. Beside the candidates' fits:
     // the plain gyro fit of the whole recording (the gyro-yaw judge's bias,
     // and the gyro candidates' start, fitted once for all), then the gyro
@@ -279,16 +281,20 @@ pub fn fit_auto_judged(rec: &Recording, opts: &FitOptions, judge: &YawJudge) -> 
     let ((plain_gyro, gyro_fulls), mut fitted) = rayon::join(
         || {
             let plain_gyro = (basis == HeldOutBasis::GyroYaw).then(|| super::gyro::fit_gyro_recording(rec, opts.field_nt, opts.gyro_lag).ok()).flatten();
-            // A held dip the data contradict refuses the full fit: its
-            // folds are then not fitted.
-            let fulls: Vec<(usize, FullFit, Option<FoldFits>)> = list
-                .par_iter()
+            // One after the other, the free first: the held one is fitted
+            // beside it.
+            let whole_held = HeldShare::new();
+            let fulls: Vec<(usize, FullFit)> = list
+                .iter()
                 .enumerate()
                 .filter(|(_, (model, _))| takes_plain_gyro(*model) && shared.precheck(*model).is_ok())
                 .map(|(i, (model, opts))| {
-                    let full = fit_candidate(rec, *model, opts, plain_gyro.as_ref());
-                    let folds = (super::dip_held::is_held(opts) && full.is_ok()).then(|| fold_fits(&shared, *model, opts, None));
-                    (i, full, folds)
+                    let held = super::dip_held::is_held(opts);
+                    let full = fit_candidate(rec, *model, opts, plain_gyro.as_ref(), (*model == ModelKind::Gyro && (held || shared.held_gyro)).then_some(&whole_held));
+                    if held && *model == ModelKind::Gyro {
+                        let _ = shared.held_gyro_kept.set(full.is_ok());
+                    }
+                    (i, full)
                 })
                 .collect();
             (plain_gyro, fulls)
@@ -303,11 +309,15 @@ pub fn fit_auto_judged(rec: &Recording, opts: &FitOptions, judge: &YawJudge) -> 
             out.into_iter().map(|(_, f)| f).collect::<Vec<Fitted>>()
         },
     );
-    for (i, full, folds) in gyro_fulls {
+    // A held dip the data contradict refuses the full fit: its folds are
+    // then not fitted. Else they are fitted now, after the free
+    // candidate's, which fitted each fold's held robust fit beside its own.
+    for (i, full) in gyro_fulls {
+        let held_folds = list.get(i).filter(|(_, opts)| super::dip_held::is_held(opts) && full.is_ok()).map(|(model, opts)| fold_fits(&shared, *model, opts, None));
         if let Some(f) = fitted.get_mut(i) {
             f.full = Some(full);
-            if folds.is_some() {
-                f.folds = folds;
+            if held_folds.is_some() {
+                f.folds = held_folds;
             }
         }
     }
@@ -386,9 +396,24 @@ struct Shared<'a> {
     /// Each fold's plain gyro fit, once one gyro candidate has fitted it
     /// (`None` inside: it failed, and each candidate's fold fit says why).
     fold_plain_gyro: Vec<std::sync::OnceLock<Option<PlainGyro>>>,
+    /// Whether `auto` tries the gyro fit with the dip held.
+    held_gyro: bool,
+    /// Each fold's dip-held robust gyro fit, fitted beside the free one.
+    fold_gyro_held: Vec<HeldShare>,
+    /// Whether the held gyro candidate's full fit was kept, once known.
+    held_gyro_kept: std::sync::OnceLock<bool>,
 }
 
 impl Shared<'_> {
+    /// Fold `k`'s dip-held gyro fit for a gyro candidate's fit of it: the
+    /// held candidate takes it when filled; the free one fills it while
+    /// the held candidate is tried and its full fit is not known refused
+    /// (its folds are then never fitted). Whichever fills it, each fit is
+    /// the same to the bit ([`super::gyro_robust::refine`]).
+    fn fold_held_share(&self, k: usize, opts: &FitOptions) -> Option<&HeldShare> {
+        let wanted = super::dip_held::is_held(opts) || (self.held_gyro && self.held_gyro_kept.get() != Some(&false));
+        self.fold_gyro_held.get(k).filter(|_| wanted)
+    }
     /// Why a model is not fitted at all: the recording's columns do not
     /// allow it, or it levels with roll and pitch that are not in degrees.
     fn precheck(&self, model: ModelKind) -> Result<(), String> {
@@ -446,7 +471,7 @@ fn fit_phase(shared: &Shared<'_>, model: ModelKind, opts: &FitOptions) -> Fitted
     }
     let rec = shared.rec;
     if model == ModelKind::Attitude {
-        let full = fit_candidate(rec, model, opts, None);
+        let full = fit_candidate(rec, model, opts, None, None);
         let near = full.as_ref().ok().map(|(doc, _)| doc.field_cal());
         let folds = near.as_ref().map(|near| fold_fits(shared, model, opts, Some(near)));
         Fitted { refused: None, full: Some(full), folds }
@@ -456,7 +481,7 @@ fn fit_phase(shared: &Shared<'_>, model: ModelKind, opts: &FitOptions) -> Fitted
         let folds = (!super::dip_held::is_held(opts)).then(|| fold_fits(shared, model, opts, None));
         Fitted { refused: None, full: None, folds }
     } else {
-        let (full, folds) = rayon::join(|| fit_candidate(rec, model, opts, None), || fold_fits(shared, model, opts, None));
+        let (full, folds) = rayon::join(|| fit_candidate(rec, model, opts, None, None), || fold_fits(shared, model, opts, None));
         Fitted { refused: None, full: Some(full), folds: Some(folds) }
     }
 }
@@ -607,9 +632,9 @@ fn gyro_yaw(rec: &Recording, plain: Option<&(FieldCal<f64>, GyroQuality)>, max_s
 /// note). Every other refusal stands (coverage, the world model's
 /// disagreement, unusable coefficients); the attitude columns' units were
 /// checked once for all ([`fit_auto`]).
-fn fit_candidate(rec: &Recording, model: ModelKind, opts: &FitOptions, plain_gyro: Option<&(FieldCal<f64>, GyroQuality)>) -> Result<(CalDoc, Option<String>), ComputeError> {
+fn fit_candidate(rec: &Recording, model: ModelKind, opts: &FitOptions, plain_gyro: Option<&(FieldCal<f64>, GyroQuality)>, gyro_held: Option<&HeldShare>) -> Result<(CalDoc, Option<String>), ComputeError> {
     let magnitude_gate = !super::models::entry(model).levelled;
-    let given = Given { plain_gyro, ..Given::default() };
+    let given = Given { plain_gyro, gyro_held, ..Given::default() };
     let doc = fit_with_given(rec, &FitOptions { model, ..opts.clone() }, Checks { attitude_units: false, magnitude_gate, document: true }, given)?;
     let note = doc.quality.fit.as_ref().and_then(|f| f.warnings.iter().find(|w| w.contains("judged on held-out data instead")).cloned());
     Ok((doc, note))

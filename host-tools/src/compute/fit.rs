@@ -95,6 +95,10 @@ pub(crate) struct Given<'a> {
     /// field and lag ([`super::gyro::fit_gyro_recording`]'s result, which
     /// is then not asked for again).
     pub plain_gyro: Option<&'a (FieldCal<f64>, GyroQuality)>,
+    /// For the gyro model with a site: the dip-held robust fit of `rec`.
+    /// The free fit fills it (fitted beside its own, from the same
+    /// equations); the held fit takes it when filled, else fits its own.
+    pub gyro_held: Option<&'a super::gyro_robust::HeldShare>,
     /// For the attitude model: a calibration near `rec`'s (the whole
     /// recording's fit, for a fold of most of its rows), where the
     /// iterations start ([`calib_core::attitude_fit::fit_attitude_near`]:
@@ -144,8 +148,24 @@ pub(crate) fn fit_with_given(rec: &Recording, opts: &FitOptions, checks: Checks,
                 super::gyro::GyroLag::Given(lag_s) => lag_s,
                 super::gyro::GyroLag::Estimate => q.gyro_lag_s,
             };
-            let dip = world.map(|w| super::gyro_robust::DipMeasurement { inclination_rad: w.0.to_radians(), sigma_rad: dip_sigma_deg(w).to_radians() });
-            let (cal, shaped) = match super::gyro_robust::refine_recording(rec, opts.field_nt, given_lag_s, &q, &plain, dip.as_ref()) {
+            let measured = |sigma_deg: f64| world.map(|w| super::gyro_robust::DipMeasurement { inclination_rad: w.0.to_radians(), sigma_rad: sigma_deg.to_radians() });
+            let dip = world.and_then(|w| measured(dip_sigma_deg(w)));
+            let refined = match (world, given.gyro_held) {
+                // The held fit, fitted already beside the free one.
+                (Some((_, _, true)), Some(share)) if share.get().is_some() => share.get().copied().flatten(),
+                // The free fit, with the held one beside it for its candidate.
+                (Some((_, _, false)), Some(share)) => {
+                    let held = measured(HELD_DIP_SIGMA_DEG);
+                    super::gyro_robust::refine_recording(rec, opts.field_nt, given_lag_s, &q, &plain, dip.as_ref(), held.as_ref()).map(|(refined, held)| {
+                        if let Some(held) = held {
+                            let _ = share.set(held);
+                        }
+                        refined
+                    })
+                }
+                _ => super::gyro_robust::refine_recording(rec, opts.field_nt, given_lag_s, &q, &plain, dip.as_ref(), None).map(|(refined, _)| refined),
+            };
+            let (cal, shaped) = match refined {
                 Some(refined) => (refined.cal, refined.dip),
                 None => (plain, None),
             };

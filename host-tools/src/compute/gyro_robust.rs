@@ -213,6 +213,11 @@ pub struct Refined {
     pub dip: Option<DipShaped>,
 }
 
+/// The dip-held fit of a recording, fitted beside its free one
+/// ([`refine`]) and handed to the held candidate's fit of the
+/// same rows, which then is not refitted; `None` inside where it failed.
+pub type HeldShare = std::sync::OnceLock<Option<Refined>>;
+
 /// Contiguous blocks the data's information on the dip is checked over:
 /// the attitude-aided fit's ([`calib_core::attitude_fit::DIP_BLOCKS`]).
 pub const DIP_BLOCKS: usize = calib_core::attitude_fit::DIP_BLOCKS as usize;
@@ -446,12 +451,36 @@ fn dip_information(pass: &Pass<'_>, ata: &[[f64; N]; N], x: &SVector<f64, N>, gr
     Some((sigma2, calib_core::attitude_fit::world::block_inflation(&pulls, sigma2 * formal), sigma2 * gradient.dot(&v)))
 }
 
+/// What the data alone tell of the dip at the settled free solution `x`
+/// (the pass that settled on it, `ata` its matrix): read once, and shared
+/// by every dip measurement fitted from `x` ([`with_dip`]).
+struct DataDip {
+    /// The data's dip, rad, and its gradient in the unknowns.
+    dip_rad: f64,
+    /// The data's variance per unit-weight row.
+    sigma2: f64,
+    /// How far the data overstate their information on the dip.
+    inflation: f64,
+    /// The dip's formal variance.
+    formal: f64,
+}
+
+impl DataDip {
+    /// `None` where the dip is not defined (no attitude) or the equations
+    /// fail.
+    fn at(pass: &Pass<'_>, x: &SVector<f64, N>, ata: &[[f64; N]; N], moments: &Moments) -> Option<Self> {
+        let (dip_rad, gradient) = dip_and_gradient(x, moments)?;
+        let (sigma2, inflation, formal) = dip_information(pass, ata, x, &gradient)?;
+        Some(Self { dip_rad, sigma2, inflation, formal })
+    }
+}
+
 /// The passes from the settled free solution `x` with the dip measurement
-/// added ([`refine`]), and what it did; `None` where the dip is not
-/// defined (no attitude) or the equations fail.
-fn with_dip(pass: &mut Pass<'_>, x: SVector<f64, N>, ata: &[[f64; N]; N], moments: &Moments, dip: &DipMeasurement) -> Option<(SVector<f64, N>, DipShaped)> {
-    let (data_dip_rad, gradient) = dip_and_gradient(&x, moments)?;
-    let (sigma2, inflation, formal) = dip_information(pass, ata, &x, &gradient)?;
+/// added ([`refine`]), and what it did; `None` where the equations fail.
+/// Every [`Pass::at`] recomputes the residuals and weights at its own `x`,
+/// so each measurement's passes are the same whichever was fitted before.
+fn with_dip(pass: &mut Pass<'_>, x: SVector<f64, N>, data: &DataDip, moments: &Moments, dip: &DipMeasurement) -> Option<(SVector<f64, N>, DipShaped)> {
+    let DataDip { dip_rad: data_dip_rad, sigma2, inflation, formal } = *data;
     let data_sigma_rad = (formal * inflation).max(0.0).sqrt();
     let weight = (inflation * sigma2).sqrt();
     let (x, mut ata) = passes(pass, x, |x| dip_row(x, moments, dip, weight))?;
@@ -472,25 +501,43 @@ fn with_dip(pass: &mut Pass<'_>, x: SVector<f64, N>, ata: &[[f64; N]; N], moment
 /// information on the dip raised by how far the data overstate it (the
 /// blocks' pulls, as the attitude-aided fit's), and the passes go on with
 /// its row re-linearised at each.
-pub fn refine(samples: &[GyroSample<f64>], cfg: &GyroConfig<f64>, field_nt: f64, start: &FieldCal<f64>, dip: Option<&DipMeasurement>) -> Option<Refined> {
+///
+/// With `held` (the dip held at the world model's), the same fit with it
+/// in `dip`'s place beside it, from the same equations and dip-free
+/// passes (`None` in the pair where it fails): each answer the same to the
+/// bit as with its measurement alone, the held one at the cost of its own
+/// passes only.
+pub fn refine(samples: &[GyroSample<f64>], cfg: &GyroConfig<f64>, field_nt: f64, start: &FieldCal<f64>, dip: Option<&DipMeasurement>, held: Option<&DipMeasurement>) -> Option<(Refined, Option<Option<Refined>>)> {
     let finite: Vec<[f64; 3]> = samples.iter().map(|s| s.raw).filter(|r| r.iter().all(|v| v.is_finite())).collect();
     let norm = Normalization::from_raw_iter(finite.iter().copied())?;
-    let dip = dip.filter(|d| d.sigma_rad > 0.0 && d.inclination_rad.is_finite());
-    let eq = equations(samples, &norm, cfg, dip.is_some());
+    let usable = |d: Option<&DipMeasurement>| d.filter(|d| d.sigma_rad > 0.0 && d.inclination_rad.is_finite()).copied();
+    let (dip, held) = (usable(dip), held.map(|h| usable(Some(h))));
+    let weighs = dip.is_some() || held.flatten().is_some();
+    let eq = equations(samples, &norm, cfg, weighs);
     if eq.kinematic.len() < 4 {
         return None;
     }
     let mut pass = Pass::new(&eq);
-    let (mut x, ata) = passes(&mut pass, unknowns_of(start, &norm, samples)?, |_| None)?;
-    let mut shaped = None;
-    if let Some(dip) = dip {
-        if let Some((weighted, how)) = with_dip(&mut pass, x, &ata, &Moments::of(samples, &norm), dip) {
-            x = weighted;
-            shaped = Some(how);
-        }
-    }
-    // Back to a calibration scaled to `field_nt` (as calib-core's estimate).
-    let (a, c) = matrix_and_offset(&x);
+    let (free, ata) = passes(&mut pass, unknowns_of(start, &norm, samples)?, |_| None)?;
+    let moments = weighs.then(|| Moments::of(samples, &norm));
+    let data = moments.as_ref().and_then(|m| DataDip::at(&pass, &free, &ata, m));
+    let mut answer = |dip: Option<DipMeasurement>| -> Option<Refined> {
+        let (x, shaped) = match (dip, &data, &moments) {
+            (Some(dip), Some(data), Some(moments)) => with_dip(&mut pass, free, data, moments, &dip).map_or((free, None), |(x, how)| (x, Some(how))),
+            _ => (free, None),
+        };
+        scaled(&x, shaped, &norm, &finite, field_nt)
+    };
+    let refined = answer(dip)?;
+    let held = held.map(|h| answer(h));
+    Some((refined, held))
+}
+
+/// The calibration of the unknowns `x` (normalised with `norm`), scaled so
+/// that the `finite` readings' RMS intensity is `field_nt` (as calib-core's
+/// estimate); `None` where the matrix turns over.
+fn scaled(x: &SVector<f64, N>, dip: Option<DipShaped>, norm: &Normalization<f64>, finite: &[[f64; 3]], field_nt: f64) -> Option<Refined> {
+    let (a, c) = matrix_and_offset(x);
     if !(a.determinant() > 0.0) {
         return None;
     }
@@ -505,14 +552,15 @@ pub fn refine(samples: &[GyroSample<f64>], cfg: &GyroConfig<f64>, field_nt: f64,
             bias: [0, 1, 2].map(|i| norm.centre[i] + norm.scale * b[i]),
             matrix: [0, 1, 2].map(|i| [0, 1, 2].map(|j| a[(i, j)] * k / norm.scale)),
         },
-        dip: shaped,
+        dip,
     })
 }
 
 /// [`refine`] on a recording, with the plain gyro-aided fit's gyro bias
 /// and lag (`plain`), the rates read `given_lag_s` earlier (as the plain
 /// fit read them).
-pub fn refine_recording(rec: &crate::data::Recording, field_nt: f64, given_lag_s: f64, plain: &crate::doc::results::GyroQuality, start: &FieldCal<f64>, dip: Option<&DipMeasurement>) -> Option<Refined> {
+/// With `held`, the held fit beside it ([`refine`]).
+pub fn refine_recording(rec: &crate::data::Recording, field_nt: f64, given_lag_s: f64, plain: &crate::doc::results::GyroQuality, start: &FieldCal<f64>, dip: Option<&DipMeasurement>, held: Option<&DipMeasurement>) -> Option<(Refined, Option<Option<Refined>>)> {
     let t = rec.t_s.as_ref()?;
     let rates = super::gyro::rates_at_lag(t, &rec.gyro_rad_s()?, given_lag_s);
     let step_s = crate::data::pairing::median_step_s(t)?;
@@ -526,7 +574,7 @@ pub fn refine_recording(rec: &crate::data::Recording, field_nt: f64, given_lag_s
     cfg.attitude_weight = super::gyro::ATTITUDE_WEIGHT;
     cfg.gyro_bias_rad_s = plain.gyro_bias_rad_s;
     cfg.gyro_lag_s = plain.gyro_lag_s - given_lag_s;
-    refine(&samples, &cfg, field_nt, start, dip)
+    refine(&samples, &cfg, field_nt, start, dip, held)
 }
 
 #[cfg(test)]
@@ -582,11 +630,31 @@ mod tests {
     fn glitches_of_the_gyro_bend_the_reweighted_fit_less_than_half_as_much_as_the_plain_one() {
         let rec = swing_with_glitches();
         let (plain, q) = fit_gyro_recording(&rec, 48_000.0, GyroLag::Given(0.0)).unwrap();
-        let robust = refine_recording(&rec, 48_000.0, 0.0, &q, &plain, None).unwrap().cal;
+        let robust = refine_recording(&rec, 48_000.0, 0.0, &q, &plain, None, None).unwrap().0.cal;
         // The truth (the simulation's): bias (300, −200, 100) raw.
         let err = |c: &FieldCal<f64>| (c.bias[0] - 300.0).abs().max((c.bias[1] + 200.0).abs()).max((c.bias[2] - 100.0).abs());
         eprintln!("bias error: plain {:.2} raw, reweighted {:.2} raw", err(&plain), err(&robust));
         // Measured: plain 85.9 raw, reweighted 37.3 raw.
         assert!(err(&robust) < 0.5 * err(&plain), "{} {}", err(&robust), err(&plain));
+    }
+
+    /// The held fit fitted beside the free one is the held fit fitted
+    /// alone, to the bit, and the free one is unchanged by it (`auto` takes
+    /// either for the other): on a swing whose dip the data do not hold at
+    /// the reference's (held at 50°, away from the swing's own).
+    #[test]
+    fn the_held_fit_beside_the_free_one_is_the_held_fit_alone() {
+        let rec = swing_with_glitches();
+        let (plain, q) = fit_gyro_recording(&rec, 48_000.0, GyroLag::Given(0.0)).unwrap();
+        let dip = DipMeasurement { inclination_rad: 50f64.to_radians(), sigma_rad: 1f64.to_radians() };
+        let held = DipMeasurement { sigma_rad: 0.001f64.to_radians(), ..dip };
+        let (free, beside) = refine_recording(&rec, 48_000.0, 0.0, &q, &plain, Some(&dip), Some(&held)).unwrap();
+        let alone = refine_recording(&rec, 48_000.0, 0.0, &q, &plain, Some(&held), None).unwrap().0;
+        let free_alone = refine_recording(&rec, 48_000.0, 0.0, &q, &plain, Some(&dip), None).unwrap().0;
+        assert_eq!(beside, Some(Some(alone)));
+        assert_eq!(free, free_alone);
+        // Not the same fit twice: held, the dip moved.
+        let (held_dip, free_dip) = (alone.dip.unwrap().dip_rad, free.dip.unwrap().dip_rad);
+        assert!((held_dip - 50f64.to_radians()).abs() < (free_dip - 50f64.to_radians()).abs(), "{held_dip} {free_dip}");
     }
 }
