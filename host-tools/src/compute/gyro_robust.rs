@@ -529,7 +529,7 @@ pub fn refine(samples: &[GyroSample<f64>], cfg: &GyroConfig<f64>, field_nt: f64,
         scaled(&x, shaped, &norm, &finite, field_nt)
     };
     let refined = answer(dip)?;
-    let held = held.map(|h| answer(h));
+    let held = held.map(&mut answer);
     Some((refined, held))
 }
 
