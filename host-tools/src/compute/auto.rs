@@ -414,6 +414,7 @@ impl Shared<'_> {
         let wanted = super::dip_held::is_held(opts) || (self.held_gyro && self.held_gyro_kept.get() != Some(&false));
         self.fold_gyro_held.get(k).filter(|_| wanted)
     }
+
     /// Why a model is not fitted at all: the recording's columns do not
     /// allow it, or it levels with roll and pitch that are not in degrees.
     fn precheck(&self, model: ModelKind) -> Result<(), String> {
