@@ -44,7 +44,9 @@
 //! judges the amplitude below the limit: a field held in the body for a
 //! while, which raises `H_h` over the arc turned meanwhile as a gain error
 //! would there, is not taken for one once the vehicle has pointed the
-//! other way. Its samples are `cal_invalid`
+//! other way; and a new finding waits until two adjacent quadrants hold
+//! samples, so one met within the first quadrant turned through is not
+//! taken for one either (unless it lasts until the second). Its samples are `cal_invalid`
 //! ([`Monitor::two_cycle_found`]); the on-line hard iron neither runs for
 //! it nor answers it, and restarts it when applied or withdrawn.
 //!

@@ -167,3 +167,47 @@ fn a_field_held_in_the_body_over_one_arc_is_not_taken_for_a_soft_iron_error() {
         assert!(not_ok_during * 10 >= len * 9, "noise {noise_nt}: {not_ok_during} of {len}");
     }
 }
+
+#[test]
+fn a_field_held_in_the_body_before_the_vehicle_has_turned_a_quarter_is_not_taken_for_a_soft_iron_error() {
+    // The report's hull (5000 nT along x for 40 samples, 1° a sample at
+    // 2 Hz, no gyro) met as the turn begins: after 0–30° of turning (ψ
+    // from 17°), so no half-circle clear of it has been seen to veto it,
+    // and over one quadrant any rise and fall of H_h fits a two-cycle
+    // variation. With the true calibration (k = 1: no two-cycle
+    // variation) the test must not find it before the vehicle reaches a
+    // second quadrant, by when the totals have forgotten it or the second
+    // quadrant vetoes it.
+    let (dt_s, len) = (0.5_f64, 40);
+    // The misfit fraction's exit after the transient (τ ln 10 = 4.6 s).
+    let exit_rows = (4.6 / dt_s).ceil() as usize + 1;
+    for start in [0, 10, 20, 30] {
+        let states = turn_with_a_body_fixed_transient(2.0, dt_s, 600, start, len, 5000.0, 0.0);
+        let found = states.iter().filter(|(_, f)| *f).count();
+        let exit = start + len + exit_rows;
+        let not_ok_after = states[exit..].iter().filter(|(s, _)| *s != IntegrityState::Ok).count();
+        let not_ok_during = states[start..start + len].iter().filter(|(s, _)| *s != IntegrityState::Ok).count();
+        std::println!("start {start}: found on {found} samples, {not_ok_during} of {len} transient samples not ok, {not_ok_after} not ok after the exit");
+        // Measured: never found, none not ok after the exit. Before the
+        // wait for a second quadrant: found on 64, 40, 24 and 8 samples,
+        // 27, 19, 9 and 0 rows not ok after the exit. The field's gates
+        // flag the transient itself (measured 40, 40, 40 and 30 of its 40
+        // samples: from 30° on, its last samples lie across x, where
+        // 5000 nT moves |F| and the dip less).
+        assert_eq!(found, 0, "start {start}");
+        assert_eq!(not_ok_after, 0, "start {start}");
+        assert!(not_ok_during * 10 >= len * 7, "start {start}: {not_ok_during} of {len}");
+    }
+    // With 100 nT a sample per axis the transient still wins where the
+    // totals still hold it when the second quadrant's first block comes
+    // (nothing tells the two apart then: a gain error's first finding on
+    // BROAD 30 looks the same). Over the starts 0–40° (every 5°), rows not
+    // ok after the exit: measured 201 (before the wait: 382).
+    let mut not_ok_after = 0;
+    for start in (0..=40).step_by(5) {
+        let states = turn_with_a_body_fixed_transient(2.0, dt_s, 600, start, len, 5000.0, 100.0);
+        not_ok_after += states[start + len + exit_rows..].iter().filter(|(s, _)| *s != IntegrityState::Ok).count();
+    }
+    std::println!("100 nT, starts 0–40°: {not_ok_after} rows not ok after the exit");
+    assert!(not_ok_after <= 250, "{not_ok_after}");
+}
