@@ -17,7 +17,7 @@
 //! thin or self-contradicting recording (large `κ`) ends near the world
 //! model; a rich, consistent one (`κ` near 1) where its data say.
 
-use super::{dip_sin_cos, huber, level_matrix, rows, AttitudeConfig, Prepared, DIP, UNKNOWNS};
+use super::{dip_sin_cos, huber, level_matrix, rows, AttitudeConfig, AttitudeEstimate, Prepared, DIP, UNKNOWNS};
 use crate::Real;
 
 /// Largest number of blocks the data's dip information is checked over.
@@ -85,9 +85,56 @@ pub fn block_inflation<T: Real>(pulls: &[T], formal: T) -> T {
     (spread / formal).max(T::ONE)
 }
 
+/// Where the data alone put the dip, and its 1σ with their block scatter
+/// counted, from a fit that weighed the dip prior at `inclination_rad`
+/// ([`AttitudeEstimate::dip_prior_share`], `dip_data_inflation`): the prior
+/// adds `κ/σ²` to the dip's information and nothing else, so the data's own
+/// information is the fitted one less it, `(1 − share)/σ_dip²`, and the
+/// fitted dip is the two estimates weighted, `dip = (1 − share)·data +
+/// share·inclination`. The data's 1σ is their formal one raised by `√κ`.
+/// `None` where the prior set all of the dip (the data tell nothing of it)
+/// or a value is not finite.
+pub fn data_alone_dip<T: Real>(est: &AttitudeEstimate<T>, inclination_rad: T) -> Option<(T, T)> {
+    let rest = T::ONE - est.dip_prior_share;
+    if !(rest > T::from_f64(1e-9)) {
+        return None;
+    }
+    let dip = (est.dip_rad - est.dip_prior_share * inclination_rad) / rest;
+    let sigma = (est.dip_sigma_rad * est.dip_sigma_rad * est.dip_data_inflation.max(T::ONE) / rest).sqrt();
+    (dip.is_finite() && sigma.is_finite()).then_some((dip, sigma))
+}
+
 #[cfg(test)]
 mod tests {
-    use super::block_inflation;
+    use super::{block_inflation, data_alone_dip};
+    use crate::attitude_fit::AttitudeEstimate;
+    use crate::cal::FieldCal;
+
+    /// By hand: a dip of 0.5 rad at 1σ 0.1 of which the prior at 1.0 set
+    /// 20 %: the data's share 0.8 of 0.5 − 0.2·1.0 gives 0.375; their formal
+    /// variance 0.01/0.8, raised 4× by the blocks' scatter, 0.05. A prior
+    /// that set all of it leaves nothing to say.
+    #[test]
+    fn the_data_alone_dip_is_the_fitted_one_without_the_priors_share() {
+        let est = |share: f64| AttitudeEstimate {
+            cal: FieldCal::identity(),
+            dip_rad: 0.5,
+            dip_sigma_rad: 0.1,
+            residual_sigma_nt: 0.0,
+            samples: 0,
+            downweighted: 0,
+            bias_sigma_raw: [0.0; 3],
+            matrix_sigma_rel: [0.0; 9],
+            predicted_heading_rms_rad: 0.0,
+            dip_prior_share: share,
+            dip_data_inflation: 4.0,
+        };
+        let (dip, sigma) = data_alone_dip(&est(0.2), 1.0).unwrap();
+        assert!((dip - 0.375).abs() < 1e-12 && (sigma - 0.05f64.sqrt()).abs() < 1e-12, "{dip} {sigma}");
+        let (dip, sigma) = data_alone_dip(&est(0.0), 1.0).unwrap();
+        assert!((dip - 0.5).abs() < 1e-12 && (sigma - 0.2).abs() < 1e-12, "{dip} {sigma}");
+        assert_eq!(data_alone_dip(&est(1.0), 1.0), None);
+    }
 
     /// By hand: pulls 1, −1, 1, −1 have mean 0 and Σ(p − p̄)² = 4, so the
     /// cluster variance is 4·4/3 = 16/3; over a formal variance of 1 that is

@@ -8,6 +8,14 @@
 //! same data fit the rest. Which one generalises is the held-out judge's
 //! call, not an assumption. Only with an independent inclination (a site):
 //! without one there is nothing to hold the dip at.
+//!
+//! A held candidate whose data alone put the dip far from the held value
+//! (beyond three of their σ, their scatter and, for the attitude-aided fit,
+//! the tilt sensor's errors counted) is refused before it is judged: a
+//! room's real dip or a wrong site, where holding it would head worse
+//! while the held-out judge might still prefer it. A recording whose tilt
+//! varies no more than its sensor's noise cannot tell the dip and
+//! contradicts nothing (the fit's `contradicted_by_data`).
 
 use calib_core::cal::ModelKind;
 

@@ -318,3 +318,27 @@ fn with_the_labs_site_the_gyro_fit_weighs_igrfs_dip_and_is_not_held_against_its_
     let v = validation_deg(&doc.field_cal());
     assert!(v < 1.70, "{v}");
 }
+
+/// Seaglider SG236 calibrated on dives 4–5 (no gyro) with a site 14° of
+/// dip away (30° N, 124.89° W: IGRF-14 53.68° against the glider's
+/// 67.82°). The attitude-aided fit's data alone put the dip at 69.31° ±
+/// 0.23° (their block scatter counted): 7.8σ from the wrong site's with
+/// the tilt sensor's 2° counted, so holding it there contradicts them; the
+/// free fit disagrees with that reference, and `auto` keeps nothing.
+/// Before, the held attitude fit had no such rule and `auto` kept it: the
+/// dip scatter on dives 1–3 was 9.36° (with the glider's own site, the
+/// held fit's 0.66°, kept as before: `glider_world.rs`).
+#[test]
+fn a_glider_is_not_held_at_a_wrong_sites_dip() {
+    use host_tools::doc::Reference;
+    use host_tools::geomag::Site;
+    let site = Site::new(30.0, -124.894, "2023-06-01").unwrap();
+    let reference = Reference::world_model(site, &site.field().unwrap());
+    let rec = Recording::read(&super::data("seaglider-sg236").join("sg236_validate.csv")).unwrap();
+    let opts = FitOptions { model: ModelKind::Attitude, field_nt: reference.field_nt, saturation: None, allow_weak: false, gyro_lag: GyroLag::Given(0.0), reference: Some(reference) };
+    let kept = fit_auto(&rec, &opts);
+    assert!(kept.is_err(), "kept {:?}", kept.map(|(_, c)| c.chosen));
+    let (_, weak) = fit_auto(&rec, &FitOptions { allow_weak: true, ..opts }).unwrap();
+    let held = weak.candidates.iter().find(|r| r.model == "attitude (dip held at the world model's)").expect("a held attitude row");
+    assert!(held.note.as_deref().is_some_and(|n| n.contains("does not qualify")), "{held:?}");
+}

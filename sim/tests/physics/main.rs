@@ -7,6 +7,7 @@
 mod disturbances;
 mod effects;
 mod gyro_dip;
+mod held_rule;
 mod logs;
 mod scenario;
 mod varied;
