@@ -157,7 +157,7 @@ fn fold_fits(shared: &Shared<'_>, model: ModelKind, opts: &FitOptions, near: Opt
             let plain_gyro = takes_plain_gyro(model)
                 .then(|| shared.fold_plain_gyro.get(k).and_then(|cell| cell.get_or_init(|| super::gyro::fit_gyro_recording(train, opts.field_nt, opts.gyro_lag).ok()).as_ref()))
                 .flatten();
-            let given = Given { attitude_near: near, plain_gyro, gyro_held: (model == ModelKind::Gyro).then(|| shared.fold_held_share(k, opts)).flatten() };
+            let given = Given { attitude_near: near, plain_gyro, gyro_held: (model == ModelKind::Gyro).then(|| shared.fold_held_share(k, opts)).flatten(), attitude_free: None };
             fit_with_given(train, &fold_opts, Checks { attitude_units: false, magnitude_gate: false, document: false }, given).map_err(|e| format!("fold {} of {FOLDS}: {e}", k + 1))
         })
         .collect()
@@ -273,7 +273,7 @@ pub fn fit_auto_judged(rec: &Recording, opts: &FitOptions, judge: &YawJudge) -> 
     // Each levelled model also with the dip held at the world model's.
     let list = super::dip_held::with_held(candidates(), opts, |m| allowed(m, rec).is_ok());
     let held_gyro = list.iter().any(|(model, opts)| *model == ModelKind::Gyro && super::dip_held::is_held(opts));
-    let shared = Shared { rec, trains, units, fold_plain_gyro: (0..FOLDS).map(|_| std::sync::OnceLock::new()).collect(), held_gyro, fold_gyro_held: (0..FOLDS).map(|_| std::sync::OnceLock::new()).collect(), held_gyro_kept: std::sync::OnceLock::new() };
+    let shared = Shared { rec, trains, units, fold_plain_gyro: (0..FOLDS).map(|_| std::sync::OnceLock::new()).collect(), held_gyro, fold_gyro_held: (0..FOLDS).map(|_| std::sync::OnceLock::new()).collect(), held_gyro_kept: std::sync::OnceLock::new(), attitude_free: std::sync::OnceLock::new() };
     // Every fit first, the judgement after. Beside the candidates' fits:
     // the plain gyro fit of the whole recording (the gyro-yaw judge's bias,
     // and the gyro candidates' start, fitted once for all), then the gyro
@@ -290,7 +290,8 @@ pub fn fit_auto_judged(rec: &Recording, opts: &FitOptions, judge: &YawJudge) -> 
                 .filter(|(_, (model, _))| takes_plain_gyro(*model) && shared.precheck(*model).is_ok())
                 .map(|(i, (model, opts))| {
                     let held = super::dip_held::is_held(opts);
-                    let full = fit_candidate(rec, *model, opts, plain_gyro.as_ref(), (*model == ModelKind::Gyro && (held || shared.held_gyro)).then_some(&whole_held));
+                    let gyro_held = (*model == ModelKind::Gyro && (held || shared.held_gyro)).then_some(&whole_held);
+                    let full = fit_candidate(rec, *model, opts, Given { plain_gyro: plain_gyro.as_ref(), gyro_held, ..Given::default() });
                     if held && *model == ModelKind::Gyro {
                         let _ = shared.held_gyro_kept.set(full.is_ok());
                     }
@@ -402,6 +403,8 @@ struct Shared<'a> {
     fold_gyro_held: Vec<HeldShare>,
     /// Whether the held gyro candidate's full fit was kept, once known.
     held_gyro_kept: std::sync::OnceLock<bool>,
+    /// The free attitude candidate's whole-recording fit, once made.
+    attitude_free: std::sync::OnceLock<calib_core::attitude_fit::AttitudeEstimate<f64>>,
 }
 
 impl Shared<'_> {
@@ -472,7 +475,8 @@ fn fit_phase(shared: &Shared<'_>, model: ModelKind, opts: &FitOptions) -> Fitted
     }
     let rec = shared.rec;
     if model == ModelKind::Attitude {
-        let full = fit_candidate(rec, model, opts, None, None);
+        // The free fit's is where the held one's data alone put the dip.
+        let full = fit_candidate(rec, model, opts, Given { attitude_free: Some(&shared.attitude_free), ..Given::default() });
         let near = full.as_ref().ok().map(|(doc, _)| doc.field_cal());
         let folds = near.as_ref().map(|near| fold_fits(shared, model, opts, Some(near)));
         Fitted { refused: None, full: Some(full), folds }
@@ -482,7 +486,7 @@ fn fit_phase(shared: &Shared<'_>, model: ModelKind, opts: &FitOptions) -> Fitted
         let folds = (!super::dip_held::is_held(opts)).then(|| fold_fits(shared, model, opts, None));
         Fitted { refused: None, full: None, folds }
     } else {
-        let (full, folds) = rayon::join(|| fit_candidate(rec, model, opts, None, None), || fold_fits(shared, model, opts, None));
+        let (full, folds) = rayon::join(|| fit_candidate(rec, model, opts, Given::default()), || fold_fits(shared, model, opts, None));
         Fitted { refused: None, full: Some(full), folds: Some(folds) }
     }
 }
@@ -633,9 +637,8 @@ fn gyro_yaw(rec: &Recording, plain: Option<&(FieldCal<f64>, GyroQuality)>, max_s
 /// note). Every other refusal stands (coverage, the world model's
 /// disagreement, unusable coefficients); the attitude columns' units were
 /// checked once for all ([`fit_auto`]).
-fn fit_candidate(rec: &Recording, model: ModelKind, opts: &FitOptions, plain_gyro: Option<&(FieldCal<f64>, GyroQuality)>, gyro_held: Option<&HeldShare>) -> Result<(CalDoc, Option<String>), ComputeError> {
+fn fit_candidate(rec: &Recording, model: ModelKind, opts: &FitOptions, given: Given<'_>) -> Result<(CalDoc, Option<String>), ComputeError> {
     let magnitude_gate = !super::models::entry(model).levelled;
-    let given = Given { plain_gyro, gyro_held, ..Given::default() };
     let doc = fit_with_given(rec, &FitOptions { model, ..opts.clone() }, Checks { attitude_units: false, magnitude_gate, document: true }, given)?;
     let note = doc.quality.fit.as_ref().and_then(|f| f.warnings.iter().find(|w| w.contains("judged on held-out data instead")).cloned());
     Ok((doc, note))

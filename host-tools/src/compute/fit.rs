@@ -2,7 +2,7 @@
 //! the full ellipsoid and paper 001's triangular form, with the quality
 //! gates that refuse a weak calibration.
 
-use calib_core::attitude_fit::AttitudeConfig;
+use calib_core::attitude_fit::{AttitudeConfig, AttitudeEstimate};
 use calib_core::cal::{FieldCal, ModelKind};
 use calib_core::fit::{fit_batch, Axis, FitError, Full, Sphere};
 use calib_core::ortho;
@@ -99,6 +99,11 @@ pub(crate) struct Given<'a> {
     /// The free fit fills it (fitted beside its own, from the same
     /// equations); the held fit takes it when filled, else fits its own.
     pub gyro_held: Option<&'a super::gyro_robust::HeldShare>,
+    /// For the attitude model with a site: the whole recording's fit that
+    /// weighs the reference's dip at its σ. The free fit of `rec` fills it;
+    /// the held one reads where the data alone put the dip from it when
+    /// filled, else fits it again.
+    pub attitude_free: Option<&'a std::sync::OnceLock<AttitudeEstimate<f64>>>,
     /// For the attitude model: a calibration near `rec`'s (the whole
     /// recording's fit, for a fold of most of its rows), where the
     /// iterations start ([`calib_core::attitude_fit::fit_attitude_near`]:
@@ -184,11 +189,14 @@ pub(crate) fn fit_with_given(rec: &Recording, opts: &FitOptions, checks: Checks,
             let mut cfg = AttitudeConfig::new();
             cfg.dip_prior = world.map(|w| (w.0.to_radians(), dip_sigma_deg(w).to_radians()));
             let est = super::attitude::fit_attitude_recording(rec, opts.field_nt, &cfg, given.attitude_near)?;
+            if let (Some((_, _, false)), Some(cell), None) = (world, given.attitude_free, given.attitude_near) {
+                let _ = cell.set(est);
+            }
             // Held: where the data alone put the dip, from the fit that
             // weighs the reference at its own σ (not needed for a fold
             // whose weak results are allowed, which is never refused).
             if let Some((i, s, true)) = world.filter(|_| checks.document || !opts.allow_weak) {
-                held_contradicted = attitude_data_dip(rec, opts.field_nt, i, s).and_then(|(d, sd)| contradicted_by_data(i, d, sd, dip_bias_deg(ModelKind::Attitude, rec)));
+                held_contradicted = attitude_data_dip(rec, opts.field_nt, i, s, given.attitude_free.and_then(|c| c.get())).and_then(|(d, sd)| contradicted_by_data(i, d, sd, dip_bias_deg(ModelKind::Attitude, rec)));
             }
             fit_dip = Some((est.dip_rad.to_degrees(), est.dip_sigma_rad.to_degrees()));
             constraint = world.map(|(i, s, held)| DipConstraint::shaped(held, est.dip_prior_share, est.dip_data_inflation, est.dip_rad.to_degrees(), i, s));
@@ -377,11 +385,16 @@ fn tilt_noise_deg2(rec: &Recording) -> f64 {
 /// inclination `inclination_deg` at its σ `sigma_deg`, less the share the
 /// reference set ([`calib_core::attitude_fit::world::data_alone_dip`]).
 /// `None` where that fit fails or the reference set all of the dip: the
-/// data cannot tell it.
-fn attitude_data_dip(rec: &Recording, field_nt: f64, inclination_deg: f64, sigma_deg: f64) -> Option<(f64, f64)> {
-    let mut cfg = AttitudeConfig::new();
-    cfg.dip_prior = Some((inclination_deg.to_radians(), sigma_deg.to_radians()));
-    let est = super::attitude::fit_attitude_recording(rec, field_nt, &cfg, None).ok()?;
+/// data cannot tell it. `weighed`: that fit, where the caller has it.
+fn attitude_data_dip(rec: &Recording, field_nt: f64, inclination_deg: f64, sigma_deg: f64, weighed: Option<&AttitudeEstimate<f64>>) -> Option<(f64, f64)> {
+    let est = match weighed {
+        Some(est) => *est,
+        None => {
+            let mut cfg = AttitudeConfig::new();
+            cfg.dip_prior = Some((inclination_deg.to_radians(), sigma_deg.to_radians()));
+            super::attitude::fit_attitude_recording(rec, field_nt, &cfg, None).ok()?
+        }
+    };
     let (dip, sigma) = calib_core::attitude_fit::world::data_alone_dip(&est, inclination_deg.to_radians())?;
     Some((dip.to_degrees(), sigma.to_degrees()))
 }
