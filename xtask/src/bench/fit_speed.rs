@@ -71,14 +71,18 @@ fn ours(csv: &Path, opts: &FitOptions, auto: bool) -> Result<(f64, CalDoc), Stri
 /// The stated target: `fit` (auto) no slower than scipy's single fit of
 /// one model (ratio ≤ 1). Met at 66 500 rows, about met at 10⁵, missed at
 /// 10⁶ and at 10⁴ when scipy runs fast, so held: no row's ratio may exceed
-/// this. Measured (release, 2 cores, quiet, three runs 22:36–23:02 UTC):
-/// 10⁴ rows 0.69–1.88 (auto 0.15–0.17 s; scipy's own 0.09–0.23 s), 66 500
-/// rows 0.85–0.90 (auto 0.85–0.89 s, 13 µs a row), 10⁵ 0.85–1.00, 10⁶
-/// 1.31–1.59 (17.5–20 µs a row). With a site auto fits seven candidates
-/// (the gyro fit also with the dip held) and the gyro fit's dip
-/// measurement adds passes; at 10⁶ rows (752 Hz) the gyro windows are cut
-/// at 32 steps and more of their rows are down-weighted, so auto is not
-/// yet linear there. Three stages ago 91–96 µs a row.
+/// this. Measured (release, 2 cores, quiet, three runs 00:41–00:49 UTC
+/// 2026-11-28): 10⁴ rows 0.73–1.30 (auto 0.14 s), 66 500 rows 0.76–0.82
+/// (auto 0.79–0.85 s, 12–13 µs a row), 10⁵ 0.94–1.04 (one run at 1.52
+/// with the attitude fit alone twice as slow as the others: load), 10⁶
+/// 1.16–1.32 (15.7–15.8 s, 15.7–15.8 µs a row). With a site auto fits
+/// seven candidates; the held gyro fit is made beside the free one (one
+/// set of equations and dip-free passes) and the held attitude fit reads
+/// the free one's data-alone dip. At 10⁶ rows (752 Hz) the held gyro fit
+/// is not refused (at 66 500 rows it is), so its folds are fitted and
+/// judged too, and the equations no longer fit in the caches: 1.3 times
+/// the per-row cost at 66 500. The stage before: 10⁶ rows 17.5–20 µs a
+/// row, 66 500 rows 13 µs; three stages before 91–96 µs a row.
 pub const AUTO_RATIO_HELD: f64 = 2.5;
 
 /// The section's targets: at every row count, `fit` auto ÷ scipy's fit ≤ 1
