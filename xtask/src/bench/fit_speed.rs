@@ -80,8 +80,10 @@ fn ours(csv: &Path, opts: &FitOptions, auto: bool) -> Result<(f64, CalDoc), Stri
 /// set of equations and dip-free passes) and the held attitude fit reads
 /// the free one's data-alone dip. At 10⁶ rows (752 Hz) the held gyro fit
 /// is not refused (at 66 500 rows it is), so its folds are fitted and
-/// judged too, and the equations no longer fit in the caches: 1.3 times
-/// the per-row cost at 66 500. The stage before: 10⁶ rows 17.5–20 µs a
+/// judged too: 1.3 times the per-row cost at 66 500. With the same
+/// candidates the cost is linear: without a site (five candidates) the
+/// same swings take 0.67–0.72 s at 66 500 rows and 10.7–10.8 s at 10⁶
+/// (10.1–10.8 µs a row both; `magcal fit --field-nt 48000`, 00:59 UTC). The stage before: 10⁶ rows 17.5–20 µs a
 /// row, 66 500 rows 13 µs; three stages before 91–96 µs a row.
 pub const AUTO_RATIO_HELD: f64 = 2.5;
 
