@@ -133,6 +133,9 @@ pub(crate) fn fit_with_given(rec: &Recording, opts: &FitOptions, checks: Checks,
     let mut constraint: Option<DipConstraint> = None;
     // A dip held where the data alone say otherwise (why).
     let mut held_contradicted: Option<String> = None;
+    // Whether that is read: not for a fold whose weak results are allowed
+    // (its document is written before, [`fold_document`]).
+    let judges_held = checks.document || !opts.allow_weak;
     // The world model's inclination, its 1σ and whether it is held: a
     // measurement of every levelled fit's dip, weighted against what the
     // data can tell, or held where asked.
@@ -176,7 +179,7 @@ pub(crate) fn fit_with_given(rec: &Recording, opts: &FitOptions, checks: Checks,
             };
             if let (Some((i, s, held)), Some(d)) = (world, shaped) {
                 constraint = Some(DipConstraint::shaped(held, d.share, d.inflation, d.dip_rad.to_degrees(), i, s));
-                held_contradicted = held.then(|| contradicted_by_data(i, d.data_dip_rad.to_degrees(), d.data_sigma_rad.to_degrees(), dip_bias_deg(ModelKind::Gyro, rec))).flatten();
+                held_contradicted = (held && judges_held).then(|| contradicted_by_data(i, d.data_dip_rad.to_degrees(), d.data_sigma_rad.to_degrees(), dip_bias_deg(ModelKind::Gyro, rec))).flatten();
             } else if world.is_some() {
                 warnings.push("the world model's dip did not shape the gyro-aided fit (no roll and pitch to level with, or its robust refinement failed): the dip is the data's alone".to_string());
             }
@@ -193,9 +196,8 @@ pub(crate) fn fit_with_given(rec: &Recording, opts: &FitOptions, checks: Checks,
                 let _ = cell.set(est);
             }
             // Held: where the data alone put the dip, from the fit that
-            // weighs the reference at its own σ (not needed for a fold
-            // whose weak results are allowed, which is never refused).
-            if let Some((i, s, true)) = world.filter(|_| checks.document || !opts.allow_weak) {
+            // weighs the reference at its own σ.
+            if let Some((i, s, true)) = world.filter(|_| judges_held) {
                 held_contradicted = attitude_data_dip(rec, opts.field_nt, i, s, given.attitude_free.and_then(|c| c.get())).and_then(|(d, sd)| contradicted_by_data(i, d, sd, dip_bias_deg(ModelKind::Attitude, rec)));
             }
             fit_dip = Some((est.dip_rad.to_degrees(), est.dip_sigma_rad.to_degrees()));
